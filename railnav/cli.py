@@ -1,0 +1,98 @@
+"""The ``railnav`` command line: argument parsing, logging, one-line errors.
+
+Thin by design (STYLE.md §2.11): each subcommand lives in `railnav.commands` and calls
+the public API. Any error a user can cause (a bad file, a bad option value) ends with one
+line ``error: FILE: problem`` on stderr and exit status 2, no traceback (``--debug``
+shows it). A filter that diverges exits with status 1, also in one line.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import pkgutil
+import sys
+from collections.abc import Sequence
+
+import railnav.commands
+
+from ekf.errors import FilterDivergedError, FilterError
+from gnss_obs.errors import GnssError
+from railnav.errors import RailnavError
+from strapdown.errors import StrapdownError
+from trackmodel.errors import InputError, TrackError
+
+__all__ = ["main", "build_parser"]
+
+#: Errors a user's input can cause: one line, exit 2.
+USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, FilterError,
+               OSError)
+
+EXIT_USAGE = 2
+EXIT_FAILURE = 1
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser (all subcommands registered)."""
+    parser = argparse.ArgumentParser(
+        prog="railnav",
+        description="Track-constrained navigation of rail vehicles.")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="more log output (-vv for debug)")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress bars, warnings and errors only")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name in command_modules():
+        importlib.import_module(f"railnav.commands.{name}").register(sub)
+    return parser
+
+
+def command_modules() -> list[str]:
+    """Names of the subcommand modules in `railnav.commands` (those defining ``register``)."""
+    names = []
+    for info in pkgutil.iter_modules(railnav.commands.__path__):
+        module = importlib.import_module(f"railnav.commands.{info.name}")
+        if callable(getattr(module, "register", None)):
+            names.append(info.name)
+    return sorted(names)
+
+
+def _configure_logging(verbose: int, quiet: bool) -> None:
+    level = logging.WARNING if quiet or verbose == 0 else (
+        logging.INFO if verbose == 1 else logging.DEBUG)
+    logging.basicConfig(level=level, format="%(levelname)s: %(name)s: %(message)s",
+                        stream=sys.stderr, force=True)
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror or exc}"
+    return " ".join(str(exc).split()) or type(exc).__name__
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad input)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _configure_logging(args.verbose, args.quiet)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("error: interrupted", file=sys.stderr)
+        return 130
+    except FilterDivergedError as exc:
+        if args.debug:
+            raise
+        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_FAILURE
+    except USER_ERRORS as exc:
+        if args.debug:
+            raise
+        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

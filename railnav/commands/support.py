@@ -1,0 +1,62 @@
+"""Helpers shared by the command handlers: progress bars and small argument types."""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import sys
+from collections.abc import Callable, Iterator
+
+__all__ = ["progress_bar", "positive_float", "outage_window"]
+
+@contextlib.contextmanager
+def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
+    """A ``progress(done, total)`` callback drawing a tqdm bar on stderr.
+
+    The library's long loops accept such a callback (STYLE.md §2.9); only the command
+    line turns it into a bar. ``enabled=False`` (``railnav -q``) gives a silent callback.
+    """
+    if not enabled:
+        yield lambda done, total: None
+        return
+    from tqdm import tqdm
+
+    bar = None
+
+    def update(done: int, total: int) -> None:
+        nonlocal bar
+        if bar is None:
+            bar = tqdm(total=total, desc=desc, file=sys.stderr, leave=False,
+                       dynamic_ncols=True, mininterval=0.2)
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    try:
+        yield update
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (value > 0 and value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    return value
+
+
+def outage_window(text: str) -> tuple[float, float]:
+    """argparse type for ``START:DURATION`` (seconds from the start of the run)."""
+    try:
+        start_s, duration_s = (float(x) for x in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not START:DURATION in seconds (e.g. 100:50)") from None
+    if not (start_s >= 0 and duration_s > 0) or not all(
+            abs(x) < float("inf") for x in (start_s, duration_s)):
+        raise argparse.ArgumentTypeError(f"{text!r}: need START >= 0 and DURATION > 0 seconds")
+    return start_s, duration_s

@@ -1,0 +1,14 @@
+"""trackmodel — the Earth ellipsoid and the geometry of a rail line.
+
+Owns: the Earth model (`trackmodel.earth`: WGS-84 and sphere, radii, geodetic <-> ECEF
+<-> ENU), and the track as a function of the along-track distance ``s`` (m): section
+tables of straights (the 2017 paper's loxodrome with exponential height), circular arcs
+and clothoid transitions; queries ``s -> (φ, λ, h, r_e, u_n, du/ds)``; projection of
+points onto the track; fitting of surveyed polylines; the track file format.
+
+This is the lowest package: it imports nothing else of the project.
+"""
+from trackmodel.earth import WGS84, Ellipsoid, sphere
+from trackmodel.errors import InputError, TrackError, TrackFileError
+
+__all__ = ["Ellipsoid", "WGS84", "sphere", "InputError", "TrackError", "TrackFileError"]

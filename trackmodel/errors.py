@@ -1,0 +1,69 @@
+"""Exceptions of the track model, and the located input error every package reuses.
+
+`InputError` is the one place that says how a problem in a user's file reads:
+``path: row 3, azimuth_deg: 'abc' is not a number``. The command line prints it after
+``error: `` and exits with status 2. `trackmodel` is the lowest package, so `strapdown`,
+`gnss_obs` and `railnav` subclass `InputError` for their own file errors (`ekf` imports
+nothing of ours and has its own hierarchy).
+"""
+from __future__ import annotations
+
+import os
+
+__all__ = ["InputError", "TrackError", "TrackFileError"]
+
+
+class InputError(ValueError):
+    """Bad user input, located as precisely as the reader knows.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, in words a user understands ("'abc' is not a number",
+        "must be -90 < elevation_deg < 90").
+    path : str or os.PathLike, optional
+        The file the problem is in.
+    row : int, optional
+        1-based data row of a table (header not counted).
+    line : int, optional
+        1-based line number of a text file (use for line-oriented formats such as RINEX).
+    column : str, optional
+        Column or field name.
+    """
+
+    def __init__(self, message: str, *, path: str | os.PathLike | None = None,
+                 row: int | None = None, line: int | None = None,
+                 column: str | None = None) -> None:
+        super().__init__(message)
+        self.message = message
+        self.path = None if path is None else os.fspath(path)
+        self.row = row
+        self.line = line
+        self.column = column
+
+    def __str__(self) -> str:
+        where = []
+        if self.row is not None:
+            where.append(f"row {self.row}")
+        if self.line is not None:
+            where.append(f"line {self.line}")
+        loc = ", ".join(where)
+        if self.column is not None:
+            loc = f"{loc}, {self.column}" if loc else self.column
+        parts = [p for p in (self.path, loc) if p]
+        parts.append(self.message)
+        return ": ".join(parts)
+
+    def at(self, path: str | os.PathLike) -> "InputError":
+        """Return this error with `path` filled in when the raiser did not know it."""
+        if self.path is None:
+            self.path = os.fspath(path)
+        return self
+
+
+class TrackError(Exception):
+    """Base class of track-model errors (bad geometry, query outside the track...)."""
+
+
+class TrackFileError(TrackError, InputError):
+    """A track or polyline file that cannot be read as documented."""
