@@ -1,0 +1,220 @@
+"""The section table: one row of a track, and the tangent geometry along a section.
+
+A track is a sequence of **sections** starting at an origin. Within a section of length
+``L`` the local along-section distance is ``t = s − s_start`` (m, ``0 <= t <= L``) and
+
+* azimuth ``A(t) = A0 + κ0 t + (κ1 − κ0) t² / (2 L)`` (rad, clockwise from north), so the
+  **curvature** ``κ(t) = dA/ds`` (1/m, positive = turning clockwise, i.e. to the right)
+  changes linearly from ``κ0`` to ``κ1``: a straight (κ0 = κ1 = 0), a circular arc
+  (κ0 = κ1 ≠ 0, ``|κ| = 1/R`` for the horizontal radius R) or a clothoid transition;
+* elevation ``ϑ(t) = ϑ0 + (ϑ1 − ϑ0) t / L`` (rad, positive uphill): constant grade or a
+  vertical curve.
+
+``κ = dA/ds`` is the rate of the *geographic* azimuth per metre of along-track distance
+``s`` (not per metre of horizontal distance). A section with constant ``A`` and ``ϑ`` is
+the 2017 paper's loxodrome with exponential height (`trackmodel.loxodrome`).
+
+The tangent in ENU is ``u_n = [cosϑ sinA, cosϑ cosA, sinϑ]`` (ARCHITECTURE.md). Its
+frame-relative derivative ``du_ds_n = A' ∂u/∂A + ϑ' ∂u/∂ϑ`` is zero on a straight; the
+rotation of the ENU frame itself along the track is the transport rate, handled by the
+navigation equations, not here.
+
+The table row `Section` keeps the file's units (degrees in ``*_deg`` fields) so that a
+file read and written again is unchanged; `SectionArrays` holds the same table in SI
+units, radians, as arrays for vectorised evaluation.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from trackmodel.errors import TrackError
+
+__all__ = ["Section", "SectionArrays", "MAX_ELEVATION_DEG", "tangent_frame"]
+
+Array = npt.NDArray[np.float64]
+
+#: Elevations must stay strictly inside ±90° (a vertical track has no azimuth).
+MAX_ELEVATION_DEG = 90.0
+
+
+def _finite(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise TrackError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+@dataclass(frozen=True)
+class Section:
+    """One row of the section table, in the track file's units.
+
+    Parameters
+    ----------
+    length_m : float
+        Section length along the track, m, > 0.
+    azimuth_deg : float or None
+        Azimuth at the section start, degrees clockwise from north. ``None`` continues the
+        previous section's end azimuth (tangent continuous); required for the first one.
+    elevation_deg : float or None
+        Elevation at the start, degrees, positive uphill, ``|ϑ| < 90``. ``None`` continues
+        the previous section's end elevation.
+    curvature_1pm : float
+        Curvature ``dA/ds`` at the start, 1/m, positive = turning clockwise.
+    curvature_end_1pm : float or None
+        Curvature at the end, 1/m (linear change: a clothoid); ``None`` = constant.
+    elevation_end_deg : float or None
+        Elevation at the end, degrees (linear change: a vertical curve); ``None`` = constant.
+
+    Raises
+    ------
+    TrackError
+        For a non-finite value, a length <= 0 or an elevation outside (-90°, 90°).
+    """
+
+    length_m: float
+    azimuth_deg: float | None = None
+    elevation_deg: float | None = 0.0
+    curvature_1pm: float = 0.0
+    curvature_end_1pm: float | None = None
+    elevation_end_deg: float | None = None
+
+    def __post_init__(self) -> None:
+        if _finite("length_m", self.length_m) <= 0.0:
+            raise TrackError(f"length_m must be > 0, got {self.length_m!r}")
+        _finite("curvature_1pm", self.curvature_1pm)
+        for name in ("azimuth_deg", "curvature_end_1pm", "elevation_deg", "elevation_end_deg"):
+            if getattr(self, name) is not None:
+                _finite(name, getattr(self, name))
+        for name in ("elevation_deg", "elevation_end_deg"):
+            value = getattr(self, name)
+            if value is not None and not abs(value) < MAX_ELEVATION_DEG:
+                raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {value!r}")
+
+    @property
+    def curvature_end(self) -> float:
+        """Curvature at the section end, 1/m (``curvature_1pm`` when not given)."""
+        return self.curvature_1pm if self.curvature_end_1pm is None else self.curvature_end_1pm
+
+    @property
+    def turn_rad(self) -> float:
+        """Azimuth change over the section, rad: ``L (κ0 + κ1) / 2``."""
+        return 0.5 * self.length_m * (self.curvature_1pm + self.curvature_end)
+
+
+@dataclass(frozen=True)
+class SectionArrays:
+    """The section table resolved (continuations filled in) in SI units, as arrays.
+
+    All arrays have shape (K,) for K sections.
+
+    Attributes
+    ----------
+    s_start : ndarray
+        Along-track distance of each section start, m; ``s_start[0] == 0``.
+    length : ndarray
+        Section lengths, m.
+    azimuth0, elevation0, elevation1 : ndarray
+        Start azimuth (rad, in [0, 2π)), start and end elevation (rad).
+    curvature0, curvature1 : ndarray
+        Start and end curvature ``dA/ds``, 1/m.
+    """
+
+    s_start: Array
+    length: Array
+    azimuth0: Array
+    elevation0: Array
+    elevation1: Array
+    curvature0: Array
+    curvature1: Array
+
+    @classmethod
+    def resolve(cls, sections: tuple[Section, ...]) -> "SectionArrays":
+        """Fill in continued azimuths/elevations and convert to radians.
+
+        Raises
+        ------
+        TrackError
+            If there is no section, or the first one lacks an azimuth or elevation.
+        """
+        if not sections:
+            raise TrackError("a track needs at least one section")
+        if sections[0].azimuth_deg is None or sections[0].elevation_deg is None:
+            raise TrackError("the first section needs an azimuth and an elevation")
+        rows = []
+        azimuth = elevation = 0.0
+        for sec in sections:
+            azimuth = math.radians(sec.azimuth_deg) if sec.azimuth_deg is not None else azimuth
+            elevation = (math.radians(sec.elevation_deg) if sec.elevation_deg is not None
+                         else elevation)
+            elevation_end = (elevation if sec.elevation_end_deg is None
+                             else math.radians(sec.elevation_end_deg))
+            rows.append((sec.length_m, azimuth % (2.0 * math.pi), elevation, elevation_end,
+                         sec.curvature_1pm, sec.curvature_end))
+            azimuth, elevation = azimuth + sec.turn_rad, elevation_end
+        length, a0, e0, e1, k0, k1 = (np.array(col, dtype=float) for col in zip(*rows))
+        s_start = np.concatenate([[0.0], np.cumsum(length)[:-1]])
+        return cls(s_start, length, a0, e0, e1, k0, k1)
+
+    @property
+    def is_loxodrome(self) -> npt.NDArray[np.bool_]:
+        """True for sections of constant azimuth and elevation (closed form), shape (K,)."""
+        return ((self.curvature0 == 0.0) & (self.curvature1 == 0.0)
+                & (self.elevation0 == self.elevation1))
+
+    def angles(self, k: npt.NDArray[np.intp], t: Array) -> dict[str, Array]:
+        """Azimuth, elevation and their first and second derivatives along s.
+
+        Parameters
+        ----------
+        k : ndarray of int, shape (N,)
+            Section index of each point.
+        t : ndarray, shape (N,)
+            Distance from the section start, m.
+
+        Returns
+        -------
+        dict of ndarray, shape (N,)
+            ``A`` (rad, wrapped to [0, 2π)), ``dA`` (1/m), ``d2A`` (1/m²), ``E`` (rad),
+            ``dE`` (rad/m); the second derivative of the elevation is zero.
+        """
+        L = self.length[k]
+        k0, k1 = self.curvature0[k], self.curvature1[k]
+        d2A = (k1 - k0) / L
+        A = self.azimuth0[k] + k0 * t + 0.5 * d2A * t * t
+        dE = (self.elevation1[k] - self.elevation0[k]) / L
+        return {"A": np.mod(A, 2.0 * np.pi), "dA": k0 + d2A * t, "d2A": d2A,
+                "E": self.elevation0[k] + dE * t, "dE": dE}
+
+
+def tangent_frame(A: Array, E: Array, dA: Array, dE: Array, d2A: Array) -> tuple[Array, ...]:
+    """ENU tangent and its first two frame-relative derivatives along s.
+
+    Parameters
+    ----------
+    A, E : ndarray, shape (N,)
+        Azimuth and elevation, rad.
+    dA, dE : ndarray, shape (N,)
+        ``dA/ds`` (1/m) and ``dϑ/ds`` (rad/m).
+    d2A : ndarray, shape (N,)
+        ``d²A/ds²``, 1/m² (``d²ϑ/ds² = 0`` within a section).
+
+    Returns
+    -------
+    u_n, du_ds_n, d2u_ds2_n : ndarray, shape (N, 3)
+        ``u = [cosϑ sinA, cosϑ cosA, sinϑ]``, ``du/ds`` (1/m), ``d²u/ds²`` (1/m²), ENU.
+    """
+    sA, cA, sE, cE = np.sin(A), np.cos(A), np.sin(E), np.cos(E)
+    zero = np.zeros_like(sA)
+    u = np.stack([cE * sA, cE * cA, sE], axis=-1)
+    u_A = np.stack([cE * cA, -cE * sA, zero], axis=-1)         # ∂u/∂A
+    u_E = np.stack([-sE * sA, -sE * cA, cE], axis=-1)          # ∂u/∂ϑ
+    u_AA = np.stack([-cE * sA, -cE * cA, zero], axis=-1)       # ∂²u/∂A²
+    u_AE = np.stack([-sE * cA, sE * sA, zero], axis=-1)        # ∂²u/∂A∂ϑ
+    dA, dE, d2A = (np.asarray(x, dtype=float)[..., None] for x in (dA, dE, d2A))
+    du = dA * u_A + dE * u_E
+    d2u = d2A * u_A + dA * dA * u_AA + 2.0 * dA * dE * u_AE - dE * dE * u   # ∂²u/∂ϑ² = −u
+    return u, du, d2u

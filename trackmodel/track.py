@@ -1,0 +1,288 @@
+"""The track: a section table on an Earth model, queried along the distance ``s``.
+
+`Track` is immutable. Building it resolves the table (`trackmodel.sections`), walks the
+sections from the origin computing each start point (closed form for straights,
+`trackmodel.loxodrome`; one ODE integration for arcs, clothoids and vertical curves,
+`trackmodel.integrated`), so that the position is continuous across joints. `Track.at`
+then answers vectorised queries for any array of ``s`` in ``[0, length_m]``.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from trackmodel.earth import WGS84, Ellipsoid, geodetic_to_ecef
+from trackmodel.errors import TrackError
+from trackmodel.integrated import ChebyshevSections, integrate_section
+from trackmodel.loxodrome import loxodrome_position
+from trackmodel.sections import Section, SectionArrays, tangent_frame
+
+__all__ = ["Origin", "Track", "TrackPoint", "S_TOLERANCE_M"]
+
+Array = npt.NDArray[np.float64]
+
+#: Queries this far outside [0, length_m] are clamped to the ends (rounding of a caller's
+#: sum of section lengths); farther is an error.
+S_TOLERANCE_M = 1e-6
+#: Latitudes of the origin are limited to |φ| < 89.9° (longitude is undefined at a pole).
+MAX_ORIGIN_LAT_DEG = 89.9
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Start point of a track, in the file's units.
+
+    Parameters
+    ----------
+    lat_deg, lon_deg : float
+        Geodetic latitude (|φ| < 89.9°) and longitude, degrees.
+    h_m : float
+        Ellipsoidal height, m.
+    """
+
+    lat_deg: float
+    lon_deg: float
+    h_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("lat_deg", "lon_deg", "h_m"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise TrackError(f"origin {name} must be finite, got {getattr(self, name)!r}")
+        if not abs(self.lat_deg) < MAX_ORIGIN_LAT_DEG:
+            raise TrackError(f"origin must satisfy -89.9 < lat_deg < 89.9, got {self.lat_deg!r}")
+
+    @property
+    def lat(self) -> float:
+        """Latitude, rad."""
+        return math.radians(self.lat_deg)
+
+    @property
+    def lon(self) -> float:
+        """Longitude, rad."""
+        return math.radians(self.lon_deg)
+
+    @property
+    def h(self) -> float:
+        """Height, m."""
+        return float(self.h_m)
+
+
+@dataclass(frozen=True)
+class TrackPoint:
+    """The track at along-track distances ``s``: arrays shaped like the query.
+
+    For a query of shape (N,) scalar fields have shape (N,) and vectors (N, 3); a scalar
+    query gives shape () and (3,).
+
+    Attributes
+    ----------
+    s : ndarray
+        Along-track distance, m.
+    lat, lon : ndarray
+        Geodetic latitude and longitude, rad.
+    h : ndarray
+        Ellipsoidal height, m.
+    r_e : ndarray, (..., 3)
+        ECEF position, m.
+    u_n : ndarray, (..., 3)
+        Unit tangent in ENU, ``[cosϑ sinA, cosϑ cosA, sinϑ]``.
+    du_ds_n : ndarray, (..., 3)
+        ``d u_n / ds`` of the ENU components (zero on a straight), 1/m.
+    d2u_ds2_n : ndarray, (..., 3)
+        ``d² u_n / ds²``, 1/m².
+    azimuth : ndarray
+        Azimuth A, clockwise from north, rad in [0, 2π).
+    elevation : ndarray
+        Elevation ϑ, positive uphill, rad.
+    curvature_1pm : ndarray
+        ``dA/ds``, 1/m, positive turning clockwise.
+    elevation_rate : ndarray
+        ``dϑ/ds``, rad/m.
+    section : ndarray of int
+        Index of the section (a joint belongs to the section it starts).
+    """
+
+    s: Array
+    lat: Array
+    lon: Array
+    h: Array
+    r_e: Array
+    u_n: Array
+    du_ds_n: Array
+    d2u_ds2_n: Array
+    azimuth: Array
+    elevation: Array
+    curvature_1pm: Array
+    elevation_rate: Array
+    section: npt.NDArray[np.intp]
+
+    def to_frame(self) -> pd.DataFrame:
+        """Scalar fields as columns (radians, metres); 1-D queries only."""
+        return pd.DataFrame({f.name: getattr(self, f.name) for f in fields(self)
+                             if np.ndim(getattr(self, f.name)) == 1})
+
+
+@dataclass(frozen=True, eq=False)
+class Track:
+    """A track: sections on an Earth model from an origin.
+
+    Parameters
+    ----------
+    sections : sequence of Section
+        The section table (stored as a tuple).
+    origin : Origin
+        Start point of the first section.
+    earth : Ellipsoid
+        `trackmodel.earth.WGS84` (default) or a `sphere`.
+
+    Raises
+    ------
+    TrackError
+        For an empty table or a first section without azimuth/elevation.
+    """
+
+    sections: tuple[Section, ...]
+    origin: Origin
+    earth: Ellipsoid = WGS84
+    table: SectionArrays = field(init=False, repr=False)
+    starts: Array = field(init=False, repr=False)
+    _chunks: ChebyshevSections | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "sections", tuple(self.sections))
+        table = SectionArrays.resolve(self.sections)
+        starts = np.empty((len(self.sections) + 1, 3))
+        starts[0] = (self.origin.lat, self.origin.lon, self.origin.h)
+        chunks: list = []
+        lox = table.is_loxodrome
+        for k in range(len(self.sections)):
+            if lox[k]:
+                end = loxodrome_position(starts[k, 0], starts[k, 1], starts[k, 2],
+                                         azimuth=table.azimuth0[k],
+                                         elevation=table.elevation0[k],
+                                         t=table.length[k], earth=self.earth)
+                starts[k + 1] = [float(x) for x in end]
+            else:
+                new, starts[k + 1] = integrate_section(table, k, starts[k], self.earth)
+                chunks.extend(new)
+        object.__setattr__(self, "table", table)
+        object.__setattr__(self, "starts", starts)
+        object.__setattr__(self, "_chunks", ChebyshevSections.stack(chunks) if chunks else None)
+
+    @classmethod
+    def from_sections(cls, sections, *, lat: float, lon: float, h: float = 0.0,
+                      earth: Ellipsoid = WGS84) -> "Track":
+        """Track from sections and an origin in radians (``lat``, ``lon``) and metres (``h``)."""
+        return cls(tuple(sections), Origin(math.degrees(lat), math.degrees(lon), h), earth)
+
+    @classmethod
+    def from_frame(cls, frame: pd.DataFrame, *, earth: Ellipsoid = WGS84) -> "Track":
+        """Track from a table with the track file's columns (see `trackmodel.io`).
+
+        Raises
+        ------
+        TrackFileError
+            Located by row and column for a bad value or a missing column.
+        """
+        from trackmodel.table import sections_from_frame
+        sections, origin = sections_from_frame(frame)
+        return cls(sections, origin, earth)
+
+    @property
+    def length_m(self) -> float:
+        """Total length, m."""
+        return float(self.table.s_start[-1] + self.table.length[-1])
+
+    @property
+    def end_azimuth(self) -> float:
+        """Azimuth at the end of the track, rad in [0, 2π)."""
+        k = len(self.sections) - 1
+        return float(self.table.angles(np.array([k]), self.table.length[[k]])["A"][0])
+
+    def check_s(self, s: npt.ArrayLike) -> Array:
+        """Validated copy of ``s`` (m) clamped to ``[0, length_m]``.
+
+        Raises
+        ------
+        TrackError
+            For NaN/inf or a value farther than `S_TOLERANCE_M` outside the track.
+        """
+        s = np.array(s, dtype=float)
+        if not np.all(np.isfinite(s)):
+            raise TrackError("s must be finite (NaN or inf given)")
+        L = self.length_m
+        if s.size and (s.min() < -S_TOLERANCE_M or s.max() > L + S_TOLERANCE_M):
+            raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
+                             f"got values in [{s.min()!r}, {s.max()!r}]")
+        return np.clip(s, 0.0, L)
+
+    def section_of(self, s: Array) -> npt.NDArray[np.intp]:
+        """Section index of each (valid) ``s``; a joint belongs to the next section."""
+        k = np.searchsorted(self.table.s_start, s, side="right") - 1
+        return np.clip(k, 0, len(self.sections) - 1)
+
+    def geodetic(self, s: npt.ArrayLike) -> tuple[Array, Array, Array]:
+        """Latitude (rad), longitude (rad) and height (m) at ``s`` (m), flattened to (N,)."""
+        s = self.check_s(s).ravel()
+        k = self.section_of(s)
+        lat, lon, h = (np.empty_like(s) for _ in range(3))
+        lox = self.table.is_loxodrome[k]
+        if lox.any():
+            kl = k[lox]
+            lat[lox], lon[lox], h[lox] = loxodrome_position(
+                self.starts[kl, 0], self.starts[kl, 1], self.starts[kl, 2],
+                azimuth=self.table.azimuth0[kl], elevation=self.table.elevation0[kl],
+                t=s[lox] - self.table.s_start[kl], earth=self.earth)
+        if not lox.all():
+            lat[~lox], lon[~lox], h[~lox] = self._chunks.position(s[~lox])
+        return lat, lon, h
+
+    def at(self, s: npt.ArrayLike) -> TrackPoint:
+        """Position, tangent and curvature at along-track distances ``s``.
+
+        Parameters
+        ----------
+        s : float or array_like, shape (N,)
+            Along-track distance from the track start, m, in ``[0, length_m]``.
+
+        Returns
+        -------
+        TrackPoint
+            Fields shaped like ``s`` (vectors get a trailing axis of 3).
+
+        Raises
+        ------
+        TrackError
+            For NaN/inf or ``s`` outside the track.
+        """
+        shape = np.shape(s)
+        flat = self.check_s(s).ravel()
+        k = self.section_of(flat)
+        lat, lon, h = self.geodetic(flat)
+        ang = self.table.angles(k, flat - self.table.s_start[k])
+        u, du, d2u = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
+        r_e = geodetic_to_ecef(lat, lon, h, earth=self.earth)
+        vec = shape + (3,)
+        return TrackPoint(
+            s=flat.reshape(shape), lat=lat.reshape(shape), lon=lon.reshape(shape),
+            h=h.reshape(shape), r_e=r_e.reshape(vec), u_n=u.reshape(vec),
+            du_ds_n=du.reshape(vec), d2u_ds2_n=d2u.reshape(vec),
+            azimuth=ang["A"].reshape(shape), elevation=ang["E"].reshape(shape),
+            curvature_1pm=ang["dA"].reshape(shape),
+            elevation_rate=np.broadcast_to(ang["dE"], flat.shape).reshape(shape),
+            section=k.reshape(shape))
+
+    @cached_property
+    def projector(self):
+        """The `trackmodel.project.Projector` of this track (built on first use)."""
+        from trackmodel.project import Projector
+        return Projector(self)
+
+    def project(self, lat: npt.ArrayLike, lon: npt.ArrayLike, h: npt.ArrayLike | None = None):
+        """Nearest track point of geodetic points: see `trackmodel.project.Projector.project`."""
+        return self.projector.project(lat, lon, h)
