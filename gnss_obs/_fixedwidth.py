@@ -1,0 +1,216 @@
+"""Vectorised fixed-width text parsing shared by the RINEX and SP3 readers.
+
+RINEX and SP3 are Fortran-formatted: every field has fixed columns. A reader gathers the
+lines it wants, pads them into one ``(n_lines, width)`` byte matrix (`char_table`) and
+converts whole columns at once (`parse_floats`, `parse_ints`), so no Python ``float()``
+runs per value. NumPy's bytes -> float64 cast rounds like ``float()``, so the values are
+the ones the text states. A field that does not convert is reported as a
+`GnssInputError` naming the file, the 1-based line number and the field.
+
+Also reads a file's bytes, expanding Hatanaka-compressed (``.crx``) and gzip/Unix
+compressed RINEX through the ``hatanaka`` package.
+"""
+from __future__ import annotations
+
+import gzip
+import os
+
+import numpy as np
+import numpy.typing as npt
+
+from gnss_obs.errors import GnssInputError
+
+__all__ = ["read_text_bytes", "split_lines", "char_table", "parse_floats", "parse_ints",
+           "field_text", "calendar_fields"]
+
+_SPACE = ord(" ")
+_NAN = b"nan"
+#: Leading bytes of compressed files: gzip, Unix compress (.Z), Hatanaka (CRINEX).
+_GZIP_MAGIC = b"\x1f\x8b"
+_COMPRESS_MAGIC = b"\x1f\x9d"
+_CRINEX_LABEL = b"COMPACT RINEX FORMAT"
+_CRINEX_HEAD_BYTES = 200
+
+
+def read_text_bytes(path: str | os.PathLike) -> bytes:
+    """The bytes of a RINEX/SP3 file, decompressed, with ``\\n`` line ends.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Plain, gzip (``.gz``), Unix-compressed (``.Z``) or Hatanaka (``.crx``/``.??d``) file.
+
+    Raises
+    ------
+    GnssInputError
+        When the file cannot be opened or decompressed.
+    """
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except OSError as exc:
+        raise GnssInputError(f"cannot read: {exc.strerror or exc}", path=path) from None
+    is_crinex = _CRINEX_LABEL in data[:_CRINEX_HEAD_BYTES]
+    if data[:2] in (_GZIP_MAGIC, _COMPRESS_MAGIC) or is_crinex:
+        data = _decompress(path, data)
+    if b"\r" in data:
+        data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return data
+
+
+def _decompress(path, data: bytes) -> bytes:
+    """Expand gzip / .Z / Hatanaka bytes (``hatanaka`` handles all three)."""
+    try:
+        import hatanaka  # optional: only compressed files need it
+    except ImportError:
+        if data[:2] == _GZIP_MAGIC:
+            try:
+                return gzip.decompress(data)
+            except (OSError, EOFError) as exc:
+                raise GnssInputError(f"corrupt gzip data: {exc}", path=path) from None
+        raise GnssInputError("compressed RINEX needs the 'hatanaka' package", path=path) from None
+    try:
+        return hatanaka.decompress(data)
+    except Exception as exc:  # hatanaka raises bare ValueError/OSError/RuntimeError
+        raise GnssInputError(f"cannot decompress: {exc}", path=path) from None
+
+
+def split_lines(data: bytes) -> list[bytes]:
+    """Lines of `data` without their ``\\n`` (a final empty line is dropped)."""
+    lines = data.split(b"\n")
+    if lines and lines[-1] == b"":
+        lines.pop()
+    return lines
+
+
+def char_table(lines: list[bytes], width: int) -> npt.NDArray[np.uint8]:
+    """Pad or cut `lines` to `width` bytes and stack them.
+
+    Returns
+    -------
+    ndarray of uint8, shape (len(lines), width)
+        Byte codes, right-padded with spaces.
+    """
+    if not lines:
+        return np.empty((0, width), dtype=np.uint8)
+    joined = b"".join([ln[:width].ljust(width) for ln in lines])
+    return np.frombuffer(joined, dtype=np.uint8).reshape(len(lines), width)
+
+
+def field_text(chars: npt.NDArray[np.uint8], start: int, stop: int) -> np.ndarray:
+    """Columns ``start:stop`` of a char table as a bytes array, shape (n,), dtype ``S<w>``."""
+    block = np.ascontiguousarray(chars[:, start:stop])
+    return block.view(f"S{stop - start}").ravel()
+
+
+def _blank(chars: npt.NDArray[np.uint8], start: int, stop: int) -> np.ndarray:
+    return (chars[:, start:stop] == _SPACE).all(axis=1)
+
+
+def parse_floats(chars: npt.NDArray[np.uint8], start: int, stop: int, *,
+                 path, lines: npt.NDArray[np.int64], column: str,
+                 d_exponent: bool = False) -> npt.NDArray[np.float64]:
+    """Convert one fixed-width column of real numbers; blank fields become NaN.
+
+    Parameters
+    ----------
+    chars : ndarray of uint8, shape (n, width)
+        Char table from `char_table`.
+    start, stop : int
+        0-based column range of the field.
+    path : str or os.PathLike
+        File name for error messages.
+    lines : ndarray of int, shape (n,)
+        1-based file line number of each row, for error messages.
+    column : str
+        Field name for error messages.
+    d_exponent : bool
+        Accept Fortran ``D`` exponents (``1.5D+03``), as RINEX navigation files use.
+
+    Returns
+    -------
+    ndarray of float64, shape (n,)
+
+    Raises
+    ------
+    GnssInputError
+        At the first field that is not a number.
+    """
+    text = field_text(chars, start, stop)
+    if d_exponent:
+        block = chars[:, start:stop]
+        if ((block == ord("D")) | (block == ord("d"))).any():
+            text = np.char.replace(np.char.replace(text, b"D", b"E"), b"d", b"e")
+    text = np.where(_blank(chars, start, stop), _NAN, text)
+    try:
+        return text.astype(np.float64)
+    except ValueError:
+        bad = _first_bad(text, float)
+        raise GnssInputError(f"{text[bad].decode(errors='replace').strip()!r} is not a number",
+                             path=path, line=int(lines[bad]), column=column) from None
+
+
+def parse_ints(chars: npt.NDArray[np.uint8], start: int, stop: int, *,
+               path, lines: npt.NDArray[np.int64], column: str,
+               blank: int = 0) -> npt.NDArray[np.int64]:
+    """Convert one fixed-width column of integers; blank fields become `blank`.
+
+    Digits and spaces only (an optional ``-`` sign before the digits). Same parameters
+    and error as `parse_floats`.
+    """
+    block = chars[:, start:stop].astype(np.int64)
+    digit = (block >= ord("0")) & (block <= ord("9"))
+    minus = block == ord("-")
+    space = block == _SPACE
+    ok = (digit | minus | space).all(axis=1) & (minus.sum(axis=1) <= 1)
+    width = stop - start
+    if width:
+        # a sign must precede every digit
+        first_digit = np.where(digit.any(axis=1), digit.argmax(axis=1), width)
+        minus_at = np.where(minus.any(axis=1), minus.argmax(axis=1), -1)
+        ok &= minus_at < first_digit
+        ok &= ~(minus.any(axis=1) & ~digit.any(axis=1))
+    if not ok.all():
+        bad = int(np.flatnonzero(~ok)[0])
+        raw = bytes(chars[bad, start:stop]).decode(errors="replace").strip()
+        raise GnssInputError(f"{raw!r} is not an integer", path=path,
+                             line=int(lines[bad]), column=column)
+    digits = np.where(digit, block - ord("0"), 0)
+    # place value of each digit = number of digits to its right (spaces are skipped)
+    right = digit[:, ::-1].cumsum(axis=1)[:, ::-1] - digit
+    value = (digits * 10 ** right).sum(axis=1)
+    value = np.where(minus.any(axis=1), -value, value)
+    return np.where(digit.any(axis=1), value, blank)
+
+
+def calendar_fields(chars, columns: dict[str, tuple[int, int]], second: tuple[int, int],
+                    lines, path) -> dict[str, np.ndarray]:
+    """Calendar label fields of epoch lines (``columns``: name -> (start, stop)).
+
+    Returns arrays ``year month day hour minute`` (int) and ``second`` (float), shape (n,).
+    """
+    fields = {}
+    for name, (a, b) in columns.items():
+        fields[name] = parse_ints(chars, a, b, path=path, lines=lines, column=f"epoch {name}",
+                                  blank=-1)
+        if (fields[name] < 0).any():
+            i = int(np.flatnonzero(fields[name] < 0)[0])
+            raise GnssInputError(f"epoch {name} missing or negative", path=path,
+                                 line=int(lines[i]), column=f"epoch {name}")
+    sec = parse_floats(chars, *second, path=path, lines=lines, column="epoch second")
+    if np.isnan(sec).any():
+        raise GnssInputError("epoch second missing", path=path,
+                             line=int(lines[np.flatnonzero(np.isnan(sec))[0]]),
+                             column="epoch second")
+    fields["second"] = sec
+    return fields
+
+
+def _first_bad(text: np.ndarray, convert) -> int:
+    """Index of the first element of `text` that `convert` rejects."""
+    for i, item in enumerate(text):
+        try:
+            convert(item)
+        except ValueError:
+            return i
+    return 0

@@ -1,0 +1,170 @@
+"""RINEX observation header records (3.0x and 2.1x) -> the fields `ObsHeader` holds."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gnss_obs._rinex2_obs import map_v2_types
+from gnss_obs._rinex_header import HeaderLine, float_field, int_field, split_header
+from gnss_obs.errors import GnssInputError
+from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
+
+__all__ = ["ParsedObsHeader", "parse_obs_header", "DEFAULT_TIME_SYSTEM"]
+
+#: Time system of a single-system file without one in TIME OF FIRST OBS (RINEX 3.04
+#: §5.3 TIME OF FIRST OBS); mixed files default to GPS.
+DEFAULT_TIME_SYSTEM = {"G": "GPS", "R": "GLO", "E": "GAL", "C": "BDT", "J": "QZS",
+                       "I": "IRN", "S": "GPS", "M": "GPS", "": "GPS"}
+#: Header records with one value per line: fixed columns (0-based, stop exclusive).
+_XYZ_COLUMNS = ((0, 14), (14, 28), (28, 42))
+_TYPES_PER_LINE_V3 = 13
+_TYPES_PER_LINE_V2 = 9
+_GLONASS_SLOTS_PER_LINE = 8
+
+
+@dataclass
+class ParsedObsHeader:
+    """Header fields while reading (see `gnss_obs.rinex_obs.ObsHeader` for meanings)."""
+
+    version: float
+    body_start: int
+    file_system: str
+    obs_types: dict[str, list[str]] = field(default_factory=dict)
+    scale: dict[str, dict[str, float]] = field(default_factory=dict)
+    marker_name: str = ""
+    receiver: str = ""
+    antenna: str = ""
+    approx_position_e: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    interval_s: float | None = None
+    time_system: str = "GPS"
+    leap_seconds: int | None = None
+    glonass_slots: dict[str, int] = field(default_factory=dict)
+    signal_strength_unit: str = ""
+    first_obs_gps_time_s: float | None = None
+    first_obs_labels: tuple | None = None
+
+
+def parse_obs_header(lines: list[bytes], path) -> ParsedObsHeader:
+    """Parse the header of an observation file.
+
+    Raises
+    ------
+    GnssInputError
+        Framing problems (`split_header`), a malformed record, or no observation types.
+    """
+    start = split_header(lines, path, expected_types="O")
+    head = ParsedObsHeader(start.version, start.body_start, start.system)
+    head.time_system = DEFAULT_TIME_SYSTEM.get(start.system, "GPS")
+    records = start.header
+    v2_types: list[str] = []
+    i = 0
+    while i < len(records):
+        h = records[i]
+        if h.label == "SYS / # / OBS TYPES":
+            i = _obs_types_v3(records, i, head, path)
+            continue
+        if h.label == "# / TYPES OF OBSERV":
+            i, v2_types = _obs_types_v2(records, i, path)
+            continue
+        _simple_record(h, head, path)
+        i += 1
+    if int(head.version) == 2:
+        systems = "G" if start.system in ("G", "") else ("GRES" if start.system == "M"
+                                                         else start.system)
+        head.obs_types = {s: map_v2_types(s, v2_types) for s in systems}
+    if not any(head.obs_types.values()):
+        raise GnssInputError("header declares no observation types", path=path,
+                             line=start.body_start)
+    if head.first_obs_labels is not None:
+        head.first_obs_gps_time_s = float(to_gps_time_s(
+            calendar_to_gps_time_s(*head.first_obs_labels), head.time_system,
+            leap_seconds=head.leap_seconds))
+    return head
+
+
+def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
+    """Records of one line each."""
+    c = h.content
+    if h.label == "MARKER NAME":
+        head.marker_name = c.strip()
+    elif h.label == "REC # / TYPE / VERS":
+        head.receiver = c[20:40].strip()
+    elif h.label == "ANT # / TYPE":
+        head.antenna = c[20:40].strip()
+    elif h.label == "APPROX POSITION XYZ":
+        head.approx_position_e = np.array([float_field(h, a, b, path=path, column="XYZ")
+                                           for a, b in _XYZ_COLUMNS])
+    elif h.label == "INTERVAL":
+        head.interval_s = float_field(h, 0, 10, path=path, column="interval")
+    elif h.label == "LEAP SECONDS":
+        head.leap_seconds = int_field(h, 0, 6, path=path, column="leap seconds")
+    elif h.label == "SIGNAL STRENGTH UNIT":
+        head.signal_strength_unit = c[:20].strip()
+    elif h.label == "TIME OF FIRST OBS":
+        labels = [int_field(h, 6 * k, 6 * k + 6, path=path, column="time of first obs")
+                  for k in range(5)]
+        second = float_field(h, 30, 43, path=path, column="time of first obs")
+        head.first_obs_labels = (*labels, second)
+        system = c[48:51].strip()
+        if system:
+            if system not in ("GPS", "GAL", "BDT", "GLO", "QZS", "IRN", "UTC"):
+                raise GnssInputError(f"unknown time system {system!r}", path=path,
+                                     line=h.line, column="time system")
+            head.time_system = system
+    elif h.label == "GLONASS SLOT / FRQ #":
+        for k in range(_GLONASS_SLOTS_PER_LINE):
+            entry = c[4 + 7 * k:11 + 7 * k]
+            if entry[:3].strip():
+                sv = entry[0] + entry[1:3].replace(" ", "0")
+                head.glonass_slots[sv] = int_field(h, 8 + 7 * k, 10 + 7 * k, path=path,
+                                                   column="GLONASS frequency number")
+    elif h.label == "SYS / SCALE FACTOR":
+        _scale_factor(h, head, path)
+
+
+def _obs_types_v3(records: list[HeaderLine], i: int, head: ParsedObsHeader, path) -> int:
+    """Read a ``SYS / # / OBS TYPES`` record and its continuation lines; next index."""
+    h = records[i]
+    system = h.content[0]
+    count = int_field(h, 3, 6, path=path, column="number of observation types")
+    types: list[str] = []
+    while True:
+        for k in range(_TYPES_PER_LINE_V3):
+            code = records[i].content[7 + 4 * k:10 + 4 * k].strip()
+            if code and len(types) < count:
+                types.append(code)
+        i += 1
+        if len(types) >= count or i >= len(records) or records[i].label != h.label \
+                or records[i].content[0] != " ":
+            break
+    if len(types) != count or any(len(t) != 3 for t in types):
+        raise GnssInputError(f"system {system}: {count} observation types announced, "
+                             f"{len(types)} valid codes found", path=path, line=h.line,
+                             column="SYS / # / OBS TYPES")
+    head.obs_types[system] = types
+    return i
+
+
+def _obs_types_v2(records: list[HeaderLine], i: int, path) -> tuple[int, list[str]]:
+    h = records[i]
+    count = int_field(h, 0, 6, path=path, column="number of observation types")
+    types: list[str] = []
+    while i < len(records) and records[i].label == h.label and len(types) < count:
+        for k in range(_TYPES_PER_LINE_V2):
+            code = records[i].content[10 + 6 * k:12 + 6 * k].strip()
+            if code and len(types) < count:
+                types.append(code)
+        i += 1
+    if len(types) != count:
+        raise GnssInputError(f"{count} observation types announced, {len(types)} found",
+                             path=path, line=h.line, column="# / TYPES OF OBSERV")
+    return i, types
+
+
+def _scale_factor(h: HeaderLine, head: ParsedObsHeader, path) -> None:
+    system = h.content[0]
+    factor = float(int_field(h, 2, 6, path=path, column="scale factor"))
+    codes = h.content[10:58].split()
+    targets = codes or head.obs_types.get(system, [])
+    head.scale.setdefault(system, {}).update({code: factor for code in targets})
