@@ -1,0 +1,158 @@
+"""One formula, two backends: NumPy arrays and CasADi symbols.
+
+The physics of this package (Euler DCM, gravity, Earth and transport rates) is written
+once against the small operation set below and evaluated either on NumPy arrays
+(vectorized over a leading time axis, vectors ``(..., 3)``, matrices ``(..., 3, 3)``) or on
+CasADi ``SX``/``MX`` scalars (vectors ``3x1`` columns, matrices ``3x3``) to build the
+symbolic models. `ops_for` picks the backend from the arguments, so no formula has a
+NumPy twin and a CasADi twin.
+
+`batch_call` is the one adapter between CasADi's column-major ``DM`` and NumPy
+``(N, k)`` arrays (STYLE.md §2.6): no other module touches ``DM``.
+"""
+from __future__ import annotations
+
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["ops_for", "NumpyOps", "CasadiOps", "batch_call"]
+
+_SYMBOLIC = (ca.SX, ca.MX, ca.DM)
+
+
+class NumpyOps:
+    """Operations on NumPy arrays; vectors ``(..., 3)``, matrices ``(..., 3, 3)``."""
+
+    sin = staticmethod(np.sin)
+    cos = staticmethod(np.cos)
+    tan = staticmethod(np.tan)
+    sqrt = staticmethod(np.sqrt)
+
+    @staticmethod
+    def vec3(x: Any, y: Any, z: Any) -> np.ndarray:
+        """Stack three broadcastable components into ``(..., 3)``."""
+        x, y, z = np.broadcast_arrays(*(np.asarray(c, dtype=float) for c in (x, y, z)))
+        return np.stack([x, y, z], axis=-1)
+
+    @staticmethod
+    def mat3(rows: list[list[Any]]) -> np.ndarray:
+        """A ``(..., 3, 3)`` matrix from a 3x3 nested list of broadcastable entries."""
+        flat = np.broadcast_arrays(*(np.asarray(c, dtype=float) for r in rows for c in r))
+        return np.stack(flat, axis=-1).reshape(flat[0].shape + (3, 3))
+
+    @staticmethod
+    def comp(v: Any, i: int) -> Any:
+        """Component ``i`` of a vector."""
+        return v[..., i]
+
+    @staticmethod
+    def matvec(M: Any, v: Any) -> np.ndarray:
+        """``M @ v`` over leading axes."""
+        return np.einsum("...ij,...j->...i", M, v)
+
+    @staticmethod
+    def mat_t_vec(M: Any, v: Any) -> np.ndarray:
+        """``Mᵀ @ v`` over leading axes."""
+        return np.einsum("...ji,...j->...i", M, v)
+
+    @staticmethod
+    def cross(a: Any, b: Any) -> np.ndarray:
+        """``a × b`` over leading axes."""
+        return np.cross(a, b)
+
+    @staticmethod
+    def dot(a: Any, b: Any) -> np.ndarray:
+        """``aᵀ b`` over leading axes."""
+        return np.einsum("...i,...i->...", a, b)
+
+
+class CasadiOps:
+    """Operations on CasADi scalars; vectors are ``3x1`` columns, matrices ``3x3``."""
+
+    sin = staticmethod(ca.sin)
+    cos = staticmethod(ca.cos)
+    tan = staticmethod(ca.tan)
+    sqrt = staticmethod(ca.sqrt)
+
+    @staticmethod
+    def vec3(x: Any, y: Any, z: Any) -> Any:
+        """A ``3x1`` column."""
+        return ca.vertcat(x, y, z)
+
+    @staticmethod
+    def mat3(rows: list[list[Any]]) -> Any:
+        """A ``3x3`` matrix from a nested list of rows."""
+        return ca.vertcat(*(ca.horzcat(*r) for r in rows))
+
+    @staticmethod
+    def comp(v: Any, i: int) -> Any:
+        """Component ``i`` of a column."""
+        return v[i]
+
+    @staticmethod
+    def matvec(M: Any, v: Any) -> Any:
+        """``M @ v``."""
+        return ca.mtimes(M, v)
+
+    @staticmethod
+    def mat_t_vec(M: Any, v: Any) -> Any:
+        """``Mᵀ @ v``."""
+        return ca.mtimes(M.T, v)
+
+    @staticmethod
+    def cross(a: Any, b: Any) -> Any:
+        """``a × b``."""
+        return ca.cross(a, b)
+
+    @staticmethod
+    def dot(a: Any, b: Any) -> Any:
+        """``aᵀ b``."""
+        return ca.dot(a, b)
+
+
+def ops_for(*values: Any) -> type[NumpyOps] | type[CasadiOps]:
+    """The backend for these arguments: CasADi if any is a CasADi value, else NumPy."""
+    if any(isinstance(v, _SYMBOLIC) for v in values):
+        return CasadiOps
+    return NumpyOps
+
+
+def batch_call(fn: ca.Function, *args: npt.ArrayLike) -> tuple[np.ndarray, ...]:
+    """Evaluate a CasADi function on a batch of NumPy rows.
+
+    Parameters
+    ----------
+    fn : casadi.Function
+        Every input and output a column vector (``k x 1``).
+    *args : array_like, shape (N, k_i) or (k_i,)
+        One array per input; a 1-D array is the same value for every row. Inputs of
+        size 1 may also be given as shape (N,).
+
+    Returns
+    -------
+    tuple of ndarray, each shape (N, m_j)
+        One array per output, rows in the order of the input rows.
+    """
+    arrays = []
+    n_rows = None
+    for i, arg in enumerate(args):
+        a = np.asarray(arg, dtype=float)
+        k = fn.size1_in(i)
+        if a.ndim == 1 and k == 1 and a.shape[0] != 1:
+            a = a[:, None]
+        if a.shape[-1] != k:
+            raise ValueError(f"input {fn.name_in(i)!r} needs {k} components, got shape {a.shape}")
+        if a.ndim == 2:
+            if n_rows is not None and a.shape[0] != n_rows:
+                raise ValueError(f"inputs have {n_rows} and {a.shape[0]} rows")
+            n_rows = a.shape[0]
+        arrays.append(a)
+    n_rows = 1 if n_rows is None else n_rows
+    cols = [a.T if a.ndim == 2 else a[:, None] for a in arrays]
+    out = fn.map(n_rows)(*cols) if n_rows > 1 else fn(*cols)
+    if not isinstance(out, (list, tuple)):
+        out = [out]
+    return tuple(np.asarray(o, dtype=float).T.reshape(n_rows, -1) for o in out)

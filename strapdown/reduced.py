@@ -1,0 +1,210 @@
+r"""The track-constrained (reduced) mechanization as CasADi functions.
+
+State ``x`` (`REDUCED_STATE_NAMES`)::
+
+    [yaw, pitch, roll, s, v]      (+ optional 6 sensor-bias states, `SensorBiasStates`)
+
+angles in rad, along-track distance ``s`` in m, signed speed ``v = ds/dt`` in m/s. Input
+``u = [f_b (m/s², b), ω_ib_b (rad/s, b)]``, the instantaneous IMU sample. The vehicle
+velocity is ``v_n = v u(s)``. Dynamics and the accelerometer pseudo-observation
+(ARCHITECTURE.md "Physics"; the paper's eq. 12 in a basis that is never singular)::
+
+    [ψ̇, θ̇, φ̇] = E(θ, φ) (ω_ib_b − C_b_nᵀ (ω_ie_n + ω_en_n(v u, φ, h)))
+    ṡ = v
+    v̇ = uᵀ a_n,          a_n = C_b_n f_b − (2 ω_ie_n + ω_en_n) × v u + g_n
+    h_c = P⊥ (a_n − v² du/ds)  = 0  for a vehicle on the track
+
+``P⊥`` has two rows, the unit vectors across the tangent ``û = u/|u|`` with
+``c = sqrt(û_E² + û_N²) = cos ϑ``::
+
+    lateral  l = [−û_N/c,  û_E/c,  0]              (horizontal, left of the track)
+    normal   n = û × l = [−û_U û_E/c, −û_U û_N/c, c]   (track normal, upward)
+
+valid for every azimuth (0°, 90°, 180°, 270° alike) and every grade short of a vertical
+track (``c = 0``). With zero roll they are the body y and z axes. The accelerometer
+white noise ``w_a`` (body) enters as ``u ← u + [w_a, w_g]``: process noise
+``G = ∂f/∂u`` and pseudo-observation noise ``D = ∂h_c/∂u = P⊥ C_b_n [I 0]`` are
+correlated through ``w_a``.
+
+**Track parameters** ``p`` (`TRACK_PARAMETER_NAMES`, 16 values) linearize the track around
+a reference distance ``s_ref`` (ideally the current estimate, refreshed every step)::
+
+    p = [s_ref, lat_ref, lon_ref, h_ref, dlat_ds, dlon_ds, dh_ds,
+         u_n_ref (3), du_ds_n_ref (3), d2u_ds2_n_ref (3)]
+
+and inside the model, with ``δ = s − s_ref``: ``lat = lat_ref + dlat_ds δ``,
+``h = h_ref + dh_ds δ``, ``u = u_ref + du_ds_ref δ``, ``du/ds = du_ds_ref + d2u_ds2_ref δ``,
+so CasADi's Jacobians with respect to ``s`` are those of the track. `track_parameters`
+builds ``p`` from a `trackmodel` ``TrackPoint``.
+
+`build_reduced_model(earth, biases=None)` -> `ReducedModel` (cached):
+``f(x, u, p) -> xdot``, ``F_x``, ``G``, ``h_c(x, u, p) -> (2,)``, ``H_x``, ``D``.
+"""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from strapdown.euler import C_b_n
+from strapdown.frames import radii_of_curvature
+from strapdown.kinematics import (BIAS_STATE_NAMES, INPUT_NAMES, SensorBiasStates,
+                                  StateLayout, attitude_rates, corrected_inputs,
+                                  navigation_acceleration)
+from trackmodel.earth import WGS84, Ellipsoid
+
+__all__ = ["REDUCED_STATE_NAMES", "TRACK_PARAMETER_NAMES", "PSEUDO_OBSERVATION_NAMES",
+           "ReducedModel", "build_reduced_model", "track_parameters", "cross_track_basis"]
+
+#: Names of the 5 navigation states of the reduced model.
+REDUCED_STATE_NAMES = ("yaw", "pitch", "roll", "s", "v")
+#: Names of the per-step track parameter vector ``p``.
+TRACK_PARAMETER_NAMES = (
+    "s_ref", "lat_ref", "lon_ref", "h_ref", "dlat_ds", "dlon_ds", "dh_ds",
+    "u_E", "u_N", "u_U", "du_E_ds", "du_N_ds", "du_U_ds",
+    "d2u_E_ds2", "d2u_N_ds2", "d2u_U_ds2")
+#: Components of the accelerometer pseudo-observation ``h_c`` (m/s²).
+PSEUDO_OBSERVATION_NAMES = ("lateral", "normal")
+
+
+@dataclass(frozen=True)
+class ReducedModel:
+    """The track-constrained mechanization and its pseudo-observation.
+
+    Attributes
+    ----------
+    layout : StateLayout
+        State names (5, or 11 with sensor biases).
+    f : casadi.Function
+        ``f(x, u, p) -> xdot``: x (n_x,), u (6,), p (16,); xdot (n_x,), state units / s.
+    F_x : casadi.Function
+        ``F_x(x, u, p) -> (n_x, n_x)`` = ∂f/∂x.
+    G : casadi.Function
+        ``G(x, u, p) -> (n_x, 6)`` = ∂f/∂u (IMU noise -> state rates).
+    h_c : casadi.Function
+        ``h_c(x, u, p) -> (2,)``: lateral and normal residual, m/s² (0 on the track).
+    H_x : casadi.Function
+        ``H_x(x, u, p) -> (2, n_x)`` = ∂h_c/∂x.
+    D : casadi.Function
+        ``D(x, u, p) -> (2, 6)`` = ∂h_c/∂u (IMU noise -> pseudo-observation).
+    earth : Ellipsoid
+    biases : SensorBiasStates or None
+    """
+
+    layout: StateLayout
+    f: ca.Function
+    F_x: ca.Function
+    G: ca.Function
+    h_c: ca.Function
+    H_x: ca.Function
+    D: ca.Function
+    earth: Ellipsoid
+    biases: SensorBiasStates | None
+
+
+def cross_track_basis(u_n: Any) -> tuple[Any, Any]:
+    """Lateral and normal unit vectors across a tangent (CasADi 3x1 in, 3x1 out).
+
+    Parameters
+    ----------
+    u_n : casadi 3x1
+        Track tangent in ENU (need not be exactly unit length).
+
+    Returns
+    -------
+    lateral, normal : casadi 3x1
+        See the module docstring.
+    """
+    u_hat = u_n / ca.norm_2(u_n)
+    c = ca.sqrt(u_hat[0] ** 2 + u_hat[1] ** 2)
+    lateral = ca.vertcat(-u_hat[1] / c, u_hat[0] / c, 0.0)
+    normal = ca.vertcat(-u_hat[2] * u_hat[0] / c, -u_hat[2] * u_hat[1] / c, c)
+    return lateral, normal
+
+
+@functools.lru_cache(maxsize=None)
+def build_reduced_model(earth: Ellipsoid = WGS84,
+                        biases: SensorBiasStates | None = None) -> ReducedModel:
+    """Build the track-constrained mechanization (see the module docstring).
+
+    Parameters
+    ----------
+    earth : Ellipsoid
+        Radii, rotation rate and gravity model; must be the track's Earth model.
+    biases : SensorBiasStates, optional
+        Add accelerometer and gyro bias states (Gauss–Markov).
+
+    Returns
+    -------
+    ReducedModel
+    """
+    names = REDUCED_STATE_NAMES + (BIAS_STATE_NAMES if biases is not None else ())
+    layout = StateLayout(names)
+    x = ca.SX.sym("x", layout.size)
+    u = ca.SX.sym("u", len(INPUT_NAMES))
+    p = ca.SX.sym("p", len(TRACK_PARAMETER_NAMES))
+    yaw, pitch, roll, s, v = (x[i] for i in range(5))
+    bias = x[5:11] if biases is not None else None
+    f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
+
+    delta = s - p[0]
+    lat = p[1] + p[4] * delta
+    h = p[3] + p[6] * delta
+    u_n = p[7:10] + p[10:13] * delta
+    du_ds_n = p[10:13] + p[13:16] * delta
+
+    C = C_b_n(yaw, pitch, roll)
+    a_n, omega_in_n = navigation_acceleration(C, f_b, v * u_n, lat, h, earth=earth)
+    parts = [attitude_rates(yaw, pitch, roll, omega_ib_b, omega_in_n), v, ca.dot(u_n, a_n)]
+    if bias_dot is not None:
+        parts.append(bias_dot)
+    xdot = ca.vertcat(*parts)
+    lateral, normal = cross_track_basis(u_n)
+    residual = a_n - v * v * du_ds_n
+    h_c = ca.vertcat(ca.dot(lateral, residual), ca.dot(normal, residual))
+
+    args, names_in = [x, u, p], ["x", "u", "p"]
+
+    def fn(name: str, expr: Any, out: str) -> ca.Function:
+        return ca.Function(f"reduced_{name}", args, [expr], names_in, [out])
+
+    return ReducedModel(
+        layout=layout,
+        f=fn("f", xdot, "xdot"), F_x=fn("F_x", ca.jacobian(xdot, x), "F_x"),
+        G=fn("G", ca.jacobian(xdot, u), "G"),
+        h_c=fn("h_c", h_c, "h_c"), H_x=fn("H_x", ca.jacobian(h_c, x), "H_x"),
+        D=fn("D", ca.jacobian(h_c, u), "D"),
+        earth=earth, biases=biases)
+
+
+def track_parameters(point: Any, *, earth: Ellipsoid = WGS84) -> np.ndarray:
+    """The track parameter rows ``p`` at the points of a ``TrackPoint``.
+
+    Parameters
+    ----------
+    point : trackmodel TrackPoint
+        Arrays over N reference distances: ``s`` (m), ``lat``, ``lon`` (rad), ``h`` (m),
+        ``u_n``, ``du_ds_n`` (1/m), ``d2u_ds2_n`` (1/m²), each (N, 3) in ENU.
+    earth : Ellipsoid
+        The track's Earth model (radii for ``dlat_ds``, ``dlon_ds``).
+
+    Returns
+    -------
+    ndarray, shape (N, 16)
+        Rows in the order of `TRACK_PARAMETER_NAMES`; ``dlat_ds`` = u_N/(R_M + h),
+        ``dlon_ds`` = u_E/((R_N + h) cos lat) (rad/m), ``dh_ds`` = u_U.
+    """
+    s = np.atleast_1d(np.asarray(point.s, dtype=float))
+    lat = np.atleast_1d(np.asarray(point.lat, dtype=float))
+    lon = np.atleast_1d(np.asarray(point.lon, dtype=float))
+    h = np.atleast_1d(np.asarray(point.h, dtype=float))
+    u_n = np.atleast_2d(np.asarray(point.u_n, dtype=float))
+    R_M, R_N = radii_of_curvature(lat, earth=earth)
+    dlat_ds = u_n[:, 1] / (R_M + h)
+    dlon_ds = u_n[:, 0] / ((R_N + h) * np.cos(lat))
+    scalars = np.stack([s, lat, lon, h, dlat_ds, dlon_ds, u_n[:, 2]], axis=-1)
+    return np.concatenate([scalars, u_n, np.atleast_2d(point.du_ds_n),
+                           np.atleast_2d(point.d2u_ds2_n)], axis=-1)
