@@ -1,0 +1,274 @@
+"""The continuous–discrete EKF driver: spans of compiled steps, discrete updates between.
+
+:class:`CdFilter` holds the current prior ``(x, P)`` at the current sample and the data
+of that sample. :meth:`CdFilter.run` processes a whole :class:`~ekf.series.InputSeries`
+with its discrete-update :class:`~ekf.series.Epoch` s and returns a
+:class:`~ekf.history.FilterResult`; :meth:`CdFilter.stream` does the same chunk by chunk,
+yielding one result per chunk (memory flat in the run length). Between two epochs the
+steps run as ONE call of the compiled step loop (:mod:`ekf.propagate`); a span without
+epochs (a GNSS outage) is just a longer call.
+
+At an epoch sample the order is: discrete update of the prior, then that sample's
+continuous measurement and the step to the next sample.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import Callable, Iterable, Iterator, Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.compiled import CompileOptions
+from ekf.errors import FilterDivergedError, ModelError
+from ekf.gating import Gate
+from ekf.history import FilterResult, Recorder
+from ekf.model import CdModel
+from ekf.packing import pack_sym, unpack_sym
+from ekf.propagate import Backend, Propagator, StepOutputs
+from ekf.series import Epoch, InputSeries
+from ekf.step import StepOptions
+from ekf.update import Observation, UpdateRecord, discrete_update
+
+__all__ = ["FilterConfig", "CdFilter"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """Options of a :class:`CdFilter`.
+
+    Attributes
+    ----------
+    step : ekf.step.StepOptions
+    backend : {"auto", "compiled", "casadi", "casadi-jit"}
+    compile : CompileOptions
+    gate : Gate or None
+        Gate of the discrete updates (None: accept everything).
+    sequential : bool
+        Process discrete updates scalar by scalar (diagonal ``R``).
+    store_every : int
+        Keep the filtered state every this many steps (>= 1).
+    full_covariance : bool
+        Keep the full packed covariance at the stored steps (else its diagonal).
+    smoothing : bool
+        Keep every step's data for :func:`ekf.smoother.rts_smooth` (memory ~
+        ``8 (3 n² + 4 n) / 2`` bytes per step).
+    time_tol_s : float
+        An epoch matches a sample when their times differ by at most this, s.
+    """
+
+    step: StepOptions = StepOptions()
+    backend: Backend = "auto"
+    compile: CompileOptions = CompileOptions()
+    gate: Gate | None = None
+    sequential: bool = False
+    store_every: int = 1
+    full_covariance: bool = False
+    smoothing: bool = False
+    time_tol_s: float = 1e-6
+
+    def __post_init__(self) -> None:
+        if self.store_every < 1:
+            raise ModelError(f"store_every must be >= 1, got {self.store_every}")
+        if not self.time_tol_s >= 0.0:
+            raise ModelError(f"time_tol_s must be >= 0, got {self.time_tol_s}")
+
+
+def _check_covariance(P: Array, where: str) -> None:
+    if not np.all(np.isfinite(P)):
+        raise FilterDivergedError(f"covariance became non-finite {where}")
+    try:
+        np.linalg.cholesky(P)
+    except np.linalg.LinAlgError:
+        raise FilterDivergedError(f"covariance lost positive definiteness {where}") from None
+
+
+class CdFilter:
+    """Continuous–discrete EKF of a :class:`~ekf.model.CdModel`.
+
+    Parameters
+    ----------
+    model : CdModel
+    config : FilterConfig
+
+    Attributes
+    ----------
+    propagator : Propagator
+        The compiled step loop (built once here).
+    x : ndarray, shape (n,)
+        Current state (prior at :attr:`t`).
+    P : ndarray, shape (n, n)
+    t : float
+        Time of the current sample, s (NaN before the first sample).
+    """
+
+    def __init__(self, model: CdModel, config: FilterConfig = FilterConfig()) -> None:
+        self.model, self.config = model, config
+        self.propagator = Propagator(model, config.step, backend=config.backend,
+                                     compile_options=config.compile)
+        self.x = np.zeros(model.n)
+        self.P = np.eye(model.n)
+        self.t = float("nan")
+        self._last: InputSeries | None = None
+        self._step_index = 0
+        self._last_outputs: StepOutputs | None = None
+
+    def reset(self, x0: npt.ArrayLike, P0: npt.ArrayLike) -> None:
+        """Start over from a prior (forgets the last sample).
+
+        Parameters
+        ----------
+        x0 : array_like, shape (n,)
+        P0 : array_like, shape (n, n)
+            Symmetric positive definite.
+        """
+        x0, P0 = np.array(x0, dtype=float), np.array(P0, dtype=float)
+        n = self.model.n
+        if x0.shape != (n,) or P0.shape != (n, n):
+            raise ModelError(f"x0 must be ({n},) and P0 ({n}, {n}); got {x0.shape}, {P0.shape}")
+        _check_covariance(P0, "in the initial covariance")
+        self.x, self.P = x0, 0.5 * (P0 + P0.T)
+        self.t, self._last, self._step_index = float("nan"), None, 0
+
+    def update(self, observations: Sequence[Observation], *, gate: Gate | None = None,
+               sequential: bool | None = None) -> UpdateRecord:
+        """Discrete update of the current prior (gate and mode default to the config's)."""
+        gate = self.config.gate if gate is None else gate
+        seq = self.config.sequential if sequential is None else sequential
+        self.x, self.P, record = discrete_update(self.x, self.P, observations, gate=gate,
+                                                 sequential=seq)
+        return record
+
+    def propagate(self, samples: InputSeries) -> StepOutputs:
+        """Step through new samples (continuing from the last sample seen)."""
+        rec = Recorder(self.model.layout)
+        self._advance(self._shape(samples), iter(()), rec, None)
+        return self._last_outputs
+
+    def run(self, samples: InputSeries, epochs: Iterable[Epoch], *, x0: npt.ArrayLike,
+            P0: npt.ArrayLike, progress: Progress | None = None) -> FilterResult:
+        """Filter a whole series.
+
+        Parameters
+        ----------
+        samples : InputSeries
+            ``M`` samples (``M − 1`` steps).
+        epochs : iterable of Epoch
+            Discrete updates, in time order, at sample times.
+        x0 : array_like, shape (n,)
+            Prior at the first sample.
+        P0 : array_like, shape (n, n)
+        progress : callable(done, total), optional
+            Called after each span with the steps done and the total.
+
+        Returns
+        -------
+        FilterResult
+        """
+        return next(self.stream([samples], epochs, x0=x0, P0=P0, progress=progress,
+                                total=len(samples) - 1))
+
+    def stream(self, chunks: Iterable[InputSeries], epochs: Iterable[Epoch], *,
+               x0: npt.ArrayLike, P0: npt.ArrayLike, progress: Progress | None = None,
+               total: int = 0) -> Iterator[FilterResult]:
+        """Filter consecutive chunks, yielding each chunk's :class:`FilterResult`.
+
+        ``epochs`` is consumed lazily; ``total`` (steps, optional) is passed to
+        ``progress``. Each result's epoch numbers start at 0.
+        """
+        self.reset(x0, P0)
+        pending = _Peekable(iter(epochs))
+        for chunk in chunks:
+            rec = Recorder(self.model.layout, self.config.store_every,
+                           self.config.full_covariance, self.config.smoothing)
+            self._advance(self._shape(chunk), pending, rec, progress, total)
+            yield rec.result(self.x, self.P)
+        if pending.peek() is not None:
+            log.warning("epochs after the last sample were not used (first at t=%.6f s)",
+                        pending.peek().t)
+
+    def _shape(self, samples: InputSeries) -> InputSeries:
+        m = self.model
+        return samples.shaped(m.n_u, m.n_p, m.n_c, m.n_w)
+
+    def _advance(self, chunk: InputSeries, epochs: "_Peekable", rec: Recorder,
+                 progress: Progress | None, total: int = 0) -> None:
+        """Steps from the current sample through ``chunk``, with updates at epochs."""
+        if self._last is not None:
+            if chunk.t[0] <= self._last.t[-1]:
+                raise ModelError("chunk times must continue after the previous chunk")
+            chunk = _concat(self._last, chunk)
+        n_samples = len(chunk)
+        data = self.propagator.data
+        dt = np.diff(chunk.t)
+        d = data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], dt, chunk.q_c[:-1],
+                          chunk.r_c[:-1])
+        cursor = 0
+        while True:
+            stop = n_samples - 1
+            epoch = epochs.peek()
+            at = None if epoch is None else self._sample_of(epoch, chunk.t)
+            if at is not None and at < n_samples:
+                stop = at
+            self._run_span(chunk.t, d, cursor, stop, rec)
+            cursor = stop
+            if progress is not None:
+                progress(self._step_index, total)
+            if at is None or at >= n_samples:
+                break
+            epochs.next()
+            self.t = float(chunk.t[at])
+            rec.update(self.t, self.update(epoch.observations))
+            if at == n_samples - 1:
+                break
+        self._last = chunk.slice(n_samples - 1, n_samples)
+        self.t = float(chunk.t[-1])
+
+    def _sample_of(self, epoch: Epoch, t: Array) -> int | None:
+        j = int(np.searchsorted(t, epoch.t - self.config.time_tol_s))
+        if j >= t.size:
+            return t.size  # after this chunk
+        if abs(t[j] - epoch.t) > self.config.time_tol_s:
+            if j == 0 and self._step_index == 0:
+                raise ModelError(f"epoch t={epoch.t:.6f} s is before the first sample")
+            raise ModelError(f"epoch t={epoch.t:.6f} s is not a sample time (nearest "
+                             f"{t[min(j, t.size - 1)]:.6f} s): insert a sample there")
+        return j
+
+    def _run_span(self, t: Array, d: Array, start: int, stop: int, rec: Recorder) -> None:
+        if stop <= start:
+            return
+        out = self.propagator.run(self.x, pack_sym(self.P), d[start:stop])
+        self.x = out.x_next[-1].copy()
+        self.P = unpack_sym(out.P_next[-1])
+        _check_covariance(self.P, f"at t={t[stop]:.6f} s")
+        rec.steps(self._step_index, t[start:stop], out)
+        self._step_index += stop - start
+        self._last_outputs = out
+
+
+def _concat(a: InputSeries, b: InputSeries) -> InputSeries:
+    return InputSeries(**{k: np.concatenate([getattr(a, k), getattr(b, k)], axis=0)
+                          for k in ("t", "u", "q_c", "p", "z_c", "r_c")})
+
+
+class _Peekable:
+    def __init__(self, it: Iterator[Epoch]) -> None:
+        self._it, self._head, self._done = it, None, False
+
+    def peek(self) -> Epoch | None:
+        if self._head is None and not self._done:
+            self._head = next(self._it, None)
+            self._done = self._head is None
+        return self._head
+
+    def next(self) -> Epoch | None:
+        head = self.peek()
+        self._head = None
+        return head

@@ -1,0 +1,205 @@
+"""What a filter run keeps: decimated states, innovation statistics, smoother data.
+
+Everything is stored as NumPy arrays appended per span (never Python objects per step),
+concatenated once when a result is made. Discrete-update innovations are ragged (each
+epoch has its own number of components): they are kept flat with the epoch number of
+each component.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from ekf.layout import StateLayout
+from ekf.packing import unpack_sym
+from ekf.update import UpdateRecord
+
+__all__ = ["FilterResult", "SmootherData", "Recorder"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SmootherData:
+    """Per-step quantities the RTS smoother needs (kept when smoothing is on).
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Time of each step's start, s.
+    x_filt, P_filt : ndarray, shapes (N, n), (N, n(n+1)/2)
+        Filtered state at each step start (after all measurements at that sample).
+    x_next, P_next : ndarray, shapes (N, n), (N, n(n+1)/2)
+        Prediction to the next sample.
+    Phi : ndarray, shape (N, n*n)
+        Transition of each step, row by row.
+    """
+
+    t: Array
+    x_filt: Array
+    P_filt: Array
+    x_next: Array
+    P_next: Array
+    Phi: Array
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """Output of a run (or of one streamed chunk).
+
+    Attributes
+    ----------
+    layout : StateLayout
+    t : ndarray, shape (K,)
+        Times of the stored (decimated) states, s.
+    x : ndarray, shape (K, n)
+        Filtered state at those times.
+    P_diag : ndarray, shape (K, n)
+        Diagonal of its covariance.
+    P : ndarray, shape (K, n(n+1)/2) or None
+        Full packed covariance, when asked for.
+    t_c, innov_c, nis_c : ndarray, shapes (K,), (K, n_c), (K,)
+        Continuous-measurement innovations and NIS at the stored times.
+    nis_c_sum, nis_c_count : float, int
+        Sum and number of the continuous NIS over ALL steps (not decimated).
+    t_d : ndarray, shape (E,)
+        Times of the discrete updates.
+    nis_d, log_lik_d : ndarray, shape (E,)
+        Whole-update NIS and log-likelihood.
+    m_d, accepted_d : ndarray of int, shape (E,)
+        Number of components, and of accepted ones.
+    epoch_of, innov_d, s_d, accepted : ndarray, shape (M,)
+        Per component of every update: epoch number, innovation, ``S_ii``, accepted.
+    smoother : SmootherData or None
+    x_final, P_final : ndarray, shapes (n,), (n, n)
+        The state and covariance at the end of the run (prior at the last sample, or
+        posterior if an update happened there).
+    """
+
+    layout: StateLayout
+    t: Array
+    x: Array
+    P_diag: Array
+    P: Array | None
+    t_c: Array
+    innov_c: Array
+    nis_c: Array
+    nis_c_sum: float
+    nis_c_count: int
+    t_d: Array
+    nis_d: Array
+    log_lik_d: Array
+    m_d: Array
+    accepted_d: Array
+    epoch_of: Array
+    innov_d: Array
+    s_d: Array
+    accepted: Array
+    smoother: SmootherData | None
+    x_final: Array
+    P_final: Array
+
+    def to_frame(self) -> pd.DataFrame:
+        """States and standard deviations at the stored times: columns ``t_s``,
+        ``<name>``, ``sigma_<name>`` for every state component (units of the state)."""
+        data = {"t_s": self.t}
+        for i, name in enumerate(self.layout.names):
+            data[name] = self.x[:, i]
+        for i, name in enumerate(self.layout.names):
+            data[f"sigma_{name}"] = np.sqrt(self.P_diag[:, i])
+        return pd.DataFrame(data)
+
+    def innovations_frame(self) -> pd.DataFrame:
+        """Discrete-update innovations, one row per component: ``t_s``, ``epoch``,
+        ``innovation``, ``sigma`` (``√S_ii``), ``accepted``."""
+        return pd.DataFrame({"t_s": self.t_d[self.epoch_of] if self.t_d.size else np.zeros(0),
+                             "epoch": self.epoch_of, "innovation": self.innov_d,
+                             "sigma": np.sqrt(self.s_d), "accepted": self.accepted})
+
+
+@dataclass
+class Recorder:
+    """Accumulates a run's history span by span (see :class:`FilterResult`)."""
+
+    layout: StateLayout
+    store_every: int = 1
+    full_covariance: bool = False
+    smoothing: bool = False
+    _parts: dict[str, list[Array]] = field(default_factory=dict)
+    nis_c_sum: float = 0.0
+    nis_c_count: int = 0
+    epochs: int = 0
+
+    def _add(self, key: str, value: Array) -> None:
+        self._parts.setdefault(key, []).append(value)
+
+    def _get(self, key: str, shape_tail: tuple[int, ...], dtype=float) -> Array:
+        parts = self._parts.get(key)
+        if not parts:
+            return np.zeros((0,) + shape_tail, dtype=dtype)
+        return np.concatenate(parts, axis=0)
+
+    def steps(self, first: int, t: Array, out) -> None:
+        """Record a span of steps whose global indices start at ``first``.
+
+        ``t`` (N,) are the step start times; ``out`` is a
+        :class:`~ekf.propagate.StepOutputs`.
+        """
+        keep = (first + np.arange(t.size)) % self.store_every == 0
+        self._add("t", t[keep])
+        self._add("x", out.x_filt[keep])
+        P = unpack_sym(out.P_filt[keep])
+        self._add("P_diag", np.diagonal(P, axis1=1, axis2=2))
+        if self.full_covariance:
+            self._add("P", out.P_filt[keep])
+        self._add("innov_c", out.innov[keep])
+        if out.nis.size:
+            self._add("nis_c", out.nis[keep])
+            self.nis_c_sum += float(np.sum(out.nis))
+            self.nis_c_count += int(out.nis.size)
+        if self.smoothing:
+            for key in ("x_filt", "P_filt", "x_next", "P_next", "Phi"):
+                self._add("s_" + key, getattr(out, key))
+            self._add("s_t", t)
+
+    def update(self, t: float, record: UpdateRecord) -> None:
+        """Record one discrete update at time ``t``."""
+        m = record.innov.size
+        self._add("t_d", np.array([t]))
+        self._add("nis_d", np.array([record.nis]))
+        self._add("log_lik_d", np.array([record.log_likelihood]))
+        self._add("m_d", np.array([m]))
+        self._add("accepted_d", np.array([int(np.sum(record.accepted))]))
+        self._add("epoch_of", np.full(m, self.epochs))
+        self._add("innov_d", record.innov)
+        self._add("s_d", np.diag(record.S).copy())
+        self._add("accepted", record.accepted)
+        self.epochs += 1
+
+    def result(self, x_final: Array, P_final: Array) -> FilterResult:
+        """The recorded history as a :class:`FilterResult`."""
+        n = self.layout.size
+        n_p = n * (n + 1) // 2
+        smoother = None
+        if self.smoothing:
+            smoother = SmootherData(t=self._get("s_t", ()), x_filt=self._get("s_x_filt", (n,)),
+                                    P_filt=self._get("s_P_filt", (n_p,)),
+                                    x_next=self._get("s_x_next", (n,)),
+                                    P_next=self._get("s_P_next", (n_p,)),
+                                    Phi=self._get("s_Phi", (n * n,)))
+        n_c = self._parts["innov_c"][0].shape[1] if self._parts.get("innov_c") else 0
+        return FilterResult(
+            layout=self.layout, t=self._get("t", ()), x=self._get("x", (n,)),
+            P_diag=self._get("P_diag", (n,)),
+            P=self._get("P", (n_p,)) if self.full_covariance else None,
+            t_c=self._get("t", ()), innov_c=self._get("innov_c", (n_c,)),
+            nis_c=self._get("nis_c", ()), nis_c_sum=self.nis_c_sum,
+            nis_c_count=self.nis_c_count, t_d=self._get("t_d", ()),
+            nis_d=self._get("nis_d", ()), log_lik_d=self._get("log_lik_d", ()),
+            m_d=self._get("m_d", (), int), accepted_d=self._get("accepted_d", (), int),
+            epoch_of=self._get("epoch_of", (), int), innov_d=self._get("innov_d", ()),
+            s_d=self._get("s_d", ()), accepted=self._get("accepted", (), bool),
+            smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final))

@@ -1,0 +1,111 @@
+"""Input sample series and discrete-update epochs: what the filter driver consumes.
+
+Convention: everything is *per sample*. Sample ``k`` at time ``t_k`` carries the input
+``u_k``, the parameters ``p_k`` and the continuous-measurement value ``z_c,k`` of the
+step that starts at it (``t_k → t_{k+1}``); the last sample of a run only closes the last
+step. A stream is a sequence of consecutive, non-overlapping :class:`InputSeries` chunks;
+the filter remembers the last sample of a chunk to form the step into the next.
+
+A discrete update (:class:`Epoch`) happens at a sample time, before that sample's
+continuous measurement. An epoch between samples must first be made a sample (split the
+step, interpolating the input).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.errors import ModelError
+from ekf.update import Observation
+
+__all__ = ["InputSeries", "Epoch"]
+
+Array = npt.NDArray[np.float64]
+
+
+def _rows(a: npt.ArrayLike | None, m: int, k: int, name: str) -> Array:
+    if a is None:
+        return np.zeros((m, k))
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1 and a.shape == (k,):
+        a = np.broadcast_to(a, (m, k))
+    if a.shape != (m, k):
+        raise ModelError(f"{name} must have shape ({m}, {k}) or ({k},), got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ModelError(f"{name} has non-finite values")
+    return a
+
+
+@dataclass(frozen=True)
+class InputSeries:
+    """``M`` consecutive input samples.
+
+    Attributes
+    ----------
+    t : ndarray, shape (M,)
+        Sample times, s, strictly increasing.
+    u : ndarray, shape (M, n_u)
+        Input samples (e.g. IMU ``[f_b, omega_ib_b]`` in m/s², rad/s).
+    p : ndarray, shape (M, n_p), optional
+        Parameters of the step starting at each sample (default zeros).
+    z_c : ndarray, shape (M, n_c), optional
+        Continuous-measurement values (default zeros: a pseudo-observation).
+    q_c : ndarray, shape (n_w,) or (M, n_w)
+        Diagonal process-noise spectral density, [w]²·s (e.g. (m/s²)²·s).
+    r_c : ndarray, shape (n_c,) or (M, n_c), optional
+        Diagonal independent continuous-measurement noise density (default zeros).
+    """
+
+    t: Array
+    u: Array
+    q_c: Array
+    p: Array | None = None
+    z_c: Array | None = None
+    r_c: Array | None = None
+
+    def shaped(self, n_u: int, n_p: int, n_c: int, n_w: int) -> "InputSeries":
+        """A copy with every field checked and broadcast to ``(M, ·)``.
+
+        Raises
+        ------
+        ModelError
+            Wrong shapes, non-finite values, times not increasing, negative noise.
+        """
+        t = np.asarray(self.t, dtype=float).reshape(-1)
+        m = t.size
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
+            raise ModelError("sample times must be finite and strictly increasing")
+        fields = dict(t=t, u=_rows(self.u, m, n_u, "u"), p=_rows(self.p, m, n_p, "p"),
+                      z_c=_rows(self.z_c, m, n_c, "z_c"), q_c=_rows(self.q_c, m, n_w, "q_c"),
+                      r_c=_rows(self.r_c, m, n_c, "r_c"))
+        if np.any(fields["q_c"] < 0.0) or np.any(fields["r_c"] < 0.0):
+            raise ModelError("noise spectral densities must be >= 0")
+        return InputSeries(**fields)
+
+    def __len__(self) -> int:
+        return int(np.size(self.t))
+
+    def slice(self, start: int, stop: int) -> "InputSeries":
+        """Samples ``start:stop`` of a shaped series."""
+        return InputSeries(t=self.t[start:stop], u=self.u[start:stop], q_c=self.q_c[start:stop],
+                           p=self.p[start:stop], z_c=self.z_c[start:stop],
+                           r_c=self.r_c[start:stop])
+
+
+@dataclass(frozen=True)
+class Epoch:
+    """A discrete update at one sample time.
+
+    Attributes
+    ----------
+    t : float
+        Time, s; must equal a sample time (within the driver's ``time_tol_s``).
+    observations : sequence of Observation
+        Stacked into one update (may be empty: an epoch without measurements).
+    """
+
+    t: float
+    observations: Sequence[Observation] = field(default_factory=tuple)

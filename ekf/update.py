@@ -1,0 +1,251 @@
+"""The discrete measurement update (paper 2017 eq. 16): Joseph form, Cholesky, gating.
+
+:func:`kalman_update` is THE Kalman update of the engine (linear filters, the EKF's
+discrete updates and the model bank all call it): given a prior ``x, P``, an innovation
+``ν = z − h(x)``, its Jacobian ``H`` and noise ``R``,
+
+``S = H P Hᵀ + R``, ``K = P Hᵀ S⁻¹`` (Cholesky solves, no inverse),
+``x⁺ = x + K ν``, ``P⁺ = (I − K H) P (I − K H)ᵀ + K R Kᵀ`` (Joseph form).
+
+Rejected components (:class:`~ekf.gating.Gate`) are left out. With ``sequential=True``
+and a diagonal ``R`` the components are processed one scalar at a time (innovation
+re-linearized as ``ν_i − H_i (x_cur − x)``), each gated on its own.
+
+:func:`discrete_update` evaluates :class:`~ekf.model.MeasurementModel` rows and stacks
+several :class:`Observation` s into one update.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import numpy.typing as npt
+import scipy.linalg as sla
+
+from ekf.errors import FilterDivergedError, ModelError
+from ekf.gating import Gate
+from ekf.model import MeasurementModel
+
+__all__ = ["Observation", "UpdateRecord", "kalman_update", "discrete_update",
+           "LOG_2PI"]
+
+Array = npt.NDArray[np.float64]
+
+#: ln(2π), for Gaussian log-likelihoods.
+LOG_2PI = float(np.log(2.0 * np.pi))
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """``m`` rows of one measurement model at one epoch.
+
+    Attributes
+    ----------
+    model : MeasurementModel
+    z : ndarray, shape (m, k)
+        Measured values.
+    R : ndarray, shape (m * k,) or (m * k, m * k)
+        Noise variances (diagonal) or covariance, in ``z`` units squared.
+    p : ndarray, shape (m, n_p)
+        Row parameters (e.g. satellite positions).
+    """
+
+    model: MeasurementModel
+    z: Array
+    R: Array
+    p: Array = field(default_factory=lambda: np.zeros((0, 0)))
+
+    def __post_init__(self) -> None:
+        k = self.model.k
+        z = np.asarray(self.z, dtype=float).reshape(-1, k)
+        p = np.asarray(self.p, dtype=float).reshape(z.shape[0], self.model.n_p)
+        R = np.asarray(self.R, dtype=float)
+        if R.shape not in ((z.size,), (z.size, z.size)):
+            raise ModelError(f"{self.model.name}: R has shape {R.shape}, expected "
+                             f"({z.size},) or ({z.size}, {z.size})")
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(R)) and np.all(np.isfinite(p))):
+            raise ModelError(f"{self.model.name}: non-finite z, R or p")
+        for name, value in (("z", z), ("p", p), ("R", R)):
+            object.__setattr__(self, name, value)
+
+    @property
+    def rows(self) -> int:
+        """Number of rows ``m``."""
+        return self.z.shape[0]
+
+
+@dataclass(frozen=True)
+class UpdateRecord:
+    """Innovation statistics of one update.
+
+    Attributes
+    ----------
+    innov : ndarray, shape (m,)
+        ``z − h(x_prior)``.
+    S : ndarray, shape (m, m)
+        Its prior covariance ``H P Hᵀ + R``.
+    nis : float
+        ``νᵀ S⁻¹ ν`` over all components (NaN for ``m = 0``).
+    nis_components : ndarray, shape (m,)
+        Per component: sequential ``ν_i²/S_i`` when processed sequentially, else the
+        marginal ``ν_i²/S_ii``.
+    accepted : ndarray of bool, shape (m,)
+    log_likelihood : float
+        ``log N(ν; 0, S)`` of the full innovation (for model banks).
+    K : ndarray, shape (n, m)
+        Gain (zero columns for rejected components; for sequential processing, the
+        equivalent batch gain of the accepted components).
+    """
+
+    innov: Array
+    S: Array
+    nis: float
+    nis_components: Array
+    accepted: Array
+    log_likelihood: float
+    K: Array
+
+
+def _log_likelihood(innov: Array, factor: tuple[Array, bool]) -> tuple[float, float]:
+    L = np.tril(factor[0]) if factor[1] else np.triu(factor[0]).T
+    white = sla.solve_triangular(L, innov, lower=True)
+    nis = float(white @ white)
+    log_det = 2.0 * float(np.sum(np.log(np.diag(L))))
+    return nis, -0.5 * (nis + log_det + innov.size * LOG_2PI)
+
+
+def _joseph(P: Array, K: Array, H: Array, R: Array) -> Array:
+    A = np.eye(P.shape[0]) - K @ H
+    P_post = A @ P @ A.T + K @ R @ K.T
+    return 0.5 * (P_post + P_post.T)
+
+
+def _sequential(x: Array, P: Array, innov: Array, H: Array, r: Array,
+                gate: Gate | None) -> tuple[Array, Array, Array, Array]:
+    x_cur, P_cur = x.copy(), P.copy()
+    nis_c = np.zeros(innov.size)
+    accepted = np.zeros(innov.size, dtype=bool)
+    for i in range(innov.size):
+        h = H[i]
+        nu = innov[i] - h @ (x_cur - x)
+        s = float(h @ P_cur @ h + r[i])
+        nis_c[i] = nu * nu / s
+        if gate is not None and not gate.passes(np.array([nu]), np.array([[s]]))[0]:
+            continue
+        accepted[i] = True
+        k = P_cur @ h / s
+        x_cur = x_cur + k * nu
+        P_cur = _joseph(P_cur, k[:, None], h[None, :], np.array([[r[i]]]))
+    return x_cur, P_cur, nis_c, accepted
+
+
+def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
+                  gate: Gate | None = None, groups: Array | None = None,
+                  sequential: bool = False) -> tuple[Array, Array, UpdateRecord]:
+    """Kalman measurement update with innovation statistics.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+        Prior state.
+    P : ndarray, shape (n, n)
+        Prior covariance (SPD).
+    innov : ndarray, shape (m,)
+        ``z − h(x)``.
+    H : ndarray, shape (m, n)
+    R : ndarray, shape (m,) or (m, m)
+        Measurement noise variances (diagonal) or covariance.
+    gate : Gate, optional
+        No gating when ``None``.
+    groups : ndarray of int, shape (m,), optional
+        Row id of each component, for ``gate.scope == "rows"``; default: each
+        component its own row.
+    sequential : bool
+        Scalar-by-scalar processing (``R`` must be diagonal).
+
+    Returns
+    -------
+    x_post : ndarray, shape (n,)
+    P_post : ndarray, shape (n, n)
+    record : UpdateRecord
+
+    Raises
+    ------
+    FilterDivergedError
+        ``S`` not positive definite.
+    """
+    m, n = innov.size, x.size
+    R_mat = np.diag(R) if R.ndim == 1 else R
+    if m == 0:
+        return x, P, UpdateRecord(innov, np.zeros((0, 0)), float("nan"), np.zeros(0),
+                                  np.zeros(0, dtype=bool), 0.0, np.zeros((n, 0)))
+    PHt = P @ H.T
+    S = H @ PHt + R_mat
+    try:
+        factor = sla.cho_factor(S, lower=True)
+    except np.linalg.LinAlgError as exc:
+        raise FilterDivergedError(f"innovation covariance is not positive definite: {exc}") \
+            from exc
+    nis, log_lik = _log_likelihood(innov, factor)
+    if sequential:
+        if R.ndim != 1 and np.count_nonzero(R - np.diag(np.diag(R))):
+            raise ModelError("sequential processing needs a diagonal R")
+        x_post, P_post, nis_c, accepted = _sequential(x, P, innov, H, np.diag(R_mat), gate)
+        K = np.zeros((n, m))
+        if accepted.any():
+            K[:, accepted] = _batch_gain(P, H[accepted], R_mat[np.ix_(accepted, accepted)])
+        return x_post, P_post, UpdateRecord(innov, S, nis, nis_c, accepted, log_lik, K)
+    groups = np.arange(m) if groups is None else np.asarray(groups)
+    accepted = np.ones(m, dtype=bool) if gate is None else gate.accepted_rows(innov, S, groups)
+    nis_c = innov ** 2 / np.diag(S)
+    K = np.zeros((n, m))
+    if accepted.all():
+        K = sla.cho_solve(factor, PHt.T).T
+    elif accepted.any():
+        K[:, accepted] = _batch_gain(P, H[accepted], R_mat[np.ix_(accepted, accepted)])
+    x_post = x + K @ innov
+    P_post = _joseph(P, K, H, R_mat)
+    return x_post, P_post, UpdateRecord(innov, S, nis, nis_c, accepted, log_lik, K)
+
+
+def _batch_gain(P: Array, H: Array, R: Array) -> Array:
+    PHt = P @ H.T
+    return sla.cho_solve(sla.cho_factor(H @ PHt + R, lower=True), PHt.T).T
+
+
+def discrete_update(x: Array, P: Array, observations: Sequence[Observation], *,
+                    gate: Gate | None = None, sequential: bool = False
+                    ) -> tuple[Array, Array, UpdateRecord]:
+    """EKF update with several observations stacked (rows in the order given).
+
+    Parameters
+    ----------
+    x : ndarray, shape (n,)
+    P : ndarray, shape (n, n)
+    observations : sequence of Observation
+    gate : Gate, optional
+    sequential : bool
+
+    Returns
+    -------
+    x_post, P_post, record
+        As :func:`kalman_update`; for ``gate.scope == "rows"`` a row is one row of
+        one observation.
+    """
+    innovs, Hs, Rs, groups = [], [], [], []
+    row0 = 0
+    for obs in observations:
+        z_pred, H = obs.model.evaluate(x, obs.p)
+        innovs.append(obs.z.reshape(-1) - z_pred)
+        Hs.append(H)
+        Rs.append(np.diag(obs.R) if obs.R.ndim == 1 else obs.R)
+        groups.append(row0 + np.repeat(np.arange(obs.rows), obs.model.k))
+        row0 += obs.rows
+    if not innovs:
+        return kalman_update(x, P, np.zeros(0), np.zeros((0, x.size)), np.zeros(0))
+    R = sla.block_diag(*Rs)
+    if sequential:
+        R = np.diag(R) if not np.count_nonzero(R - np.diag(np.diag(R))) else R
+    return kalman_update(x, P, np.concatenate(innovs), np.vstack(Hs), R, gate=gate,
+                         groups=np.concatenate(groups), sequential=sequential)
