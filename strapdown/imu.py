@@ -1,0 +1,103 @@
+"""The IMU record: instantaneous specific force and angular rate in body axes.
+
+``imu.csv`` columns (ARCHITECTURE.md CLI contract): ``time_s, ax_mps2, ay_mps2, az_mps2,
+wx_radps, wy_radps, wz_radps`` — the specific force (m/s²) and the angular rate of the
+body with respect to inertial space (rad/s), both in body axes (x forward, y left,
+z up), *instantaneous* values at ``time_s`` (see `strapdown.rk4` for how integration
+uses them). Samples are uniformly spaced.
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from strapdown.errors import ImuInputError
+
+__all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "RATE_TOLERANCE"]
+
+Array = npt.NDArray[np.float64]
+
+#: Column names of imu.csv, in order.
+IMU_COLUMNS = ("time_s", "ax_mps2", "ay_mps2", "az_mps2", "wx_radps", "wy_radps", "wz_radps")
+#: Relative spread of the sample intervals accepted as "uniform".
+RATE_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True)
+class Imu:
+    """IMU samples.
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (N,)
+        Sample times, s (uniform spacing).
+    f_b : ndarray, shape (N, 3)
+        Specific force in body axes, m/s².
+    omega_ib_b : ndarray, shape (N, 3)
+        Angular rate of ``b`` w.r.t. inertial space, in body axes, rad/s.
+    """
+
+    time_s: Array
+    f_b: Array
+    omega_ib_b: Array
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.time_s)[0] if np.ndim(self.time_s) == 1 else -1
+        if n < 0 or np.shape(self.f_b) != (n, 3) or np.shape(self.omega_ib_b) != (n, 3):
+            raise ImuInputError(f"IMU arrays must be time (N,), f_b and omega_ib_b (N, 3); got "
+                                f"{np.shape(self.time_s)}, {np.shape(self.f_b)}, "
+                                f"{np.shape(self.omega_ib_b)}")
+
+    @property
+    def dt(self) -> float:
+        """Sample interval, s (from the first and last sample)."""
+        return float((self.time_s[-1] - self.time_s[0]) / (len(self.time_s) - 1))
+
+    @property
+    def u(self) -> Array:
+        """Model inputs ``[f_b, ω_ib_b]``, shape (N, 6) (`strapdown.kinematics.INPUT_NAMES`)."""
+        return np.concatenate([self.f_b, self.omega_ib_b], axis=-1)
+
+    def to_frame(self) -> pd.DataFrame:
+        """The imu.csv table (columns `IMU_COLUMNS`)."""
+        data = np.column_stack([self.time_s, self.f_b, self.omega_ib_b])
+        return pd.DataFrame(data, columns=list(IMU_COLUMNS))
+
+
+def read_imu_csv(path: str | os.PathLike) -> Imu:
+    """Read an imu.csv file.
+
+    Raises
+    ------
+    ImuInputError
+        Missing columns, non-numeric or non-finite values (located by row and column),
+        fewer than 2 rows, or non-uniform / non-increasing time.
+    """
+    try:
+        frame = pd.read_csv(path)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise ImuInputError(f"not a CSV table ({' '.join(str(exc).split())})", path=path) from None
+    missing = [c for c in IMU_COLUMNS if c not in frame.columns]
+    if missing:
+        raise ImuInputError(f"missing columns {missing}", path=path)
+    for col in IMU_COLUMNS:
+        values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise ImuInputError(f"{frame[col].iloc[bad[0]]!r} is not a finite number",
+                                path=path, row=int(bad[0]) + 1, column=col)
+        frame[col] = values
+    if len(frame) < 2:
+        raise ImuInputError("needs at least 2 samples", path=path)
+    t = frame["time_s"].to_numpy()
+    step = np.diff(t)
+    if np.any(step <= 0) or np.ptp(step) > RATE_TOLERANCE * np.mean(step):
+        row = int(np.argmax(np.abs(step - np.median(step)))) + 2
+        raise ImuInputError("time_s must increase with a uniform step", path=path, row=row,
+                            column="time_s")
+    cols = frame[list(IMU_COLUMNS)].to_numpy(dtype=float)
+    return Imu(time_s=cols[:, 0], f_b=cols[:, 1:4], omega_ib_b=cols[:, 4:7])
