@@ -235,7 +235,10 @@ class MeasurementModel:
         H : ndarray, shape (m * k, n)
             ``∂z_pred/∂x``.
         """
-        p_rows = np.asarray(p_rows, dtype=float).reshape(-1, self.n_p)
+        p_rows = np.asarray(p_rows, dtype=float)
+        if p_rows.ndim != 2 or p_rows.shape[1] != self.n_p:
+            raise ModelError(f"measurement {self.name!r}: p_rows must have shape (m, "
+                             f"{self.n_p}), got {p_rows.shape}")
         m = p_rows.shape[0]
         if m == 0:
             return np.zeros(0), np.zeros((0, self.n))
