@@ -108,7 +108,7 @@ def tidy_observations(records: list[bytes], record_line: npt.NDArray[np.int64],
     """
     letters = np.frombuffer(b"".join(r[:1].ljust(1) for r in records), dtype="S1")
     parts = []
-    for system in sorted(set(letters.astype(str))):
+    for system in sorted({str(s) for s in letters.astype(str)}):
         if systems is not None and system not in systems:
             continue
         rows = np.flatnonzero(letters == system.encode())

@@ -215,9 +215,12 @@ def _walk_epochs_v3(body: list[bytes], first_line: int, path) -> EpochWalk:
             raise GnssInputError("expected an epoch record starting with '>'", path=path,
                                  line=first_line + i)
         flag, count = _flag_and_count(line, first_line + i, path)
-        if i + 1 + count > n:
-            raise GnssInputError(f"file ends inside an epoch: {count} records announced, "
-                                 f"{n - i - 1} present", path=path, line=first_line + i)
+        found = next((j for j in range(i + 1, min(i + 1 + count, n))
+                      if body[j][:1] == b">"), min(i + 1 + count, n)) - i - 1
+        if found < count:
+            where = "the file ends" if i + 1 + found == n else "the next epoch starts"
+            raise GnssInputError(f"epoch announces {count} records but {where} after {found}",
+                                 path=path, line=first_line + i)
         if flag in _OBSERVATION_FLAGS:
             starts.append(i)
             counts.append(count)
@@ -231,11 +234,6 @@ def _walk_epochs_v3(body: list[bytes], first_line: int, path) -> EpochWalk:
     offset = np.arange(len(record_epoch)) - np.repeat(np.cumsum(counts_a) - counts_a, counts_a)
     idx = starts_a[record_epoch] + 1 + offset
     records = [body[k] for k in idx]
-    for k, rec in zip(idx, records):
-        if rec[:1] == b">":
-            raise GnssInputError("epoch record where a satellite record was expected "
-                                 "(fewer satellites than the epoch announced)", path=path,
-                                 line=first_line + int(k))
     epoch_lines = first_line + starts_a
     chars = char_table([body[k] for k in starts], _V3_COUNT[1])
     fields = calendar_fields(chars, _V3_EPOCH_COLUMNS, _V3_SECOND, epoch_lines, path)
