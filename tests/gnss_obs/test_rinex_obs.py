@@ -8,11 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 
 from gnss_obs.constants import WEEK_S
-from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import datetime64_to_gps_time_s
 from gnss_obs.rinex_obs import read_rinex_obs
 
