@@ -1,0 +1,269 @@
+"""Propagation corrections: look angles, troposphere (Saastamoinen + Niell), ionosphere (Klobuchar).
+
+All delays are positive path lengths in metres added to the geometric range. The
+functions are plain NumPy, vectorized over satellites; the SPP/navigator measurement prep
+(`gnss_obs.epoch`) and the simulator (`gnss_obs.simulate`) call these same functions, so a
+simulated delay is removed exactly by the filter's correction (by design: the simulator
+tests the estimator, not the atmosphere models).
+
+* Troposphere: zenith hydrostatic delay of Saastamoinen (Davis et al. 1985 form) and zenith
+  wet delay of Saastamoinen, from a standard atmosphere at the receiver height (pressure,
+  temperature, relative humidity `STANDARD_HUMIDITY`), mapped with the Niell (1996)
+  hydrostatic and wet mapping functions (with the seasonal term and the height correction).
+* Ionosphere: the GPS broadcast Klobuchar model (IS-GPS-200N §20.3.3.5.2.5) gives the L1
+  group delay; other frequencies scale by ``(f_L1 / f)²`` (first-order ionosphere).
+
+References
+----------
+J. Saastamoinen, "Atmospheric correction for the troposphere and stratosphere in radio
+ranging of satellites", Geophys. Monogr. 15, 1972; J.L. Davis et al., Radio Science 20(6),
+1985; A.E. Niell, "Global mapping functions for the atmosphere delay at radio wavelengths",
+JGR 101(B2), 1996; J.A. Klobuchar, IEEE Trans. AES-23(3), 1987; IS-GPS-200N.
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from gnss_obs.constants import DAY_S, FREQUENCY_HZ, WEEK_S
+from trackmodel.earth import WGS84, C_n_e, Ellipsoid, ecef_to_geodetic
+
+__all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
+           "troposphere_delay_m", "klobuchar_delay_s", "ionosphere_scale", "day_of_year",
+           "STANDARD_HUMIDITY"]
+
+Array = npt.NDArray[np.float64]
+
+# --- standard atmosphere (as in RTKLIB's tropmodel; Berg 1948 lapse formulas) -----------
+#: Sea-level pressure hPa, temperature K, and relative humidity (0-1) of the standard atmosphere.
+SEA_LEVEL_PRESSURE_HPA = 1013.25
+SEA_LEVEL_TEMPERATURE_K = 288.15
+STANDARD_HUMIDITY = 0.5
+_PRESSURE_HEIGHT_PER_M = 2.2557e-5
+_PRESSURE_EXPONENT = 5.2568
+_LAPSE_RATE_K_PER_M = 6.5e-3
+# Saastamoinen constants: ZHD = 0.0022768 P / (1 - 0.00266 cos 2φ - 0.00028 h_km) (m, hPa).
+_ZHD_M_PER_HPA = 0.0022768
+_ZHD_LAT = 0.00266
+_ZHD_HEIGHT_PER_M = 0.28e-6
+# ZWD = 0.002277 (1255/T + 0.05) e  (m, K, hPa).
+_ZWD_M_PER_HPA = 0.002277
+_ZWD_T = 1255.0
+_ZWD_OFFSET = 0.05
+
+# --- Niell (1996) mapping-function coefficients at |lat| = 15, 30, 45, 60, 75 deg ----------
+_NIELL_LAT_RAD = np.deg2rad([15.0, 30.0, 45.0, 60.0, 75.0])
+_NIELL_HYD_AVG = np.array([
+    [1.2769934e-3, 1.2683230e-3, 1.2465397e-3, 1.2196049e-3, 1.2045996e-3],
+    [2.9153695e-3, 2.9152299e-3, 2.9288445e-3, 2.9022565e-3, 2.9024912e-3],
+    [62.610505e-3, 62.837393e-3, 63.721774e-3, 63.824265e-3, 64.258455e-3]])
+_NIELL_HYD_AMP = np.array([
+    [0.0, 1.2709626e-5, 2.6523662e-5, 3.4000452e-5, 4.1202191e-5],
+    [0.0, 2.1414979e-5, 3.0160779e-5, 7.2562722e-5, 11.723375e-5],
+    [0.0, 9.0128400e-5, 4.3497037e-5, 84.795348e-5, 170.37206e-5]])
+_NIELL_WET = np.array([
+    [5.8021897e-4, 5.6794847e-4, 5.8118019e-4, 5.9727542e-4, 6.1641693e-4],
+    [1.4275268e-3, 1.5138625e-3, 1.4572752e-3, 1.5007428e-3, 1.7599082e-3],
+    [4.3472961e-2, 4.6729510e-2, 4.3908931e-2, 4.4626982e-2, 5.4736038e-2]])
+_NIELL_HEIGHT = (2.53e-5, 5.49e-3, 1.14e-3)
+#: Day of year of the hydrostatic minimum (northern hemisphere); +half a year in the south.
+_NIELL_DOY_MIN = 28.0
+_YEAR_DAYS = 365.25
+#: Elevation floor of the mapping functions, rad (they diverge at the horizon).
+_MIN_ELEVATION_RAD = np.deg2rad(1.0)
+#: GPS epoch 1980-01-06 is day 6 of its year; day-of-year phase of GPS time.
+_GPS_EPOCH_DOY = 6.0
+
+
+def look_angles(r_rx_e: npt.ArrayLike, r_sat_e: npt.ArrayLike, *,
+                earth: Ellipsoid = WGS84) -> tuple[Array, Array]:
+    """Elevation and azimuth of satellites seen from a receiver.
+
+    Parameters
+    ----------
+    r_rx_e : array_like, shape (3,) or (N, 3)
+        Receiver position, ECEF, m.
+    r_sat_e : array_like, shape (N, 3)
+        Satellite positions, ECEF, m.
+    earth : Ellipsoid
+
+    Returns
+    -------
+    elevation, azimuth : ndarray, shape (N,)
+        Elevation above the ellipsoid's tangent plane, rad; azimuth clockwise from north
+        in [0, 2π), rad.
+    """
+    r_rx_e = np.asarray(r_rx_e, dtype=float)
+    r_sat_e = np.asarray(r_sat_e, dtype=float)
+    lat, lon, _ = ecef_to_geodetic(r_rx_e, earth=earth)
+    los_e = r_sat_e - r_rx_e
+    los_n = np.einsum("...ji,...j->...i", C_n_e(lat, lon), los_e)
+    horizontal = np.hypot(los_n[..., 0], los_n[..., 1])
+    elevation = np.arctan2(los_n[..., 2], horizontal)
+    azimuth = np.mod(np.arctan2(los_n[..., 0], los_n[..., 1]), 2.0 * np.pi)
+    return elevation, azimuth
+
+
+def standard_atmosphere(h: npt.ArrayLike, *, humidity: float = STANDARD_HUMIDITY
+                        ) -> tuple[Array, Array, Array]:
+    """Pressure (hPa), temperature (K) and water-vapour pressure (hPa) at height `h` (m).
+
+    Heights below 0 m are taken as 0 m (as RTKLIB does).
+    """
+    h = np.maximum(np.asarray(h, dtype=float), 0.0)
+    pressure = SEA_LEVEL_PRESSURE_HPA * (1.0 - _PRESSURE_HEIGHT_PER_M * h) ** _PRESSURE_EXPONENT
+    temperature = SEA_LEVEL_TEMPERATURE_K - _LAPSE_RATE_K_PER_M * h
+    t_c = temperature - 273.15
+    # Magnus formula for the saturation vapour pressure over water, hPa.
+    vapour = humidity * 6.108 * np.exp(17.15 * t_c / (t_c + 234.7))
+    return pressure, temperature, vapour
+
+
+def zenith_delays_m(lat: npt.ArrayLike, h: npt.ArrayLike, *,
+                    humidity: float = STANDARD_HUMIDITY) -> tuple[Array, Array]:
+    """Saastamoinen zenith hydrostatic and wet delays of the standard atmosphere, m.
+
+    Parameters
+    ----------
+    lat : array_like
+        Geodetic latitude, rad.
+    h : array_like
+        Ellipsoidal height, m (used as the height above sea level).
+    humidity : float
+        Relative humidity, 0-1.
+    """
+    pressure, temperature, vapour = standard_atmosphere(h, humidity=humidity)
+    h = np.maximum(np.asarray(h, dtype=float), 0.0)
+    zhd = _ZHD_M_PER_HPA * pressure / (1.0 - _ZHD_LAT * np.cos(2.0 * np.asarray(lat))
+                                      - _ZHD_HEIGHT_PER_M * h)
+    zwd = _ZWD_M_PER_HPA * (_ZWD_T / temperature + _ZWD_OFFSET) * vapour
+    return zhd, zwd
+
+
+def _continued_fraction(sin_el: Array, a, b, c) -> Array:
+    return (1.0 + a / (1.0 + b / (1.0 + c))) / (sin_el + a / (sin_el + b / (sin_el + c)))
+
+
+def _interp_lat(table: Array, abs_lat: Array) -> list[Array]:
+    return [np.interp(abs_lat, _NIELL_LAT_RAD, row) for row in table]
+
+
+def niell_mapping(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike, *,
+                  day_of_year: npt.ArrayLike) -> tuple[Array, Array]:
+    """Niell (1996) hydrostatic and wet mapping functions (dimensionless, 1 at zenith).
+
+    Parameters
+    ----------
+    elevation : array_like
+        Satellite elevation, rad (floored at 1°).
+    lat : array_like
+        Receiver geodetic latitude, rad.
+    h : array_like
+        Receiver height, m.
+    day_of_year : array_like
+        Day of year (1.0 = 1 January 00:00), fractional.
+    """
+    sin_el = np.sin(np.maximum(np.asarray(elevation, dtype=float), _MIN_ELEVATION_RAD))
+    lat = np.asarray(lat, dtype=float)
+    abs_lat = np.abs(lat)
+    doy = np.asarray(day_of_year, dtype=float) + np.where(lat < 0, 0.5 * _YEAR_DAYS, 0.0)
+    season = np.cos(2.0 * np.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
+    avg = _interp_lat(_NIELL_HYD_AVG, abs_lat)
+    amp = _interp_lat(_NIELL_HYD_AMP, abs_lat)
+    a, b, c = (m - s * season for m, s in zip(avg, amp))
+    hydro = _continued_fraction(sin_el, a, b, c)
+    ah, bh, ch = _NIELL_HEIGHT
+    h_km = np.asarray(h, dtype=float) * 1e-3
+    hydro = hydro + (1.0 / sin_el - _continued_fraction(sin_el, ah, bh, ch)) * h_km
+    aw, bw, cw = _interp_lat(_NIELL_WET, abs_lat)
+    wet = _continued_fraction(sin_el, aw, bw, cw)
+    return hydro, wet
+
+
+def day_of_year(gps_time_s: npt.ArrayLike) -> Array:
+    """Approximate fractional day of year of GPS time (±1 day: enough for seasonal terms)."""
+    days = np.asarray(gps_time_s, dtype=float) / DAY_S + _GPS_EPOCH_DOY
+    return np.mod(days, _YEAR_DAYS) + 1.0
+
+
+def troposphere_delay_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike, *,
+                        gps_time_s: npt.ArrayLike,
+                        humidity: float = STANDARD_HUMIDITY) -> Array:
+    """Slant tropospheric delay, m: Saastamoinen zenith delays mapped by Niell.
+
+    Parameters
+    ----------
+    elevation : array_like, shape (N,)
+        Satellite elevations, rad.
+    lat : float or array_like
+        Receiver geodetic latitude, rad.
+    h : float or array_like
+        Receiver ellipsoidal height, m.
+    gps_time_s : float or array_like
+        GPS time, s (for the seasonal term of the mapping function).
+    humidity : float
+        Relative humidity of the standard atmosphere, 0-1.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Slant delay, m.
+    """
+    zhd, zwd = zenith_delays_m(lat, h, humidity=humidity)
+    m_h, m_w = niell_mapping(elevation, lat, h, day_of_year=day_of_year(gps_time_s))
+    return zhd * m_h + zwd * m_w
+
+
+# --- Klobuchar -----------------------------------------------------------------------------
+_SEMICIRCLE_RAD = np.pi
+_NIGHT_DELAY_S = 5e-9
+_MIN_PERIOD_S = 72_000.0
+_PEAK_LOCAL_TIME_S = 50_400.0
+_MAX_IPP_LAT_SC = 0.416
+_SEC_PER_SEMICIRCLE_LON = 43_200.0
+_GPS_L1_HZ = FREQUENCY_HZ["G"][1]
+
+
+def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, lon: float,
+                      elevation: npt.ArrayLike, azimuth: npt.ArrayLike,
+                      gps_time_s: npt.ArrayLike) -> Array:
+    """GPS L1 ionospheric group delay of the broadcast Klobuchar model, s.
+
+    Parameters
+    ----------
+    alpha, beta : array_like, shape (4,)
+        Broadcast coefficients (``GPSA``/``GPSB`` of the nav header): α in s, s/sc, s/sc²,
+        s/sc³; β in s, s/sc, s/sc², s/sc³ (sc = semicircle).
+    lat, lon : float
+        Receiver geodetic latitude and longitude, rad.
+    elevation, azimuth : array_like, shape (N,)
+        Satellite elevation and azimuth, rad.
+    gps_time_s : float or array_like
+        GPS time, s since the GPS epoch.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Vertical-to-slant L1 delay, s (IS-GPS-200N §20.3.3.5.2.5, Figure 20-4).
+    """
+    alpha, beta = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
+    el_sc = np.asarray(elevation, dtype=float) / _SEMICIRCLE_RAD
+    az = np.asarray(azimuth, dtype=float)
+    psi = 0.0137 / (el_sc + 0.11) - 0.022
+    phi_i = np.clip(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC, _MAX_IPP_LAT_SC)
+    lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
+    phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
+    sow = np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)
+    t_local = np.mod(_SEC_PER_SEMICIRCLE_LON * lam_i + sow, DAY_S)
+    slant = 1.0 + 16.0 * (0.53 - el_sc) ** 3
+    powers = phi_m[..., None] ** np.arange(4)
+    amplitude = np.maximum(powers @ alpha, 0.0)
+    period = np.maximum(powers @ beta, _MIN_PERIOD_S)
+    x = 2.0 * np.pi * (t_local - _PEAK_LOCAL_TIME_S) / period
+    day = _NIGHT_DELAY_S + amplitude * (1.0 - x * x / 2.0 + x ** 4 / 24.0)
+    return slant * np.where(np.abs(x) < 1.57, day, _NIGHT_DELAY_S)
+
+
+def ionosphere_scale(frequency_hz: npt.ArrayLike) -> Array:
+    """``(f_L1 / f)²``: first-order ionospheric delay at `frequency_hz` relative to GPS L1."""
+    return (_GPS_L1_HZ / np.asarray(frequency_hz, dtype=float)) ** 2

@@ -1,0 +1,279 @@
+"""Per-epoch measurement preparation: satellites at transmission, corrections, weights.
+
+For each epoch, `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
+and broadcast ephemerides into a `PreparedEpoch` of arrays over satellites that the
+measurement models (`gnss_obs.observables`) consume:
+
+* **transmission time** from the measured pseudorange (RTKLIB's method):
+  ``t_tx = t_rx - P/c - δt_sv(t_tx)``. Since ``P = c(τ + δt_r - δt_sv)`` and the time tag is
+  receiver time, this is the true transmission time whatever the receiver clock bias,
+  up to the atmosphere delays (tens of ns: sub-millimetre in the satellite position);
+* **Earth rotation during the flight** (Sagnac): the satellite position and velocity at
+  ``t_tx`` are turned by ``R_z(Ω τ)`` into the ECEF frame of the reception instant,
+  ``τ = |r_sat - r_rx| / c`` from the receiver position guess (ARCHITECTURE.md, GNSS;
+  ``Ω = OMEGA_E_GPS`` for every system);
+* **satellite clock** for the signal used: broadcast clock with the relativistic term minus
+  the group delay of the signal (or of the ionosphere-free pair), in metres;
+* **delays**: troposphere and ionosphere (`gnss_obs.corrections`) at the guess;
+* **standard deviations** of pseudorange and range rate from elevation and C/N0.
+
+The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
+``ρ̇ = e·(sat_vel_e - v_e) + d - sat_clock_drift_mps``.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS
+from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angles,
+                                  troposphere_delay_m)
+from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
+from gnss_obs.measurements import MeasurementConfig
+from trackmodel.earth import ecef_to_geodetic
+
+__all__ = ["EpochData", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
+           "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: A receiver guess closer to the Earth's centre than this (m) is "unknown" (cold start):
+#: no elevation, atmosphere or weighting is computed from it.
+MIN_RECEIVER_RADIUS_M = 1.0e6
+#: Elevation floor of the 1/sin(elevation) weighting, rad.
+_MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
+
+
+@dataclass(frozen=True)
+class EpochData:
+    """Measurements of one epoch with their selected ephemerides (aligned rows)."""
+
+    gps_time_s: float
+    meas: dict[str, np.ndarray]
+    eph: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return len(self.meas["sv"])
+
+
+def split_epochs(meas: pd.DataFrame, records: dict[str, pd.DataFrame],
+                 config: MeasurementConfig) -> list[EpochData]:
+    """Select ephemerides for a whole measurement table once and cut it into epochs.
+
+    Parameters
+    ----------
+    meas : pandas.DataFrame
+        `select_measurements` output, sorted by time.
+    records : dict of str to pandas.DataFrame
+        `RinexNav.records`.
+    config : MeasurementConfig
+
+    Returns
+    -------
+    list of EpochData
+        One per distinct ``gps_time_s`` in time order; satellites without a valid
+        ephemeris are left out (counted in the log).
+    """
+    eph = select_ephemeris(records, meas["sv"].to_numpy(), meas["gps_time_s"].to_numpy(),
+                           galileo_message=config.galileo_message)
+    ok = eph["ephemeris_ok"].to_numpy()
+    if not ok.all():
+        missing = sorted(set(meas["sv"].to_numpy()[~ok]))
+        log.warning("%d of %d measurements have no valid ephemeris (%s)", (~ok).sum(), ok.size,
+                    " ".join(missing))
+    meas_cols = {c: meas[c].to_numpy()[ok] for c in meas.columns}
+    eph_cols = {c: eph[c].to_numpy()[ok] for c in eph.columns}
+    t = meas_cols["gps_time_s"]
+    edges = np.flatnonzero(np.diff(t)) + 1
+    bounds = zip(np.r_[0, edges], np.r_[edges, t.size])
+    return [EpochData(float(t[a]), {k: v[a:b] for k, v in meas_cols.items()},
+                      {k: v[a:b] for k, v in eph_cols.items()}) for a, b in bounds]
+
+
+@dataclass(frozen=True)
+class PreparedEpoch:
+    """Everything the pseudorange and range-rate models need, per satellite (N rows).
+
+    Attributes
+    ----------
+    gps_time_s : float
+        Reception time tag (receiver time), s since the GPS epoch.
+    sv, system : ndarray of str, shape (N,)
+    sat_pos_e : ndarray, shape (N, 3)
+        Satellite position at transmission, in ECEF of the reception instant, m.
+    sat_vel_e : ndarray, shape (N, 3)
+        Satellite velocity relative to ECEF, same frame, m/s.
+    sat_clock_m : ndarray, shape (N,)
+        ``c (δt_sv + relativity - group delay)`` of the signal used, m.
+    sat_clock_drift_mps : ndarray, shape (N,)
+        ``c dδt_sv/dt``, m/s.
+    iono_m, tropo_m : ndarray, shape (N,)
+        Ionospheric and tropospheric delays at the receiver guess, m.
+    elevation, azimuth : ndarray, shape (N,)
+        From the receiver guess, rad (NaN at a cold start).
+    pseudorange_m, range_rate_mps, cn0_dbhz : ndarray, shape (N,)
+        Measurements (range rate NaN without Doppler).
+    sigma_pr_m, sigma_rr_mps : ndarray, shape (N,)
+        Measurement standard deviations, m and m/s.
+    """
+
+    gps_time_s: float
+    sv: np.ndarray
+    system: np.ndarray
+    sat_pos_e: Array
+    sat_vel_e: Array
+    sat_clock_m: Array
+    sat_clock_drift_mps: Array
+    iono_m: Array
+    tropo_m: Array
+    elevation: Array
+    azimuth: Array
+    pseudorange_m: Array
+    range_rate_mps: Array
+    cn0_dbhz: Array
+    sigma_pr_m: Array
+    sigma_rr_mps: Array
+
+    @property
+    def delays_m(self) -> Array:
+        """Total propagation delay ``iono_m + tropo_m``, m, shape (N,)."""
+        return self.iono_m + self.tropo_m
+
+    def __len__(self) -> int:
+        return len(self.sv)
+
+    def subset(self, index: npt.ArrayLike) -> "PreparedEpoch":
+        """The satellites selected by a boolean mask or integer index."""
+        return replace(self, **{f.name: getattr(self, f.name)[index] for f in fields(self)
+                                if f.name != "gps_time_s"})
+
+
+def sagnac_rotation(r_sat_e: Array, v_sat_e: Array, tau_s: Array) -> tuple[Array, Array]:
+    """Turn satellite states at transmission into ECEF of the reception instant.
+
+    Parameters
+    ----------
+    r_sat_e, v_sat_e : ndarray, shape (N, 3)
+        Position (m) and velocity (m/s) in ECEF at the transmission instant.
+    tau_s : ndarray, shape (N,)
+        Signal flight time, s.
+
+    Returns
+    -------
+    r, v : ndarray, shape (N, 3)
+        ``R_z(Ω τ) r`` and ``R_z(Ω τ) v`` with ``Ω = OMEGA_E_GPS``: the Earth turns by
+        ``Ω τ`` during the flight, so in the later frame the satellite's longitude is
+        smaller by that angle.
+    """
+    a = OMEGA_E_GPS * tau_s
+    c, s = np.cos(a), np.sin(a)
+
+    def rot(x: Array) -> Array:
+        return np.stack([c * x[:, 0] + s * x[:, 1], -s * x[:, 0] + c * x[:, 1], x[:, 2]], -1)
+
+    return rot(r_sat_e), rot(v_sat_e)
+
+
+def _signal_group_delay_s(eph: dict, meas: dict, config: MeasurementConfig) -> Array:
+    g1 = group_delay_s(eph, meas["band"], galileo_message=config.galileo_message)
+    if not config.iono_free:
+        return g1
+    g2 = group_delay_s(eph, meas["band2"], galileo_message=config.galileo_message)
+    f1, f2 = meas["frequency_hz"] ** 2, meas["frequency2_hz"] ** 2
+    return (f1 * g1 - f2 * g2) / (f1 - f2)
+
+
+def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementConfig, *,
+                       frequency_hz: Array, frequency2_hz: Array) -> tuple[Array, Array]:
+    """Pseudorange (m) and range-rate (m/s) standard deviations per satellite.
+
+    ``σ = σ_zenith / sin(max(el, 5°)) · 10^(max(cn0_ref - C/N0, 0) / 20)``, times the noise
+    gain ``sqrt(f1⁴ + f2⁴) / (f1² - f2²)`` of the ionosphere-free combination for the
+    pseudorange. Unknown elevation (NaN) or C/N0 gives factor 1.
+    """
+    factor = np.ones_like(elevation)
+    if config.elevation_weighting:
+        el = np.where(np.isfinite(elevation), elevation, np.pi / 2)
+        factor = factor / np.sin(np.maximum(el, _MIN_WEIGHT_ELEVATION_RAD))
+    if np.isfinite(config.cn0_ref_dbhz):
+        deficit = np.where(np.isfinite(cn0_dbhz), config.cn0_ref_dbhz - cn0_dbhz, 0.0)
+        factor = factor * 10.0 ** (np.maximum(deficit, 0.0) / 20.0)
+    sigma_pr = config.sigma_pr_m * factor
+    if config.iono_free:
+        g1, g2 = frequency_hz ** 2, frequency2_hz ** 2
+        sigma_pr = sigma_pr * np.sqrt(g1 * g1 + g2 * g2) / (g1 - g2)
+    return sigma_pr, config.sigma_rr_mps * factor
+
+
+def transmit_states(epoch: EpochData, config: MeasurementConfig):
+    """Satellite states at the transmission instants (ECEF of transmission) and clocks (m)."""
+    meas, eph = epoch.meas, epoch.eph
+    t_nominal = epoch.gps_time_s - meas["pseudorange_m"] / SPEED_OF_LIGHT_MPS
+    # δt_sv varies by ~1e-11 s/s: evaluated at t_nominal (ms away) it is exact to 1e-14 s.
+    t_tx = t_nominal - satellite_states(eph, t_nominal).clock_s
+    states = satellite_states(eph, t_tx)
+    clock_m = SPEED_OF_LIGHT_MPS * (states.clock_s - _signal_group_delay_s(eph, meas, config))
+    return states, clock_m
+
+
+def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
+                  klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
+                  transmit=None) -> PreparedEpoch:
+    """Prepared per-satellite data of one epoch at a receiver position guess.
+
+    Parameters
+    ----------
+    epoch : EpochData
+        One element of `split_epochs`.
+    config : MeasurementConfig
+    r_rx_e : array_like, shape (3,)
+        Receiver position guess, ECEF, m (near the origin = unknown: no corrections).
+    klobuchar : (alpha, beta), optional
+        Broadcast Klobuchar coefficients (``NavHeader.iono_gps_alpha/beta``); required for
+        ``config.ionosphere == "klobuchar"``, else the ionosphere is 0.
+    transmit : optional
+        The result of `transmit_states` for this epoch (it does not depend on the guess;
+        pass it to skip recomputing in an iteration).
+
+    Returns
+    -------
+    PreparedEpoch
+        Satellites whose clock for the used signal is known (no NaN group delay).
+    """
+    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
+    r_rx_e = np.asarray(r_rx_e, dtype=float)
+    known = np.linalg.norm(r_rx_e) > MIN_RECEIVER_RADIUS_M
+    tau = np.linalg.norm(states.r_e - r_rx_e, axis=1) / SPEED_OF_LIGHT_MPS
+    sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
+    meas = epoch.meas
+    n = len(epoch)
+    iono = np.zeros(n)
+    tropo = np.zeros(n)
+    elevation = azimuth = np.full(n, np.nan)
+    if known:
+        elevation, azimuth = look_angles(r_rx_e, sat_pos_e)
+        lat, lon, h = ecef_to_geodetic(r_rx_e)
+        if config.troposphere:
+            tropo = troposphere_delay_m(elevation, lat, h, gps_time_s=epoch.gps_time_s)
+        if config.ionosphere == "klobuchar" and klobuchar is not None:
+            iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
+                *klobuchar, lat=float(lat), lon=float(lon), elevation=elevation,
+                azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
+                * ionosphere_scale(meas["frequency_hz"])
+    sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
+                                            frequency_hz=meas["frequency_hz"],
+                                            frequency2_hz=meas["frequency2_hz"])
+    prepared = PreparedEpoch(
+        gps_time_s=epoch.gps_time_s, sv=meas["sv"], system=meas["system"],
+        sat_pos_e=sat_pos_e, sat_vel_e=sat_vel_e, sat_clock_m=clock_m,
+        sat_clock_drift_mps=SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
+        iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
+        pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
+        cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
+    return prepared.subset(np.isfinite(clock_m))

@@ -1,0 +1,306 @@
+"""Single-point positioning: per-epoch weighted least squares with RAIM/FDE, Doppler velocity.
+
+`solve_spp` is the public entry point shared by the ``railnav spp`` command and the
+notebooks. Per epoch:
+
+1. measurements (`gnss_obs.measurements`) and ephemerides (`gnss_obs.ephemeris`), satellite
+   states at transmission (`gnss_obs.epoch.transmit_states`, independent of the guess);
+2. Gauss-Newton on the pseudorange model (`gnss_obs.observables`) for ECEF position and one
+   clock per system present (``b_sat = S @ clocks``, `observables.system_bias_matrix`),
+   re-preparing corrections and the elevation mask at every iterate; the guess is the
+   previous fix (within `SppConfig.max_gap_s`), else the file's approximate position, else
+   the Earth's centre (cold start: no corrections until the iterate is near the surface);
+3. RAIM/FDE (`gnss_obs.raim`): χ² test of the weighted residuals, exclusion of the worst
+   standardized residual, re-solution; protection-level-style HPL/VPL and DOPs;
+4. velocity and clock drift from the range rates (``-λ D``) of the kept satellites, linear
+   WLS with its own FDE.
+
+Epochs with fewer satellites than unknowns give a row of NaN with ``fix_ok`` False; their
+count goes to one warning and to `SppResult.n_no_fix`.
+"""
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from gnss_obs.epoch import (MIN_RECEIVER_RADIUS_M, EpochData, PreparedEpoch, prepare_epoch,
+                            split_epochs, transmit_states)
+from gnss_obs.errors import GnssError
+from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
+from gnss_obs.observables import predict_pseudorange, predict_range_rate, system_bias_matrix
+from gnss_obs.raim import (FdeResult, WlsStep, fault_detection_exclusion, protection_levels,
+                           wls_step)
+from gnss_obs.spp_result import EpochFix, SppResult, assemble_result
+from gnss_obs.dop import dilution_of_precision
+from trackmodel.earth import C_n_e, ecef_to_geodetic
+
+__all__ = ["SppConfig", "SppResult", "solve_spp"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: Fewest Doppler measurements for a velocity: 4 unknowns + 1 redundant (an untestable
+#: velocity is not reported).
+_MIN_DOPPLER_SATS = 5
+
+
+@dataclass(frozen=True)
+class SppConfig:
+    """Single-point positioning settings.
+
+    Parameters
+    ----------
+    measurement : MeasurementConfig
+        Systems, signals, corrections and the σ model.
+    elevation_mask_deg : float
+        Satellites below this elevation are not used, deg.
+    min_cn0_dbhz : float
+        Signals weaker than this are not used, dB-Hz (0 = no gate).
+    raim : bool
+        Exclude faulty measurements (FDE); when False the χ² test only flags.
+    p_false_alarm : float
+        False-alarm probability of the χ² test per epoch.
+    p_missed_detection : float
+        Missed-detection probability for the protection levels.
+    max_exclusions : int
+        Largest number of satellites excluded per epoch (pseudorange and Doppler each).
+    max_iter : int
+        Gauss-Newton iteration limit.
+    tol_m : float
+        Convergence threshold on the position update, m.
+    max_gap_s : float
+        Largest time since the previous fix for using it as the initial guess, s.
+    velocity : bool
+        Estimate velocity and clock drift from Doppler.
+    """
+
+    measurement: MeasurementConfig = field(default_factory=MeasurementConfig)
+    elevation_mask_deg: float = 10.0
+    min_cn0_dbhz: float = 0.0
+    raim: bool = True
+    p_false_alarm: float = 1e-3
+    p_missed_detection: float = 1e-3
+    max_exclusions: int = 4
+    max_iter: int = 20
+    tol_m: float = 1e-3
+    max_gap_s: float = 60.0
+    velocity: bool = True
+
+    def __post_init__(self) -> None:
+        if not (-90.0 <= self.elevation_mask_deg < 90.0):
+            raise GnssError(f"elevation_mask_deg must be in [-90, 90), got "
+                            f"{self.elevation_mask_deg!r}")
+        for name in ("p_false_alarm", "p_missed_detection"):
+            p = getattr(self, name)
+            if not (0.0 < p < 1.0):
+                raise GnssError(f"{name} must be in (0, 1), got {p!r}")
+        if self.max_exclusions < 0 or self.max_iter < 1:
+            raise GnssError("max_exclusions must be >= 0 and max_iter >= 1")
+        if not (self.tol_m > 0 and self.max_gap_s >= 0):
+            raise GnssError("tol_m must be > 0 and max_gap_s >= 0")
+
+
+@dataclass
+class _Context:
+    config: SppConfig
+    klobuchar: tuple[np.ndarray, np.ndarray] | None
+
+
+def _candidates(prep: PreparedEpoch, cfg: SppConfig) -> npt.NDArray[np.bool_]:
+    ok = np.isfinite(prep.pseudorange_m)
+    if np.all(np.isfinite(prep.elevation)):
+        ok &= prep.elevation >= np.deg2rad(cfg.elevation_mask_deg)
+    if cfg.min_cn0_dbhz > 0:
+        ok &= ~(prep.cn0_dbhz < cfg.min_cn0_dbhz)
+    return ok
+
+
+def _design(prep: PreparedEpoch, r_e: Array, systems: str):
+    present = "".join(s for s in systems if np.any(prep.system == s))
+    S = system_bias_matrix(prep.system, present)
+    rho, H_r, _ = predict_pseudorange(prep, r_e=r_e, b_m=0.0)
+    return np.hstack([H_r, S]), prep.pseudorange_m - rho, present
+
+
+def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
+                  excluded: set[str]) -> tuple[Array, PreparedEpoch] | None:
+    """Iterate position + clocks to convergence; returns the final iterate and its data."""
+    cfg = ctx.config
+    for _ in range(cfg.max_iter):
+        prep = prepare_epoch(epoch, cfg.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
+                             transmit=tx)
+        prep = prep.subset(_candidates(prep, cfg) & ~np.isin(prep.sv, list(excluded)))
+        H, z, present = _design(prep, r_e, cfg.measurement.systems)
+        if len(prep) < H.shape[1]:
+            return None
+        try:
+            dx = wls_step(H, z, prep.sigma_pr_m).dx
+        except np.linalg.LinAlgError:
+            return None
+        r_e = r_e + dx[:3]
+        if np.linalg.norm(dx[:3]) < cfg.tol_m:
+            break
+    prep = prepare_epoch(epoch, cfg.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
+                         transmit=tx)
+    prep = prep.subset(_candidates(prep, cfg) & ~np.isin(prep.sv, list(excluded)))
+    return r_e, prep
+
+
+def _position(epoch: EpochData, tx, ctx: _Context, r0: Array):
+    """Position fix with FDE: (r_e, prep, FdeResult, present systems) or None."""
+    cfg = ctx.config
+    excluded: set[str] = set()
+    r_e = r0
+    while True:
+        solved = _gauss_newton(epoch, tx, ctx, r_e, excluded)
+        if solved is None:
+            return None
+        r_e, prep = solved
+        H, z, present = _design(prep, r_e, cfg.measurement.systems)
+        if len(prep) < H.shape[1]:
+            return None
+        max_excl = cfg.max_exclusions - len(excluded) if cfg.raim else 0
+        fde = fault_detection_exclusion(H, z, prep.sigma_pr_m, p_false_alarm=cfg.p_false_alarm,
+                                        max_exclusions=max_excl)
+        if fde.n_excluded == 0:
+            r_e = r_e + fde.step.dx[:3]
+            return r_e, prep, fde, present, sorted(excluded)
+        excluded |= set(prep.sv[~fde.kept])
+
+
+def _velocity(prep: PreparedEpoch, r_e: Array, cfg: SppConfig
+              ) -> tuple[FdeResult, PreparedEpoch] | None:
+    """Doppler velocity + drift with FDE over the satellites of the position fix."""
+    sub = prep.subset(np.isfinite(prep.range_rate_mps))
+    if len(sub) < _MIN_DOPPLER_SATS:
+        return None
+    rr, _, H_v, H_d = predict_range_rate(sub, r_e=r_e, v_e=np.zeros(3), d_mps=0.0)
+    H = np.hstack([H_v, H_d[:, None]])
+    try:
+        fde = fault_detection_exclusion(H, sub.range_rate_mps - rr, sub.sigma_rr_mps,
+                                        p_false_alarm=cfg.p_false_alarm,
+                                        max_exclusions=cfg.max_exclusions if cfg.raim else 0)
+    except np.linalg.LinAlgError:
+        return None
+    return fde, sub
+
+
+def _sky(epoch: EpochData, tx, ctx: _Context, r_e: Array, clocks: dict[str, float]) -> dict:
+    """Per-satellite look angles and pseudorange residuals at the fix (all tracked)."""
+    full = prepare_epoch(epoch, ctx.config.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
+                         transmit=tx)
+    b_sat = np.array([clocks.get(s, np.nan) for s in full.system])
+    rho, _, _ = predict_pseudorange(full, r_e=r_e, b_m=np.nan_to_num(b_sat))
+    return {"sv": full.sv, "system": full.system, "elevation": full.elevation,
+            "azimuth": full.azimuth, "cn0_dbhz": full.cn0_dbhz,
+            "pr_residual_m": np.where(np.isfinite(b_sat), full.pseudorange_m - rho, np.nan)}
+
+
+def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | None:
+    cfg = ctx.config
+    tx = transmit_states(epoch, cfg.measurement)
+    pos = _position(epoch, tx, ctx, guess)
+    if pos is None:
+        return None
+    r_e, prep, fde, present, excluded = pos
+    lat, lon, _ = ecef_to_geodetic(r_e)
+    C = C_n_e(lat, lon)
+    T = np.eye(3 + len(present))
+    T[:3, :3] = C.T  # ECEF -> ENU for the position block
+    step_enu = _to_enu(fde.step, T)
+    hpl, vpl = protection_levels(step_enu, horizontal=(0, 1), vertical=2,
+                                 p_false_alarm=cfg.p_false_alarm,
+                                 p_missed_detection=cfg.p_missed_detection)
+    H, _, _ = _design(prep, r_e, present)
+    clocks = {s: float(fde.step.dx[3 + i]) for i, s in enumerate(present)}
+    fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=step_enu.cov[:3, :3],
+                   clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
+                   n_tracked=len(epoch), raim_ok=fde.raim_ok, hpl_m=hpl, vpl_m=vpl,
+                   dop=dilution_of_precision(H[:, :3], H[:, 3:], lat=float(lat),
+                                             lon=float(lon)),
+                   sky=_sky(epoch, tx, ctx, r_e, clocks))
+    vel = _velocity(prep, r_e, cfg) if cfg.velocity else None
+    if vel is not None:
+        vfde, sub = vel
+        fix.v_e = vfde.step.dx[:3]
+        fix.clock_drift_mps = float(vfde.step.dx[3])
+        fix.cov_v_enu = C.T @ vfde.step.cov[:3, :3] @ C
+        fix.doppler_sv = sub.sv[vfde.kept]
+        fix.velocity_raim_ok = vfde.raim_ok
+    return fix
+
+
+def _to_enu(step: WlsStep, T: Array) -> WlsStep:
+    """The WlsStep with its state turned by the block rotation T (x_enu = T x)."""
+    return replace(step, dx=T @ step.dx, cov=T @ step.cov @ T.T, gain=T @ step.gain)
+
+
+def _initial_guess(approx_e: Array | None) -> Array:
+    if approx_e is not None and np.linalg.norm(approx_e) > MIN_RECEIVER_RADIUS_M:
+        return np.asarray(approx_e, dtype=float).copy()
+    return np.zeros(3)
+
+
+def solve_spp(obs, nav, config: SppConfig | None = None, *,
+              progress: Callable[[int, int], None] | None = None) -> SppResult:
+    """Single-point positioning of every epoch of an observation file.
+
+    Parameters
+    ----------
+    obs : RinexObs
+        Observations (`read_rinex_obs`); epochs are tagged in GPS time.
+    nav : RinexNav
+        Broadcast navigation (`read_rinex_nav`), with the Klobuchar coefficients in its
+        header when ``ionosphere="klobuchar"``.
+    config : SppConfig, optional
+    progress : callable(done, total), optional
+        Called after each epoch.
+
+    Returns
+    -------
+    SppResult
+        One row per epoch (``to_frame()`` gives the ``spp.csv`` columns) and per-satellite
+        details (`SppResult.satellites`).
+
+    Raises
+    ------
+    GnssError
+        If no epoch has a measurement of the configured systems.
+    """
+    cfg = config or SppConfig()
+    mc = cfg.measurement
+    channels = glonass_channels(obs.header.glonass_slots, nav.records)
+    meas = select_measurements(obs.table, mc, glonass_channels=channels)
+    if len(meas) == 0:
+        raise GnssError(f"no measurements of systems {mc.systems!r} in the observation file")
+    klob = None
+    if mc.ionosphere == "klobuchar":
+        alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
+        if alpha is None or beta is None:
+            log.warning("no Klobuchar coefficients in the navigation header: no ionosphere "
+                        "correction")
+        else:
+            klob = (np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float))
+    ctx = _Context(cfg, klob)
+    epochs = split_epochs(meas, nav.records, mc)
+    fixes: list[EpochFix | None] = []
+    last: EpochFix | None = None
+    start = _initial_guess(obs.header.approx_position_e)
+    for i, epoch in enumerate(epochs):
+        recent = last is not None and epoch.gps_time_s - last.gps_time_s <= cfg.max_gap_s
+        fix = _solve_epoch(epoch, ctx, last.r_e if recent else start)
+        fixes.append(fix)
+        last = fix if fix is not None else last
+        if progress is not None:
+            progress(i + 1, len(epochs))
+    result = assemble_result(epochs, fixes, mc.systems)
+    if result.n_no_fix:
+        log.warning("%d of %d epochs without a position fix (too few satellites or singular "
+                    "geometry)", result.n_no_fix, len(epochs))
+    return result
