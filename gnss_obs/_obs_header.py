@@ -25,24 +25,27 @@ _GLONASS_SLOTS_PER_LINE = 8
 
 @dataclass
 class ParsedObsHeader:
-    """Header fields while reading (see `gnss_obs.rinex_obs.ObsHeader` for meanings)."""
+    """A header while reading: ``values`` holds the `gnss_obs.rinex_obs.ObsHeader` fields
+    found so far (keyword -> value); the rest is what only the reader needs."""
 
     version: float
     body_start: int
     file_system: str
-    obs_types: dict[str, list[str]] = field(default_factory=dict)
+    values: dict = field(default_factory=dict)
     scale: dict[str, dict[str, float]] = field(default_factory=dict)
-    marker_name: str = ""
-    receiver: str = ""
-    antenna: str = ""
-    approx_position_e: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    interval_s: float | None = None
-    time_system: str = "GPS"
-    leap_seconds: int | None = None
-    glonass_slots: dict[str, int] = field(default_factory=dict)
-    signal_strength_unit: str = ""
-    first_obs_gps_time_s: float | None = None
     first_obs_labels: tuple | None = None
+
+    @property
+    def obs_types(self) -> dict[str, list[str]]:
+        return self.values.setdefault("obs_types", {})
+
+    @property
+    def time_system(self) -> str:
+        return self.values["time_system"]
+
+    @property
+    def leap_seconds(self) -> int | None:
+        return self.values.get("leap_seconds")
 
 
 def parse_obs_header(lines: list[bytes], path) -> ParsedObsHeader:
@@ -54,8 +57,9 @@ def parse_obs_header(lines: list[bytes], path) -> ParsedObsHeader:
         Framing problems (`split_header`), a malformed record, or no observation types.
     """
     start = split_header(lines, path, expected_types="O")
-    head = ParsedObsHeader(start.version, start.body_start, start.system)
-    head.time_system = DEFAULT_TIME_SYSTEM.get(start.system, "GPS")
+    head = ParsedObsHeader(start.version, start.body_start, start.system,
+                           {"version": start.version, "signal_strength_unit": ""})
+    head.values["time_system"] = DEFAULT_TIME_SYSTEM.get(start.system, "GPS")
     records = start.header
     v2_types: list[str] = []
     i = 0
@@ -72,12 +76,12 @@ def parse_obs_header(lines: list[bytes], path) -> ParsedObsHeader:
     if int(head.version) == 2:
         systems = "G" if start.system in ("G", "") else ("GRES" if start.system == "M"
                                                          else start.system)
-        head.obs_types = {s: map_v2_types(s, v2_types) for s in systems}
+        head.values["obs_types"] = {s: map_v2_types(s, v2_types) for s in systems}
     if not any(head.obs_types.values()):
         raise GnssInputError("header declares no observation types", path=path,
                              line=start.body_start)
     if head.first_obs_labels is not None:
-        head.first_obs_gps_time_s = float(to_gps_time_s(
+        head.values["first_obs_gps_time_s"] = float(to_gps_time_s(
             calendar_to_gps_time_s(*head.first_obs_labels), head.time_system,
             leap_seconds=head.leap_seconds))
     return head
@@ -87,20 +91,20 @@ def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
     """Records of one line each."""
     c = h.content
     if h.label == "MARKER NAME":
-        head.marker_name = c.strip()
+        head.values["marker_name"] = c.strip()
     elif h.label == "REC # / TYPE / VERS":
-        head.receiver = c[20:40].strip()
+        head.values["receiver"] = c[20:40].strip()
     elif h.label == "ANT # / TYPE":
-        head.antenna = c[20:40].strip()
+        head.values["antenna"] = c[20:40].strip()
     elif h.label == "APPROX POSITION XYZ":
-        head.approx_position_e = np.array([float_field(h, a, b, path=path, column="XYZ")
+        head.values["approx_position_e"] = np.array([float_field(h, a, b, path=path, column="XYZ")
                                            for a, b in _XYZ_COLUMNS])
     elif h.label == "INTERVAL":
-        head.interval_s = float_field(h, 0, 10, path=path, column="interval")
+        head.values["interval_s"] = float_field(h, 0, 10, path=path, column="interval")
     elif h.label == "LEAP SECONDS":
-        head.leap_seconds = int_field(h, 0, 6, path=path, column="leap seconds")
+        head.values["leap_seconds"] = int_field(h, 0, 6, path=path, column="leap seconds")
     elif h.label == "SIGNAL STRENGTH UNIT":
-        head.signal_strength_unit = c[:20].strip()
+        head.values["signal_strength_unit"] = c[:20].strip()
     elif h.label == "TIME OF FIRST OBS":
         labels = [int_field(h, 6 * k, 6 * k + 6, path=path, column="time of first obs")
                   for k in range(5)]
@@ -111,13 +115,13 @@ def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
             if system not in ("GPS", "GAL", "BDT", "GLO", "QZS", "IRN", "UTC"):
                 raise GnssInputError(f"unknown time system {system!r}", path=path,
                                      line=h.line, column="time system")
-            head.time_system = system
+            head.values["time_system"] = system
     elif h.label == "GLONASS SLOT / FRQ #":
         for k in range(_GLONASS_SLOTS_PER_LINE):
             entry = c[4 + 7 * k:11 + 7 * k]
             if entry[:3].strip():
                 sv = entry[0] + entry[1:3].replace(" ", "0")
-                head.glonass_slots[sv] = int_field(h, 8 + 7 * k, 10 + 7 * k, path=path,
+                head.values.setdefault("glonass_slots", {})[sv] = int_field(h, 8 + 7 * k, 10 + 7 * k, path=path,
                                                    column="GLONASS frequency number")
     elif h.label == "SYS / SCALE FACTOR":
         _scale_factor(h, head, path)

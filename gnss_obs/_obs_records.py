@@ -22,7 +22,8 @@ import pandas as pd
 from gnss_obs._fixedwidth import char_table, parse_floats
 from gnss_obs.errors import GnssInputError
 
-__all__ = ["TABLE_COLUMNS", "KIND_COLUMNS", "EpochWalk", "tidy_observations", "empty_table"]
+__all__ = ["TABLE_COLUMNS", "KIND_COLUMNS", "EpochWalk", "tidy_observations", "empty_table",
+           "flag_and_count", "MAX_EPOCH_FLAG"]
 
 #: Observation code letter -> table column.
 KIND_COLUMNS = {"C": "pseudorange_m", "L": "carrier_cycles", "D": "doppler_hz", "S": "cn0_dbhz"}
@@ -56,6 +57,25 @@ class EpochWalk:
     epoch_fields: dict[str, np.ndarray]
     epoch_flag: np.ndarray
     events: list[dict]
+
+
+#: Largest RINEX epoch flag (6: cycle-slip records).
+MAX_EPOCH_FLAG = 6
+
+
+def flag_and_count(line: bytes, flag_cols: tuple[int, int], count_cols: tuple[int, int],
+                   line_no: int, path) -> tuple[int, int]:
+    """Epoch flag (blank = 0) and number of records of an epoch line, checked."""
+    try:
+        flag = int(line[flag_cols[0]:flag_cols[1]].strip() or b"0")
+        count = int(line[count_cols[0]:count_cols[1]])
+    except ValueError:
+        raise GnssInputError("bad epoch flag or number of satellites", path=path,
+                             line=line_no, column="epoch flag") from None
+    if not 0 <= flag <= MAX_EPOCH_FLAG or count < 0:
+        raise GnssInputError(f"epoch flag {flag} / count {count} out of range (flag 0-6)",
+                             path=path, line=line_no, column="epoch flag")
+    return flag, count
 
 
 def empty_table() -> pd.DataFrame:

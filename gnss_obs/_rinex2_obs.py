@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from gnss_obs._fixedwidth import calendar_fields, char_table, parse_ints
-from gnss_obs._obs_records import EpochWalk
+from gnss_obs._obs_records import EpochWalk, flag_and_count
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s
 
@@ -88,7 +88,7 @@ def walk_epochs(body: list[bytes], first_line: int, obs_types: dict[str, list[st
         if not body[i].strip():
             i += 1
             continue
-        flag, count = _flag_and_count(body[i], first_line + i, path)
+        flag, count = flag_and_count(body[i], _FLAG, _COUNT, first_line + i, path)
         if flag in _EVENT_FLAGS:
             end = i + 1 + count
             _need(end, n, count, first_line + i, path)
@@ -134,19 +134,6 @@ def _event(body, i, end, flag, count, first_line) -> dict:
     return {"time_label_s": label, "epoch_flag": flag, "line": first_line + i,
             "n_records": count,
             "text": b"\n".join(body[i + 1:end]).decode("ascii", errors="replace")}
-
-
-def _flag_and_count(line: bytes, line_no: int, path) -> tuple[int, int]:
-    try:
-        flag = int(line[slice(*_FLAG)].strip() or b"0")
-        count = int(line[slice(*_COUNT)])
-    except ValueError:
-        raise GnssInputError("bad epoch flag or number of satellites", path=path,
-                             line=line_no, column="epoch flag") from None
-    if not 0 <= flag <= _CYCLE_SLIP_FLAG or count < 0:
-        raise GnssInputError(f"epoch flag {flag} / count {count} out of range (flag 0-6)",
-                             path=path, line=line_no, column="epoch flag")
-    return flag, count
 
 
 def _satellites(body, i, count, first_line, path) -> tuple[list[bytes], int]:

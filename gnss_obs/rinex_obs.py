@@ -46,7 +46,7 @@ import pandas as pd
 from gnss_obs import _rinex2_obs
 from gnss_obs._fixedwidth import (calendar_fields, char_table, parse_ints, read_text_bytes,
                                   split_lines)
-from gnss_obs._obs_records import EpochWalk, tidy_observations
+from gnss_obs._obs_records import EpochWalk, flag_and_count, tidy_observations
 from gnss_obs._obs_header import parse_obs_header
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
@@ -59,7 +59,6 @@ log = logging.getLogger(__name__)
 EVENT_COLUMNS = ["gps_time_s", "epoch_flag", "line", "n_records", "text"]
 #: Epoch flags that carry observations; 2–5 are events, 6 cycle-slip records.
 _OBSERVATION_FLAGS = (0, 1)
-_MAX_FLAG = 6
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -157,16 +156,10 @@ def read_rinex_obs(path: str | os.PathLike, *, systems: str | None = None) -> Ri
                               epoch_gps_time_s=t, epoch_flag=walk.epoch_flag,
                               obs_types=head.obs_types, scale=head.scale, systems=systems,
                               path=path)
-    first = head.first_obs_gps_time_s
-    if first is None:
-        first = float(t[0]) if len(t) else float("nan")
-    header = ObsHeader(obs_types=head.obs_types, first_obs_gps_time_s=first,
-                       version=head.version, marker_name=head.marker_name,
-                       receiver=head.receiver, antenna=head.antenna,
-                       approx_position_e=head.approx_position_e, interval_s=head.interval_s,
-                       time_system=head.time_system, leap_seconds=head.leap_seconds,
-                       glonass_slots=head.glonass_slots,
-                       signal_strength_unit=head.signal_strength_unit)
+    values = dict(head.values)
+    if "first_obs_gps_time_s" not in values:
+        values["first_obs_gps_time_s"] = float(t[0]) if len(t) else float("nan")
+    header = ObsHeader(**values)
     events = _events_frame(walk.events, head.time_system, head.leap_seconds)
     log.debug("%s: %d epochs, %d rows, %d events", path, len(t), len(table), len(events))
     return RinexObs(header, table, events)
@@ -214,7 +207,7 @@ def _walk_epochs_v3(body: list[bytes], first_line: int, path) -> EpochWalk:
                 continue
             raise GnssInputError("expected an epoch record starting with '>'", path=path,
                                  line=first_line + i)
-        flag, count = _flag_and_count(line, first_line + i, path)
+        flag, count = flag_and_count(line, _V3_FLAG, _V3_COUNT, first_line + i, path)
         found = next((j for j in range(i + 1, min(i + 1 + count, n))
                       if body[j][:1] == b">"), min(i + 1 + count, n)) - i - 1
         if found < count:
@@ -239,19 +232,6 @@ def _walk_epochs_v3(body: list[bytes], first_line: int, path) -> EpochWalk:
     fields = calendar_fields(chars, _V3_EPOCH_COLUMNS, _V3_SECOND, epoch_lines, path)
     flags = parse_ints(chars, *_V3_FLAG, path=path, lines=epoch_lines, column="epoch flag")
     return EpochWalk(records, first_line + idx, record_epoch, fields, flags, events)
-
-
-def _flag_and_count(line: bytes, line_no: int, path) -> tuple[int, int]:
-    try:
-        flag = int(line[_V3_FLAG[0]:_V3_FLAG[1]].strip() or b"0")
-        count = int(line[_V3_COUNT[0]:_V3_COUNT[1]])
-    except ValueError:
-        raise GnssInputError("bad epoch flag or number of satellites", path=path,
-                             line=line_no, column="epoch flag") from None
-    if not 0 <= flag <= _MAX_FLAG or count < 0:
-        raise GnssInputError(f"epoch flag {flag} / count {count} out of range (flag 0-6)",
-                             path=path, line=line_no, column="epoch flag")
-    return flag, count
 
 
 def _event_time_label(line: bytes, line_no: int, path) -> float:
