@@ -162,3 +162,10 @@ def test_against_georinex(tmp_path):
                 theirs = np.nan_to_num(raw[:, cols][has])
                 np.testing.assert_array_equal(grid(sub, ind)[:, cols][has], theirs)
     assert compared > 3_000  # 10 epochs x ~30 satellites x ~11 values
+
+
+def test_hatanaka_compressed_file_reads_the_same(rover, tmp_path):
+    hatanaka = pytest.importorskip("hatanaka")
+    path = tmp_path / "rover.crx.gz"
+    path.write_bytes(hatanaka.compress(ROVER.read_bytes(), compression="gz"))
+    pd.testing.assert_frame_equal(read_rinex_obs(path).table, rover.table)
