@@ -5,6 +5,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from gnss_obs.constants import WEEK_S
@@ -42,9 +43,14 @@ GEORINEX = {
           "dX2": "ax_mps2", "Y": "y_m", "dY": "vy_mps", "dY2": "ay_mps2", "Z": "z_m",
           "dZ": "vz_mps", "dZ2": "az_mps2", "health": "health", "FreqNum": "freq_channel",
           "AgeOpInfo": "age_days"},
+    "S": {"SVclockBias": "af0_s", "SVrelFreqBias": "af1_sps",
+          "MessageFrameTime": "message_frame_time_s", "X": "x_m", "dX": "vx_mps",
+          "dX2": "ax_mps2", "Y": "y_m", "dY": "vy_mps", "dY2": "ay_mps2", "Z": "z_m",
+          "dZ": "vz_mps", "dZ2": "az_mps2", "health": "health", "URA": "ura",
+          "IODN": "iodn"},
 }
 #: Offset from the file's clock-epoch labels to GPS time, per system (RINEX 3.04 §6.6).
-LABEL_TO_GPS_S = {"G": 0.0, "E": 0.0, "C": BDT_S, "R": LEAP_S}
+LABEL_TO_GPS_S = {"G": 0.0, "E": 0.0, "C": BDT_S, "R": LEAP_S, "S": 0.0}
 
 
 @pytest.fixture(scope="module")
@@ -84,8 +90,8 @@ def test_against_georinex(nav):
                                + LABEL_TO_GPS_S[system])
         theirs = theirs[["sv", "toc_gps_s", *mapping]].rename(columns=mapping)
         ours = nav.records[system][["sv", "toc_gps_s", *mapping.values()]]
-        key = ["sv", "toc_gps_s", "transmission_time_sow" if system != "R"
-               else "message_frame_time_s", mapping.get("DataSrc", "toc_gps_s")]
+        key = ["sv", "toc_gps_s", "message_frame_time_s" if system in "RS"
+               else "transmission_time_sow", mapping.get("DataSrc", "toc_gps_s")]
         a = ours.sort_values(key, ignore_index=True)
         b = theirs.sort_values(key, ignore_index=True)
         assert len(a) == len(b)
@@ -177,3 +183,17 @@ def test_observation_file_is_not_a_navigation_file():
     path = DATA / "rover_obs_1240.rnx"
     with _raises(path, 1, "wrong file type 'O'"):
         read_rinex_nav(path)
+
+
+def test_rinex305_glonass_records_have_a_fifth_line(tmp_path):
+    # RINEX 3.05 adds a fourth broadcast-orbit line to GLONASS records (status flags,
+    # L1/L2 delay difference, URAI, health flags): same values, one more line to skip.
+    lines = NAV.read_text().split("\n")
+    end = next(i for i, ln in enumerate(lines) if "END OF HEADER" in ln) + 1
+    k = next(i for i, ln in enumerate(lines) if ln.startswith("R04 "))
+    extra = "    " + " 0.000000000000e+00" * 4
+    v305 = ["     3.05" + lines[0][9:]] + lines[1:end] + lines[k:k + 4] + [extra]
+    path = _write(tmp_path, v305)
+    got = read_rinex_nav(path).records["R"]
+    expected = read_rinex_nav(NAV).records["R"].iloc[[0]].reset_index(drop=True)
+    pd.testing.assert_frame_equal(got, expected)
