@@ -1,0 +1,189 @@
+"""Multiple-model banks (Herasimov et al. 2018, SEEDS.md §3): one filter per hypothesis.
+
+Each hypothesis ``j`` is anything with ``predict(x, P, data) -> (x, P)`` and
+``update(x, P, data) -> (x, P, UpdateRecord)`` (:class:`Hypothesis`; a linear one is
+made from a :class:`~ekf.linear.LinearModel` by :meth:`Hypothesis.linear`). The record's
+``log_likelihood = log N(ν; 0, S)`` drives the model probabilities. One :meth:`ModelBank.step`
+is: (re)initialize each hypothesis, predict, update, reweight, and mix:
+
+``mode="static"``
+    No switching (the "polygaussian" filter): each hypothesis keeps its own estimate;
+    ``μ_j ∝ L_j μ_j``. Exact for a model that is one of the hypotheses all along;
+    hypotheses may differ in structure (state sizes may then differ: no mixed estimate).
+``mode="gpb1"``
+    The "pulsating" filter: after every step the bank is merged to ONE Gaussian (moment
+    matching) that starts every hypothesis at the next step; prior probabilities
+    ``c = Πᵀ μ`` with the switching matrix ``Π[i, j] = P(model j at k | model i at k−1)``.
+``mode="imm"``
+    Interacting multiple models (Blom & Bar-Shalom 1988): each hypothesis starts from
+    its own mixture ``Σ_i μ_{i|j} x_i`` of the previous estimates.
+
+Log-likelihoods are combined in log space (no underflow on long runs).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Literal, Sequence
+
+import numpy as np
+import numpy.typing as npt
+from scipy.special import logsumexp
+
+from ekf.errors import ModelError
+from ekf.linear import LinearModel
+from ekf.update import UpdateRecord
+
+__all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians"]
+
+Array = npt.NDArray[np.float64]
+Mode = Literal["static", "gpb1", "imm"]
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One model of a bank.
+
+    Attributes
+    ----------
+    predict : callable (x, P, data) -> (x, P)
+    update : callable (x, P, data) -> (x, P, UpdateRecord)
+    name : str
+    """
+
+    predict: Callable[[Array, Array, Any], tuple[Array, Array]]
+    update: Callable[[Array, Array, Any], tuple[Array, Array, UpdateRecord]]
+    name: str = "model"
+
+    @classmethod
+    def linear(cls, model: LinearModel, name: str = "model") -> "Hypothesis":
+        """A hypothesis of a linear model; ``data`` of a step is the measurement ``z``."""
+        return cls(predict=lambda x, P, z: model.predict(x, P),
+                   update=lambda x, P, z: model.update(x, P, z), name=name)
+
+
+def merge_gaussians(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
+    """Moment-matched single Gaussian of a mixture.
+
+    Parameters
+    ----------
+    weights : ndarray, shape (J,)
+        Summing to 1.
+    means : ndarray, shape (J, n)
+    covs : ndarray, shape (J, n, n)
+
+    Returns
+    -------
+    mean : ndarray, shape (n,)
+    cov : ndarray, shape (n, n)
+        ``Σ w_j (P_j + (x_j − x)(x_j − x)ᵀ)``.
+    """
+    mean = weights @ means
+    spread = means - mean
+    cov = np.einsum("j,jab->ab", weights, covs) + np.einsum("j,ja,jb->ab", weights, spread,
+                                                           spread)
+    return mean, 0.5 * (cov + cov.T)
+
+
+@dataclass(frozen=True)
+class BankStep:
+    """State of a bank after one step.
+
+    Attributes
+    ----------
+    probabilities : ndarray, shape (J,)
+        Posterior model probabilities ``μ_j``.
+    log_likelihoods : ndarray, shape (J,)
+        ``log N(ν_j; 0, S_j)`` of this step's update.
+    x : ndarray, shape (n,) or None
+        Mixed estimate (None for a static bank of different state sizes).
+    P : ndarray, shape (n, n) or None
+    """
+
+    probabilities: Array
+    log_likelihoods: Array
+    x: Array | None
+    P: Array | None
+
+
+class ModelBank:
+    """A bank of filters with model probabilities.
+
+    Parameters
+    ----------
+    hypotheses : sequence of Hypothesis
+    x0 : sequence of ndarray (n_j,)
+        Initial estimate of each hypothesis (equal for gpb1/imm).
+    P0 : sequence of ndarray (n_j, n_j)
+    prior : ndarray, shape (J,), optional
+        Initial probabilities (default uniform, ``1/J``).
+    mode : {"static", "gpb1", "imm"}
+    transition : ndarray, shape (J, J), optional
+        Switching matrix (rows sum to 1); needed for gpb1/imm.
+    """
+
+    def __init__(self, hypotheses: Sequence[Hypothesis], x0: Sequence[Array],
+                 P0: Sequence[Array], *, prior: Array | None = None, mode: Mode = "static",
+                 transition: Array | None = None) -> None:
+        J = len(hypotheses)
+        if J == 0 or len(x0) != J or len(P0) != J:
+            raise ModelError("a bank needs one x0 and one P0 per hypothesis (at least one)")
+        self.hypotheses = list(hypotheses)
+        self.x = [np.asarray(x, dtype=float) for x in x0]
+        self.P = [np.asarray(P, dtype=float) for P in P0]
+        prior = np.full(J, 1.0 / J) if prior is None else np.asarray(prior, dtype=float)
+        if prior.shape != (J,) or np.any(prior < 0) or not np.isclose(prior.sum(), 1.0):
+            raise ModelError("prior must be J probabilities summing to 1")
+        self.log_mu = np.log(np.maximum(prior, np.finfo(float).tiny))
+        if mode not in ("static", "gpb1", "imm"):
+            raise ModelError(f"unknown bank mode {mode!r}")
+        if mode != "static":
+            if transition is None:
+                raise ModelError(f"mode {mode!r} needs a transition matrix")
+            transition = np.asarray(transition, dtype=float)
+            if transition.shape != (J, J) or not np.allclose(transition.sum(axis=1), 1.0):
+                raise ModelError("transition must be (J, J) with rows summing to 1")
+            if len({x.shape for x in self.x}) != 1:
+                raise ModelError(f"mode {mode!r} needs hypotheses of one state size")
+        self.mode, self.transition = mode, transition
+
+    @property
+    def probabilities(self) -> Array:
+        """Current model probabilities ``μ``, shape (J,)."""
+        return np.exp(self.log_mu - logsumexp(self.log_mu))
+
+    def _starts(self) -> tuple[list[Array], list[Array], Array]:
+        """Initial conditions of this step and the log prior probabilities ``log c_j``."""
+        mu = self.probabilities
+        if self.mode == "static":
+            return self.x, self.P, self.log_mu
+        c = self.transition.T @ mu
+        if self.mode == "gpb1":
+            x, P = merge_gaussians(mu, np.array(self.x), np.array(self.P))
+            return [x] * len(mu), [P] * len(mu), np.log(np.maximum(c, np.finfo(float).tiny))
+        mix = self.transition * mu[:, None] / np.maximum(c, np.finfo(float).tiny)[None, :]
+        starts = [merge_gaussians(mix[:, j], np.array(self.x), np.array(self.P))
+                  for j in range(len(mu))]
+        return ([s[0] for s in starts], [s[1] for s in starts],
+                np.log(np.maximum(c, np.finfo(float).tiny)))
+
+    def step(self, data: Any) -> BankStep:
+        """Predict and update every hypothesis with this step's ``data``; reweight, mix.
+
+        Parameters
+        ----------
+        data : any
+            Passed to every hypothesis' ``predict`` and ``update`` (e.g. ``z``).
+        """
+        xs, Ps, log_c = self._starts()
+        log_lik = np.zeros(len(self.hypotheses))
+        for j, hyp in enumerate(self.hypotheses):
+            x, P = hyp.predict(xs[j], Ps[j], data)
+            self.x[j], self.P[j], record = hyp.update(x, P, data)
+            log_lik[j] = record.log_likelihood
+        log_mu = log_c + log_lik
+        self.log_mu = log_mu - logsumexp(log_mu)
+        mu = self.probabilities
+        x_mix = P_mix = None
+        if len({x.shape for x in self.x}) == 1:
+            x_mix, P_mix = merge_gaussians(mu, np.array(self.x), np.array(self.P))
+        return BankStep(mu, log_lik, x_mix, P_mix)

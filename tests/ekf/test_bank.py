@@ -1,0 +1,143 @@
+"""Model banks (ekf/bank.py) against brute-force enumeration of model sequences on a
+two-model linear switching system: every sequence gets its own textbook Kalman filter
+(explicit inverses) and the exact posterior is the likelihood-weighted mixture."""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from ekf.bank import Hypothesis, ModelBank, merge_gaussians
+from ekf.errors import ModelError
+from ekf.linear import LinearModel
+
+#: Same Gaussian algebra in another order, a few steps: relative agreement.
+RTOL = 1e-10
+STEPS = 5
+X0, P0 = np.array([0.5, -0.2]), np.diag([2.0, 1.0])
+PRIOR = np.array([0.6, 0.4])
+
+
+def _models():
+    """Model 1: a slow, precise sensor; model 2: a fast-turning system, coarse sensor."""
+    Phi1 = np.array([[1.0, 0.1], [0.0, 1.0]])
+    Phi2 = np.array([[0.9, 0.3], [-0.2, 0.95]])
+    H = np.array([[1.0, 0.0]])
+    return (LinearModel(Phi1, 0.01 * np.eye(2), H, np.array([[0.1]])),
+            LinearModel(Phi2, 0.05 * np.eye(2), H, np.array([[0.8]])))
+
+
+def _kf_sequence(models, seq, zs, x0, P0):
+    """Textbook KF along one model sequence: mean, covariance, log-likelihood."""
+    x, P, log_lik = x0.copy(), P0.copy(), 0.0
+    for m, z in zip(seq, zs):
+        mod = models[m]
+        x, P = mod.Phi @ x, mod.Phi @ P @ mod.Phi.T + mod.Q
+        S = mod.H @ P @ mod.H.T + mod.R
+        nu = z - mod.H @ x
+        log_lik += -0.5 * (nu @ np.linalg.inv(S) @ nu + np.log(np.linalg.det(S))
+                           + nu.size * np.log(2 * np.pi))
+        K = P @ mod.H.T @ np.linalg.inv(S)
+        x, P = x + K @ nu, (np.eye(2) - K @ mod.H) @ P
+    return x, P, log_lik
+
+
+def _enumerate(models, zs, transition, x0=X0, P0=P0, prior0=PRIOR):
+    """Exact mode probabilities at the last step and the exact mixture mean, with
+    ``prior0`` the probabilities of the first step's model."""
+    weights, means, last = [], [], []
+    for seq in itertools.product(range(2), repeat=len(zs)):
+        prior = prior0[seq[0]] * np.prod([transition[a, b] for a, b in zip(seq, seq[1:])])
+        x, _, log_lik = _kf_sequence(models, seq, zs, x0, P0)
+        weights.append(prior * np.exp(log_lik))
+        means.append(x)
+        last.append(seq[-1])
+    w = np.array(weights) / np.sum(weights)
+    probs = np.array([w[np.array(last) == j].sum() for j in range(2)])
+    return probs, w @ np.array(means)
+
+
+def _measurements(rng):
+    return [rng.normal(size=1) for _ in range(STEPS)]
+
+
+def test_static_bank_equals_enumeration_without_switching(rng):
+    """With no switching only the two constant sequences have weight: exact."""
+    models, zs = _models(), _measurements(rng)
+    bank = ModelBank([Hypothesis.linear(m) for m in models], [X0, X0], [P0, P0], prior=PRIOR)
+    for z in zs:
+        out = bank.step(z)
+    probs, mean = _enumerate(models, zs, np.eye(2))
+    np.testing.assert_allclose(out.probabilities, probs, rtol=RTOL)
+    np.testing.assert_allclose(out.x, mean, rtol=RTOL)
+
+
+def test_imm_with_identity_switching_is_the_static_bank(rng):
+    models, zs = _models(), _measurements(rng)
+    hyps = [Hypothesis.linear(m) for m in models]
+    imm = ModelBank(hyps, [X0, X0], [P0, P0], prior=PRIOR, mode="imm", transition=np.eye(2))
+    static = ModelBank(hyps, [X0, X0], [P0, P0], prior=PRIOR)
+    for z in zs:
+        a, b = imm.step(z), static.step(z)
+    np.testing.assert_allclose(a.probabilities, b.probabilities, rtol=RTOL)
+    np.testing.assert_allclose(a.x, b.x, rtol=RTOL)
+
+
+def test_gpb1_is_exact_for_one_step_from_its_merged_gaussian(rng):
+    """GPB1 at each step = exact enumeration of one switching step started from the
+    previous merged Gaussian (and over a horizon of one step it is the exact filter)."""
+    models, zs = _models(), _measurements(rng)
+    transition = np.array([[0.9, 0.1], [0.3, 0.7]])
+    bank = ModelBank([Hypothesis.linear(m) for m in models], [X0, X0], [P0, P0],
+                     prior=PRIOR, mode="gpb1", transition=transition)
+    mu, x, P = PRIOR, X0, P0
+    for z in zs:
+        out = bank.step(z)
+        # one exact switching step from the merge: first-step probabilities Πᵀ μ
+        probs, mean = _enumerate(models, [z], transition, x, P, transition.T @ mu)
+        np.testing.assert_allclose(out.probabilities, probs, rtol=RTOL)
+        np.testing.assert_allclose(out.x, mean, rtol=RTOL)
+        mu, x, P = out.probabilities, out.x, out.P
+
+
+def test_imm_equals_gpb1_when_switching_forgets_the_past(rng):
+    """Identical rows of Π (switching independent of the current model, the fault case
+    of Herasimov 2018): every IMM mixture is the GPB1 merge."""
+    models, zs = _models(), _measurements(rng)
+    transition = np.array([[0.8, 0.2], [0.8, 0.2]])
+    hyps = [Hypothesis.linear(m) for m in models]
+    kw = dict(prior=PRIOR, transition=transition)
+    imm = ModelBank(hyps, [X0, X0], [P0, P0], mode="imm", **kw)
+    gpb = ModelBank(hyps, [X0, X0], [P0, P0], mode="gpb1", **kw)
+    for z in zs:
+        a, b = imm.step(z), gpb.step(z)
+        np.testing.assert_allclose(a.probabilities, b.probabilities, rtol=RTOL)
+        np.testing.assert_allclose(a.P, b.P, rtol=RTOL)
+
+
+def test_merge_matches_sample_moments(rng):
+    """Reference: mean and covariance of 200 000 draws from the mixture, within 5
+    standard errors (estimated from the draws)."""
+    w = np.array([0.3, 0.7])
+    means = np.array([[0.0, 1.0], [2.0, -1.0]])
+    covs = np.array([np.eye(2), np.diag([0.5, 2.0])])
+    mean, cov = merge_gaussians(w, means, covs)
+    pick = rng.random(200_000) < w[0]
+    draws = np.where(pick[:, None], rng.multivariate_normal(means[0], covs[0], pick.size),
+                     rng.multivariate_normal(means[1], covs[1], pick.size))
+    centred = draws - draws.mean(axis=0)
+    products = centred[:, :, None] * centred[:, None, :]
+    tol_mean = 5 * draws.std(axis=0) / np.sqrt(pick.size)
+    tol_cov = 5 * products.std(axis=0) / np.sqrt(pick.size)  # standard errors, 5σ
+    assert np.all(np.abs(draws.mean(axis=0) - mean) <= tol_mean)
+    assert np.all(np.abs(np.cov(draws.T) - cov) <= tol_cov)
+
+
+def test_bank_validates_its_configuration():
+    models = _models()
+    hyps = [Hypothesis.linear(m) for m in models]
+    with pytest.raises(ModelError):
+        ModelBank(hyps, [X0, X0], [P0, P0], mode="gpb1")
+    with pytest.raises(ModelError):
+        ModelBank(hyps, [X0, X0], [P0, P0], prior=np.array([0.5, 0.6]))
