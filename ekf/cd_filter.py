@@ -58,7 +58,7 @@ class FilterConfig:
         Keep the full packed covariance at the stored steps (else its diagonal).
     smoothing : bool
         Keep every step's data for :func:`ekf.smoother.rts_smooth` (memory ~
-        ``8 (3 n² + 4 n) / 2`` bytes per step).
+        ``8 (2 n² + 3 n)`` bytes per step).
     time_tol_s : float
         An epoch matches a sample when their times differ by at most this, s.
     """

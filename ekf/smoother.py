@@ -12,7 +12,7 @@ predicted moments (:class:`~ekf.history.SmootherData`):
 started from the filter's final state. ``x_{k|k}`` already contains the discrete update at
 sample ``k``, if any. The gains ``C_k`` are computed for all steps at once (batched
 Cholesky solves); only the short recursion loops in Python. Memory: the stored data is
-``8 (3 n² + 4 n) / 2`` bytes per step (≈ 0.95 kB for ``n = 7``: 95 MB for 100 000 steps);
+``8 (2 n² + 3 n)`` bytes per step (≈ 0.95 kB for ``n = 7``: 95 MB for 100 000 steps);
 runs much longer than that should be smoothed in windows.
 """
 from __future__ import annotations
