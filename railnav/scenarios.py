@@ -25,6 +25,7 @@ from gnss_obs.gpstime import calendar_to_gps_time_s
 from railnav.errors import ConfigError
 from railnav.profiles import SpeedProfile, constant_speed, station_stop_profile
 from railnav.truth import Truth, ideal_imu, simulate_truth
+from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, apply_imu_errors, imu_grade
 
@@ -107,7 +108,10 @@ class Scenario:
         if any(not (a >= 0 and b > 0 and math.isfinite(a + b)) for a, b in outages):
             raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got {outages}")
         object.__setattr__(self, "outages", outages)
-        imu_grade(self.imu_errors)  # raises for an unknown preset name
+        try:
+            imu_grade(self.imu_errors)
+        except StrapdownError as exc:
+            raise ConfigError(str(exc)) from None
 
     @property
     def imu(self) -> ImuErrors:
