@@ -78,7 +78,7 @@ def read_imu_csv(path: str | os.PathLike) -> Imu:
         fewer than 2 rows, or non-uniform / non-increasing time.
     """
     try:
-        frame = pd.read_csv(path)
+        frame = pd.read_csv(path, float_precision="round_trip")
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise ImuInputError(f"not a CSV table ({' '.join(str(exc).split())})", path=path) from None
     missing = [c for c in IMU_COLUMNS if c not in frame.columns]
