@@ -9,7 +9,11 @@ Timed in one process, same data:
 * ``casadi``     — CasADi virtual machine, ``mapaccum`` blocks;
 * ``casadi-jit`` — the same blocks JIT-compiled by CasADi (``compiler="shell"``);
 * ``numpy``      — the plain NumPy loop of the same algorithm (ekf/reference.py) with
-  the same discrete updates; timed on a fraction of the run and scaled (it is slow).
+  the same discrete updates (NumPy measurement rows + ekf.update.kalman_update); timed
+  on a fraction of the run and scaled (it is slow).
+
+The engine backends share the discrete-update path (measurement rows compiled to C when
+a compiler is found); they differ in how the 100 steps between updates are run.
 
 Writes ``benchmarks/results/ekf_engine.json``. Run: ``python benchmarks/bench_ekf_engine.py``.
 """
@@ -31,7 +35,7 @@ from ekf.examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
 from ekf.model import MeasurementModel
 from ekf.reference import reference_step
 from ekf.series import Epoch, InputSeries
-from ekf.update import Observation, discrete_update
+from ekf.update import Observation, kalman_update
 
 RESULTS = Path(__file__).resolve().parent / "results" / "ekf_engine.json"
 DT = 0.01  # s, 100 Hz IMU
@@ -96,6 +100,23 @@ def _time_engine(backend: str, samples, epochs, cache_dir: str) -> dict:
                 np.allclose(first.x_final, res.x_final, rtol=1e-12))}
 
 
+def _numpy_rows(x: np.ndarray, sats: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The two measurement models of :func:`_measurements` in plain NumPy: z (2m,), H."""
+    los = sats[:, :3] - np.array([x[3], 0.0, 0.0])
+    dist = np.linalg.norm(los, axis=1)
+    rel_v = sats[:, 3:] - np.array([x[4], 0.0, 0.0])
+    rate = np.sum(los * rel_v, axis=1) / dist
+    m = sats.shape[0]
+    H = np.zeros((2 * m, 7))
+    H[:m, 3] = -los[:, 0] / dist
+    H[:m, 5] = 1.0
+    d_rate_ds = (-rel_v[:, 0] + rate * los[:, 0] / dist) / dist
+    H[m:, 3] = d_rate_ds
+    H[m:, 4] = -los[:, 0] / dist
+    H[m:, 6] = 1.0
+    return np.concatenate([dist + x[5], rate + x[6]]), H
+
+
 def _time_numpy(samples, epochs, fraction: float) -> dict:
     model = attitude_speed_clock_numpy()
     steps = int(STEPS * fraction)
@@ -105,7 +126,10 @@ def _time_numpy(samples, epochs, fraction: float) -> dict:
     start = time.perf_counter()
     for k in range(steps):
         if k in by_step:
-            x, P, _ = discrete_update(x, P, by_step[k].observations)
+            pr, dop = by_step[k].observations
+            z_pred, H = _numpy_rows(x, pr.p)
+            z = np.concatenate([pr.z[:, 0], dop.z[:, 0]])
+            x, P, _ = kalman_update(x, P, z - z_pred, H, np.concatenate([pr.R, dop.R]))
         out = reference_step(model, x, P, samples.u[k], samples.u[k + 1], zero_p, z_c=zero_c,
                              dt=DT, q_c=Q_C, r_c=zero_c)
         x, P = out["x_next"], out["P_next"]

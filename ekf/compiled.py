@@ -30,7 +30,7 @@ import numpy as np
 
 from ekf.errors import FilterError
 
-__all__ = ["CompileOptions", "CompiledLoop", "compiler_available"]
+__all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available"]
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +52,25 @@ CASADI_SYMBOL_EXPORT int {loop}(long long N, const casadi_real* x0, const casadi
     arg[1] = k == 0 ? P0 : out[1] + (k - 1) * size_out[1];
     arg[2] = d + k * {size_d};
     for (i = 0; i < {n_out}; ++i) res[i] = out[i] + k * size_out[i];
+    if ({fname}(arg, res, iw, w, 0)) return 1;
+  }}
+  return 0;
+}}
+"""
+
+_ROWS_TEMPLATE = r"""
+/* ---- ekf/compiled.py: evaluate {fname} for m rows, x shared, row parameters advancing ---- */
+CASADI_SYMBOL_EXPORT int {loop}(long long m, const casadi_real* x, const casadi_real* p,
+                                casadi_real* z, casadi_real* H,
+                                casadi_int* iw, casadi_real* w) {{
+  const casadi_real* arg[{sz_arg}];
+  casadi_real* res[{sz_res}];
+  long long j;
+  for (j = 0; j < m; ++j) {{
+    arg[0] = x;
+    arg[1] = p + j * {size_p};
+    res[0] = z + j * {size_z};
+    res[1] = H + j * {size_h};
     if ({fname}(arg, res, iw, w, 0)) return 1;
   }}
   return 0;
@@ -95,16 +114,28 @@ def compiler_available(opts: CompileOptions = CompileOptions()) -> bool:
     return shutil.which(opts.compiler) is not None
 
 
-def _c_source(fun: ca.Function, loop: str) -> str:
+def _c_source(fun: ca.Function, template: str, loop: str) -> str:
     with tempfile.TemporaryDirectory() as tmp:
         cg = ca.CodeGenerator(f"{fun.name()}.c", {"with_header": False, "verbose": False})
         cg.add(fun)
         path = Path(cg.generate(tmp + os.sep))
         source = path.read_text()
     sizes_out = ", ".join(str(fun.nnz_out(i)) for i in range(fun.n_out()))
-    return source + _LOOP_TEMPLATE.format(
+    return source + template.format(
         fname=fun.name(), loop=loop, sz_arg=max(fun.sz_arg(), 1), sz_res=max(fun.sz_res(), 1),
-        n_out=fun.n_out(), sizes_out=sizes_out, size_d=fun.nnz_in(2))
+        n_out=fun.n_out(), sizes_out=sizes_out, size_d=fun.nnz_in(fun.n_in() - 1),
+        size_p=fun.nnz_in(fun.n_in() - 1), size_z=fun.nnz_out(0),
+        size_h=fun.nnz_out(fun.n_out() - 1))
+
+
+def _load(fun: ca.Function, template: str, opts: CompileOptions
+          ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
+    loop = f"{fun.name()}_loop"
+    path, seconds = _build_library(_c_source(fun, template, loop), opts)
+    lib = ctypes.CDLL(str(path))
+    entry = getattr(lib, loop)
+    entry.restype = ctypes.c_int
+    return lib, entry, seconds
 
 
 def _build_library(source: str, opts: CompileOptions) -> tuple[Path, float]:
@@ -150,11 +181,7 @@ class CompiledLoop:
         self.n_out = fun.n_out()
         self.sizes_out = tuple(fun.nnz_out(i) for i in range(self.n_out))
         self.sizes_in = tuple(fun.nnz_in(i) for i in range(fun.n_in()))
-        loop = f"{fun.name()}_loop"
-        path, self.compile_seconds = _build_library(_c_source(fun, loop), opts)
-        self._lib = ctypes.CDLL(str(path))
-        self._fun = getattr(self._lib, loop)
-        self._fun.restype = ctypes.c_int
+        self._lib, self._fun, self.compile_seconds = _load(fun, _LOOP_TEMPLATE, opts)
         self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
@@ -192,3 +219,37 @@ class CompiledLoop:
         if status:
             raise FilterError("the compiled step function reported an error")
         return outs
+
+
+class CompiledRows:
+    """A measurement-row function ``(x, p_row) -> (z_row, H_row)`` compiled to a C loop
+    over ``m`` rows (``x`` shared).
+
+    Parameters
+    ----------
+    fun : casadi.Function
+        Two dense vector inputs ``x (n)``, ``p (n_p)``; two outputs ``z (k)`` and the
+        Jacobian row block ``H`` as ``k * n`` numbers, row by row.
+    opts : CompileOptions
+    """
+
+    def __init__(self, fun: ca.Function, opts: CompileOptions = CompileOptions()) -> None:
+        self.n = fun.nnz_in(0)
+        self.n_p = fun.nnz_in(1)
+        self.k = fun.nnz_out(0)
+        self._lib, self._fun, self.compile_seconds = _load(fun, _ROWS_TEMPLATE, opts)
+        self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
+        self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
+        self._w = np.zeros(max(fun.sz_w(), 1))
+
+    def run(self, x: np.ndarray, p_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``z (m * k,)`` and ``H (m * k, n)`` for ``x (n,)`` and ``p_rows (m, n_p)``."""
+        x = np.ascontiguousarray(x, dtype=float)
+        p_rows = np.ascontiguousarray(p_rows, dtype=float)
+        m = p_rows.shape[0]
+        z = np.empty(m * self.k)
+        H = np.empty((m * self.k, self.n))
+        if self._fun(m, x.ctypes.data, p_rows.ctypes.data, z.ctypes.data, H.ctypes.data,
+                     self._iw.ctypes.data, self._w.ctypes.data):
+            raise FilterError("the compiled measurement function reported an error")
+        return z, H

@@ -29,6 +29,7 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
+from ekf.compiled import CompiledRows, compiler_available
 from ekf.errors import ModelError
 from ekf.layout import StateLayout
 from ekf.packing import to_casadi, to_numpy
@@ -188,10 +189,14 @@ class MeasurementModel:
     h : casadi.Function
         ``(x[n], p_row[n_p]) -> z_row[k]``; an update stacks ``m`` rows.
     name : str
+    compiled : bool
+        Evaluate rows with generated C (:class:`ekf.compiled.CompiledRows`, compiled once
+        and cached on disk) when a C compiler is available; else the CasADi VM.
     """
 
     h: ca.Function
     name: str = "measurement"
+    compiled: bool = True
 
     def __post_init__(self) -> None:
         h = _as_sx_function(self.h, f"measurement {self.name!r}")
@@ -242,10 +247,30 @@ class MeasurementModel:
         m = p_rows.shape[0]
         if m == 0:
             return np.zeros(0), np.zeros((0, self.n))
+        rows = _compiled_rows(self.h) if self.compiled else None
+        if rows is not None:
+            return rows.run(np.asarray(x, dtype=float), p_rows)
         z, H = _mapped(self.h, m)(to_casadi(np.asarray(x, dtype=float)), to_casadi(p_rows))
         z_pred = to_numpy(z, columns=False).T.reshape(-1)
         H = to_numpy(H, columns=False).reshape(self.k, m, self.n).transpose(1, 0, 2)
         return z_pred, H.reshape(m * self.k, self.n)
+
+
+def _row_function(h: ca.Function) -> ca.Function:
+    """``(x, p) -> (z, H)`` with ``H`` row by row."""
+    x = ca.SX.sym("x", h.size_in(0))
+    p = ca.SX.sym("p", h.size_in(1))
+    z = h(x, p)
+    return ca.Function(f"{h.name()}_row", [x, p],
+                       [z, ca.vec(ca.densify(ca.jacobian(z, x)).T)])
+
+
+@lru_cache(maxsize=64)
+def _compiled_rows(h: ca.Function) -> "CompiledRows | None":
+    """The compiled row loop of ``h`` (None without a C compiler)."""
+    if not compiler_available():
+        return None
+    return CompiledRows(_row_function(h))
 
 
 @lru_cache(maxsize=256)

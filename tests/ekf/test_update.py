@@ -79,6 +79,10 @@ def test_measurement_model_jacobian_against_central_differences(rng):
         e = np.eye(3)[j] * step
         fd = (model.evaluate(x0 + e, sats)[0] - model.evaluate(x0 - e, sats)[0]) / (2 * step)
         np.testing.assert_allclose(H[:, j], fd, atol=1e-8)
+    # the CasADi-VM path gives the same numbers as the compiled rows
+    z_vm, H_vm = MeasurementModel(model.h, "range", compiled=False).evaluate(x0, sats)
+    np.testing.assert_allclose(z_vm, z, rtol=1e-14)
+    np.testing.assert_allclose(H_vm, H, rtol=1e-13, atol=1e-15)
 
 
 def test_discrete_update_stacks_observations_and_validates(rng):
