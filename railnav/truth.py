@@ -90,6 +90,15 @@ class Truth:
         """Velocity relative to the Earth in ECEF, m/s, (N, 3)."""
         return np.einsum("...ij,...j->...i", C_n_e(self.lat, self.lon), self.v_n)
 
+    def full_state(self) -> Array:
+        """True states of the 9-state model (`strapdown.mechanization.FULL_STATE_NAMES`), (N, 9)."""
+        return np.column_stack([self.yaw, self.pitch, self.roll, self.v_n, self.lat, self.lon,
+                                self.h])
+
+    def reduced_state(self) -> Array:
+        """True states of the reduced model (`strapdown.reduced.REDUCED_STATE_NAMES`), (N, 5)."""
+        return np.column_stack([self.yaw, self.pitch, self.roll, self.s, self.v])
+
     def to_frame(self) -> pd.DataFrame:
         """The truth.csv table (columns `TRUTH_COLUMNS`, angles in degrees)."""
         deg = np.degrees

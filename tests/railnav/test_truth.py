@@ -18,6 +18,7 @@ import pytest
 from railnav.profiles import constant_speed, station_stop_profile
 from railnav.scenarios import TRACKS_DIR, get_scenario
 from railnav.truth import _dC_n_e, ideal_imu, simulate_truth
+from strapdown.backend import batch_call
 from strapdown.euler import C_b_n
 from strapdown.frames import omega_ie_n
 from strapdown.gravity import g_n
@@ -107,17 +108,12 @@ def closure(track_name: str):
                            rate_hz=scenario.imu_rate_hz)
     imu = ideal_imu(track, truth)
     full = build_full_model(track.earth)
-    x0 = np.r_[truth.yaw[0], truth.pitch[0], truth.roll[0], truth.v_n[0], truth.lat[0],
-               truth.lon[0], truth.h[0]]
-    X = integrate(full.f, x0, imu.u, imu.dt)
+    X = integrate(full.f, truth.full_state()[0], imu.u, imu.dt)
     reduced = build_reduced_model(track.earth)
     # The reduced model follows its own s along the track (not the truth's).
-    XR = integrate_on_track(reduced, track, np.r_[truth.yaw[0], truth.pitch[0], truth.roll[0],
-                                                  truth.s[0], truth.v[0]], imu.u, imu.dt)
+    XR = integrate_on_track(reduced, track, truth.reduced_state()[0], imu.u, imu.dt)
     p = track_parameters(track.at(truth.s), earth=track.earth)
-    x_true = np.c_[truth.yaw, truth.pitch, truth.roll]
-    resid = np.asarray(reduced.h_c.map(len(truth.s))(
-        np.c_[x_true, truth.s, truth.v].T, imu.u.T, p.T)).T
+    (resid,) = batch_call(reduced.h_c, truth.reduced_state(), imu.u, p)
     return track, truth, imu, X, XR, resid
 
 
