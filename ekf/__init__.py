@@ -4,7 +4,30 @@ Owns: the state layout object, continuous-discrete extended Kalman filtering of 
 given as CasADi functions (RK4 propagation, per-sample continuous measurements whose
 noise is correlated with the process noise, discrete updates of any dimension),
 innovation statistics and chi-square gating, an RTS smoother, and multiple-model banks.
-Imports nothing else of the project.
+Imports nothing else of the project (NumPy, SciPy, CasADi; pandas only in ``to_frame``).
+
+Typical use::
+
+    model = CdModel.from_expressions(layout, x, u, p, xdot, h_c=h_c)   # G, D default
+    filt = CdFilter(model, FilterConfig(gate=Gate(0.999, scope="rows"), smoothing=True))
+    res = filt.run(InputSeries(t=t, u=imu, q_c=q_c), epochs, x0=x0, P0=P0)
+    smooth = rts_smooth(res.smoother, res.x_final, res.P_final)
+
+Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step`` (the
+symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it),
+``reference`` (the same step in NumPy), ``update`` / ``gating`` (discrete updates),
+``series`` / ``cd_filter`` / ``history`` (the driver), ``smoother``, ``consistency``,
+``linear`` / ``bank`` (linear KF, multiple-model banks), ``examples``.
+
+Two properties to know when building a model on it:
+
+* Noise model of the inputs: with ``StepOptions(input_hold="zoh")`` an input sample is
+  the mean of the input over its step, and white sample noise of variance ``q_c/dt`` is
+  exactly the model's noise. With ``"linear"`` (default) the step uses two samples, so the
+  noise of a sample enters two steps and the filter's noise model is approximate.
+* A continuous measurement whose Jacobian depends on a noisy input (e.g. ``v·ω``) is
+  biased by errors in variables by ``ω²/(ω² + σ_ω²)`` per sample (``σ_ω`` = per-sample
+  input noise): negligible when the per-sample noise is small against the signal.
 """
 from __future__ import annotations
 

@@ -146,9 +146,11 @@ class CdFilter:
         return record
 
     def propagate(self, samples: InputSeries) -> StepOutputs:
-        """Step through new samples (continuing from the last sample seen)."""
-        rec = Recorder(self.model.layout)
-        self._advance(self._shape(samples), iter(()), rec, None)
+        """Step through new samples (continuing from the last sample seen, or from the
+        prior set by :meth:`reset`); return the per-step outputs of the new steps."""
+        self._last_outputs = None
+        self._advance(self._shape(samples), _Peekable(iter(())), Recorder(self.model.layout),
+                      None)
         return self._last_outputs
 
     def run(self, samples: InputSeries, epochs: Iterable[Epoch], *, x0: npt.ArrayLike,

@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from ekf.layout import StateLayout
 from ekf.packing import unpack_sym
@@ -102,9 +101,10 @@ class FilterResult:
     x_final: Array
     P_final: Array
 
-    def to_frame(self) -> pd.DataFrame:
+    def to_frame(self) -> "pd.DataFrame":
         """States and standard deviations at the stored times: columns ``t_s``,
         ``<name>``, ``sigma_<name>`` for every state component (units of the state)."""
+        import pandas as pd  # only at this boundary: the engine itself needs NumPy only
         data = {"t_s": self.t}
         for i, name in enumerate(self.layout.names):
             data[name] = self.x[:, i]
@@ -112,9 +112,10 @@ class FilterResult:
             data[f"sigma_{name}"] = np.sqrt(self.P_diag[:, i])
         return pd.DataFrame(data)
 
-    def innovations_frame(self) -> pd.DataFrame:
+    def innovations_frame(self) -> "pd.DataFrame":
         """Discrete-update innovations, one row per component: ``t_s``, ``epoch``,
         ``innovation``, ``sigma`` (``√S_ii``), ``accepted``."""
+        import pandas as pd
         return pd.DataFrame({"t_s": self.t_d[self.epoch_of] if self.t_d.size else np.zeros(0),
                              "epoch": self.epoch_of, "innovation": self.innov_d,
                              "sigma": np.sqrt(self.s_d), "accepted": self.accepted})

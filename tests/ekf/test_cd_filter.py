@@ -87,6 +87,24 @@ def test_streaming_in_chunks_equals_one_run(tracking_system, rng):
     np.testing.assert_array_equal(whole.t, samples.t[:STEPS:3])
 
 
+def test_manual_propagate_and_update_equal_run(tracking_system, rng):
+    """Reference: run() over the same samples and epochs."""
+    model, samples, epochs, _, _ = _scenario(tracking_system, rng)
+    filt = CdFilter(model)
+    x0, P0 = np.zeros(2), np.eye(2)
+    whole = filt.run(samples, epochs, x0=x0, P0=P0)
+    filt.reset(x0, P0)
+    shaped = samples.shaped(0, 0, 1, 2)
+    start = 0
+    for epoch in epochs:
+        k = int(round(epoch.t / DT))
+        filt.propagate(shaped.slice(start, k + 1))
+        filt.update(epoch.observations)
+        start = k + 1
+    np.testing.assert_allclose(filt.x, whole.x_final, rtol=1e-13)
+    np.testing.assert_allclose(filt.P, whole.P_final, rtol=1e-13)
+
+
 def test_epoch_off_the_sample_grid_is_refused(tracking_system, rng):
     model, samples, epochs, _, _ = _scenario(tracking_system, rng)
     bad = [Epoch(0.1234, epochs[0].observations)]
