@@ -68,6 +68,12 @@ def test_linear_run_equals_exact_kalman_filter(tracking_system, rng, backend):
     np.testing.assert_allclose(res.P_final, P_ref, rtol=RTOL_EXACT)
     np.testing.assert_allclose(res.nis_d, nis_ref, rtol=RTOL_EXACT)
     assert res.x.shape == (STEPS, 2) and res.nis_c_count == STEPS
+    frame = res.to_frame()
+    assert list(frame.columns) == ["t_s", "x_0", "x_1", "sigma_x_0", "sigma_x_1"]
+    np.testing.assert_array_equal(frame["x_1"], res.x[:, 1])
+    innov = res.innovations_frame()
+    assert len(innov) == len(z_d) and innov["accepted"].all()
+    np.testing.assert_array_equal(innov["t_s"], [e.t for e in epochs])
 
 
 def test_streaming_in_chunks_equals_one_run(tracking_system, rng):
