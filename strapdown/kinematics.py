@@ -29,7 +29,8 @@ from strapdown.gravity import g_n
 from trackmodel.earth import WGS84, Ellipsoid
 
 __all__ = ["INPUT_NAMES", "BIAS_STATE_NAMES", "SensorBiasStates", "StateLayout",
-           "navigation_acceleration", "attitude_rates", "corrected_inputs"]
+           "navigation_acceleration", "attitude_rates", "corrected_inputs", "ModelSymbols",
+           "model_symbols"]
 
 #: The IMU input vector ``u`` of every model: specific force (m/s², b) then angular rate of
 #: ``b`` w.r.t. inertial space (rad/s, b), instantaneous values at the sample time.
@@ -119,6 +120,42 @@ def corrected_inputs(u: Any, bias: Any | None,
     rate_a = 0.0 if math.isinf(biases.accel_tau_s) else 1.0 / biases.accel_tau_s
     rate_g = 0.0 if math.isinf(biases.gyro_tau_s) else 1.0 / biases.gyro_tau_s
     return f_b - b_a, omega_ib_b - b_g, ca.vertcat(-rate_a * b_a, -rate_g * b_g)
+
+
+@dataclass(frozen=True)
+class ModelSymbols:
+    """The symbols a model builder starts from.
+
+    Attributes
+    ----------
+    layout : StateLayout
+        Navigation states, then the bias states when modelled.
+    x, u : casadi.SX
+        State (n_x) and IMU input (6) symbols.
+    f_b, omega_ib_b : casadi.SX
+        Bias-corrected specific force (m/s²) and angular rate (rad/s), body frame.
+    bias_dot : casadi.SX or None
+        Rates of the bias states.
+    """
+
+    layout: StateLayout
+    x: Any
+    u: Any
+    f_b: Any
+    omega_ib_b: Any
+    bias_dot: Any
+
+
+def model_symbols(state_names: tuple[str, ...],
+                  biases: SensorBiasStates | None) -> ModelSymbols:
+    """State/input symbols for navigation states `state_names` (+ biases if given)."""
+    n_nav = len(state_names)
+    layout = StateLayout(state_names + (BIAS_STATE_NAMES if biases is not None else ()))
+    x = ca.SX.sym("x", layout.size)
+    u = ca.SX.sym("u", len(INPUT_NAMES))
+    bias = x[n_nav:n_nav + len(BIAS_STATE_NAMES)] if biases is not None else None
+    f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
+    return ModelSymbols(layout, x, u, f_b, omega_ib_b, bias_dot)
 
 
 def navigation_acceleration(C: Any, f_b: Any, v_n: Any, lat: Any, h: Any, *,

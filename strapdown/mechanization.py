@@ -26,9 +26,8 @@ import casadi as ca
 
 from strapdown.frames import radii_of_curvature
 from strapdown.euler import C_b_n
-from strapdown.kinematics import (BIAS_STATE_NAMES, INPUT_NAMES, SensorBiasStates,
-                                  StateLayout, attitude_rates, corrected_inputs,
-                                  navigation_acceleration)
+from strapdown.kinematics import (SensorBiasStates, StateLayout, attitude_rates,
+                                  model_symbols, navigation_acceleration)
 from trackmodel.earth import WGS84, Ellipsoid
 
 __all__ = ["FULL_STATE_NAMES", "FullModel", "build_full_model"]
@@ -79,14 +78,10 @@ def build_full_model(earth: Ellipsoid = WGS84,
     -------
     FullModel
     """
-    names = FULL_STATE_NAMES + (BIAS_STATE_NAMES if biases is not None else ())
-    layout = StateLayout(names)
-    x = ca.SX.sym("x", layout.size)
-    u = ca.SX.sym("u", len(INPUT_NAMES))
+    sym = model_symbols(FULL_STATE_NAMES, biases)
+    x, u, f_b, omega_ib_b, bias_dot = sym.x, sym.u, sym.f_b, sym.omega_ib_b, sym.bias_dot
     yaw, pitch, roll = x[0], x[1], x[2]
     v_n, lat, h = x[3:6], x[6], x[8]
-    bias = x[9:15] if biases is not None else None
-    f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
 
     C = C_b_n(yaw, pitch, roll)
     a_n, omega_in_n = navigation_acceleration(C, f_b, v_n, lat, h, earth=earth)
@@ -100,4 +95,4 @@ def build_full_model(earth: Ellipsoid = WGS84,
     f = ca.Function("full_f", [x, u], [xdot], ["x", "u"], ["xdot"])
     F_x = ca.Function("full_F_x", [x, u], [ca.jacobian(xdot, x)], ["x", "u"], ["F_x"])
     G = ca.Function("full_G", [x, u], [ca.jacobian(xdot, u)], ["x", "u"], ["G"])
-    return FullModel(layout=layout, f=f, F_x=F_x, G=G, earth=earth, biases=biases)
+    return FullModel(layout=sym.layout, f=f, F_x=F_x, G=G, earth=earth, biases=biases)

@@ -51,9 +51,8 @@ import numpy as np
 
 from strapdown.euler import C_b_n
 from strapdown.frames import radii_of_curvature
-from strapdown.kinematics import (BIAS_STATE_NAMES, INPUT_NAMES, SensorBiasStates,
-                                  StateLayout, attitude_rates, corrected_inputs,
-                                  navigation_acceleration)
+from strapdown.kinematics import (SensorBiasStates, StateLayout, attitude_rates,
+                                  model_symbols, navigation_acceleration)
 from trackmodel.earth import WGS84, Ellipsoid
 
 __all__ = ["REDUCED_STATE_NAMES", "TRACK_PARAMETER_NAMES", "PSEUDO_OBSERVATION_NAMES",
@@ -141,14 +140,10 @@ def build_reduced_model(earth: Ellipsoid = WGS84,
     -------
     ReducedModel
     """
-    names = REDUCED_STATE_NAMES + (BIAS_STATE_NAMES if biases is not None else ())
-    layout = StateLayout(names)
-    x = ca.SX.sym("x", layout.size)
-    u = ca.SX.sym("u", len(INPUT_NAMES))
+    sym = model_symbols(REDUCED_STATE_NAMES, biases)
+    x, u, f_b, omega_ib_b, bias_dot = sym.x, sym.u, sym.f_b, sym.omega_ib_b, sym.bias_dot
     p = ca.SX.sym("p", len(TRACK_PARAMETER_NAMES))
     yaw, pitch, roll, s, v = (x[i] for i in range(5))
-    bias = x[5:11] if biases is not None else None
-    f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
 
     delta = s - p[0]
     lat = p[1] + p[4] * delta
@@ -172,7 +167,7 @@ def build_reduced_model(earth: Ellipsoid = WGS84,
         return ca.Function(f"reduced_{name}", args, [expr], names_in, [out])
 
     return ReducedModel(
-        layout=layout,
+        layout=sym.layout,
         f=fn("f", xdot, "xdot"), F_x=fn("F_x", ca.jacobian(xdot, x), "F_x"),
         G=fn("G", ca.jacobian(xdot, u), "G"),
         h_c=fn("h_c", h_c, "h_c"), H_x=fn("H_x", ca.jacobian(h_c, x), "H_x"),
