@@ -40,11 +40,13 @@ log = logging.getLogger(__name__)
 Array = npt.NDArray[np.float64]
 
 _HOUR_S = 3600.0
-#: Largest |t - reference time| for which a record is used, s, per system (the ICD
-#: curve-fit intervals: GPS/QZSS 4 h fit -> ±2 h; Galileo and BeiDou records are refreshed
-#: every 10 min / 1 h and remain usable ±4 h / ±6 h at degraded accuracy, as in RTKLIB;
-#: GLONASS t_b every 30 min -> ±15 min plus margin).
-MAX_AGE_S = {"G": 2 * _HOUR_S, "J": 2 * _HOUR_S, "E": 4 * _HOUR_S, "C": 6 * _HOUR_S,
+#: Largest |t - reference time| for which a record is used, s, per system. GPS/QZSS: the
+#: 4 h curve fit -> ±2 h (or half the record's fit interval). Galileo records (refreshed
+#: every 10 min) and BeiDou records (hourly) are fitted for short use: against the CODE
+#: final orbits of 2020-11-29 Galileo errors grow from ~1 m within 1 h to 9 m at 1-1.5 h,
+#: 18 m at 1.5-2 h and 30-100 m beyond, so both take ±2 h. GLONASS t_b every 30 min ->
+#: ±15 min, with margin ±30 min.
+MAX_AGE_S = {"G": 2 * _HOUR_S, "J": 2 * _HOUR_S, "E": 2 * _HOUR_S, "C": 2 * _HOUR_S,
              "R": 0.5 * _HOUR_S}
 #: Galileo navigation message -> data-source bit saying which signal pair its clock serves
 #: (RINEX 3.04 Table A8: bit 8 = af0..af2 for E5a,E1 (F/NAV); bit 9 = E5b,E1 (I/NAV)).

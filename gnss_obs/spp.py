@@ -218,7 +218,9 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | No
                                  p_false_alarm=cfg.p_false_alarm,
                                  p_missed_detection=cfg.p_missed_detection)
     H, _, _ = _design(prep, r_e, present)
-    clocks = {s: float(fde.step.dx[3 + i]) for i, s in enumerate(present)}
+    ref_clock = float(fde.step.dx[3])  # the others are inter-system biases on top of it
+    clocks = {s: ref_clock + (float(fde.step.dx[3 + i]) if i else 0.0)
+              for i, s in enumerate(present)}
     fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=step_enu.cov[:3, :3],
                    clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
                    n_tracked=len(epoch), raim_ok=fde.raim_ok, hpl_m=hpl, vpl_m=vpl,

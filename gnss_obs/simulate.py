@@ -1,0 +1,409 @@
+"""Simulated GNSS measurements for any receiver trajectory, as a RINEX observation table.
+
+`simulate_gnss` takes the constellation of a broadcast navigation file (the real geometry of
+its day; by default the shipped 2020-11-29 file, `default_nav_path`) and a receiver
+trajectory, and generates per epoch and visible satellite:
+
+``P  = ρ + b - c(δt_sv - T_GD) + I + T + m + f + ε_P``
+``ρ̇ = e·(v_sat - v_rx) + d - c δṫ_sv + ε_ρ̇``,  written as Doppler ``D = -ρ̇ / λ``
+
+* ``ρ``: geometric range from an **independent** NumPy light-time iteration (not the
+  CasADi models of `gnss_obs.observables`, not the pseudorange-based transmission time of
+  `gnss_obs.epoch`): ``τ = |r_sat(t_r - τ) - R_z(-Ωτ) r_rx| / c`` solved by fixed point,
+  the receiver turned into the ECEF frame of the transmission instant;
+* ``b, d``: receiver clock (`gnss_obs.oscillator`; time tags are receiver time, so the true
+  reception time is ``t_r = t_tag - b/c``; the receiver position is the trajectory's at the
+  tag, an error of ``|v| b / c``, below 1 mm while ``|b| < 15 km`` at 20 m/s);
+* ``δt_sv, T_GD``: broadcast satellite clock with relativity and the signal's group delay
+  (`gnss_obs.ephemeris`);
+* ``I, T``: Klobuchar and Saastamoinen/Niell delays from **the same functions the
+  estimators use** (`gnss_obs.corrections`) at the true position: an estimator applying its
+  corrections at its estimate removes them exactly (to the small change of the delays with
+  the position error). The simulation tests estimators, not atmosphere models;
+* ``m``: optional multipath, a first-order Gauss-Markov bias per satellite;
+* ``f``: optional per-satellite faults (step and/or ramp from a start time);
+* ``ε``: white Gaussian noise, σ constant or ``σ / sin(elevation)``.
+
+Satellites below the elevation mask are not observed; **outages** remove all satellites or
+keep only the N highest, or raise the mask, inside time windows. One signal per system:
+GPS/QZSS L1 C/A ``1C``, Galileo E1 ``1C`` (I/NAV clock), BeiDou B1I ``2I``, GLONASS L1 ``1C``.
+Pseudoranges, Doppler and C/N0 are rounded to the RINEX resolution (0.001) so that a table
+written with `write_rinex_obs` reads back identically.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS, carrier_frequency_hz
+from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angles,
+                                  troposphere_delay_m)
+from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
+from gnss_obs.errors import GnssError, GnssInputError
+from gnss_obs.oscillator import oscillator_from_name, simulate_clock
+from gnss_obs.rinex_nav import RinexNav
+from gnss_obs.rinex_obs import ObsHeader, RinexObs
+from gnss_obs.rinex_write import write_rinex_nav, write_rinex_obs
+from gnss_obs.sim_events import Outage, SatelliteFault, apply_faults, visible_after_outages
+from trackmodel.earth import ecef_to_geodetic
+
+__all__ = ["GnssSimConfig", "GnssSimulation", "SatelliteFault", "Outage", "simulate_gnss",
+           "write_simulation", "default_nav_path", "SIM_SIGNALS", "DEFAULT_START_GPS_TIME_S",
+           "PAPER_SIGMA_PR_M", "PAPER_SIGMA_RR_MPS"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: Simulated signal per system: (RINEX signal, band).
+SIM_SIGNALS = {"G": ("1C", 1), "E": ("1C", 1), "C": ("2I", 2), "R": ("1C", 1), "J": ("1C", 1)}
+#: 2020-11-29 12:00:00 GPST, inside the shipped navigation file (records 09:00-15:00).
+DEFAULT_START_GPS_TIME_S = 2134 * 604_800 + 43_200.0
+#: The 2017 paper's GNSS noise (SEEDS.md: variances 15 m² and 0.5 (m/s)² at 1 Hz).
+PAPER_SIGMA_PR_M = math.sqrt(15.0)
+PAPER_SIGMA_RR_MPS = math.sqrt(0.5)
+_RINEX_DECIMALS = 3
+_LIGHT_TIME_ITERATIONS = 6
+_LIGHT_TIME_TOL_S = 1e-13
+_NOMINAL_FLIGHT_S = 0.075
+
+
+def default_nav_path() -> Path:
+    """The shipped broadcast navigation file (``data/gnss/broadcast_nav.rnx``, 2020-11-29).
+
+    Found relative to the source tree (editable install); raises `GnssError` otherwise.
+    """
+    path = Path(__file__).resolve().parents[1] / "data" / "gnss" / "broadcast_nav.rnx"
+    if not path.is_file():
+        raise GnssError(f"default navigation file not found at {path}; pass a RinexNav")
+    return path
+
+
+@dataclass(frozen=True)
+class GnssSimConfig:
+    """Settings of the measurement generator (module docstring).
+
+    Parameters
+    ----------
+    systems : str
+        Systems to simulate (letters of ``GECRJ``).
+    elevation_mask_deg : float
+        Satellites below are not observed, deg.
+    sigma_pr_m, sigma_rr_mps : float
+        White-noise standard deviations of pseudorange (m) and range rate (m/s) at zenith
+        (defaults: the 2017 paper's scenario, elevation-independent).
+    elevation_dependent_noise : bool
+        Scale σ by ``1/sin(elevation)``.
+    multipath_sigma_m : float
+        Steady-state σ of the multipath bias (0 = none), m; scaled by ``1/sin(elevation)``.
+    multipath_tau_s : float
+        Correlation time of the multipath bias, s.
+    oscillator : str
+        Receiver clock preset (`gnss_obs.oscillator.OSCILLATORS`).
+    clock_bias0_m, clock_drift0_mps : float
+        Receiver clock bias (m) and drift (m/s) at the first epoch.
+    ionosphere, troposphere : bool
+        Add the Klobuchar and Saastamoinen/Niell delays.
+    cn0_zenith_dbhz, cn0_horizon_dbhz : float
+        C/N0 written to the file, linear in sin(elevation) between these.
+    faults : tuple of SatelliteFault
+    outages : tuple of Outage
+    """
+
+    systems: str = "GE"
+    elevation_mask_deg: float = 10.0
+    sigma_pr_m: float = PAPER_SIGMA_PR_M
+    sigma_rr_mps: float = PAPER_SIGMA_RR_MPS
+    elevation_dependent_noise: bool = False
+    multipath_sigma_m: float = 0.0
+    multipath_tau_s: float = 60.0
+    oscillator: str = "tcxo"
+    clock_bias0_m: float = 0.0
+    clock_drift0_mps: float = 0.0
+    ionosphere: bool = True
+    troposphere: bool = True
+    cn0_zenith_dbhz: float = 48.0
+    cn0_horizon_dbhz: float = 36.0
+    faults: tuple[SatelliteFault, ...] = ()
+    outages: tuple[Outage, ...] = ()
+
+    def __post_init__(self) -> None:
+        if not self.systems or set(self.systems) - set(SIM_SIGNALS):
+            raise GnssError(f"systems must be letters of {''.join(SIM_SIGNALS)}, "
+                            f"got {self.systems!r}")
+        for name in ("sigma_pr_m", "sigma_rr_mps", "multipath_sigma_m"):
+            v = getattr(self, name)
+            if not (np.isfinite(v) and v >= 0):
+                raise GnssError(f"{name} must be a finite number >= 0, got {v!r}")
+        if not (self.multipath_tau_s > 0):
+            raise GnssError("multipath_tau_s must be > 0")
+        if not (-90.0 <= self.elevation_mask_deg < 90.0):
+            raise GnssError("elevation_mask_deg must be in [-90, 90)")
+        oscillator_from_name(self.oscillator)
+
+
+@dataclass(frozen=True, eq=False)
+class GnssSimulation:
+    """Output of `simulate_gnss`.
+
+    Attributes
+    ----------
+    obs : RinexObs
+        Header and observation table as `read_rinex_obs` returns them.
+    clock : pandas.DataFrame
+        Receiver clock truth: ``gps_time_s, clock_bias_m, clock_drift_mps``.
+    satellites : pandas.DataFrame
+        Per observation: ``gps_time_s, sv, elevation_deg, azimuth_deg, iono_m, tropo_m,
+        multipath_m, fault_m, noise_pr_m, noise_rr_mps``, and the noise-free
+        ``pseudorange_free_m`` and ``range_rate_free_mps`` (before rounding).
+    """
+
+    obs: RinexObs
+    clock: pd.DataFrame
+    satellites: pd.DataFrame
+
+
+def _check_trajectory(t: Array, r_e: Array, v_e: Array) -> None:
+    if t.ndim != 1 or t.size == 0 or not np.all(np.isfinite(t)):
+        raise GnssInputError("gps_time_s must be a non-empty 1-D array of finite times",
+                             column="gps_time_s")
+    if np.any(np.diff(t) <= 0):
+        raise GnssInputError("gps_time_s must be strictly increasing", column="gps_time_s")
+    for name, a in (("r_e", r_e), ("v_e", v_e)):
+        if a.shape != (t.size, 3) or not np.all(np.isfinite(a)):
+            raise GnssInputError(f"{name} must be a finite array of shape ({t.size}, 3), "
+                                 f"got {a.shape}", column=name)
+
+
+def _candidate_satellites(nav: RinexNav, systems: str) -> list[str]:
+    out = []
+    for s in systems:
+        recs = nav.records.get(s)
+        if recs is not None and len(recs):
+            out += sorted(set(recs.loc[recs["health"] == 0, "sv"]))
+    if not out:
+        raise GnssError(f"the navigation data has no healthy records of systems {systems!r}")
+    return out
+
+
+def _light_time(sel: pd.DataFrame, t_rx: Array, r_rx: Array):
+    """Fixed-point light time with the receiver turned into the transmission-time frame."""
+    tau = np.full(t_rx.shape, _NOMINAL_FLIGHT_S)
+    for _ in range(_LIGHT_TIME_ITERATIONS):
+        states = satellite_states(sel, t_rx - tau)
+        a = OMEGA_E_GPS * tau  # Earth rotation during the flight
+        c, s = np.cos(a), np.sin(a)
+        rx_tx = np.stack([c * r_rx[:, 0] - s * r_rx[:, 1], s * r_rx[:, 0] + c * r_rx[:, 1],
+                          r_rx[:, 2]], axis=-1)
+        new_tau = np.linalg.norm(states.r_e - rx_tx, axis=1) / SPEED_OF_LIGHT_MPS
+        done = np.max(np.abs(new_tau - tau), initial=0.0) < _LIGHT_TIME_TOL_S
+        tau = new_tau
+        if done:
+            break
+    return states, tau, a, rx_tx
+
+
+def _rotate_into_tx_frame(vec: Array, angle: Array) -> Array:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.stack([c * vec[:, 0] - s * vec[:, 1], s * vec[:, 0] + c * vec[:, 1], vec[:, 2]],
+                    axis=-1)
+
+
+def _multipath(sv: np.ndarray, epoch: np.ndarray, t: Array, elevation: Array,
+               cfg: GnssSimConfig, rng: np.random.Generator) -> Array:
+    """First-order Gauss-Markov bias per satellite over the epoch grid, times 1/sin(el)."""
+    out = np.zeros(sv.size)
+    if cfg.multipath_sigma_m == 0:
+        return out
+    names, col = np.unique(sv, return_inverse=True)
+    grid = np.zeros((t.size, names.size))
+    grid[0] = cfg.multipath_sigma_m * rng.standard_normal(names.size)
+    phi = np.exp(-np.diff(t) / cfg.multipath_tau_s)
+    w = rng.standard_normal((t.size - 1, names.size))
+    for k in range(t.size - 1):
+        grid[k + 1] = phi[k] * grid[k] + cfg.multipath_sigma_m * np.sqrt(1 - phi[k] ** 2) * w[k]
+    return grid[epoch, col] / np.sin(np.maximum(elevation, np.deg2rad(5.0)))
+
+
+def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayLike,
+                  nav: RinexNav, config: GnssSimConfig | None = None, *,
+                  rng: np.random.Generator) -> GnssSimulation:
+    """Simulate pseudorange and Doppler observations of a receiver trajectory.
+
+    Parameters
+    ----------
+    gps_time_s : array_like, shape (N,)
+        Epoch time tags (receiver time), s since the GPS epoch; inside the validity of
+        `nav` (the shipped file: 2020-11-29 10:00-15:00 GPST, see
+        `DEFAULT_START_GPS_TIME_S`).
+    r_e : array_like, shape (N, 3)
+        Receiver (antenna) position, ECEF, m.
+    v_e : array_like, shape (N, 3)
+        Receiver velocity, ECEF, m/s.
+    nav : RinexNav
+        Broadcast navigation data (orbits, clocks, Klobuchar coefficients).
+    config : GnssSimConfig, optional
+    rng : numpy.random.Generator
+        Source of every random draw (clock, noise, multipath).
+
+    Returns
+    -------
+    GnssSimulation
+        Observation table + header, receiver clock truth, per-observation truth.
+
+    Raises
+    ------
+    GnssInputError
+        For a trajectory that is not finite, increasing and of matching shapes.
+    GnssError
+        If the navigation data has no usable satellite of the configured systems.
+    """
+    cfg = config or GnssSimConfig()
+    t = np.asarray(gps_time_s, dtype=float)
+    r_e, v_e = np.asarray(r_e, dtype=float), np.asarray(v_e, dtype=float)
+    _check_trajectory(t, r_e, v_e)
+    bias, drift = simulate_clock(t, oscillator_from_name(cfg.oscillator),
+                                 bias0_m=cfg.clock_bias0_m, drift0_mps=cfg.clock_drift0_mps,
+                                 rng=rng)
+    svs = _candidate_satellites(nav, cfg.systems)
+    epoch = np.repeat(np.arange(t.size), len(svs))
+    sv = np.tile(np.array(svs, dtype=object), t.size)
+    sel = select_ephemeris(nav.records, sv, t[epoch])
+    ok = sel["ephemeris_ok"].to_numpy()
+    epoch, sv, sel = epoch[ok], sv[ok], sel[ok].reset_index(drop=True)
+    geo = _geometry(sel, t, epoch, r_e, v_e, bias)
+    keep = visible_after_outages(t, epoch, geo["elevation"], cfg.outages,
+                                 mask_rad=np.deg2rad(cfg.elevation_mask_deg))
+    geo = {k: v[keep] for k, v in geo.items()}
+    epoch, sv, sel = epoch[keep], sv[keep], sel[keep].reset_index(drop=True)
+    return _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg, nav, rng)
+
+
+def _geometry(sel: pd.DataFrame, t: Array, epoch: np.ndarray, r_e: Array, v_e: Array,
+              bias: Array) -> dict[str, Array]:
+    """Range, range rate and look angles of every (epoch, satellite) pair."""
+    t_rx = t[epoch] - bias[epoch] / SPEED_OF_LIGHT_MPS  # tags are receiver time
+    r_rx, v_rx = r_e[epoch], v_e[epoch]
+    states, tau, angle, rx_tx = _light_time(sel, t_rx, r_rx)
+    los = states.r_e - rx_tx
+    geometric = np.linalg.norm(los, axis=1)
+    unit = los / geometric[:, None]
+    rate = np.einsum("ni,ni->n", unit, states.v_e - _rotate_into_tx_frame(v_rx, angle))
+    sat_in_rx_frame = _rotate_into_tx_frame(states.r_e, -angle)
+    elevation, azimuth = look_angles(r_rx, sat_in_rx_frame)
+    return {"range": geometric, "rate": rate, "elevation": elevation, "azimuth": azimuth,
+            "sat_clock_s": states.clock_s, "sat_drift_sps": states.clock_drift_sps}
+
+
+def _signals(sv: np.ndarray, sel: pd.DataFrame):
+    system = np.array([s[0] for s in sv])
+    signal = np.array([SIM_SIGNALS[s][0] for s in system], dtype=object)
+    band = np.array([SIM_SIGNALS[s][1] for s in system], dtype=np.int64)
+    channel = sel["freq_channel"].to_numpy() if "freq_channel" in sel else np.full(sv.size, np.nan)
+    freq = np.array([carrier_frequency_hz(s, int(b), None if s != "R" else int(k))
+                     for s, b, k in zip(system, band, channel)])
+    return system, signal, band, freq
+
+
+def _atmosphere(t_row: Array, r_rx: Array, geo: dict, freq: Array, cfg: GnssSimConfig,
+                nav: RinexNav) -> tuple[Array, Array]:
+    lat, lon, h = ecef_to_geodetic(r_rx)
+    iono = np.zeros(t_row.size)
+    tropo = np.zeros(t_row.size)
+    if cfg.ionosphere and nav.header.iono_gps_alpha is not None:
+        iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
+            nav.header.iono_gps_alpha, nav.header.iono_gps_beta, lat=lat, lon=lon,
+            elevation=geo["elevation"], azimuth=geo["azimuth"], gps_time_s=t_row) \
+            * ionosphere_scale(freq)
+    if cfg.troposphere:
+        tropo = troposphere_delay_m(geo["elevation"], lat, h, gps_time_s=t_row)
+    return iono, tropo
+
+
+def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
+                  nav: RinexNav, rng: np.random.Generator) -> GnssSimulation:
+    system, signal, band, freq = _signals(sv, sel)
+    t_row = t[epoch]
+    iono, tropo = _atmosphere(t_row, r_e[epoch], geo, freq, cfg, nav)
+    clock_m = SPEED_OF_LIGHT_MPS * (geo["sat_clock_s"] - group_delay_s(sel, band))
+    pr_free = geo["range"] + bias[epoch] - clock_m + iono + tropo
+    rr_free = geo["rate"] + drift[epoch] - SPEED_OF_LIGHT_MPS * geo["sat_drift_sps"]
+    scale = 1.0 / np.sin(np.maximum(geo["elevation"], np.deg2rad(5.0))) \
+        if cfg.elevation_dependent_noise else np.ones(sv.size)
+    noise_pr = cfg.sigma_pr_m * scale * rng.standard_normal(sv.size)
+    noise_rr = cfg.sigma_rr_mps * scale * rng.standard_normal(sv.size)
+    multipath = _multipath(sv, epoch, t, geo["elevation"], cfg, rng)
+    fault_pr, fault_rr = apply_faults(t, epoch, sv, cfg.faults)
+    pr = pr_free + multipath + fault_pr + noise_pr
+    rr = rr_free + fault_rr + noise_rr
+    sin_el = np.clip(np.sin(geo["elevation"]), 0.0, 1.0)
+    cn0 = cfg.cn0_horizon_dbhz + (cfg.cn0_zenith_dbhz - cfg.cn0_horizon_dbhz) * sin_el
+    n = sv.size
+    table = pd.DataFrame({
+        "gps_time_s": t_row, "sv": sv.astype(object), "system": system.astype(object),
+        "prn": np.array([int(s[1:]) for s in sv], dtype=np.int64), "signal": signal,
+        "band": band, "pseudorange_m": np.round(pr, _RINEX_DECIMALS),
+        "carrier_cycles": np.full(n, np.nan),
+        "doppler_hz": np.round(-rr * freq / SPEED_OF_LIGHT_MPS, _RINEX_DECIMALS),
+        "cn0_dbhz": np.round(cn0, _RINEX_DECIMALS), "lli": np.zeros(n, dtype=np.int64),
+        "ssi": np.zeros(n, dtype=np.int64), "epoch_flag": np.zeros(n, dtype=np.int64)})
+    truth = pd.DataFrame({
+        "gps_time_s": t_row, "sv": sv, "elevation_deg": np.rad2deg(geo["elevation"]),
+        "azimuth_deg": np.rad2deg(geo["azimuth"]), "iono_m": iono, "tropo_m": tropo,
+        "multipath_m": multipath, "fault_m": fault_pr, "noise_pr_m": noise_pr,
+        "noise_rr_mps": noise_rr, "pseudorange_free_m": pr_free,
+        "range_rate_free_mps": rr_free})
+    order = np.lexsort((table["sv"].to_numpy().astype(str), t_row))
+    table = table.iloc[order].reset_index(drop=True)
+    truth = truth.iloc[order].reset_index(drop=True)
+    clock = pd.DataFrame({"gps_time_s": t, "clock_bias_m": bias, "clock_drift_mps": drift})
+    return GnssSimulation(RinexObs(_header(table, t, r_e, sel, sv, nav), table), clock, truth)
+
+
+def _header(table: pd.DataFrame, t: Array, r_e: Array, sel: pd.DataFrame, sv: np.ndarray,
+            nav: RinexNav) -> ObsHeader:
+    systems = sorted(set(table["system"]))
+    types = {s: [k + SIM_SIGNALS[s][0] for k in ("C", "D", "S")] for s in systems}
+    slots = {}
+    if "freq_channel" in sel:
+        glo = np.array([s[0] == "R" for s in sv])
+        slots = {str(s): int(k) for s, k in zip(sv[glo], sel["freq_channel"].to_numpy()[glo])}
+    interval = float(np.median(np.diff(t))) if t.size > 1 else None
+    return ObsHeader(obs_types=types, first_obs_gps_time_s=float(t[0]), marker_name="SIMULATED",
+                     receiver="railnav simulate_gnss", approx_position_e=r_e[0].copy(),
+                     interval_s=interval, time_system="GPS",
+                     leap_seconds=nav.header.leap_seconds, glonass_slots=dict(sorted(slots.items())))
+
+
+def write_simulation(out_dir: str | os.PathLike, simulation: GnssSimulation, nav: RinexNav, *,
+                     obs_name: str = "gnss_obs.rnx",
+                     nav_name: str = "gnss_nav.rnx") -> tuple[Path, Path]:
+    """Write a simulation's observations and the navigation data it used (RINEX 3.04).
+
+    Parameters
+    ----------
+    out_dir : str or os.PathLike
+        Existing directory.
+    simulation : GnssSimulation
+    nav : RinexNav
+        The navigation data given to `simulate_gnss`.
+    obs_name, nav_name : str
+        File names inside `out_dir`.
+
+    Returns
+    -------
+    (obs_path, nav_path) : tuple of Path
+        Both written atomically (`write_rinex_obs`, `write_rinex_nav`).
+    """
+    out = Path(out_dir)
+    obs_path, nav_path = out / obs_name, out / nav_name
+    write_rinex_obs(obs_path, simulation.obs.header, simulation.obs.table)
+    write_rinex_nav(nav_path, nav)
+    return obs_path, nav_path
