@@ -43,9 +43,11 @@ log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
-#: A receiver guess closer to the Earth's centre than this (m) is "unknown" (cold start):
-#: no elevation, atmosphere or weighting is computed from it.
+#: A receiver guess closer to the Earth's centre than this (m), or higher above the
+#: ellipsoid than `MAX_RECEIVER_HEIGHT_M`, is "unknown" (a cold start's early iterates): no
+#: elevation, atmosphere or weighting is computed from it.
 MIN_RECEIVER_RADIUS_M = 1.0e6
+MAX_RECEIVER_HEIGHT_M = 1.0e5
 #: Elevation floor of the 1/sin(elevation) weighting, rad.
 _MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
 
@@ -224,7 +226,7 @@ def transmit_states(epoch: EpochData, config: MeasurementConfig):
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
                   klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
-                  transmit=None) -> PreparedEpoch:
+                  transmit=None, coarse: bool = False) -> PreparedEpoch:
     """Prepared per-satellite data of one epoch at a receiver position guess.
 
     Parameters
@@ -240,6 +242,9 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     transmit : optional
         The result of `transmit_states` for this epoch (it does not depend on the guess;
         pass it to skip recomputing in an iteration).
+    coarse : bool
+        Treat the guess as unknown (no elevation, corrections or weighting), as for a
+        cold start's early iterates, which may be hundreds of km off.
 
     Returns
     -------
@@ -248,7 +253,10 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     """
     states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
-    known = np.linalg.norm(r_rx_e) > MIN_RECEIVER_RADIUS_M
+    known = not coarse and np.linalg.norm(r_rx_e) > MIN_RECEIVER_RADIUS_M
+    if known:
+        lat, lon, h = ecef_to_geodetic(r_rx_e)
+        known = abs(h) < MAX_RECEIVER_HEIGHT_M
     tau = np.linalg.norm(states.r_e - r_rx_e, axis=1) / SPEED_OF_LIGHT_MPS
     sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
     meas = epoch.meas
@@ -258,7 +266,6 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     elevation = azimuth = np.full(n, np.nan)
     if known:
         elevation, azimuth = look_angles(r_rx_e, sat_pos_e)
-        lat, lon, h = ecef_to_geodetic(r_rx_e)
         if config.troposphere:
             tropo = troposphere_delay_m(elevation, lat, h, gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:

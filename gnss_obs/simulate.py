@@ -34,8 +34,7 @@ from __future__ import annotations
 
 import logging
 import math
-import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -49,8 +48,8 @@ from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
 from gnss_obs.rinex_nav import RinexNav
-from gnss_obs.rinex_obs import ObsHeader, RinexObs
-from gnss_obs.rinex_write import write_rinex_nav, write_rinex_obs
+from gnss_obs.rinex_obs import RinexObs
+from gnss_obs.sim_files import simulation_header, write_simulation
 from gnss_obs.sim_events import Outage, SatelliteFault, apply_faults, visible_after_outages
 from trackmodel.earth import ecef_to_geodetic
 
@@ -364,46 +363,10 @@ def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
     table = table.iloc[order].reset_index(drop=True)
     truth = truth.iloc[order].reset_index(drop=True)
     clock = pd.DataFrame({"gps_time_s": t, "clock_bias_m": bias, "clock_drift_mps": drift})
-    return GnssSimulation(RinexObs(_header(table, t, r_e, sel, sv, nav), table), clock, truth)
-
-
-def _header(table: pd.DataFrame, t: Array, r_e: Array, sel: pd.DataFrame, sv: np.ndarray,
-            nav: RinexNav) -> ObsHeader:
-    systems = sorted(set(table["system"]))
-    types = {s: [k + SIM_SIGNALS[s][0] for k in ("C", "D", "S")] for s in systems}
-    slots = {}
-    if "freq_channel" in sel:
-        glo = np.array([s[0] == "R" for s in sv])
-        slots = {str(s): int(k) for s, k in zip(sv[glo], sel["freq_channel"].to_numpy()[glo])}
-    interval = float(np.median(np.diff(t))) if t.size > 1 else None
-    return ObsHeader(obs_types=types, first_obs_gps_time_s=float(t[0]), marker_name="SIMULATED",
-                     receiver="railnav simulate_gnss", approx_position_e=r_e[0].copy(),
-                     interval_s=interval, time_system="GPS",
-                     leap_seconds=nav.header.leap_seconds, glonass_slots=dict(sorted(slots.items())))
-
-
-def write_simulation(out_dir: str | os.PathLike, simulation: GnssSimulation, nav: RinexNav, *,
-                     obs_name: str = "gnss_obs.rnx",
-                     nav_name: str = "gnss_nav.rnx") -> tuple[Path, Path]:
-    """Write a simulation's observations and the navigation data it used (RINEX 3.04).
-
-    Parameters
-    ----------
-    out_dir : str or os.PathLike
-        Existing directory.
-    simulation : GnssSimulation
-    nav : RinexNav
-        The navigation data given to `simulate_gnss`.
-    obs_name, nav_name : str
-        File names inside `out_dir`.
-
-    Returns
-    -------
-    (obs_path, nav_path) : tuple of Path
-        Both written atomically (`write_rinex_obs`, `write_rinex_nav`).
-    """
-    out = Path(out_dir)
-    obs_path, nav_path = out / obs_name, out / nav_name
-    write_rinex_obs(obs_path, simulation.obs.header, simulation.obs.table)
-    write_rinex_nav(nav_path, nav)
-    return obs_path, nav_path
+    glo = np.array([s[0] == "R" for s in sv])
+    slots = {str(s): int(k) for s, k in zip(sv[glo], sel.loc[glo, "freq_channel"])} \
+        if glo.any() else {}
+    header = simulation_header(table, signals={s: v[0] for s, v in SIM_SIGNALS.items()},
+                               r0_e=r_e[0], glonass_slots=slots,
+                               leap_seconds=nav.header.leap_seconds)
+    return GnssSimulation(RinexObs(header, table), clock, truth)

@@ -26,10 +26,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
-from gnss_obs.epoch import (MIN_RECEIVER_RADIUS_M, EpochData, PreparedEpoch, prepare_epoch,
-                            split_epochs, transmit_states)
+from gnss_obs.epoch import (MAX_RECEIVER_HEIGHT_M, MIN_RECEIVER_RADIUS_M, EpochData,
+                            PreparedEpoch, prepare_epoch, split_epochs, transmit_states)
 from gnss_obs.errors import GnssError
 from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
 from gnss_obs.observables import predict_pseudorange, predict_range_rate, system_bias_matrix
@@ -48,6 +47,9 @@ Array = npt.NDArray[np.float64]
 #: Fewest Doppler measurements for a velocity: 4 unknowns + 1 redundant (an untestable
 #: velocity is not reported).
 _MIN_DOPPLER_SATS = 5
+#: A cold start's coarse iterations (no mask, weights or corrections) end once a position
+#: step is below this, m: the guess is then good enough for elevations and delays.
+COARSE_STEP_M = 1.0e3
 
 
 @dataclass(frozen=True)
@@ -128,14 +130,24 @@ def _design(prep: PreparedEpoch, r_e: Array, systems: str):
     return np.hstack([H_r, S]), prep.pseudorange_m - rho, present
 
 
+def _prepare(epoch: EpochData, tx, ctx: _Context, r_e: Array, excluded: set[str], *,
+             coarse: bool = False) -> PreparedEpoch:
+    prep = prepare_epoch(epoch, ctx.config.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
+                         transmit=tx, coarse=coarse)
+    return prep.subset(_candidates(prep, ctx.config) & ~np.isin(prep.sv, list(excluded)))
+
+
 def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
                   excluded: set[str]) -> tuple[Array, PreparedEpoch] | None:
-    """Iterate position + clocks to convergence; returns the final iterate and its data."""
+    """Iterate position + clocks to convergence; returns the final iterate and its data.
+
+    From a guess far from the surface (cold start) the first iterates use no mask, weights
+    or corrections (`prepare_epoch(coarse=True)`) until a step is below `COARSE_STEP_M`.
+    """
     cfg = ctx.config
+    coarse = not _near_surface(r_e)
     for _ in range(cfg.max_iter):
-        prep = prepare_epoch(epoch, cfg.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
-                             transmit=tx)
-        prep = prep.subset(_candidates(prep, cfg) & ~np.isin(prep.sv, list(excluded)))
+        prep = _prepare(epoch, tx, ctx, r_e, excluded, coarse=coarse)
         H, z, present = _design(prep, r_e, cfg.measurement.systems)
         if len(prep) < H.shape[1]:
             return None
@@ -144,12 +156,18 @@ def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
         except np.linalg.LinAlgError:
             return None
         r_e = r_e + dx[:3]
-        if np.linalg.norm(dx[:3]) < cfg.tol_m:
+        step = np.linalg.norm(dx[:3])
+        if coarse:
+            coarse = step > COARSE_STEP_M or not _near_surface(r_e)
+        elif step < cfg.tol_m:
             break
-    prep = prepare_epoch(epoch, cfg.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
-                         transmit=tx)
-    prep = prep.subset(_candidates(prep, cfg) & ~np.isin(prep.sv, list(excluded)))
-    return r_e, prep
+    return r_e, _prepare(epoch, tx, ctx, r_e, excluded)
+
+
+def _near_surface(r_e: Array) -> bool:
+    if np.linalg.norm(r_e) < MIN_RECEIVER_RADIUS_M:
+        return False
+    return abs(float(ecef_to_geodetic(r_e)[2])) < MAX_RECEIVER_HEIGHT_M
 
 
 def _position(epoch: EpochData, tx, ctx: _Context, r0: Array):
@@ -223,7 +241,8 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | No
               for i, s in enumerate(present)}
     fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=step_enu.cov[:3, :3],
                    clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
-                   n_tracked=len(epoch), raim_ok=fde.raim_ok, hpl_m=hpl, vpl_m=vpl,
+                   n_tracked=len(epoch), raim_ok=fde.raim_ok,
+                   chi2=fde.step.test_statistic, dof=fde.step.dof, hpl_m=hpl, vpl_m=vpl,
                    dop=dilution_of_precision(H[:, :3], H[:, 3:], lat=float(lat),
                                              lon=float(lon)),
                    sky=_sky(epoch, tx, ctx, r_e, clocks))
@@ -235,6 +254,7 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | No
         fix.cov_v_enu = C.T @ vfde.step.cov[:3, :3] @ C
         fix.doppler_sv = sub.sv[vfde.kept]
         fix.velocity_raim_ok = vfde.raim_ok
+        fix.chi2_doppler, fix.dof_doppler = vfde.step.test_statistic, vfde.step.dof
     return fix
 
 

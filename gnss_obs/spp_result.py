@@ -7,9 +7,12 @@ names, ARCHITECTURE.md "The command line"):
 clock_bias_<S>_m`` (receiver clock seen by system S, m, one column per configured system)
 ``, clock_drift_mps, n_sat_tracked, n_sat_used, n_sat_doppler, gdop, pdop, hdop, vdop, tdop,
 sigma_east_m, sigma_north_m, sigma_up_m, sigma_v_east_mps, sigma_v_north_mps,
-sigma_v_up_mps, hpl_m, vpl_m, fix_ok, raim_ok, velocity_ok, n_excluded, excluded_sv``.
+sigma_v_up_mps, hpl_m, vpl_m, chi2, dof, chi2_doppler, dof_doppler, fix_ok, raim_ok,
+velocity_ok, n_excluded, excluded_sv``.
 
-Flags: ``fix_ok`` a position was computed; ``raim_ok`` its χ² residual test passed
+``chi2``/``dof`` are the weighted sum of squared pseudorange residuals and its degrees of
+freedom (``chi2_doppler``/``dof_doppler`` for the range rates): ``chi2/dof`` near 1 means the
+σ model fits. Flags: ``fix_ok`` a position was computed; ``raim_ok`` its χ² residual test passed
 (after any exclusion); ``velocity_ok`` a Doppler velocity was computed and its test passed;
 ``excluded_sv`` the satellites removed by FDE (space-separated).
 """
@@ -45,6 +48,8 @@ class EpochFix:
     excluded_sv: list[str]
     n_tracked: int
     raim_ok: bool
+    chi2: float
+    dof: int
     hpl_m: float
     vpl_m: float
     dop: Dop
@@ -54,6 +59,8 @@ class EpochFix:
     cov_v_enu: Array = field(default_factory=lambda: np.full((3, 3), np.nan))
     doppler_sv: np.ndarray = field(default_factory=lambda: np.array([], dtype=object))
     velocity_raim_ok: bool = False
+    chi2_doppler: float = float("nan")
+    dof_doppler: int = 0
 
 
 @dataclass(frozen=True)
@@ -117,8 +124,8 @@ class SppResult:
             "sigma_v_up_mps": sig_v[:, 2]})
         counts = self.table[["n_sat_tracked", "n_sat_used", "n_sat_doppler", "gdop", "pdop",
                              "hdop", "vdop", "tdop"]]
-        flags = self.table[["hpl_m", "vpl_m", "fix_ok", "raim_ok", "velocity_ok",
-                            "n_excluded", "excluded_sv"]]
+        flags = self.table[["hpl_m", "vpl_m", "chi2", "dof", "chi2_doppler", "dof_doppler",
+                            "fix_ok", "raim_ok", "velocity_ok", "n_excluded", "excluded_sv"]]
         return pd.concat([head, counts.reset_index(drop=True), sigmas,
                           flags.reset_index(drop=True)], axis=1)
 
@@ -129,14 +136,17 @@ def _epoch_row(fix: EpochFix | None, n_tracked: int) -> dict:
                 **{k: np.nan for k in ("gdop", "pdop", "hdop", "vdop", "tdop", "hpl_m",
                                        "vpl_m")},
                 "fix_ok": False, "raim_ok": False, "velocity_ok": False, "n_excluded": 0,
-                "excluded_sv": ""}
+                "excluded_sv": "", "chi2": np.nan, "dof": 0, "chi2_doppler": np.nan,
+                "dof_doppler": 0}
     d = fix.dop
     return {"n_sat_tracked": fix.n_tracked, "n_sat_used": len(fix.used_sv),
             "n_sat_doppler": len(fix.doppler_sv), "gdop": d.gdop, "pdop": d.pdop,
             "hdop": d.hdop, "vdop": d.vdop, "tdop": d.tdop, "hpl_m": fix.hpl_m,
             "vpl_m": fix.vpl_m, "fix_ok": True, "raim_ok": fix.raim_ok,
             "velocity_ok": bool(np.all(np.isfinite(fix.v_e)) and fix.velocity_raim_ok),
-            "n_excluded": len(fix.excluded_sv), "excluded_sv": " ".join(fix.excluded_sv)}
+            "n_excluded": len(fix.excluded_sv), "excluded_sv": " ".join(fix.excluded_sv),
+            "chi2": fix.chi2, "dof": fix.dof, "chi2_doppler": fix.chi2_doppler,
+            "dof_doppler": fix.dof_doppler}
 
 
 def _satellite_frame(fixes: list[EpochFix | None]) -> pd.DataFrame:

@@ -1,0 +1,111 @@
+"""Weighted least squares, χ² fault detection/exclusion and protection levels."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from gnss_obs.raim import (chi2_threshold, detection_noncentrality, fault_detection_exclusion,
+                           protection_levels, wls_step)
+
+RTOL = 1e-12
+
+
+def _geometry(rng, n: int = 9) -> np.ndarray:
+    """Unit lines of sight above the horizon (ENU) with a clock column."""
+    d = rng.normal(size=(n, 3))
+    d[:, 2] = np.abs(d[:, 2]) + 0.2
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    return np.hstack([-d, np.ones((n, 1))])
+
+
+def test_weighted_mean_closed_form():
+    """H = ones: the solution is the inverse-variance weighted mean, variance 1/Σ(1/σ²)."""
+    z = np.array([1.0, 2.0, 4.0])
+    sigma = np.array([1.0, 2.0, 4.0])
+    w = 1.0 / sigma ** 2
+    step = wls_step(np.ones((3, 1)), z, sigma)
+    assert step.dx[0] == pytest.approx((w @ z) / w.sum(), rel=RTOL)
+    assert step.cov[0, 0] == pytest.approx(1.0 / w.sum(), rel=RTOL)
+    assert step.dof == 2
+    assert step.test_statistic == pytest.approx(float(w @ (z - step.dx[0]) ** 2), rel=RTOL)
+
+
+def test_leverages_sum_to_number_of_unknowns(rng):
+    H = _geometry(rng)
+    step = wls_step(H, rng.normal(size=len(H)), rng.uniform(0.5, 2.0, len(H)))
+    assert step.leverage.sum() == pytest.approx(H.shape[1], rel=1e-12)
+
+
+def test_exclusion_removes_the_faulty_measurement(rng):
+    H = _geometry(rng, 10)
+    sigma = np.full(10, 1.0)
+    z = rng.normal(size=10) * sigma
+    z[6] += 80.0
+    fde = fault_detection_exclusion(H, z, sigma, p_false_alarm=1e-3, max_exclusions=2)
+    assert fde.n_excluded == 1 and not fde.kept[6] and fde.raim_ok
+
+
+def test_detection_only_flags_without_excluding(rng):
+    H = _geometry(rng, 10)
+    z = rng.normal(size=10)
+    z[3] += 80.0
+    fde = fault_detection_exclusion(H, z, np.ones(10), p_false_alarm=1e-3, max_exclusions=0)
+    assert fde.n_excluded == 0 and not fde.raim_ok
+
+
+def test_no_test_without_redundancy(rng):
+    H = _geometry(rng, 4)
+    fde = fault_detection_exclusion(H, rng.normal(size=4), np.ones(4), p_false_alarm=1e-3,
+                                    max_exclusions=3)
+    assert fde.step.dof == 0 and not fde.raim_ok and fde.n_excluded == 0
+    assert chi2_threshold(0, 1e-3) == np.inf
+
+
+def test_false_alarm_rate_matches_threshold(rng):
+    """Fault-free Gaussian residuals fail the test with the chosen probability
+    (Monte Carlo, 4000 trials: binomial 3σ band)."""
+    p_fa, trials = 0.05, 4000
+    H = _geometry(rng, 8)
+    alarms = sum(not fault_detection_exclusion(H, rng.normal(size=8), np.ones(8),
+                                               p_false_alarm=p_fa, max_exclusions=0).raim_ok
+                 for _ in range(trials))
+    assert abs(alarms / trials - p_fa) < 3 * np.sqrt(p_fa * (1 - p_fa) / trials)
+
+
+def test_noncentrality_gives_the_missed_detection_probability(rng):
+    """Sampling χ²(dof, λ) (a mean shift of sqrt(λ) on one of dof unit normals) falls below
+    the threshold with probability p_md (Monte Carlo, 20000 samples, 3σ band)."""
+    dof, p_fa, p_md, n = 4, 1e-2, 0.1, 20_000
+    lam = detection_noncentrality(dof, p_fa, p_md)
+    x = rng.normal(size=(n, dof))
+    x[:, 0] += np.sqrt(lam)
+    missed = np.mean((x ** 2).sum(axis=1) < chi2_threshold(dof, p_fa))
+    assert abs(missed - p_md) < 3 * np.sqrt(p_md * (1 - p_md) / n)
+    assert chi2_threshold(dof, p_fa) == pytest.approx(stats.chi2.isf(p_fa, dof))
+
+
+def test_protection_level_bounds_the_worst_undetected_bias(rng):
+    """A bias on the measurement with the largest horizontal slope, sized so that the test
+    statistic's non-centrality is exactly λ, moves the noise-free horizontal solution by
+    exactly HPL (the definition of the slope method, Brown 1992)."""
+    H = _geometry(rng, 9)
+    sigma = rng.uniform(0.5, 2.0, 9)
+    step = wls_step(H, np.zeros(9), sigma)
+    hpl, vpl = protection_levels(step, horizontal=(0, 1), vertical=2, p_false_alarm=1e-3,
+                                 p_missed_detection=1e-3)
+    lam = detection_noncentrality(step.dof, 1e-3, 1e-3)
+    slopes = np.hypot(step.gain[0], step.gain[1]) / np.sqrt(1 - step.leverage)
+    i = int(np.argmax(slopes))
+    bias = np.zeros(9)
+    bias[i] = sigma[i] * np.sqrt(lam / (1 - step.leverage[i]))
+    biased = wls_step(H, bias, sigma)
+    assert biased.test_statistic == pytest.approx(lam, rel=1e-9)
+    assert np.hypot(biased.dx[0], biased.dx[1]) == pytest.approx(hpl, rel=1e-9)
+    assert vpl > 0
+
+
+def test_singular_geometry_raises():
+    H = np.hstack([np.ones((5, 1)), np.ones((5, 1))])
+    with pytest.raises(np.linalg.LinAlgError):
+        wls_step(H, np.zeros(5), np.ones(5))
