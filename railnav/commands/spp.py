@@ -1,0 +1,100 @@
+"""``railnav spp --obs OBS --nav NAV [--systems GE] [--ref CSV] [--out DIR]``.
+
+Thin layer over `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the RINEX files, builds
+an `SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
+``DIR/spp.png``, prints a summary and, with ``--ref``, the accuracy against the reference
+(`railnav.spp_report`).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+from pathlib import Path
+
+import numpy as np
+
+from gnss_obs.measurements import IONOSPHERE_MODELS, MeasurementConfig
+from gnss_obs.rinex_nav import read_rinex_nav
+from gnss_obs.rinex_obs import read_rinex_obs
+from gnss_obs.spp import SppConfig, solve_spp
+from railnav.commands.support import progress_bar
+from railnav.errors import ConfigError
+from railnav.spp_report import accuracy_summary, plot_spp, read_reference_trajectory, spp_errors
+from trackmodel.files import atomic_write
+
+__all__ = ["register", "handler", "FLOAT_FORMAT"]
+
+log = logging.getLogger(__name__)
+
+#: CSV float format: 12 significant digits (0.1 mm in ECEF-sized numbers, 1e-10 deg).
+FLOAT_FORMAT = "%.12g"
+
+
+def register(subparsers) -> None:
+    """Add the ``spp`` subcommand."""
+    p = subparsers.add_parser(
+        "spp", help="single-point positioning from RINEX files",
+        description="Per-epoch least-squares position, velocity and clock (with RAIM/FDE) "
+                    "from RINEX 3 observation and navigation files; writes DIR/spp.csv and "
+                    "DIR/spp.png.")
+    p.add_argument("--obs", required=True, metavar="OBS.rnx", help="RINEX observation file")
+    p.add_argument("--nav", required=True, metavar="NAV.rnx", help="RINEX navigation file")
+    p.add_argument("--systems", default="GE",
+                   help="GNSS systems to use, letters of GERCJ (default: GE)")
+    p.add_argument("--ionosphere", choices=IONOSPHERE_MODELS, default="klobuchar",
+                   help="ionosphere handling (default: klobuchar)")
+    p.add_argument("--elevation-mask-deg", type=float, default=10.0,
+                   help="elevation mask in degrees (default 10)")
+    p.add_argument("--no-raim", dest="raim", action="store_false",
+                   help="flag faulty epochs but do not exclude satellites")
+    p.add_argument("--ref", metavar="CSV",
+                   help="reference trajectory: print RMS/95 %% errors against it")
+    p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
+    p.set_defaults(func=handler)
+
+
+def _config(args: argparse.Namespace) -> SppConfig:
+    systems = args.systems.strip().upper()
+    try:
+        return SppConfig(measurement=MeasurementConfig(systems=systems,
+                                                       ionosphere=args.ionosphere),
+                         elevation_mask_deg=args.elevation_mask_deg, raim=args.raim)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
+
+def handler(args: argparse.Namespace) -> int:
+    """Run ``railnav spp``; returns the exit status."""
+    config = _config(args)
+    obs = read_rinex_obs(args.obs)
+    nav = read_rinex_nav(args.nav)
+    reference = read_reference_trajectory(args.ref) if args.ref else None
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    with progress_bar("spp", enabled=not args.quiet) as progress:
+        result = solve_spp(obs, nav, config, progress=progress)
+    frame = result.to_frame()
+    errors = spp_errors(frame, reference) if reference is not None else None
+    with atomic_write(out / "spp.csv", newline="") as fh:
+        frame.to_csv(fh, index=False, float_format=FLOAT_FORMAT)
+    plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
+    for line in _summary(frame, config):
+        print(line)
+    if errors is not None:
+        for line in accuracy_summary(errors).lines():
+            print(line)
+    return 0
+
+
+def _summary(frame, config: SppConfig) -> list[str]:
+    fixed = frame[frame["fix_ok"]]
+    return [f"systems              {config.measurement.systems} "
+            f"(ionosphere: {config.measurement.ionosphere})",
+            f"epochs               {len(frame)} ({len(fixed)} with a fix, "
+            f"{int(frame['velocity_ok'].sum())} with a velocity)",
+            f"satellites used      {fixed['n_sat_used'].mean():.1f} mean, "
+            f"{int(fixed['n_sat_used'].min()) if len(fixed) else 0} min",
+            f"HDOP / VDOP median   {np.nanmedian(fixed['hdop']):.2f} / "
+            f"{np.nanmedian(fixed['vdop']):.2f}",
+            f"RAIM                 {int((~fixed['raim_ok']).sum())} epochs failed, "
+            f"{int(frame['n_excluded'].sum())} satellites excluded"]

@@ -1,0 +1,213 @@
+"""SPP results against a reference trajectory: errors, accuracy figures, plot.
+
+Shared by ``railnav spp --ref``, the notebooks and ``benchmarks/bench_spp_real.py`` so
+that every figure is computed one way:
+
+* position errors in the local East-North-Up frame of the reference point, at the epochs
+  both have (matched on ``gps_time_s`` to 1 ms);
+* horizontal RMS and 95th percentile, vertical RMS;
+* speed error: |v| of the solution minus the reference speed from **central differences**
+  of the reference positions ``(r[k+1] - r[k-1]) / (t[k+1] - t[k-1])`` (only where both
+  neighbours are within `MAX_DIFF_GAP_S`).
+
+`read_reference_trajectory` accepts the project's columns (``gps_time_s, lat_deg, lon_deg,
+h_m``) or the GPS week / seconds-of-week layout of post-processing tools (the shared
+``reference_trajectory.csv``: ``# GPSW,GPSSoW,latitude(deg),longitude(deg),height(m),...``).
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from railnav.errors import ConfigError
+from trackmodel.earth import C_n_e, ecef_to_enu, geodetic_to_ecef
+from trackmodel.files import atomic_write
+
+__all__ = ["read_reference_trajectory", "spp_errors", "SppAccuracy", "accuracy_summary",
+           "plot_spp", "MAX_DIFF_GAP_S"]
+
+#: Largest time step (s) on either side of an epoch for a central-difference speed.
+MAX_DIFF_GAP_S = 1.5
+_MATCH_DECIMALS = 3  # epochs are matched on gps_time_s rounded to 1 ms
+_WEEK_S = 604_800.0
+_PROJECT_COLUMNS = ("gps_time_s", "lat_deg", "lon_deg", "h_m")
+_WEEK_COLUMNS = ("week", "sow", "lat_deg", "lon_deg", "h_m")
+
+
+def _week_layout(path) -> pd.DataFrame:
+    df = pd.read_csv(path, comment="#", header=None)
+    if df.shape[1] < len(_WEEK_COLUMNS):
+        raise ConfigError("expected columns GPS week, seconds of week, latitude (deg), "
+                          "longitude (deg), height (m)", path=path)
+    df = df.iloc[:, :len(_WEEK_COLUMNS)].set_axis(list(_WEEK_COLUMNS), axis=1)
+    out = pd.DataFrame({"gps_time_s": df["week"] * _WEEK_S + df["sow"]})
+    for c in _PROJECT_COLUMNS[1:]:
+        out[c] = df[c]
+    return out
+
+
+def read_reference_trajectory(path: str | os.PathLike) -> pd.DataFrame:
+    """Read a reference trajectory (module docstring for the two layouts).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``gps_time_s, lat_deg, lon_deg, h_m`` sorted by time.
+
+    Raises
+    ------
+    ConfigError
+        Empty file, missing columns, or a value that is not a finite number (with the row).
+    """
+    try:
+        head = pd.read_csv(path, nrows=0, comment=None)
+    except pd.errors.EmptyDataError:
+        raise ConfigError("empty reference file", path=path) from None
+    if set(_PROJECT_COLUMNS) <= set(head.columns):
+        df = pd.read_csv(path, usecols=list(_PROJECT_COLUMNS))
+    else:
+        df = _week_layout(path)
+    if df.empty:
+        raise ConfigError("reference file has no rows", path=path)
+    for c in df.columns:
+        values = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise ConfigError(f"{df[c].iloc[bad[0]]!r} is not a finite number", path=path,
+                              row=int(bad[0]) + 1, column=c)
+        df[c] = values
+    return df.sort_values("gps_time_s").reset_index(drop=True)
+
+
+def _reference_velocity(t: np.ndarray, r_e: np.ndarray) -> np.ndarray:
+    v = np.full_like(r_e, np.nan)
+    if len(t) < 3:
+        return v
+    back, ahead = t[1:-1] - t[:-2], t[2:] - t[1:-1]
+    ok = (back <= MAX_DIFF_GAP_S) & (ahead <= MAX_DIFF_GAP_S)
+    v[1:-1][ok] = ((r_e[2:] - r_e[:-2]) / (t[2:] - t[:-2])[:, None])[ok]
+    return v
+
+
+def spp_errors(solution: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
+    """Per-epoch errors of an ``spp.csv`` table against a reference.
+
+    Parameters
+    ----------
+    solution : pandas.DataFrame
+        ``gps_time_s, lat_deg, lon_deg, h_m`` and optionally ``v_east_mps, v_north_mps,
+        v_up_mps`` (`SppResult.to_frame`).
+    reference : pandas.DataFrame
+        `read_reference_trajectory` output.
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``gps_time_s, east_m, north_m, up_m, horizontal_m, speed_error_mps`` (NaN where the
+        solution has no fix or no velocity, or the reference speed is unknown), for the
+        epochs present in both.
+    """
+    ref = reference.copy()
+    lat, lon = np.deg2rad(ref["lat_deg"].to_numpy()), np.deg2rad(ref["lon_deg"].to_numpy())
+    r_ref = geodetic_to_ecef(lat, lon, ref["h_m"].to_numpy())
+    speed_ref = np.linalg.norm(_reference_velocity(ref["gps_time_s"].to_numpy(), r_ref), axis=1)
+    key_ref = np.round(ref["gps_time_s"].to_numpy(), _MATCH_DECIMALS)
+    key_sol = np.round(solution["gps_time_s"].to_numpy(), _MATCH_DECIMALS)
+    common, i_sol, i_ref = np.intersect1d(key_sol, key_ref, return_indices=True)
+    sol = solution.iloc[i_sol]
+    r_sol = geodetic_to_ecef(np.deg2rad(sol["lat_deg"].to_numpy()),
+                             np.deg2rad(sol["lon_deg"].to_numpy()), sol["h_m"].to_numpy())
+    enu = np.einsum("nji,nj->ni", C_n_e(lat[i_ref], lon[i_ref]), r_sol - r_ref[i_ref])
+    speed_error = np.full(common.size, np.nan)
+    if {"v_east_mps", "v_north_mps", "v_up_mps"} <= set(sol.columns):
+        v = sol[["v_east_mps", "v_north_mps", "v_up_mps"]].to_numpy()
+        speed_error = np.linalg.norm(v, axis=1) - speed_ref[i_ref]
+    return pd.DataFrame({"gps_time_s": sol["gps_time_s"].to_numpy(), "east_m": enu[:, 0],
+                         "north_m": enu[:, 1], "up_m": enu[:, 2],
+                         "horizontal_m": np.hypot(enu[:, 0], enu[:, 1]),
+                         "speed_error_mps": speed_error})
+
+
+@dataclass(frozen=True)
+class SppAccuracy:
+    """Accuracy figures of a solution against a reference (NaN when nothing to compare)."""
+
+    n_epochs: int
+    horizontal_rms_m: float
+    horizontal_95_m: float
+    vertical_rms_m: float
+    n_speed: int
+    speed_rms_mps: float
+
+    def lines(self) -> list[str]:
+        """Human-readable summary lines."""
+        return [f"epochs compared      {self.n_epochs}",
+                f"horizontal RMS       {self.horizontal_rms_m:.2f} m",
+                f"horizontal 95 %      {self.horizontal_95_m:.2f} m",
+                f"vertical RMS         {self.vertical_rms_m:.2f} m",
+                f"speed RMS            {self.speed_rms_mps:.3f} m/s ({self.n_speed} epochs)"]
+
+
+def _rms(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
+
+
+def accuracy_summary(errors: pd.DataFrame) -> SppAccuracy:
+    """RMS / 95 % figures of `spp_errors` output (epochs without a fix are left out)."""
+    fixed = errors[np.isfinite(errors["horizontal_m"])]
+    h = fixed["horizontal_m"].to_numpy()
+    speed = errors["speed_error_mps"].to_numpy()
+    return SppAccuracy(
+        n_epochs=len(fixed), horizontal_rms_m=_rms(h),
+        horizontal_95_m=float(np.percentile(h, 95)) if h.size else float("nan"),
+        vertical_rms_m=_rms(fixed["up_m"].to_numpy()), n_speed=int(np.isfinite(speed).sum()),
+        speed_rms_mps=_rms(speed))
+
+
+def plot_spp(solution: pd.DataFrame, path: str | os.PathLike,
+             errors: pd.DataFrame | None = None, reference: pd.DataFrame | None = None) -> None:
+    """Track (east/north from the first fix) and, with a reference, errors over time.
+
+    Written atomically as PNG to `path`.
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    ok = np.isfinite(solution["lat_deg"].to_numpy())
+    rows = 1 if errors is None else 2
+    fig, axes = plt.subplots(rows, 1, figsize=(8, 4.5 * rows), squeeze=False)
+    ax = axes[0, 0]
+    if ok.any():
+        first = solution[ok].iloc[0]
+        origin = dict(lat0=np.deg2rad(first["lat_deg"]), lon0=np.deg2rad(first["lon_deg"]),
+                      h0=float(first["h_m"]))
+        for frame, label, style in ((reference, "reference", "k-"), (solution[ok], "SPP", ".")):
+            if frame is None:
+                continue
+            r = geodetic_to_ecef(np.deg2rad(frame["lat_deg"].to_numpy()),
+                                 np.deg2rad(frame["lon_deg"].to_numpy()), frame["h_m"].to_numpy())
+            enu = ecef_to_enu(r, **origin)
+            ax.plot(enu[:, 0], enu[:, 1], style, ms=3, label=label)
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend()
+    ax.set_title("SPP track")
+    if errors is not None:
+        ax = axes[1, 0]
+        t = errors["gps_time_s"] - errors["gps_time_s"].iloc[0]
+        ax.plot(t, errors["horizontal_m"], label="horizontal")
+        ax.plot(t, errors["up_m"], label="vertical (up)")
+        ax.set_xlabel("time since first epoch (s)")
+        ax.set_ylabel("error (m)")
+        ax.grid(True)
+        ax.legend()
+    fig.tight_layout()
+    with atomic_write(path, "wb", encoding=None) as fh:
+        fig.savefig(fh, format="png", dpi=110)
+    plt.close(fig)
