@@ -30,8 +30,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy import linalg, optimize, stats
 
-__all__ = ["WlsStep", "wls_step", "FdeResult", "fault_detection_exclusion", "chi2_threshold",
-           "detection_noncentrality", "protection_levels"]
+__all__ = ["WlsStep", "wls_step", "huber_wls", "FdeResult", "fault_detection_exclusion",
+           "chi2_threshold", "detection_noncentrality", "protection_levels"]
 
 Array = npt.NDArray[np.float64]
 
@@ -114,6 +114,47 @@ def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsSte
                    gain=gain)
 
 
+def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber_k: float,
+              max_iter: int = 10, tol: float = 1e-6) -> tuple[WlsStep, Array]:
+    """Huber M-estimation by iteratively reweighted least squares.
+
+    Measurements whose residual exceeds ``huber_k`` standard deviations get the weight
+    ``huber_k / |r/σ|`` (Huber 1964): their standard deviation is inflated to
+    ``σ sqrt(|r/σ| / huber_k)``. Gaussian errors lose little efficiency (95 % at k = 1.345),
+    a few gross or moderate errors (multipath) lose most of their pull.
+
+    Parameters
+    ----------
+    H, z, sigma : array_like
+        As for `wls_step`.
+    huber_k : float
+        Threshold in standard deviations, > 0.
+    max_iter : int
+        Reweighting iterations.
+    tol : float
+        Stop when the largest weight change is below this.
+
+    Returns
+    -------
+    step : WlsStep
+        Solution with the final weights (its ``cov`` uses the inflated σ).
+    sigma_eff : ndarray, shape (n,)
+        The inflated standard deviations.
+    """
+    H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
+    weight = np.ones(z.size)
+    step = wls_step(H, z, sigma)
+    for _ in range(max_iter):
+        u = np.abs(step.residual / sigma)
+        new = np.where(u <= huber_k, 1.0, huber_k / np.maximum(u, huber_k))
+        done = np.max(np.abs(new - weight), initial=0.0) < tol
+        weight = new
+        step = wls_step(H, z, sigma / np.sqrt(weight))
+        if done:
+            break
+    return step, sigma / np.sqrt(weight)
+
+
 @dataclass(frozen=True)
 class FdeResult:
     """Outcome of `fault_detection_exclusion`.
@@ -139,13 +180,17 @@ class FdeResult:
 
 
 def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *,
-                              p_false_alarm: float, max_exclusions: int) -> FdeResult:
+                              p_false_alarm: float, max_exclusions: int,
+                              huber_k: float | None = None) -> FdeResult:
     """WLS with the χ² residual test; exclude the largest standardized residual and repeat.
 
     A measurement is excluded only while the test fails, fewer than `max_exclusions` were
     excluded and at least 2 degrees of freedom remain (so that the reduced set can be
     tested again). Measurements without redundancy (leverage 1, e.g. the only satellite of
-    a system with its own clock bias) are never excluded.
+    a system with its own clock bias) are never excluded. With `huber_k`, each solution is
+    a Huber M-estimate (`huber_wls`) and the test uses its inflated standard deviations:
+    moderate outliers are down-weighted without failing the test, gross faults still fail
+    it (a residual of u σ contributes ``u · huber_k`` to the statistic) and are excluded.
 
     Parameters
     ----------
@@ -157,6 +202,8 @@ def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.Arr
         False-alarm probability of each χ² test.
     max_exclusions : int
         Largest number of exclusions (0 = detection only).
+    huber_k : float, optional
+        Huber threshold in standard deviations (None = plain weighted least squares).
 
     Returns
     -------
@@ -165,7 +212,10 @@ def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.Arr
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     kept = np.ones(z.size, dtype=bool)
     while True:
-        step = wls_step(H[kept], z[kept], sigma[kept])
+        if huber_k is None:
+            step = wls_step(H[kept], z[kept], sigma[kept])
+        else:
+            step, _ = huber_wls(H[kept], z[kept], sigma[kept], huber_k=huber_k)
         passed = step.dof >= 1 and step.test_statistic <= chi2_threshold(step.dof, p_false_alarm)
         w = np.abs(step.standardized)
         if passed or step.dof < 2 or (~kept).sum() >= max_exclusions or not np.any(w >= 0):

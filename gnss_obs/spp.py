@@ -72,6 +72,9 @@ class SppConfig:
         Missed-detection probability for the protection levels.
     max_exclusions : int
         Largest number of satellites excluded per epoch (pseudorange and Doppler each).
+    huber_k : float or None
+        Huber M-estimation threshold in standard deviations for both solutions
+        (`gnss_obs.raim.huber_wls`); None = plain weighted least squares.
     max_iter : int
         Gauss-Newton iteration limit.
     tol_m : float
@@ -89,6 +92,7 @@ class SppConfig:
     p_false_alarm: float = 1e-3
     p_missed_detection: float = 1e-3
     max_exclusions: int = 4
+    huber_k: float | None = 1.5
     max_iter: int = 20
     tol_m: float = 1e-3
     max_gap_s: float = 60.0
@@ -106,6 +110,8 @@ class SppConfig:
             raise GnssError("max_exclusions must be >= 0 and max_iter >= 1")
         if not (self.tol_m > 0 and self.max_gap_s >= 0):
             raise GnssError("tol_m must be > 0 and max_gap_s >= 0")
+        if self.huber_k is not None and not (self.huber_k > 0):
+            raise GnssError(f"huber_k must be > 0 or None, got {self.huber_k!r}")
 
 
 @dataclass
@@ -185,7 +191,7 @@ def _position(epoch: EpochData, tx, ctx: _Context, r0: Array):
             return None
         max_excl = cfg.max_exclusions - len(excluded) if cfg.raim else 0
         fde = fault_detection_exclusion(H, z, prep.sigma_pr_m, p_false_alarm=cfg.p_false_alarm,
-                                        max_exclusions=max_excl)
+                                        max_exclusions=max_excl, huber_k=cfg.huber_k)
         if fde.n_excluded == 0:
             r_e = r_e + fde.step.dx[:3]
             return r_e, prep, fde, present, sorted(excluded)
@@ -203,7 +209,8 @@ def _velocity(prep: PreparedEpoch, r_e: Array, cfg: SppConfig
     try:
         fde = fault_detection_exclusion(H, sub.range_rate_mps - rr, sub.sigma_rr_mps,
                                         p_false_alarm=cfg.p_false_alarm,
-                                        max_exclusions=cfg.max_exclusions if cfg.raim else 0)
+                                        max_exclusions=cfg.max_exclusions if cfg.raim else 0,
+                                        huber_k=cfg.huber_k)
     except np.linalg.LinAlgError:
         return None
     return fde, sub

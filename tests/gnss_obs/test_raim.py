@@ -3,10 +3,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
+from scipy import optimize, stats
 
 from gnss_obs.raim import (chi2_threshold, detection_noncentrality, fault_detection_exclusion,
-                           protection_levels, wls_step)
+                           huber_wls, protection_levels, wls_step)
 
 RTOL = 1e-12
 
@@ -109,3 +109,26 @@ def test_singular_geometry_raises():
     H = np.hstack([np.ones((5, 1)), np.ones((5, 1))])
     with pytest.raises(np.linalg.LinAlgError):
         wls_step(H, np.zeros(5), np.ones(5))
+
+
+def test_huber_location_solves_the_estimating_equation():
+    """The Huber M-estimate of a location with known σ is the root of
+    Σ ψ((z_i - μ)/σ_i)/σ_i = 0, ψ(u) = clip(u, -k, k) (Huber 1964), found here by brentq."""
+    z = np.array([0.3, -0.5, 1.1, 0.2, -0.9, 25.0, 0.4])
+    sigma = np.array([1.0, 1.0, 2.0, 1.0, 1.5, 1.0, 1.0])
+    k = 1.5
+    step, sigma_eff = huber_wls(np.ones((7, 1)), z, sigma, huber_k=k, max_iter=100, tol=1e-14)
+    mu = optimize.brentq(lambda m: np.sum(np.clip((z - m) / sigma, -k, k) / sigma), -10, 10,
+                         xtol=1e-14)
+    assert step.dx[0] == pytest.approx(mu, abs=1e-10)
+    assert sigma_eff[5] == pytest.approx(sigma[5] * np.sqrt(abs(z[5] - mu) / k), rel=1e-6)
+    assert np.all(sigma_eff[:5] == sigma[:5])
+
+
+def test_huber_keeps_excluding_gross_faults(rng):
+    H = _geometry(rng, 10)
+    z = rng.normal(size=10)
+    z[2] += 100.0
+    fde = fault_detection_exclusion(H, z, np.ones(10), p_false_alarm=1e-3, max_exclusions=2,
+                                    huber_k=1.5)
+    assert not fde.kept[2] and fde.n_excluded == 1
