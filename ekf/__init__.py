@@ -17,7 +17,8 @@ Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step
 symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it),
 ``reference`` (the same step in NumPy), ``update`` / ``gating`` (discrete updates),
 ``series`` / ``cd_filter`` / ``history`` (the driver), ``smoother``, ``consistency``,
-``linear`` / ``bank`` (linear KF, multiple-model banks), ``examples``.
+``linear`` / ``correlated`` / ``bank`` (linear KF, a linear step with measurement noise
+correlated with the process noise, multiple-model banks), ``examples``.
 
 Two properties to know when building a model on it:
 
@@ -35,6 +36,7 @@ from ekf.bank import BankStep, Hypothesis, ModelBank, merge_gaussians
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.compiled import CompileOptions
 from ekf.consistency import chi2_band, normalized_squares
+from ekf.correlated import correlated_step
 from ekf.errors import FilterDivergedError, FilterError, ModelError
 from ekf.gating import Gate, chi2_threshold
 from ekf.history import FilterResult, SmootherData
@@ -53,6 +55,6 @@ __all__ = [
     "InputSeries", "LinearModel", "MeasurementModel", "ModelBank", "ModelError",
     "Observation", "Propagator", "SmoothedResult", "SmootherData", "StateLayout",
     "StepData", "StepOptions", "StepOutputs", "UpdateRecord", "build_step", "chi2_band",
-    "chi2_threshold", "discrete_update", "kalman_update", "merge_gaussians",
+    "chi2_threshold", "correlated_step", "discrete_update", "kalman_update", "merge_gaussians",
     "normalized_squares", "predict_linear", "rts_smooth",
 ]
