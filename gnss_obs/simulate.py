@@ -47,7 +47,7 @@ from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angl
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
-from gnss_obs.rinex_nav import RinexNav
+from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
 from gnss_obs.sim_files import simulation_header, write_simulation
 from gnss_obs.sim_events import Outage, SatelliteFault, apply_faults, visible_after_outages
@@ -232,7 +232,7 @@ def _multipath(sv: np.ndarray, epoch: np.ndarray, t: Array, elevation: Array,
 
 
 def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayLike,
-                  nav: RinexNav, config: GnssSimConfig | None = None, *,
+                  nav: RinexNav | None = None, config: GnssSimConfig | None = None, *,
                   rng: np.random.Generator) -> GnssSimulation:
     """Simulate pseudorange and Doppler observations of a receiver trajectory.
 
@@ -246,8 +246,10 @@ def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayL
         Receiver (antenna) position, ECEF, m.
     v_e : array_like, shape (N, 3)
         Receiver velocity, ECEF, m/s.
-    nav : RinexNav
-        Broadcast navigation data (orbits, clocks, Klobuchar coefficients).
+    nav : RinexNav, optional
+        Broadcast navigation data (orbits, clocks, Klobuchar coefficients); default: the
+        shipped 2020-11-29 file (`default_nav_path`). Write the same data next to the
+        observations (`write_simulation`) so that a reader of the files sees this orbit.
     config : GnssSimConfig, optional
     rng : numpy.random.Generator
         Source of every random draw (clock, noise, multipath).
@@ -265,6 +267,7 @@ def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayL
         If the navigation data has no usable satellite of the configured systems.
     """
     cfg = config or GnssSimConfig()
+    nav = nav if nav is not None else read_rinex_nav(default_nav_path())
     t = np.asarray(gps_time_s, dtype=float)
     r_e, v_e = np.asarray(r_e, dtype=float), np.asarray(v_e, dtype=float)
     _check_trajectory(t, r_e, v_e)
