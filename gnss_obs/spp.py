@@ -15,8 +15,11 @@ notebooks. Per epoch:
 4. velocity and clock drift from the range rates (``-λ D``) of the kept satellites, linear
    WLS with its own FDE.
 
-Epochs with fewer satellites than unknowns give a row of NaN with ``fix_ok`` False; their
-count goes to one warning and to `SppResult.n_no_fix`.
+Inter-system offsets (GPS-Galileo time offset, GLONASS time, BeiDou time, receiver
+inter-system hardware delays) are estimated per epoch as one bias per non-reference
+system; the header's ``TIME SYSTEM CORR`` values are not applied. Epochs with fewer
+satellites than unknowns give a row of NaN with ``fix_ok`` False; their count goes to one
+warning and to `SppResult.n_no_fix`.
 """
 from __future__ import annotations
 

@@ -174,13 +174,12 @@ def plot_spp(solution: pd.DataFrame, path: str | os.PathLike,
 
     Written atomically as PNG to `path`.
     """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # no pyplot: no global backend state touched
 
     ok = np.isfinite(solution["lat_deg"].to_numpy())
     rows = 1 if errors is None else 2
-    fig, axes = plt.subplots(rows, 1, figsize=(8, 4.5 * rows), squeeze=False)
+    fig = Figure(figsize=(8, 4.5 * rows))
+    axes = fig.subplots(rows, 1, squeeze=False)
     ax = axes[0, 0]
     if ok.any():
         first = solution[ok].iloc[0]
@@ -210,4 +209,3 @@ def plot_spp(solution: pd.DataFrame, path: str | os.PathLike,
     fig.tight_layout()
     with atomic_write(path, "wb", encoding=None) as fh:
         fig.savefig(fh, format="png", dpi=110)
-    plt.close(fig)
