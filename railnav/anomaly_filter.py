@@ -28,7 +28,11 @@ import numpy.typing as npt
 import pandas as pd
 import scipy.linalg as sla
 
-from ekf import Gate, StateLayout, correlated_step, kalman_update, predict_linear
+from ekf.correlated import correlated_step
+from ekf.gating import Gate
+from ekf.layout import StateLayout
+from ekf.linear import predict_linear
+from ekf.update import kalman_update
 from railnav.anomaly_models import (HORIZONTAL, VERTICAL, AnomalyParams, HorizontalChannel,
                                     VerticalChannel, horizontal_channel, vertical_channel)
 from railnav.anomaly_sim import AnomalyData
@@ -173,7 +177,8 @@ class _Channels:
         """Vertical estimate at ``t_k``: a plain update at ``k = 0``, else
         :func:`ekf.correlated_step` from ``t_{k−1}`` with the differenced measurements."""
         d, v = self.data, self.v
-        rows = np.array([True, use_gnss])
+        rows = np.ones(V_MEASUREMENTS.size, dtype=bool)
+        rows[V_MEASUREMENTS.slice("gnss")] = use_gnss
         if k == 0:
             innov = np.array([d.baro_m[0], d.gnss_height_m[0] - v.gnss_offset_m]) - self.H_v0 @ x
             x, P, rec = kalman_update(x, P, innov[rows], self.H_v0[rows],

@@ -39,7 +39,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 import numpy.typing as npt
 
-from ekf import StateLayout
+from ekf.layout import StateLayout
 from railnav.errors import ConfigError
 
 __all__ = ["AnomalyParams", "HORIZONTAL", "VERTICAL", "HorizontalChannel", "VerticalChannel",

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+from pathlib import Path
 
 from railnav.commands.support import nonnegative_int, positive_int, progress_bar
 from railnav.reproduce import EXPERIMENTS, run_experiment, write_result_json
@@ -42,6 +43,7 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav reproduce``; returns the exit status."""
+    Path(args.out).mkdir(parents=True, exist_ok=True)     # a bad --out fails before the work
     with progress_bar(args.experiment, enabled=not args.quiet) as progress:
         result = run_experiment(args.experiment, runs=args.runs, seed=args.seed,
                                 progress=progress)
