@@ -64,11 +64,18 @@ class AdaptiveConfig:
         ``ΔH_max`` of the integrity monitor, m; ``None``: no monitor.
     joint_rejection : bool
         A test that fires in one channel refuses the GNSS in both (eqs. 27–32).
+    paper_eq24_gain : bool
+        Diagnostic only: the vertical gain as eq. 24 is printed,
+        ``[B_yy⁻¹ + Φ_yx P Φ_yxᵀ]⁻¹`` (an erratum), i.e. ``B_yy⁻¹`` in place of the
+        noise covariance ``B_yy`` (the anomaly test keeps the model's ``S``), and the
+        vertical recursion started from the prior without the update at ``t_0``, as the
+        paper's. It shows where the paper's figures come from; never use it to navigate.
     """
 
     trace_factor: float | None = 9.0
     baro_bias_max_m: float | None = None
     joint_rejection: bool = True
+    paper_eq24_gain: bool = False
 
     def __post_init__(self) -> None:
         for name in ("trace_factor", "baro_bias_max_m"):
@@ -149,6 +156,9 @@ class _Channels:
         self.R_h = sla.block_diag(self.h.R_gnss, self.h.R_speed)
         self.Q_h, self.Q_v = self.h.Q, self.v.Q
         self.Phi_yx, self.B_xy, self.B_yy = self.v.Phi_yx, self.v.B_xy, self.v.B_yy
+        # the covariance the gain uses: B_yy, or the printed erratum B_yy⁻¹ (diagnostic)
+        self.paper_eq24 = config.paper_eq24_gain
+        self.R_v = np.linalg.inv(self.B_yy) if self.paper_eq24 else self.B_yy
         self.H_v0 = np.vstack([self.v.H_baro, self.v.H_gnss])
         self.R_v0 = np.diag([self.v.R_baro, self.v.R_gnss])
 
@@ -181,8 +191,10 @@ class _Channels:
         rows[V_MEASUREMENTS.slice("gnss")] = use_gnss
         if k == 0:
             innov = np.array([d.baro_m[0], d.gnss_height_m[0] - v.gnss_offset_m]) - self.H_v0 @ x
-            x, P, rec = kalman_update(x, P, innov[rows], self.H_v0[rows],
-                                      self.R_v0[np.ix_(rows, rows)])
+            x_upd, P_upd, rec = kalman_update(x, P, innov[rows], self.H_v0[rows],
+                                              self.R_v0[np.ix_(rows, rows)])
+            if not self.paper_eq24:     # the printed recursion starts from the prior itself
+                x, P = x_upd, P_upd
         else:
             control = np.array([d.accel_ins_mps2[k - 1, 2], d.gravity_mps2])
             Bu = v.Psi @ control
@@ -190,10 +202,14 @@ class _Channels:
             offset = np.array([(v.H_baro @ Bu)[0], (v.H_gnss @ Bu)[0] + v.gnss_offset_m])
             innov = y - offset - self.Phi_yx @ x
             x, P, rec = correlated_step(x, P, innov[rows], self.Phi_yx[rows],
-                                        self.B_yy[np.ix_(rows, rows)], Phi=v.Phi, Q=self.Q_v,
+                                        self.R_v[np.ix_(rows, rows)], Phi=v.Phi, Q=self.Q_v,
                                         M=self.B_xy[:, rows], Bu=Bu)
+        if not use_gnss:
+            return x, P, innov[:0], rec.S
         g = V_MEASUREMENTS.slice("gnss")
-        return x, P, innov[g] if use_gnss else innov[:0], rec.S[g, g] if use_gnss else rec.S
+        # the model's innovation covariance Φ_yx P Φ_yxᵀ + B_yy (eq. 30), whatever the gain used
+        S_gnss = rec.S[g, g] if k == 0 else rec.S[g, g] + (self.B_yy - self.R_v)[g, g]
+        return x, P, innov[g], S_gnss
 
 
 def run_adaptive_filter(data: AnomalyData, params: AnomalyParams, config: AdaptiveConfig, *,
