@@ -17,6 +17,11 @@ either channel's test fires, the GNSS parts of *both* channels are left out at t
 always used. Integrity monitor (§2, Fig. 1): when no anomaly was signalled and the updated
 baro-bias estimate satisfies ``|ΔH*| ≥ ΔH_max``, the horizontal GNSS fix is refused (the
 paper writes ``ΔH* ≥ ΔH_max``; a bias of either sign is a height disagreement).
+
+When a GNSS part is refused, eqs. 31–32 keep the speed-sensor and baro columns ``K_Γ2``,
+``K_1`` of the gain computed *with* the GNSS rows, and do not say which covariance follows;
+we update with the rows actually used (gain and covariance of the smaller update), which is
+the optimal filter given the refusal.
 """
 from __future__ import annotations
 
