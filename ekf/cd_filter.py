@@ -226,7 +226,7 @@ class CdFilter:
                 break
             epochs.next()
             self.t = float(chunk.t[at])
-            rec.update(self.t, self.update(epoch.observations))
+            rec.update(self.t, self.update(epoch.observations_at(self.x, self.P)))
             if at == n_samples - 1:
                 break
         self._last = chunk.slice(n_samples - 1, n_samples)

@@ -13,7 +13,7 @@ step, interpolating the input).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -103,9 +103,18 @@ class Epoch:
     ----------
     t : float
         Time, s; must equal a sample time (within the driver's ``time_tol_s``).
-    observations : sequence of Observation
-        Stacked into one update (may be empty: an epoch without measurements).
+    observations : sequence of Observation, or callable
+        Stacked into one update (may be empty: an epoch without measurements). A callable
+        ``observations(x, P) -> sequence of Observation`` is called with the prior at the
+        epoch, when the update happens: for measurement rows whose parameters depend on
+        the state (a linearization point, a satellite geometry computed at the prior).
     """
 
     t: float
-    observations: Sequence[Observation] = field(default_factory=tuple)
+    observations: Sequence[Observation] | Callable[[Array, Array], Sequence[Observation]] = \
+        field(default_factory=tuple)
+
+    def observations_at(self, x: Array, P: Array) -> Sequence[Observation]:
+        """The observations of this epoch, given the prior ``(x, P)`` at its time."""
+        obs = self.observations
+        return obs(x, P) if callable(obs) else obs

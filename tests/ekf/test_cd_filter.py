@@ -111,6 +111,38 @@ def test_manual_propagate_and_update_equal_run(tracking_system, rng):
     np.testing.assert_allclose(filt.P, whole.P_final, rtol=1e-13)
 
 
+def test_callable_observations_see_the_prior_at_their_epoch(tracking_system, rng):
+    """Reference: the same run with the observations built in advance. A callable epoch
+    is evaluated with the prior (x, P) at the epoch's own sample, which must equal the
+    state the manual propagate/update loop holds there."""
+    model, samples, epochs, _, _ = _scenario(tracking_system, rng)
+    x0, P0 = np.zeros(2), np.eye(2)
+    filt = CdFilter(model)
+    whole = filt.run(samples, epochs, x0=x0, P0=P0)
+    seen = []
+
+    def lazy(epoch):
+        def build(x, P):
+            seen.append((epoch.t, x.copy(), P.copy()))
+            return epoch.observations
+        return Epoch(epoch.t, build)
+
+    lazy_run = filt.run(samples, [lazy(e) for e in epochs], x0=x0, P0=P0)
+    np.testing.assert_array_equal(lazy_run.x_final, whole.x_final)
+    filt.reset(x0, P0)
+    shaped = samples.shaped(0, 0, 1, 2)
+    start = 0
+    for (t_seen, x_seen, P_seen), epoch in zip(seen, epochs):
+        k = int(round(epoch.t / DT))
+        filt.propagate(shaped.slice(start, k + 1))
+        assert t_seen == epoch.t
+        np.testing.assert_allclose(x_seen, filt.x, rtol=1e-13)
+        np.testing.assert_allclose(P_seen, filt.P, rtol=1e-13)
+        filt.update(epoch.observations)
+        start = k + 1
+    assert len(seen) == len(epochs)
+
+
 def test_epoch_off_the_sample_grid_is_refused(tracking_system, rng):
     model, samples, epochs, _, _ = _scenario(tracking_system, rng)
     bad = [Epoch(0.1234, epochs[0].observations)]
