@@ -53,6 +53,9 @@ DEFAULT_VTOL_M = 1.0
 INNER_TOL_FRACTION = 0.95
 INITIAL_KNOT_SPACING_M = 200.0
 MAX_VERIFY_ROUNDS = 3
+#: Vertical knots are at least this far apart, m (survey heights are noisier than
+#: positions; vertical curves of railways and tramways are tens of metres and longer).
+MIN_VERTICAL_KNOT_GAP_M = 20.0
 #: Joints closer than this are merged when horizontal and vertical knots are combined, m.
 JOINT_MERGE_M = 1e-6
 
@@ -143,7 +146,8 @@ def _vertical(s: Array, h: Array, tol: float, length: float) -> Profile:
         state["p"] = profile
         return profile, s, r, values, knots
 
-    knots, result = refine_knots(fit, initial_knots(length, INITIAL_KNOT_SPACING_M), tol)
+    knots, result = refine_knots(fit, initial_knots(length, INITIAL_KNOT_SPACING_M), tol,
+                                 min_gap_m=MIN_VERTICAL_KNOT_GAP_M)
     knots, result = prune_knots(fit, knots, result, tol)
     return result[0]
 

@@ -36,7 +36,7 @@ def initial_knots(length_m: float, spacing_m: float) -> Array:
     return np.linspace(0.0, length_m, n + 1)
 
 
-def _splits(knots: Array, s: Array, r: Array, tol: float) -> Array:
+def _splits(knots: Array, s: Array, r: Array, tol: float, min_gap: float) -> Array:
     """New knots: one per interval holding a point with ``|r| > tol``."""
     bad = np.abs(r) > tol
     new = []
@@ -45,15 +45,16 @@ def _splits(knots: Array, s: Array, r: Array, tol: float) -> Array:
         inside = bad & (j == interval)
         worst = s[inside][np.argmax(np.abs(r[inside]))]
         a, b = knots[interval], knots[interval + 1]
-        if min(worst - a, b - worst) >= MIN_KNOT_GAP_M:
+        if min(worst - a, b - worst) >= min_gap:
             new.append(worst)
-        elif b - a >= 2.0 * MIN_KNOT_GAP_M:
+        elif b - a >= 2.0 * min_gap:
             new.append(0.5 * (a + b))
     return np.array(new)
 
 
 def refine_knots(fit: FitFn, knots: Array, tol: float,
-                 progress: Callable[[int, int], None] | None = None):
+                 progress: Callable[[int, int], None] | None = None, *,
+                 min_gap_m: float = MIN_KNOT_GAP_M):
     """Add knots until every residual is within `tol`.
 
     Returns
@@ -66,7 +67,7 @@ def refine_knots(fit: FitFn, knots: Array, tol: float,
     knots = result[4]
     for round_ in range(MAX_REFINE_ROUNDS):
         _, s, r, _, _ = result
-        new = _splits(knots, s, r, tol)
+        new = _splits(knots, s, r, tol, min_gap_m)
         log.debug("refine round %d: %d knots, max |r| %.3g, %d splits", round_, len(knots),
                   np.abs(r).max(initial=0.0), len(new))
         if progress is not None:

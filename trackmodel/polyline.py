@@ -5,8 +5,11 @@ put points closer than the noise, and jitter backwards. `clean_polyline` keeps t
 order (the track runs from the first point to the last) and drops
 
 * points closer than ``min_spacing_m`` to the previously kept point (duplicates, stops);
-* points where the path doubles back (turn of more than ``max_turn_deg`` between the
-  chords before and after a point: a spike, never a real track).
+* single points where the path doubles back (turn of more than ``max_turn_deg`` between
+  the chords before and after a point, the path going on forwards without it: a spike).
+
+A path that really reverses (a vehicle backing up, turning round) is kept as it is:
+`find_reversal` finds it, and the fitter reports it (a track has one direction).
 """
 from __future__ import annotations
 
@@ -146,11 +149,16 @@ def clean_polyline(poly: Polyline, *, min_spacing_m: float = MIN_SPACING_M,
             keep.append(i)
     keep = np.array(keep)
     cos_max = math.cos(math.radians(max_turn_deg))
-    while len(keep) >= 3:
+    while len(keep) >= 4:
         d = np.diff(xy[keep], axis=0)
-        d /= np.linalg.norm(d, axis=1)[:, None]
-        cos_turn = np.einsum("ij,ij->i", d[:-1], d[1:])
-        spikes = np.flatnonzero(cos_turn < cos_max) + 1
+        cos_turn = np.einsum("ij,ij->i", d[:-1], d[1:]) / (
+            np.linalg.norm(d[:-1], axis=1) * np.linalg.norm(d[1:], axis=1))
+        spikes = np.flatnonzero(cos_turn < cos_max) + 1        # index into keep
+        spikes = spikes[(spikes >= 2) & (spikes <= len(keep) - 2)]
+        # a spike: without it the path goes on forwards (else it is a reversal: kept)
+        onward = xy[keep[spikes + 1]] - xy[keep[spikes - 1]]
+        before = xy[keep[spikes - 1]] - xy[keep[spikes - 2]]
+        spikes = spikes[np.einsum("ij,ij->i", onward, before) > 0]
         if not len(spikes):
             break
         keep = np.delete(keep, spikes[::2])          # never two neighbours in one pass

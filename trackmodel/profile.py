@@ -22,6 +22,8 @@ Array = npt.NDArray[np.float64]
 #: Weight of the elevation-change penalty relative to a height residual.
 SMOOTH_WEIGHT = 1e-2
 GN_STEPS = 4
+#: Fitted elevations are kept within ±0.2 rad (20 % grade: beyond any railway or tramway).
+MAX_ELEVATION_RAD = 0.2
 GRID_STEP_M = 1.0
 
 
@@ -93,5 +95,6 @@ def fit_profile(s: Array, h: Array, knots: Array, *,
         J = np.column_stack([A[:, :1], A[:, 1:] * cos_e])
         lhs = J.T @ J + D.T @ D + 1e-12 * np.eye(m + 2)
         x = x + np.linalg.solve(lhs, J.T @ r - D.T @ (D @ x))
+        x[1:] = np.clip(x[1:], -MAX_ELEVATION_RAD, MAX_ELEVATION_RAD)
     profile = Profile(knots, float(x[0]), x[1:])
     return profile, h - profile.height_at(s), x[1:]
