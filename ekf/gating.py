@@ -109,6 +109,12 @@ class Gate:
         """
         if self.scope == "vector":
             return np.full(innov.size, self.passes(innov, S)[0])
+        ids, counts = np.unique(groups, return_counts=True)
+        if ids.size == innov.size:   # scalar rows: the same test, vectorized
+            var = np.diagonal(S)
+            if self.kind == "trace":
+                return innov * innov <= self.trace_factor * var
+            return innov * innov <= chi2_threshold(self.probability, 1) * var
         accepted = np.zeros(innov.size, dtype=bool)
         for g in np.unique(groups):
             rows = np.flatnonzero(groups == g)

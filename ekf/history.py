@@ -16,7 +16,7 @@ from ekf.layout import StateLayout
 from ekf.packing import unpack_sym
 from ekf.update import UpdateRecord
 
-__all__ = ["FilterResult", "SmootherData", "Recorder"]
+__all__ = ["FilterResult", "SmootherData", "Recorder", "concatenate_results"]
 
 Array = npt.NDArray[np.float64]
 
@@ -204,3 +204,43 @@ class Recorder:
             epoch_of=self._get("epoch_of", (), int), innov_d=self._get("innov_d", ()),
             s_d=self._get("s_d", ()), accepted=self._get("accepted", (), bool),
             smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final))
+
+
+def concatenate_results(results: "list[FilterResult]") -> FilterResult:
+    """One :class:`FilterResult` from consecutive streamed chunks (epoch numbers renumbered).
+
+    Parameters
+    ----------
+    results : list of FilterResult
+        In stream order, same layout (as :meth:`ekf.CdFilter.stream` yields them).
+
+    Returns
+    -------
+    FilterResult
+        Arrays concatenated; ``x_final``/``P_final`` of the last chunk; smoother data kept
+        only if every chunk has it.
+    """
+    if not results:
+        raise ValueError("no results to concatenate")
+    first, last = results[0], results[-1]
+
+    def cat(name: str) -> Array:
+        parts = [getattr(r, name) for r in results]
+        filled = [p for p in parts if p.shape[0]]   # an empty chunk may lack trailing sizes
+        return np.concatenate(filled or parts[:1], axis=0)
+
+    offsets = np.cumsum([0] + [r.t_d.size for r in results[:-1]])
+    epoch_of = np.concatenate([r.epoch_of + off for r, off in zip(results, offsets)])
+    smoother = None
+    if all(r.smoother is not None for r in results):
+        smoother = SmootherData(**{f: np.concatenate([getattr(r.smoother, f) for r in results])
+                                   for f in ("t", "x_filt", "P_filt", "x_next", "P_next", "Phi")})
+    return FilterResult(
+        layout=first.layout, t=cat("t"), x=cat("x"), P_diag=cat("P_diag"),
+        P=cat("P") if first.P is not None else None, t_c=cat("t_c"), innov_c=cat("innov_c"),
+        nis_c=cat("nis_c"), nis_c_sum=float(sum(r.nis_c_sum for r in results)),
+        nis_c_count=int(sum(r.nis_c_count for r in results)), t_d=cat("t_d"),
+        nis_d=cat("nis_d"), log_lik_d=cat("log_lik_d"), m_d=cat("m_d"),
+        accepted_d=cat("accepted_d"), epoch_of=epoch_of, innov_d=cat("innov_d"),
+        s_d=cat("s_d"), accepted=cat("accepted"), smoother=smoother,
+        x_final=last.x_final, P_final=last.P_final)

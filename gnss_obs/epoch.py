@@ -37,6 +37,7 @@ from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic
 
 __all__ = ["EpochData", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
+           "transmit_states", "transmit_states_batch",
            "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
 
 log = logging.getLogger(__name__)
@@ -222,6 +223,29 @@ def transmit_states(epoch: EpochData, config: MeasurementConfig):
     states = satellite_states(eph, t_tx)
     clock_m = SPEED_OF_LIGHT_MPS * (states.clock_s - _signal_group_delay_s(eph, meas, config))
     return states, clock_m
+
+
+def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig) -> list:
+    """`transmit_states` of many epochs in one vectorized evaluation.
+
+    The transmission-time states do not depend on the receiver guess, so a filter can
+    compute them for a whole file at once and pass each epoch's to `prepare_epoch`.
+
+    Returns
+    -------
+    list of (SatelliteStates, ndarray)
+        One ``(states, clock_m)`` per epoch, equal to ``transmit_states(epoch, config)``.
+    """
+    if not epochs:
+        return []
+    sizes = np.array([len(e) for e in epochs])
+    meas = {k: np.concatenate([e.meas[k] for e in epochs]) for k in epochs[0].meas}
+    eph = {k: np.concatenate([e.eph[k] for e in epochs]) for k in epochs[0].eph}
+    times = np.repeat([e.gps_time_s for e in epochs], sizes)
+    states, clock_m = transmit_states(EpochData(times, meas, eph), config)
+    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
+             clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,

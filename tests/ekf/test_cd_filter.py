@@ -10,6 +10,7 @@ import pytest
 
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.errors import ModelError
+from ekf.history import concatenate_results
 from ekf.model import MeasurementModel
 from ekf.series import Epoch, InputSeries
 from ekf.update import Observation
@@ -91,6 +92,10 @@ def test_streaming_in_chunks_equals_one_run(tracking_system, rng):
     np.testing.assert_array_equal(np.concatenate([p.t for p in parts]), whole.t)
     assert sum(p.t_d.size for p in parts) == len(epochs)
     np.testing.assert_array_equal(whole.t, samples.t[:STEPS:3])
+    joined = concatenate_results(parts)   # reference: the one-piece run again
+    for name in ("t", "x", "P_diag", "t_d", "nis_d", "innov_d", "epoch_of", "accepted"):
+        np.testing.assert_allclose(getattr(joined, name), getattr(whole, name), rtol=1e-13)
+    assert joined.nis_c_count == whole.nis_c_count
 
 
 def test_manual_propagate_and_update_equal_run(tracking_system, rng):

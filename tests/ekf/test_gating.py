@@ -30,3 +30,17 @@ def test_trace_gate_is_the_paper_rule():
 def test_gate_rejects_bad_configuration(kwargs):
     with pytest.raises(ModelError):
         Gate(**kwargs)
+
+
+@pytest.mark.parametrize("kind", ["chi2", "trace"])
+def test_scalar_rows_fast_path_equals_row_by_row_test(kind, rng):
+    """Reference: `Gate.passes` applied to each scalar row on its own."""
+    m = 40
+    A = rng.normal(size=(m, m))
+    S = A @ A.T + m * np.eye(m)
+    innov = rng.normal(size=m) * np.sqrt(np.diag(S)) * 2.5   # some rows fail
+    gate = Gate(0.99, kind=kind, scope="rows", trace_factor=4.0)
+    fast = gate.accepted_rows(innov, S, np.arange(m))
+    slow = np.array([gate.passes(innov[[i]], S[[i]][:, [i]])[0] for i in range(m)])
+    np.testing.assert_array_equal(fast, slow)
+    assert 0 < fast.sum() < m

@@ -6,7 +6,8 @@ import pytest
 
 from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS, WEEK_S
 from gnss_obs.ephemeris import select_ephemeris
-from gnss_obs.epoch import measurement_sigmas, prepare_epoch, sagnac_rotation, split_epochs
+from gnss_obs.epoch import (measurement_sigmas, prepare_epoch, sagnac_rotation, split_epochs,
+                            transmit_states, transmit_states_batch)
 from gnss_obs.measurements import MeasurementConfig, select_measurements
 
 T_1240 = 2134 * WEEK_S + 45_600.0
@@ -63,3 +64,17 @@ def test_prepared_epoch_on_real_data(nav, rover_obs):
     tgd = select_ephemeris(nav.records, q.sv, np.full(len(q), T_1240))["tgd_s"].to_numpy()
     np.testing.assert_allclose(p.sat_clock_m[common] - q.sat_clock_m,
                                -SPEED_OF_LIGHT_MPS * tgd, rtol=0, atol=1e-6)
+
+
+def test_transmit_states_batch_equals_epoch_by_epoch(nav, rover_obs):
+    """Reference: `transmit_states` called on each epoch on its own (GPS + Galileo, 20 s)."""
+    cfg = MeasurementConfig(systems="GE")
+    table = rover_obs.table[rover_obs.table["gps_time_s"] < T_1240 + 20]
+    epochs = split_epochs(select_measurements(table, cfg), nav.records, cfg)
+    batch = transmit_states_batch(epochs, cfg)
+    assert len(batch) == len(epochs) == 20
+    for epoch, (states, clock_m) in zip(epochs, batch):
+        ref_states, ref_clock = transmit_states(epoch, cfg)
+        np.testing.assert_array_equal(clock_m, ref_clock)
+        np.testing.assert_array_equal(states.r_e, ref_states.r_e)
+        np.testing.assert_array_equal(states.clock_drift_sps, ref_states.clock_drift_sps)

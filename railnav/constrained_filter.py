@@ -1,0 +1,206 @@
+"""The track-constrained, tightly coupled INS/GNSS filter (the 2017 paper's, corrected).
+
+`ConstrainedFilter` is what `railnav.navigate` drives for ``filter="constrained"``: it
+holds the process model (`railnav.constrained_model`), turns IMU samples into filter
+inputs with the track linearized along the predicted path (the per-step parameters of
+`strapdown.reduced`), and turns a GNSS epoch into pseudorange and range-rate rows
+(`railnav.gnss_rows`) at the prior's position on the track.
+
+Reference path of a chunk: from the filter's state at the chunk start, the along-track
+distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
+(cm-accurate over a second); the track quantities are taken there and the model corrects
+them to first/second order in ``s − s_ref`` (`strapdown.reduced`), so the Jacobians with
+respect to ``s`` are the track's.
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.packing import unpack_sym
+from ekf.update import Observation
+from railnav.constrained_model import build_constrained_model, isb_state_name
+from railnav.filter_common import GnssRowBuilder, scalar_point, track_estimates
+from railnav.nav_config import NavigatorConfig
+from strapdown.gravity import g_n
+from strapdown.reduced import track_parameters
+from trackmodel.earth import C_n_e, ecef_to_geodetic
+from trackmodel.track import Track
+
+__all__ = ["ConstrainedFilter"]
+
+Array = npt.NDArray[np.float64]
+
+#: Floors of the initial σ taken from a GNSS fix (a fix's own σ can be optimistic), m, m/s.
+_MIN_FIX_SIGMA_S_M = 1.0
+_MIN_FIX_SIGMA_V_MPS = 0.05
+#: Bias variances are kept positive so that P0 is definite even for a perfect IMU.
+_MIN_BIAS_VARIANCE = 1e-16
+#: Gravity for the along-track prediction is looked up once per this much track, m (it
+#: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
+_GRAVITY_CACHE_M = 1000.0
+
+
+class ConstrainedFilter:
+    """Model, inputs and GNSS rows of the constrained filter for one track.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    config : NavigatorConfig
+    gnss : railnav.gnss_epochs.GnssEpochs or None
+    """
+
+    needs_imu = True
+
+    def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
+        self.track, self.config = track, config
+        systems = config.measurement.systems
+        self.isb_systems = tuple(systems[1:])
+        self.model = build_constrained_model(track.earth,
+                                             estimate_biases=config.biases_estimated,
+                                             isb_systems=self.isb_systems)
+        self.layout = self.model.layout
+        self.process = self.model.process
+        from gnss_obs.oscillator import oscillator_from_name
+        self.q_c = self.model.process_noise_density(config.imu,
+                                                    oscillator_from_name(config.oscillator))
+        self.rows = GnssRowBuilder(track, self.layout, gnss, config,
+                                   tuple(isb_state_name(s) for s in self.isb_systems))
+        self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
+        self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
+        self._gravity: dict[int, float] = {}
+        self._chunk_end = None   # the track at the last sample of the latest chunk
+
+    # -- inputs ----------------------------------------------------------------------------
+    def inputs(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> tuple[Array, Array]:
+        """Filter inputs and track parameters of samples ``t`` following ``t_prev``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (M,)
+            Sample times, s (after `t_prev`).
+        u : ndarray, shape (M, 6)
+            IMU samples ``[f_b, ω_ib_b]`` (m/s², rad/s).
+        x_prev : ndarray, shape (n,)
+            Filter state at `t_prev`.
+        t_prev : float
+            Time of `x_prev`, s.
+
+        Returns
+        -------
+        u : ndarray, shape (M, 6)
+        p : ndarray, shape (M, 16)
+            `strapdown.reduced.TRACK_PARAMETER_NAMES` at the predicted ``s``.
+        """
+        s_ref = self.predict_s(t, u, x_prev, t_prev)
+        points = self.track.at(s_ref)
+        self._chunk_end = scalar_point(points, -1)
+        return u, track_parameters(points, earth=self.track.earth)
+
+    def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
+        """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
+        i = self._i
+        gravity = self._gravity_near(x_prev[i["s"]])
+        f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
+        accel = f_x - gravity * np.sin(x_prev[i["pitch"]])
+        dt = np.diff(np.concatenate([[t_prev], t]))
+        v = x_prev[i["v"]] + np.cumsum(accel * dt)
+        v_mid = 0.5 * (np.concatenate([[x_prev[i["v"]]], v[:-1]]) + v)
+        s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
+        return np.clip(s, 0.0, self.track.length_m)
+
+    def _gravity_near(self, s: float) -> float:
+        """|g| (m/s²) at the track point nearest `s`, cached per kilometre of track."""
+        key = int(s // _GRAVITY_CACHE_M)
+        if key not in self._gravity:
+            point = self.track.at(min(max(s, 0.0), self.track.length_m))
+            self._gravity[key] = float(np.linalg.norm(g_n(point.lat, point.h,
+                                                          earth=self.track.earth)))
+        return self._gravity[key]
+
+    # -- discrete updates ------------------------------------------------------------------
+    def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
+        """GNSS rows of epoch `index` at the prior ``x`` (see `GnssRowBuilder`)."""
+        return self.rows.observations(index, x, self._chunk_end)
+
+    # -- start -----------------------------------------------------------------------------
+    def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
+        """Diagonal initial covariance in the layout's order (config's attitude and clock σ)."""
+        cfg, imu = self.config, self.config.imu
+        var = {"yaw": cfg.initial_attitude_sigma_rad ** 2,
+               "pitch": cfg.initial_attitude_sigma_rad ** 2,
+               "roll": cfg.initial_attitude_sigma_rad ** 2,
+               "s": sigma_s_m ** 2, "v": sigma_v_mps ** 2,
+               "clock_bias": cfg.initial_clock_bias_sigma_m ** 2,
+               "clock_drift": cfg.initial_clock_drift_sigma_mps ** 2}
+        accel = imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2
+        gyro = imu.gyro_bias_radps ** 2 + imu.gyro_bias_instability_radps ** 2
+        var.update({name: max(accel, _MIN_BIAS_VARIANCE) for name in ("b_ax", "b_ay", "b_az")})
+        var.update({name: max(gyro, _MIN_BIAS_VARIANCE) for name in ("b_gx", "b_gy", "b_gz")})
+        return np.diag([var.get(name, cfg.initial_isb_sigma_m ** 2)
+                        for name in self.layout.names])
+
+    def initial_from_fix(self, fix) -> tuple[Array, Array]:
+        """State and covariance at a GNSS fix (`railnav.initialization.GnssFix`).
+
+        The fix is projected on the track (``s``); the speed is the fix velocity along the
+        tangent; the attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0).
+        """
+        lat, lon, h = ecef_to_geodetic(fix.r_e, earth=self.track.earth)
+        s0 = float(self.track.project(lat, lon, h).s[0])
+        point = self.track.at(s0)
+        t_e = C_n_e(point.lat, point.lon) @ point.u_n
+        t_n = point.u_n
+        v0 = float(t_e @ fix.v_e)
+        sigma_s = self.config.initial_s_sigma_m or max(
+            float(np.sqrt(t_n @ fix.cov_enu_m2 @ t_n)), _MIN_FIX_SIGMA_S_M)
+        sigma_v = self.config.initial_v_sigma_mps or max(
+            float(np.sqrt(t_n @ fix.cov_v_enu_m2ps2 @ t_n)), _MIN_FIX_SIGMA_V_MPS)
+        ref = self.config.measurement.systems[0]
+        values = {"yaw": float(point.azimuth), "pitch": float(point.elevation), "roll": 0.0,
+                  "s": s0, "v": v0, "clock_bias": fix.clock_bias_m.get(ref, 0.0),
+                  "clock_drift": fix.clock_drift_mps}
+        for system in self.isb_systems:
+            bias = fix.clock_bias_m.get(system, np.nan)
+            values[isb_state_name(system)] = bias - values["clock_bias"] \
+                if np.isfinite(bias) else 0.0
+        x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
+        return x0, self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v)
+
+    def truth_states(self, truth, clock_bias_m: Array, clock_drift_mps: Array
+                     ) -> tuple[Array, npt.NDArray[np.bool_]]:
+        """True states at the truth's samples, and which components are known.
+
+        Parameters
+        ----------
+        truth : railnav.truth.Truth
+            (K samples).
+        clock_bias_m, clock_drift_mps : ndarray, shape (K,)
+            True receiver clock at those samples.
+
+        Returns
+        -------
+        x_true : ndarray, shape (K, n)
+            Unknown components (IMU biases) are 0.
+        known : ndarray of bool, shape (n,)
+        """
+        known_values = {"yaw": truth.yaw, "pitch": truth.pitch, "roll": truth.roll,
+                        "s": truth.s, "v": truth.v, "clock_bias": clock_bias_m,
+                        "clock_drift": clock_drift_mps}
+        k = np.size(truth.s)
+        x = np.zeros((k, self.layout.size))
+        known = np.zeros(self.layout.size, dtype=bool)
+        for i, name in enumerate(self.layout.names):
+            if name in known_values:
+                x[:, i], known[i] = known_values[name], True
+            elif name.startswith("isb_"):
+                known[i] = True   # the simulator has one receiver clock for every system
+        return x, known
+
+    # -- outputs ---------------------------------------------------------------------------
+    def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
+        """Estimate columns (`railnav.nav_result.ESTIMATE_COLUMNS`) of stored states."""
+        P = unpack_sym(P_packed)
+        var = np.diagonal(P, axis1=1, axis2=2)
+        return track_estimates(self.track, self.layout, x, var)

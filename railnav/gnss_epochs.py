@@ -1,0 +1,119 @@
+"""GNSS epochs for a filter: selection, outage windows, per-epoch preparation at a guess.
+
+The filters consume GNSS data through `GnssEpochs`: the observation file cut into epochs
+once (`gnss_obs.epoch.split_epochs`: signal choice and ephemeris selection for the whole
+file), restricted to the trip and to the outside of the user's outage windows, with each
+epoch's time relative to the trip start. `GnssEpochs.prepare` then gives the satellites of
+one epoch at the filter's current position guess (transmission-time states, Sagnac,
+satellite clocks, atmosphere, σ), above the elevation mask and with finite measurements.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from gnss_obs.epoch import (EpochData, PreparedEpoch, prepare_epoch, split_epochs,
+                            transmit_states_batch)
+from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
+from gnss_obs.rinex_nav import RinexNav
+from gnss_obs.rinex_obs import RinexObs
+
+__all__ = ["GnssEpochs", "in_outage"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+
+def in_outage(t: npt.ArrayLike, outages) -> npt.NDArray[np.bool_]:
+    """True where time ``t`` (s from the trip start) falls inside an outage window.
+
+    Parameters
+    ----------
+    t : array_like
+        Times, s.
+    outages : sequence of (start_s, duration_s)
+
+    Returns
+    -------
+    ndarray of bool, shape of `t`
+    """
+    t = np.asarray(t, dtype=float)
+    inside = np.zeros(t.shape, dtype=bool)
+    for start, duration in outages:
+        inside |= (t >= start) & (t < start + duration)
+    return inside
+
+
+@dataclass(frozen=True, eq=False)
+class GnssEpochs:
+    """The usable GNSS epochs of a trip.
+
+    Attributes
+    ----------
+    epochs : list of gnss_obs.EpochData
+        In time order.
+    time_s : ndarray, shape (E,)
+        Epoch times from the trip start, s.
+    config : gnss_obs.MeasurementConfig
+    elevation_mask_rad : float
+    klobuchar : (alpha, beta) or None
+        Broadcast ionosphere coefficients of the navigation file.
+    transmit : list
+        Satellite states at transmission of each epoch (`gnss_obs.transmit_states_batch`:
+        they do not depend on the receiver guess, so they are computed once).
+    """
+
+    epochs: list[EpochData]
+    time_s: Array
+    config: MeasurementConfig
+    elevation_mask_rad: float
+    klobuchar: tuple[Array, Array] | None
+    transmit: list
+
+    @classmethod
+    def from_files(cls, obs: RinexObs, nav: RinexNav, config: MeasurementConfig, *,
+                   start_gps_time_s: float, end_s: float, outages=(),
+                   elevation_mask_deg: float = 10.0) -> "GnssEpochs":
+        """Select the epochs of ``[0, end_s]`` outside the outages.
+
+        Parameters
+        ----------
+        obs, nav : RinexObs, RinexNav
+        config : gnss_obs.MeasurementConfig
+        start_gps_time_s : float
+            GPS time of the trip start (``time_s = 0``), s.
+        end_s : float
+            Last usable time from the trip start, s.
+        outages : sequence of (start_s, duration_s)
+            Windows whose epochs are dropped.
+        elevation_mask_deg : float
+        """
+        table = obs.table
+        t_rel = table["gps_time_s"].to_numpy() - start_gps_time_s
+        keep = (t_rel >= -1e-9) & (t_rel <= end_s + 1e-9) & ~in_outage(t_rel, outages)
+        table = table[keep]
+        channels = glonass_channels(obs.header.glonass_slots, nav.records) \
+            if "R" in config.systems else None
+        meas = select_measurements(table, config, glonass_channels=channels)
+        epochs = split_epochs(meas, nav.records, config) if len(meas) else []
+        alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
+        klobuchar = None if alpha is None or beta is None else (alpha, beta)
+        times = np.array([e.gps_time_s - start_gps_time_s for e in epochs], dtype=float)
+        return cls(epochs=epochs, time_s=times, config=config,
+                   elevation_mask_rad=float(np.deg2rad(elevation_mask_deg)), klobuchar=klobuchar,
+                   transmit=transmit_states_batch(epochs, config))
+
+    def __len__(self) -> int:
+        return len(self.epochs)
+
+    def prepare(self, index: int, r_guess_e: Array) -> PreparedEpoch:
+        """Satellites of epoch `index` usable at the receiver guess (ECEF, m)."""
+        epoch = self.epochs[index]
+        prepared = prepare_epoch(epoch, self.config, r_rx_e=r_guess_e, klobuchar=self.klobuchar,
+                                 transmit=self.transmit[index])
+        ok = np.isfinite(prepared.pseudorange_m) & (prepared.elevation >= self.elevation_mask_rad)
+        return prepared.subset(ok)

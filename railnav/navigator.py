@@ -1,0 +1,210 @@
+"""The navigator: runs a filter over a trip's sensor data on a track.
+
+`navigate` is the one entry point behind ``railnav run`` and the notebooks. It
+
+1. cuts the GNSS observations into epochs (`railnav.gnss_epochs`), without the outage
+   windows;
+2. builds the sample grid: the IMU samples (a sample is inserted, its input interpolated,
+   where a GNSS epoch falls between two), or for the GNSS-only filter a grid at the
+   output rate plus the epochs;
+3. starts from the given `InitialState` or from the first GNSS fix
+   (`railnav.initialization`);
+4. streams the samples through `ekf.CdFilter` in chunks that end at GNSS epochs, so that
+   each chunk's track linearization starts from the latest posterior, and each epoch's
+   rows are built at the prior of that epoch (a callable `ekf.Epoch`);
+5. assembles a `railnav.nav_result.NavigationResult` (estimates, innovations, statistics).
+
+Time: ``time_s`` is seconds from the trip start, whose GPS time is
+``SensorData.start_gps_time_s``.
+"""
+from __future__ import annotations
+
+import functools
+import logging
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.cd_filter import CdFilter, FilterConfig
+from ekf.gating import Gate
+from ekf.history import concatenate_results
+from ekf.series import Epoch, InputSeries
+from railnav.errors import RailnavError
+from railnav.gnss_epochs import GnssEpochs
+from railnav.nav_config import NavigatorConfig, SensorData
+from railnav.nav_result import NavigationResult
+
+__all__ = ["navigate", "InitialState", "make_filter", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+Progress = Callable[[int, int], None]
+
+#: A GNSS epoch within this of a sample time is taken at that sample, s.
+EPOCH_TIME_TOL_S = 1e-6
+#: Longest chunk between track re-linearizations when no GNSS epoch comes (outages), s.
+MAX_CHUNK_S = 1.0
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """A filter's starting point.
+
+    Attributes
+    ----------
+    time_s : float
+        Time of the prior, s from the trip start.
+    x0 : ndarray, shape (n,)
+    P0 : ndarray, shape (n, n)
+        In the filter's `ekf.StateLayout`.
+    """
+
+    time_s: float
+    x0: Array
+    P0: Array
+
+
+def make_filter(track, config: NavigatorConfig, gnss: GnssEpochs | None):
+    """The filter object of ``config.filter`` (constrained / unconstrained / gnss-only)."""
+    if config.filter == "constrained":
+        from railnav.constrained_filter import ConstrainedFilter
+        return ConstrainedFilter(track, config, gnss)
+    raise RailnavError(f"filter {config.filter!r} is not available yet")
+
+
+def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(), *,
+             outages=(), initial: InitialState | None = None,
+             progress: Progress | None = None) -> NavigationResult:
+    """Run a filter over a trip.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+        The track the vehicle is on (the unconstrained filter uses it only for outputs).
+    data : SensorData
+        IMU and/or GNSS data with their common time reference.
+    config : NavigatorConfig
+    outages : sequence of (start_s, duration_s)
+        GNSS outage windows imposed on the data (s from the trip start).
+    initial : InitialState, optional
+        Start here instead of at the first GNSS fix.
+    progress : callable(done, total), optional
+        Called with the number of filter steps done.
+
+    Returns
+    -------
+    NavigationResult
+
+    Raises
+    ------
+    RailnavError
+        Inconsistent inputs (no IMU for an inertial filter, no GNSS and no initial state).
+    ekf.FilterDivergedError
+        If the covariance loses positive definiteness.
+    """
+    started = time.perf_counter()
+    samples_t, samples_u = _sample_times(data, config)
+    gnss = None
+    if data.obs is not None:
+        gnss = GnssEpochs.from_files(data.obs, data.nav, config.measurement,
+                                     start_gps_time_s=data.start_gps_time_s,
+                                     end_s=float(samples_t[-1]), outages=outages,
+                                     elevation_mask_deg=config.elevation_mask_deg)
+    filt_obj = make_filter(track, config, gnss)
+    if initial is None:
+        from railnav.initialization import initial_from_gnss
+        initial = initial_from_gnss(filt_obj, data, config, gnss)
+    epoch_times = gnss.time_s if gnss is not None else np.zeros(0)
+    samples_t, samples_u = _insert_samples(samples_t, samples_u, epoch_times)
+    first = int(np.searchsorted(samples_t, initial.time_s - EPOCH_TIME_TOL_S))
+    samples_t, samples_u = samples_t[first:], samples_u[first:]
+    if samples_t.size < 2:
+        raise RailnavError("fewer than two samples after the initial time: nothing to filter")
+    use = epoch_times >= samples_t[0] - EPOCH_TIME_TOL_S
+    epoch_idx = np.flatnonzero(use)
+    result = _run(filt_obj, config, samples_t, samples_u, epoch_times, epoch_idx, initial,
+                  progress)
+    return NavigationResult.assemble(
+        filt_obj, config, result, start_gps_time_s=data.start_gps_time_s, outages=outages,
+        epoch_indices=epoch_idx, epoch_times=epoch_times,
+        runtime_s=time.perf_counter() - started)
+
+
+def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Array,
+         epoch_idx: npt.NDArray[np.intp], initial: InitialState, progress: Progress | None):
+    """Stream the samples through the EKF; one result for the whole trip."""
+    store_every = max(1, int(round(1.0 / (config.output_rate_hz * np.median(np.diff(t))))))
+    gate = None if config.gate_probability is None else Gate(config.gate_probability,
+                                                             scope="rows")
+    engine = CdFilter(filt_obj.process, FilterConfig(gate=gate, store_every=store_every,
+                                                     full_covariance=True,
+                                                     time_tol_s=EPOCH_TIME_TOL_S))
+    at_sample = np.searchsorted(t, epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
+    q_c = filt_obj.q_c
+
+    def chunks() -> Iterator[InputSeries]:
+        start = 0
+        bounds = iter(at_sample)
+        next_epoch = next(bounds, None)
+        max_len = max(1, int(round(MAX_CHUNK_S / np.median(np.diff(t)))))
+        while start < t.size:
+            stop = min(start + max_len, t.size)
+            while next_epoch is not None and next_epoch < start:
+                next_epoch = next(bounds, None)
+            if next_epoch is not None and next_epoch < stop:
+                stop = next_epoch + 1
+            t_prev = engine.t if np.isfinite(engine.t) else t[0]
+            u_c, p_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, t_prev)
+            yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=q_c)
+            start = stop
+
+    epochs = (Epoch(float(t[k]), functools.partial(_observations, filt_obj, int(i)))
+              for k, i in zip(at_sample, epoch_idx))
+    parts = list(engine.stream(chunks(), epochs, x0=initial.x0, P0=initial.P0,
+                               progress=progress, total=t.size - 1))
+    return concatenate_results(parts)
+
+
+def _observations(filt_obj, index: int, x: Array, P: Array):
+    return filt_obj.observations(index, x, P)
+
+
+def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
+    """Sample times (s) and inputs of the filter before epochs are inserted."""
+    if config.filter == "gnss-only":
+        if data.obs is None:
+            raise RailnavError("the gnss-only filter needs GNSS observations")
+        t_obs = np.unique(data.obs.table["gps_time_s"].to_numpy()) - data.start_gps_time_s
+        t_obs = t_obs[t_obs >= 0]
+        if t_obs.size < 2:
+            raise RailnavError("fewer than two GNSS epochs after the trip start")
+        grid = np.arange(t_obs[0], t_obs[-1], 1.0 / config.output_rate_hz)
+        t = np.union1d(grid, t_obs)
+        return t, np.zeros((t.size, 0))
+    if data.imu is None:
+        raise RailnavError(f"the {config.filter} filter needs IMU data")
+    t = np.asarray(data.imu.time_s, dtype=float)
+    if t.size < 2 or not np.all(np.diff(t) > 0):
+        raise RailnavError("IMU times must be increasing with at least two samples")
+    return t, data.imu.u
+
+
+def _insert_samples(t: Array, u: Array, epoch_times: Array) -> tuple[Array, Array]:
+    """Add samples at epoch times that fall between samples (inputs interpolated)."""
+    inside = (epoch_times >= t[0] - EPOCH_TIME_TOL_S) & (epoch_times <= t[-1] + EPOCH_TIME_TOL_S)
+    e = epoch_times[inside]
+    j = np.clip(np.searchsorted(t, e), 1, t.size - 1)
+    near = np.minimum(np.abs(t[j] - e), np.abs(t[j - 1] - e)) <= EPOCH_TIME_TOL_S
+    new = e[~near]
+    if new.size == 0:
+        return t, u
+    t_all = np.union1d(t, new)
+    if u.shape[1] == 0:
+        return t_all, np.zeros((t_all.size, 0))
+    u_all = np.column_stack([np.interp(t_all, t, u[:, k]) for k in range(u.shape[1])])
+    log.debug("%d GNSS epochs between IMU samples: samples inserted", new.size)
+    return t_all, u_all
