@@ -54,6 +54,9 @@ class NavigationResult:
     n_steps, n_epochs : int
         Filter steps and GNSS updates.
     raw : ekf.FilterResult
+    filter_object : object
+        The filter that ran (`railnav.constrained_filter.ConstrainedFilter`, ...): its
+        layout, track and ``truth_states`` for evaluation.
     """
 
     filter: str
@@ -71,6 +74,7 @@ class NavigationResult:
     n_steps: int
     n_epochs: int
     raw: FilterResult = field(repr=False)
+    filter_object: object = field(repr=False, default=None)
 
     @classmethod
     def assemble(cls, filt_obj, config, result: FilterResult, *, start_gps_time_s: float,
@@ -87,7 +91,7 @@ class NavigationResult:
                    estimates=estimates, innovations=innovations, nis_continuous_mean=nis_c,
                    nis_continuous_dof=n_c, outages=tuple(tuple(o) for o in outages),
                    runtime_s=float(runtime_s), n_steps=int(result.nis_c_count or result.t.size),
-                   n_epochs=int(result.t_d.size), raw=result)
+                   n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj)
 
     def statistics(self) -> dict:
         """Filter self-consistency figures for ``summary.json`` (no truth needed)."""

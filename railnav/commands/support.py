@@ -25,11 +25,12 @@ def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, 
     def update(done: int, total: int) -> None:
         nonlocal bar
         if bar is None:
+            # disable=None: no bar when stderr is not a terminal (logs, CI, pipes)
             bar = tqdm(total=total, desc=desc, file=sys.stderr, leave=False,
-                       dynamic_ncols=True, mininterval=0.2)
-        bar.total = total
-        bar.n = done
-        bar.refresh()
+                       dynamic_ncols=True, mininterval=0.2, disable=None)
+        if total and bar.total != total:
+            bar.total = total
+        bar.update(done - bar.n)   # update() honours mininterval; refresh() would not
 
     try:
         yield update
