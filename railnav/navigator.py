@@ -16,6 +16,20 @@
 
 Time: ``time_s`` is seconds from the trip start, whose GPS time is
 ``SensorData.start_gps_time_s``.
+
+Filter objects (`make_filter`; `railnav.constrained_filter.ConstrainedFilter` is the
+reference implementation) provide:
+
+* ``layout`` (`ekf.StateLayout`), ``process`` (`ekf.CdModel`), ``q_c`` (its noise
+  densities), ``needs_imu``, and ``rows`` with ``rows_sv``/``rows_kind`` lists (one array
+  per processed epoch: the satellite and kind of each GNSS row, for ``innovations.csv``);
+* ``inputs(t, u, x_prev, t_prev) -> (u, p)``: the engine inputs and per-step parameters of
+  the samples ``t`` that follow the state ``x_prev`` at ``t_prev``;
+* ``observations(index, x, P) -> list of ekf.Observation``: the rows of GNSS epoch
+  ``index`` at the prior ``(x, P)``;
+* ``estimates(x, P_packed) -> dict of columns`` (`railnav.nav_result`);
+* ``initial_covariance(*, sigma_s_m, sigma_v_mps)``, ``initial_from_fix(fix)`` and
+  ``truth_states(truth, clock_bias_m, clock_drift_mps) -> (x_true, known)``.
 """
 from __future__ import annotations
 
@@ -73,7 +87,13 @@ def make_filter(track, config: NavigatorConfig, gnss: GnssEpochs | None):
     if config.filter == "constrained":
         from railnav.constrained_filter import ConstrainedFilter
         return ConstrainedFilter(track, config, gnss)
-    raise RailnavError(f"filter {config.filter!r} is not available yet")
+    if config.filter == "unconstrained":
+        from railnav.unconstrained_filter import UnconstrainedFilter
+        return UnconstrainedFilter(track, config, gnss)
+    if config.filter == "gnss-only":
+        from railnav.gnss_only_filter import GnssOnlyFilter
+        return GnssOnlyFilter(track, config, gnss)
+    raise RailnavError(f"unknown filter {config.filter!r}")
 
 
 def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(), *,
