@@ -90,6 +90,11 @@ class ReproductionResult:
         JSON-serializable parameters of the experiment.
     notes : tuple of str
         How the figures were defined (windows, choices where the paper is silent).
+    flat_json : bool
+        Write the JSON flat: ``paper`` = ``{quantity: value}`` (one paper variant) and
+        each variant ``{quantity: median, quantity_p95: p95}``.
+    extra : Mapping[str, Any]
+        Further JSON-serializable top-level entries (e.g. consistency figures).
     """
 
     experiment: str
@@ -101,6 +106,8 @@ class ReproductionResult:
     paper: Mapping[str, Mapping[str, PaperFigure]]
     settings: Mapping[str, Any] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    flat_json: bool = False
+    extra: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         clash = _RESERVED_KEYS.intersection(self.variants)
@@ -138,7 +145,9 @@ class ReproductionResult:
         return "\n".join([head, *legend, "", body])
 
     def to_json_dict(self) -> dict[str, Any]:
-        """The JSON document described in the module docstring."""
+        """The JSON document described in the module docstring (or its flat form)."""
+        if self.flat_json:
+            return self._flat_json_dict()
         units = {q.key: q.unit for q in self.quantities}
         doc: dict[str, Any] = {
             "experiment": self.experiment, "runs": self.runs, "seed": self.seed,
@@ -151,6 +160,23 @@ class ReproductionResult:
                 median, p95 = self.statistics(variant, key)
                 entry[key] = {"median": median, "p95": p95, "unit": units.get(key, "")}
             doc[variant] = entry
+        doc.update(self.extra)
+        return doc
+
+    def _flat_json_dict(self) -> dict[str, Any]:
+        figures: dict[str, float] = {}
+        for figs in self.paper.values():
+            figures.update({k: f.value for k, f in figs.items()})
+        doc: dict[str, Any] = {"experiment": self.experiment, "runs": self.runs,
+                               "seed": self.seed, "settings": dict(self.settings),
+                               "notes": list(self.notes), "paper": figures,
+                               "units": {q.key: q.unit for q in self.quantities}}
+        for variant, description in self.variants.items():
+            entry: dict[str, Any] = {"description": description}
+            for key in self.samples.get(variant, {}):
+                entry[key], entry[f"{key}_p95"] = self.statistics(variant, key)
+            doc[variant] = entry
+        doc.update(self.extra)
         return doc
 
 
@@ -193,6 +219,10 @@ EXPERIMENTS: dict[str, Experiment] = {
     "anomaly2021": Experiment(
         "anomaly2021", "railnav.anomaly2021:reproduce_anomaly2021",
         "Ivanov et al. 2021: GNSS jumps of 100 m against the innovation anomaly test",
+        default_runs=20),
+    "paper2017": Experiment(
+        "paper2017", "railnav.paper2017:reproduce_paper2017",
+        "Dolgiy et al. 2017: track-constrained INS/GNSS, 1000 s at 20 m/s, two 50-s outages",
         default_runs=20),
 }
 
