@@ -29,7 +29,9 @@ from railnav.nav_metrics import ErrorSeries, error_series, summarize
 from railnav.nav_result import NavigationResult
 from railnav.navigator import make_filter, navigate
 from railnav.scenarios import RNG_STREAMS, Scenario
-from railnav.trip import SimulatedTrip, navigator_config_for, simulate_trip
+from gnss_obs.measurements import MeasurementConfig
+from railnav.trip import (SimulatedTrip, navigator_config_for, navigator_config_from_simulation,
+                          simulate_trip)
 from strapdown.imu import read_imu_csv
 from trackmodel.files import atomic_write, atomic_write_text
 
@@ -107,7 +109,8 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
               start_gps_time_s: float | None = None, config: NavigatorConfig | None = None,
-              outages=(), window: tuple[float, float] | None = None,
+              filter: str = "constrained", systems: str | None = None, outages=(),
+              window: tuple[float, float] | None = None,
               progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Filter sensor files on a track.
 
@@ -121,13 +124,22 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     start_gps_time_s : float, optional
         GPS time of the IMU's ``time_s = 0``; default: from ``scenario.json`` beside the IMU
         file (written by ``railnav simulate``), else the first GNSS epoch.
-    config : NavigatorConfig
+    config : NavigatorConfig, optional
+        Default: for files written by ``railnav simulate`` (a ``scenario.json`` beside the
+        IMU or observation file) the simulation's sensor models
+        (`railnav.trip.navigator_config_from_simulation`); otherwise `NavigatorConfig`'s
+        defaults (GNSS σ from elevation and C/N0). `filter` and `systems` apply to the
+        default only.
+    filter : str
+    systems : str, optional
+        GNSS systems to use (default: the simulated ones, else ``"G"``).
     outages : sequence of (start_s, duration_s)
         Windows whose GNSS data are ignored (s from the trip start).
     window : (start_s, end_s), optional
     progress : callable(done, total), optional
     """
-    config = config or NavigatorConfig()
+    if config is None:
+        config = _default_file_config(imu_path, obs_path, filter, systems)
     if (obs_path is None) != (nav_path is None):
         raise ConfigError("--obs and --nav go together")
     imu = read_imu_csv(imu_path) if imu_path is not None else None
@@ -141,15 +153,40 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     return RunOutcome(result, track, summary)
 
 
-def _start_time(imu_path, obs) -> float:
-    """The trip's start in GPS time when the user did not give it."""
-    if imu_path is not None:
-        meta = Path(imu_path).with_name("scenario.json")
+def _simulation_meta(*paths) -> dict | None:
+    """The ``scenario.json`` beside the first of `paths` that has one (None if none)."""
+    for path in paths:
+        if path is None:
+            continue
+        meta = Path(path).with_name("scenario.json")
         if meta.is_file():
             try:
-                return float(json.loads(meta.read_text())["scenario"]["start_gps_time_s"])
-            except (KeyError, ValueError, TypeError) as exc:
-                raise ConfigError(f"{meta}: no scenario.start_gps_time_s ({exc})") from None
+                return json.loads(meta.read_text())
+            except ValueError as exc:
+                raise ConfigError(f"{meta}: not valid JSON ({exc})") from None
+    return None
+
+
+def _default_file_config(imu_path, obs_path, filter: str, systems: str | None
+                         ) -> NavigatorConfig:
+    meta = _simulation_meta(imu_path, obs_path)
+    if meta is not None:
+        extra = {} if systems is None else {"measurement": replace(
+            navigator_config_from_simulation(meta).measurement, systems=systems)}
+        log.info("sensor models from the simulation's scenario.json")
+        return navigator_config_from_simulation(meta, filter=filter, **extra)
+    return NavigatorConfig(filter=filter,
+                           measurement=MeasurementConfig(systems=systems or "G"))
+
+
+def _start_time(imu_path, obs) -> float:
+    """The trip's start in GPS time when the user did not give it."""
+    meta = _simulation_meta(imu_path)
+    if meta is not None:
+        try:
+            return float(meta["scenario"]["start_gps_time_s"])
+        except (KeyError, ValueError, TypeError) as exc:
+            raise ConfigError(f"scenario.json: no scenario.start_gps_time_s ({exc})") from None
     if obs is not None and len(obs.table):
         return float(obs.table["gps_time_s"].iloc[0])
     raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")

@@ -23,9 +23,10 @@ from gnss_obs.simulate import GnssSimConfig, GnssSimulation, default_nav_path, s
 from railnav.errors import ConfigError
 from railnav.nav_config import NavigatorConfig, SensorData
 from railnav.scenarios import RNG_STREAMS, Scenario, SimulationResult, simulate_scenario
+from strapdown.imu_errors import ImuErrors
 
 __all__ = ["SimulatedTrip", "simulate_trip", "navigator_config_for", "gnss_sim_config_for",
-           "DEFAULT_SYSTEMS"]
+           "navigator_config_from_simulation", "DEFAULT_SYSTEMS"]
 
 Array = npt.NDArray[np.float64]
 
@@ -99,14 +100,53 @@ def navigator_config_for(scenario: Scenario, *, filter: str = "constrained",
     initial σ of ``s`` and ``v`` are the scenario's initial errors. `overrides` replace
     any other `NavigatorConfig` field.
     """
-    measurement = MeasurementConfig(systems=systems, sigma_pr_m=scenario.sigma_pseudorange_m,
-                                    sigma_rr_mps=scenario.sigma_range_rate_mps,
-                                    elevation_weighting=False, cn0_ref_dbhz=math.nan)
-    base = NavigatorConfig(filter=filter, imu_errors=scenario.imu_errors,
-                           oscillator=scenario.clock, measurement=measurement,
-                           initial_attitude_sigma_rad=scenario.initial_attitude_sigma_rad,
-                           initial_s_sigma_m=scenario.initial_s_sigma_m,
-                           initial_v_sigma_mps=scenario.initial_v_sigma_mps)
+    return _simulated_sensor_config(
+        filter=filter, systems=systems, imu_errors=scenario.imu_errors,
+        clock=scenario.clock, sigma_pr_m=scenario.sigma_pseudorange_m,
+        sigma_rr_mps=scenario.sigma_range_rate_mps,
+        initial=(scenario.initial_attitude_sigma_rad, scenario.initial_s_sigma_m,
+                 scenario.initial_v_sigma_mps), **overrides)
+
+
+def navigator_config_from_simulation(meta: dict, *, filter: str = "constrained",
+                                     **overrides) -> NavigatorConfig:
+    """`navigator_config_for` from the ``scenario.json`` that ``railnav simulate`` writes.
+
+    Parameters
+    ----------
+    meta : dict
+        The parsed ``scenario.json`` (keys ``scenario`` and ``gnss_systems``).
+    filter : str
+    overrides
+        Other `NavigatorConfig` fields.
+
+    Raises
+    ------
+    ConfigError
+        For a file without the sensor settings.
+    """
+    try:
+        sc = meta["scenario"]
+        imu = ImuErrors(**sc["imu_errors"])
+        return _simulated_sensor_config(
+            filter=filter, systems=meta.get("gnss_systems") or DEFAULT_SYSTEMS, imu_errors=imu,
+            clock=sc["clock"], sigma_pr_m=float(sc["sigma_pseudorange_m"]),
+            sigma_rr_mps=float(sc["sigma_range_rate_mps"]),
+            initial=(float(sc["initial_attitude_sigma_rad"]), float(sc["initial_s_sigma_m"]),
+                     float(sc["initial_v_sigma_mps"])), **overrides)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ConfigError(f"scenario.json lacks the sensor settings: {exc}") from None
+
+
+def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: str,
+                             sigma_pr_m: float, sigma_rr_mps: float,
+                             initial: tuple[float, float, float], **overrides) -> NavigatorConfig:
+    measurement = MeasurementConfig(systems=systems, sigma_pr_m=sigma_pr_m,
+                                    sigma_rr_mps=sigma_rr_mps, elevation_weighting=False,
+                                    cn0_ref_dbhz=math.nan)
+    base = NavigatorConfig(filter=filter, imu_errors=imu_errors, oscillator=clock,
+                           measurement=measurement, initial_attitude_sigma_rad=initial[0],
+                           initial_s_sigma_m=initial[1], initial_v_sigma_mps=initial[2])
     return replace(base, **overrides)
 
 

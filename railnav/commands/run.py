@@ -12,7 +12,7 @@ from pathlib import Path
 
 from railnav.commands.support import outage_window, positive_float, progress_bar
 from railnav.errors import ConfigError
-from railnav.nav_config import FILTER_KINDS, NavigatorConfig
+from railnav.nav_config import FILTER_KINDS
 from railnav.scenarios import SCENARIOS, get_scenario
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.io import read_track
@@ -67,7 +67,9 @@ def register(subparsers) -> None:
                    help="GNSS outage, s from the start (repeatable; replaces the scenario's)")
     p.add_argument("--filter", choices=FILTER_KINDS, default="constrained",
                    help="which filter (default: constrained)")
-    p.add_argument("--systems", default="G", help="GNSS systems to use, e.g. G or GE (default G)")
+    p.add_argument("--systems", default=None,
+                   help="GNSS systems to use, e.g. G or GE (default: the simulated ones for "
+                        "railnav simulate's files, else G)")
     p.add_argument("--window", type=time_window, default=None, metavar="START:END",
                    help="also summarize the errors over this window, s")
     p.add_argument("--seed", type=int, default=0, help="random seed of the simulation")
@@ -94,28 +96,29 @@ def handler(args: argparse.Namespace) -> int:
     files = args.imu is not None or args.obs is not None
     with progress_bar("filter", enabled=not args.quiet) as progress:
         if files:
-            config = NavigatorConfig(filter=args.filter, imu_errors=args.imu_grade or "tactical",
-                                     measurement=_measurement(args.systems))
+            _measurement(args.systems)   # validates --systems before reading files
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
-                                config=config, outages=tuple(args.outage or ()),
-                                window=args.window, progress=progress)
+                                filter=args.filter, systems=args.systems,
+                                outages=tuple(args.outage or ()), window=args.window,
+                                progress=progress)
         else:
             scenario = _scenario(args)
             from railnav.trip import navigator_config_for
-            config = navigator_config_for(scenario, filter=args.filter, systems=args.systems)
+            systems = args.systems or "G"
+            config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=args.seed,
-                                    systems=args.systems, window=args.window, progress=progress)
+                                    systems=systems, window=args.window, progress=progress)
     write_run(outcome, out, plots=not args.no_plots)
     print(_report(outcome, out))
     return 0
 
 
-def _measurement(systems: str):
+def _measurement(systems: str | None):
     from gnss_obs.errors import GnssError
     from gnss_obs.measurements import MeasurementConfig
     try:
-        return MeasurementConfig(systems=systems)
+        return MeasurementConfig(systems=systems or "G")
     except GnssError as exc:
         raise ConfigError(f"--systems: {exc}") from None
 

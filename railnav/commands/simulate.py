@@ -10,8 +10,10 @@ import logging
 from dataclasses import replace
 from pathlib import Path
 
+from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
-from railnav.scenarios import SCENARIOS, get_scenario, scenario_to_dict, simulate_scenario
+from railnav.scenarios import SCENARIOS, get_scenario, scenario_to_dict
+from railnav.trip import DEFAULT_SYSTEMS, simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write, atomic_write_text
 from trackmodel.io import read_track
@@ -44,7 +46,10 @@ def register(subparsers) -> None:
                    help="GNSS outage in seconds from the start (repeatable; replaces the "
                         "scenario's outages)")
     p.add_argument("--gnss", action=argparse.BooleanOptionalAction, default=True,
-                   help="also simulate GNSS observations (default: yes)")
+                   help="also simulate GNSS observations: gnss_obs.rnx and the navigation "
+                        "file used, gnss_nav.rnx (default: yes)")
+    p.add_argument("--systems", default=DEFAULT_SYSTEMS,
+                   help=f"GNSS systems to simulate, e.g. G or GE (default {DEFAULT_SYSTEMS})")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.set_defaults(func=handler)
@@ -60,17 +65,20 @@ def handler(args: argparse.Namespace) -> int:
         scenario = replace(scenario, outages=tuple(args.outage))
     track = read_track(args.track)
     with progress_bar("simulate", enabled=not args.quiet) as progress:
-        result = simulate_scenario(scenario, track=track, seed=args.seed, progress=progress)
+        trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
+                             systems=args.systems, progress=progress)
+    result = trip.simulation
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    if args.gnss:
-        log.warning("GNSS simulation is not available yet: no observation files written")
+    if trip.gnss is not None:
+        write_simulation(out, trip.gnss, trip.nav)
     with atomic_write(out / "truth.csv", newline="") as fh:
         result.truth.to_frame().to_csv(fh, index=False, float_format=FLOAT_FORMAT)
     with atomic_write(out / "imu.csv", newline="") as fh:
         result.imu_measured.to_frame().to_csv(fh, index=False, float_format=FLOAT_FORMAT)
     meta = {"scenario": scenario_to_dict(scenario), "track": str(Path(args.track)),
-            "seed": args.seed, "gnss_requested": bool(args.gnss), "gnss_written": False,
+            "seed": args.seed, "gnss_written": trip.gnss is not None,
+            "gnss_systems": args.systems if trip.gnss is not None else None,
             "n_samples": int(len(result.truth.time_s)),
             "end_time_s": float(result.truth.time_s[-1])}
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")

@@ -9,6 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from gnss_obs.rinex_nav import read_rinex_nav
+from gnss_obs.rinex_obs import read_rinex_obs
 from railnav.cli import main
 from railnav.truth import TRUTH_COLUMNS
 from strapdown.euler import C_b_n
@@ -109,7 +111,13 @@ def test_overrides_outages_and_measured_imu(tmp_path, paper_file):
     assert truth["s_m"].iloc[-1] == pytest.approx(200.0, abs=1e-9)
     meta = json.loads((out / "scenario.json").read_text())
     assert meta["scenario"]["outages"] == [[5.0, 2.0], [10.0, 1.5]]
-    assert meta["gnss_requested"] is True and meta["gnss_written"] is False
+    assert meta["gnss_written"] is True and meta["gnss_systems"] == "G"
+    # GNSS at 1 Hz from the scenario's start time, none inside the outage windows
+    obs = read_rinex_obs(out / "gnss_obs.rnx")
+    epochs = np.unique(obs.table["gps_time_s"]) - meta["scenario"]["start_gps_time_s"]
+    expected = [t for t in range(21) if not (5 <= t < 7 or 10 <= t < 11.5)]
+    np.testing.assert_allclose(epochs, expected, atol=1e-6)
+    assert read_rinex_nav(out / "gnss_nav.rnx").records["G"].shape[0] > 0
     # mems noise: per-sample σ of the accelerometers is 150 µg·sqrt(100 Hz) ≈ 0.015 m/s².
     assert np.std(np.diff(imu["ax_mps2"])) > 0.01
 
