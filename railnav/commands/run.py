@@ -89,6 +89,7 @@ def handler(args: argparse.Namespace) -> int:
         raise ConfigError("--obs and --nav go together")
     if args.seed < 0:
         raise ConfigError(f"--seed must be >= 0, got {args.seed}")
+    _measurement(args.systems)   # validates --systems before any work
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
@@ -96,7 +97,6 @@ def handler(args: argparse.Namespace) -> int:
     files = args.imu is not None or args.obs is not None
     with progress_bar("filter", enabled=not args.quiet) as progress:
         if files:
-            _measurement(args.systems)   # validates --systems before reading files
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
