@@ -68,7 +68,18 @@ class NavigatorConfig:
         1σ of the initial inter-system biases, m.
     along_accel_sigma_mps2 : float
         GNSS-only filter: along-track acceleration taken as white noise, 1σ per √s
-        (spectral density ``σ²``, (m/s²)²·s).
+        (spectral density ``σ²``, (m/s²)²·s). Default 1 m/s²: of the order of the largest
+        service accelerations and braking of trams and urban trains (~1–1.3 m/s²), the
+        white-noise-acceleration rule ``√(q T) ≈ a_max`` at T = 1 s (Bar-Shalom et al.,
+        *Estimation with Applications to Tracking and Navigation*, §6.2.2).
+    pseudorange_correlation_s : float
+        GNSS-only filter: correlation time of the pseudorange errors (code multipath,
+        residual atmosphere), s. Treated as white, errors correlated from epoch to epoch
+        make the filter average them as if independent; the pseudorange variances are
+        inflated by ``(1 + ρ)/(1 − ρ)``, ``ρ = exp(−Δt/τ)`` (Δt the epoch interval): the
+        variance of the mean of a long first-order Gauss–Markov sequence relative to
+        white samples. 0: white (simulated data). Default 20 s: urban code multipath at
+        tram speeds (railnav.gnss_only_filter).
     """
 
     filter: str = "constrained"
@@ -86,7 +97,8 @@ class NavigatorConfig:
     initial_clock_bias_sigma_m: float = 30.0
     initial_clock_drift_sigma_mps: float = 1.0
     initial_isb_sigma_m: float = 30.0
-    along_accel_sigma_mps2: float = 0.5
+    along_accel_sigma_mps2: float = 1.0
+    pseudorange_correlation_s: float = 20.0
 
     def __post_init__(self) -> None:
         if self.filter not in FILTER_KINDS:
@@ -112,6 +124,10 @@ class NavigatorConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0, got {value!r}")
+        tau = self.pseudorange_correlation_s
+        if not (isinstance(tau, (int, float)) and math.isfinite(tau) and tau >= 0):
+            raise ConfigError(f"pseudorange_correlation_s must be a finite number >= 0, "
+                              f"got {tau!r}")
 
     @property
     def imu(self) -> ImuErrors:

@@ -146,7 +146,8 @@ def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: st
                                     cn0_ref_dbhz=math.nan)
     base = NavigatorConfig(filter=filter, imu_errors=imu_errors, oscillator=clock,
                            measurement=measurement, initial_attitude_sigma_rad=initial[0],
-                           initial_s_sigma_m=initial[1], initial_v_sigma_mps=initial[2])
+                           initial_s_sigma_m=initial[1], initial_v_sigma_mps=initial[2],
+                           pseudorange_correlation_s=0.0)   # the simulator's errors are white
     return replace(base, **overrides)
 
 
