@@ -20,22 +20,18 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
-from railnav.filter_common import GnssRowBuilder, scalar_point, track_estimates
+from railnav.filter_common import (GnssRowBuilder, scalar_point, start_on_track,
+                                   states_from_values, track_estimates)
+from railnav.ins_clock_model import initial_variances
 from railnav.nav_config import NavigatorConfig
 from strapdown.gravity import g_n
 from strapdown.reduced import track_parameters
-from trackmodel.earth import C_n_e, ecef_to_geodetic
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
 
 Array = npt.NDArray[np.float64]
 
-#: Floors of the initial σ taken from a GNSS fix (a fix's own σ can be optimistic), m, m/s.
-_MIN_FIX_SIGMA_S_M = 1.0
-_MIN_FIX_SIGMA_V_MPS = 0.05
-#: Bias variances are kept positive so that P0 is definite even for a perfect IMU.
-_MIN_BIAS_VARIANCE = 1e-16
 #: Gravity for the along-track prediction is looked up once per this much track, m (it
 #: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
 _GRAVITY_CACHE_M = 1000.0
@@ -127,44 +123,21 @@ class ConstrainedFilter:
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
         """Diagonal initial covariance in the layout's order (config's attitude and clock σ)."""
-        cfg, imu = self.config, self.config.imu
-        var = {"yaw": cfg.initial_attitude_sigma_rad ** 2,
-               "pitch": cfg.initial_attitude_sigma_rad ** 2,
-               "roll": cfg.initial_attitude_sigma_rad ** 2,
-               "s": sigma_s_m ** 2, "v": sigma_v_mps ** 2,
-               "clock_bias": cfg.initial_clock_bias_sigma_m ** 2,
-               "clock_drift": cfg.initial_clock_drift_sigma_mps ** 2}
-        accel = imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2
-        gyro = imu.gyro_bias_radps ** 2 + imu.gyro_bias_instability_radps ** 2
-        var.update({name: max(accel, _MIN_BIAS_VARIANCE) for name in ("b_ax", "b_ay", "b_az")})
-        var.update({name: max(gyro, _MIN_BIAS_VARIANCE) for name in ("b_gx", "b_gy", "b_gz")})
-        return np.diag([var.get(name, cfg.initial_isb_sigma_m ** 2)
-                        for name in self.layout.names])
+        var = initial_variances(self.config, self.layout)
+        var.update({"s": sigma_s_m ** 2, "v": sigma_v_mps ** 2})
+        return np.diag([var[name] for name in self.layout.names])
 
     def initial_from_fix(self, fix) -> tuple[Array, Array]:
         """State and covariance at a GNSS fix (`railnav.initialization.GnssFix`).
 
-        The fix is projected on the track (``s``); the speed is the fix velocity along the
-        tangent; the attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0).
+        The fix is projected on the track (`railnav.filter_common.start_on_track`); the
+        attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0).
         """
-        lat, lon, h = ecef_to_geodetic(fix.r_e, earth=self.track.earth)
-        s0 = float(self.track.project(lat, lon, h).s[0])
-        point = self.track.at(s0)
-        t_e = C_n_e(point.lat, point.lon) @ point.u_n
-        t_n = point.u_n
-        v0 = float(t_e @ fix.v_e)
-        sigma_s = self.config.initial_s_sigma_m or max(
-            float(np.sqrt(t_n @ fix.cov_enu_m2 @ t_n)), _MIN_FIX_SIGMA_S_M)
-        sigma_v = self.config.initial_v_sigma_mps or max(
-            float(np.sqrt(t_n @ fix.cov_v_enu_m2ps2 @ t_n)), _MIN_FIX_SIGMA_V_MPS)
-        ref = self.config.measurement.systems[0]
-        values = {"yaw": float(point.azimuth), "pitch": float(point.elevation), "roll": 0.0,
-                  "s": s0, "v": v0, "clock_bias": fix.clock_bias_m.get(ref, 0.0),
-                  "clock_drift": fix.clock_drift_mps}
-        for system in self.isb_systems:
-            bias = fix.clock_bias_m.get(system, np.nan)
-            values[isb_state_name(system)] = bias - values["clock_bias"] \
-                if np.isfinite(bias) else 0.0
+        values, sigma_s, sigma_v = start_on_track(
+            self.track, self.config, fix, tuple(isb_state_name(s) for s in self.isb_systems))
+        point = values.pop("point")
+        values.update({"yaw": float(point.azimuth), "pitch": float(point.elevation),
+                       "roll": 0.0})
         x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
         return x0, self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v)
 
@@ -188,15 +161,7 @@ class ConstrainedFilter:
         known_values = {"yaw": truth.yaw, "pitch": truth.pitch, "roll": truth.roll,
                         "s": truth.s, "v": truth.v, "clock_bias": clock_bias_m,
                         "clock_drift": clock_drift_mps}
-        k = np.size(truth.s)
-        x = np.zeros((k, self.layout.size))
-        known = np.zeros(self.layout.size, dtype=bool)
-        for i, name in enumerate(self.layout.names):
-            if name in known_values:
-                x[:, i], known[i] = known_values[name], True
-            elif name.startswith("isb_"):
-                known[i] = True   # the simulator has one receiver clock for every system
-        return x, known
+        return states_from_values(self.layout, known_values, np.size(truth.s))
 
     # -- outputs ---------------------------------------------------------------------------
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:

@@ -26,7 +26,8 @@ from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["EpochRowBuilder", "GnssRowBuilder", "track_estimates", "ROW_KINDS",
            "state_columns", "scalar_point", "REFERENCE_REUSE_M", "common_columns",
-           "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M", "MIN_FIX_SIGMA_V_MPS"]
+           "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M",
+           "MIN_FIX_SIGMA_V_MPS"]
 
 Array = npt.NDArray[np.float64]
 
