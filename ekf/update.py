@@ -109,7 +109,7 @@ class UpdateRecord:
 
 def _log_likelihood(innov: Array, factor: tuple[Array, bool]) -> tuple[float, float]:
     L = np.tril(factor[0]) if factor[1] else np.triu(factor[0]).T
-    white = sla.solve_triangular(L, innov, lower=True)
+    white = sla.solve_triangular(L, innov, lower=True, check_finite=False)
     nis = float(white @ white)
     log_det = 2.0 * float(np.sum(np.log(np.diag(L))))
     return nis, -0.5 * (nis + log_det + innov.size * LOG_2PI)
@@ -183,7 +183,7 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
     PHt = P @ H.T
     S = H @ PHt + R_mat
     try:
-        factor = sla.cho_factor(S, lower=True)
+        factor = sla.cho_factor(S, lower=True, check_finite=False)
     except np.linalg.LinAlgError as exc:
         raise FilterDivergedError(f"innovation covariance is not positive definite: {exc}") \
             from exc
@@ -201,7 +201,7 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
     nis_c = innov ** 2 / np.diag(S)
     K = np.zeros((n, m))
     if accepted.all():
-        K = sla.cho_solve(factor, PHt.T).T
+        K = sla.cho_solve(factor, PHt.T, check_finite=False).T
     elif accepted.any():
         K[:, accepted] = _batch_gain(P, H[accepted], R_mat[np.ix_(accepted, accepted)])
     x_post = x + K @ innov
@@ -211,7 +211,8 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
 
 def _batch_gain(P: Array, H: Array, R: Array) -> Array:
     PHt = P @ H.T
-    return sla.cho_solve(sla.cho_factor(H @ PHt + R, lower=True), PHt.T).T
+    return sla.cho_solve(sla.cho_factor(H @ PHt + R, lower=True, check_finite=False), PHt.T,
+                         check_finite=False).T
 
 
 def discrete_update(x: Array, P: Array, observations: Sequence[Observation], *,
@@ -244,8 +245,9 @@ def discrete_update(x: Array, P: Array, observations: Sequence[Observation], *,
         row0 += obs.rows
     if not innovs:
         return kalman_update(x, P, np.zeros(0), np.zeros((0, x.size)), np.zeros(0))
-    R = sla.block_diag(*Rs)
-    if sequential:
-        R = np.diag(R) if not np.count_nonzero(R - np.diag(np.diag(R))) else R
+    if all(np.count_nonzero(r - np.diag(np.diag(r))) == 0 for r in Rs):
+        R = np.concatenate([np.diag(r) for r in Rs])     # diagonal: kept as variances
+    else:
+        R = sla.block_diag(*Rs)
     return kalman_update(x, P, np.concatenate(innovs), np.vstack(Hs), R, gate=gate,
                          groups=np.concatenate(groups), sequential=sequential)
