@@ -57,6 +57,10 @@ class NavigationResult:
     filter_object : object
         The filter that ran (`railnav.constrained_filter.ConstrainedFilter`, ...): its
         layout, track and ``truth_states`` for evaluation.
+    left_track : dict or None
+        Where the run stopped because ``s`` left the track (`railnav.navigator.beyond_track`:
+        ``time_s, gps_time_s, s_m, sigma_s_m, end, track_length_m``); None when it ran
+        through the data.
     """
 
     filter: str
@@ -75,10 +79,12 @@ class NavigationResult:
     n_epochs: int
     raw: FilterResult = field(repr=False)
     filter_object: object = field(repr=False, default=None)
+    left_track: dict | None = None
 
     @classmethod
     def assemble(cls, filt_obj, config, result: FilterResult, *, start_gps_time_s: float,
-                 outages, epoch_indices, epoch_times, runtime_s: float) -> "NavigationResult":
+                 outages, epoch_indices, epoch_times, runtime_s: float,
+                 left_track: dict | None = None) -> "NavigationResult":
         """Build the result of a finished run (called by `railnav.navigate`)."""
         P = result.P if result.P is not None else np.zeros((result.t.size, 0))
         head = {"time_s": result.t, "gps_time_s": result.t + start_gps_time_s}
@@ -91,7 +97,8 @@ class NavigationResult:
                    estimates=estimates, innovations=innovations, nis_continuous_mean=nis_c,
                    nis_continuous_dof=n_c, outages=tuple(tuple(o) for o in outages),
                    runtime_s=float(runtime_s), n_steps=int(result.nis_c_count or result.t.size),
-                   n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj)
+                   n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj,
+                   left_track=left_track)
 
     def statistics(self) -> dict:
         """Filter self-consistency figures for ``summary.json`` (no truth needed)."""

@@ -12,7 +12,12 @@
 4. streams the samples through `ekf.CdFilter` in chunks that end at GNSS epochs, so that
    each chunk's track linearization starts from the latest posterior, and each epoch's
    rows are built at the prior of that epoch (a callable `ekf.Epoch`);
-5. assembles a `railnav.nav_result.NavigationResult` (estimates, innovations, statistics).
+5. stops early, with a warning, when a track-based filter's vehicle leaves the track
+   (`beyond_track`: ``s`` beyond an end and the speed pointing away from the track, each by
+   more than `END_MARGIN_SIGMA` σ; the vehicle drove off the part of the line the track
+   describes, e.g. a survey's first leg); the result says where
+   (`NavigationResult.left_track`);
+6. assembles a `railnav.nav_result.NavigationResult` (estimates, innovations, statistics).
 
 Time: ``time_s`` is seconds from the trip start, whose GPS time is
 ``SensorData.start_gps_time_s``.
@@ -51,7 +56,8 @@ from railnav.gnss_epochs import GnssEpochs
 from railnav.nav_config import NavigatorConfig, SensorData
 from railnav.nav_result import NavigationResult
 
-__all__ = ["navigate", "InitialState", "make_filter", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S"]
+__all__ = ["navigate", "InitialState", "make_filter", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
+           "END_MARGIN_SIGMA", "beyond_track"]
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +68,10 @@ Progress = Callable[[int, int], None]
 EPOCH_TIME_TOL_S = 1e-6
 #: Longest chunk between track re-linearizations when no GNSS epoch comes (outages), s.
 MAX_CHUNK_S = 1.0
+#: A run stops when ``s`` is beyond a track end, and ``v`` points away from it, each by more
+#: than this many of its σ (3σ: a vehicle standing at an end is flagged with probability
+#: below 1e-3 per epoch even if the two errors were fully correlated).
+END_MARGIN_SIGMA = 3.0
 
 
 @dataclass(frozen=True)
@@ -146,17 +156,23 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         raise RailnavError("fewer than two samples after the initial time: nothing to filter")
     use = epoch_times >= samples_t[0] - EPOCH_TIME_TOL_S
     epoch_idx = np.flatnonzero(use)
-    result = _run(filt_obj, config, samples_t, samples_u, epoch_times, epoch_idx, initial,
-                  progress)
+    result, left = _run(filt_obj, config, samples_t, samples_u, epoch_times, epoch_idx,
+                        initial, progress)
+    if left is not None:
+        left["gps_time_s"] = left["time_s"] + data.start_gps_time_s
+        log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s (length %.2f m); "
+                    "the data after it were not used", left["time_s"], left["s_m"],
+                    left["end"], left["track_length_m"])
     return NavigationResult.assemble(
         filt_obj, config, result, start_gps_time_s=data.start_gps_time_s, outages=outages,
         epoch_indices=epoch_idx, epoch_times=epoch_times,
-        runtime_s=time.perf_counter() - started)
+        runtime_s=time.perf_counter() - started, left_track=left)
 
 
 def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Array,
          epoch_idx: npt.NDArray[np.intp], initial: InitialState, progress: Progress | None):
-    """Stream the samples through the EKF; one result for the whole trip."""
+    """Stream the samples through the EKF; one result for the whole trip, and where the
+    filter left the track (`beyond_track`) if it did (the run stops there)."""
     store_every = max(1, int(round(1.0 / (config.output_rate_hz * np.median(np.diff(t))))))
     gate = None if config.gate_probability is None else Gate(config.gate_probability,
                                                              scope="rows")
@@ -165,6 +181,7 @@ def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Arr
                                                      time_tol_s=EPOCH_TIME_TOL_S))
     at_sample = np.searchsorted(t, epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
     q_c = filt_obj.q_c
+    left: list[dict] = []
 
     def chunks() -> Iterator[InputSeries]:
         start = 0
@@ -172,6 +189,10 @@ def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Arr
         next_epoch = next(bounds, None)
         max_len = max(1, int(round(MAX_CHUNK_S / np.median(np.diff(t)))))
         while start < t.size:
+            if start > 0:
+                left.extend(beyond_track(filt_obj, engine.x, engine.P, engine.t))
+                if left:
+                    return
             stop = min(start + max_len, t.size)
             while next_epoch is not None and next_epoch < start:
                 next_epoch = next(bounds, None)
@@ -182,11 +203,54 @@ def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Arr
             yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=q_c)
             start = stop
 
-    epochs = (Epoch(float(t[k]), functools.partial(_observations, filt_obj, int(i)))
-              for k, i in zip(at_sample, epoch_idx))
-    parts = list(engine.stream(chunks(), epochs, x0=initial.x0, P0=initial.P0,
+    def epochs() -> Iterator[Epoch]:
+        for k, i in zip(at_sample, epoch_idx):
+            if left:
+                return
+            yield Epoch(float(t[k]), functools.partial(_observations, filt_obj, int(i)))
+
+    parts = list(engine.stream(chunks(), epochs(), x0=initial.x0, P0=initial.P0,
                                progress=progress, total=t.size - 1))
-    return concatenate_results(parts)
+    return concatenate_results(parts), (left[0] if left else None)
+
+
+def beyond_track(filt_obj, x: Array, P: Array, time_s: float) -> list[dict]:
+    """Whether a track-based filter's vehicle has left the track at one of its ends.
+
+    It has when ``s`` is beyond the end by more than `END_MARGIN_SIGMA` σ_s and ``v``
+    points away from the track by more than `END_MARGIN_SIGMA` σ_v (a vehicle standing
+    at an end, or coming back, is on the track).
+
+    Parameters
+    ----------
+    filt_obj : filter object
+        With ``layout`` and ``track``; filters without ``s`` and ``v`` states never leave.
+    x : ndarray, shape (n,)
+    P : ndarray, shape (n, n)
+        State and covariance at `time_s`.
+    time_s : float
+        s from the trip start.
+
+    Returns
+    -------
+    list of dict
+        Empty while on the track; else one record ``{"time_s", "s_m", "sigma_s_m",
+        "end": "start"|"end", "track_length_m"}``.
+    """
+    names = filt_obj.layout.names
+    if "s" not in names or "v" not in names:
+        return []
+    i, j = filt_obj.layout.index("s"), filt_obj.layout.index("v")
+    s, sigma = float(x[i]), float(np.sqrt(P[i, i]))
+    v_margin = END_MARGIN_SIGMA * float(np.sqrt(P[j, j]))
+    length = float(filt_obj.track.length_m)
+    margin = END_MARGIN_SIGMA * sigma
+    past_end = s > length + margin and x[j] > v_margin
+    before_start = s < -margin and x[j] < -v_margin
+    if not (past_end or before_start):
+        return []
+    return [{"time_s": float(time_s), "s_m": s, "sigma_s_m": sigma,
+             "end": "end" if past_end else "start", "track_length_m": length}]
 
 
 def _observations(filt_obj, index: int, x: Array, P: Array):

@@ -199,7 +199,8 @@ def _summary(result: NavigationResult, track, errors, window, outages, extra: di
            "start_gps_time_s": result.start_gps_time_s,
            "duration_s": float(est["time_s"].iloc[-1] - est["time_s"].iloc[0]) if len(est) else 0.0,
            "steps": result.n_steps, "outages": [list(o) for o in outages],
-           "runtime_s": result.runtime_s, "statistics": result.statistics()}
+           "runtime_s": result.runtime_s, "statistics": result.statistics(),
+           "left_track": result.left_track}
     if errors is not None:
         out["errors"] = summarize(errors, window=window, outages=outages)
     return out

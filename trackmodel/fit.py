@@ -36,7 +36,8 @@ from trackmodel.errors import TrackError
 from trackmodel.fit_plane import PlaneFit, fit_plane
 from trackmodel.fit_plane import initial_knots as initial_plane_knots
 from trackmodel.knots import initial_knots, prune_knots, refine_knots
-from trackmodel.polyline import Polyline, clean_polyline, find_reversal, local_enu
+from trackmodel.polyline import (Polyline, clean_polyline, find_reversal, local_enu,
+                                 split_legs)
 from trackmodel.profile import Profile, fit_profile, flat_profile
 from trackmodel.sections import Section
 from trackmodel.track import Origin, Track
@@ -226,10 +227,13 @@ def fit_track(lat: npt.ArrayLike, lon: npt.ArrayLike, h: npt.ArrayLike | None = 
     reversal = find_reversal(xy)
     if reversal is not None:
         i = int(kept[reversal])
+        legs = split_legs(poly, earth=earth)
+        spans = ", ".join(f"{k + 1}: points {leg[0]}-{leg[-1]}" for k, leg in enumerate(legs))
         raise TrackError(
             f"the survey reverses its direction after point {i} (0-based; lat "
             f"{math.degrees(poly.lat[i]):.7f}°, lon {math.degrees(poly.lon[i]):.7f}°): a track "
-            "has one direction; fit each leg separately")
+            f"has one direction; fit each leg separately (legs {spans}; "
+            "trackmodel.polyline.split_legs, railnav track fit --leg N)")
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
     plane = _Plane(float(pts.lat[0]), float(pts.lon[0]), earth)
     P = plane.to_plane(pts.lat, pts.lon)

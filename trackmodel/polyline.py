@@ -10,6 +10,8 @@ order (the track runs from the first point to the last) and drops
 
 A path that really reverses (a vehicle backing up, turning round) is kept as it is:
 `find_reversal` finds it, and the fitter reports it (a track has one direction).
+`split_legs` cuts such a survey into its legs (one direction each), which can be fitted
+one by one (``railnav track fit --leg N``).
 """
 from __future__ import annotations
 
@@ -24,8 +26,8 @@ import pandas as pd
 from trackmodel.earth import WGS84, Ellipsoid, ecef_to_enu, geodetic_to_ecef
 from trackmodel.errors import TrackFileError
 
-__all__ = ["Polyline", "read_polyline", "clean_polyline", "find_reversal", "MIN_SPACING_M",
-           "MAX_TURN_DEG"]
+__all__ = ["Polyline", "read_polyline", "clean_polyline", "find_reversal", "split_legs",
+           "MIN_SPACING_M", "MAX_TURN_DEG", "MIN_LEG_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -38,6 +40,9 @@ REVERSAL_CHORD_M = 3.0
 REVERSAL_WINDOW_M = 6.0
 REVERSAL_TURN_DEG = 150.0
 POLYLINE_COLUMNS = ("lat_deg", "lon_deg")
+#: Pieces between two reversals shorter than this are manoeuvres (the back-and-forth of a
+#: three-point turn), not legs, m: two reversal windows.
+MIN_LEG_M = 2 * REVERSAL_WINDOW_M
 
 
 @dataclass(frozen=True)
@@ -189,3 +194,36 @@ def find_reversal(xy: Array) -> int | None:
         np.linalg.norm(c0, axis=1) * np.linalg.norm(c1, axis=1))
     bad = np.flatnonzero(cos_turn < math.cos(math.radians(REVERSAL_TURN_DEG)))
     return int(ok[bad[0]]) if len(bad) else None
+
+
+def split_legs(poly: Polyline, *, earth: Ellipsoid = WGS84) -> list[npt.NDArray[np.intp]]:
+    """Cut a survey at its reversals into legs of one direction each.
+
+    The cleaned points (`clean_polyline`) are searched for reversals (`find_reversal`)
+    one after the other; a leg ends at the point before a reversal and the next starts at
+    the point after it. Pieces shorter than `MIN_LEG_M` (the back-and-forth of a turn
+    manoeuvre) are dropped.
+
+    Parameters
+    ----------
+    poly : Polyline
+    earth : Ellipsoid
+
+    Returns
+    -------
+    list of ndarray of int
+        For each leg, in travel order, the indices into `poly` of its points: a contiguous
+        range of the original points (repeated points included), from the leg's first kept
+        point to its last. One leg when the survey never reverses.
+    """
+    kept = clean_polyline(poly, earth=earth)
+    xy = local_enu(poly.take(kept), earth)[:, :2]
+    legs, start = [], 0
+    while start < len(kept):
+        reversal = find_reversal(xy[start:])
+        stop = len(kept) - 1 if reversal is None else start + reversal
+        piece = xy[start:stop + 1]
+        if np.hypot(*np.diff(piece, axis=0).T).sum() >= MIN_LEG_M:
+            legs.append(np.arange(kept[start], kept[stop] + 1))
+        start = stop + 1
+    return legs

@@ -142,6 +142,11 @@ def _report(outcome, out: Path) -> str:
     s = outcome.summary
     lines = [f"{s['filter']} filter: {s['steps']} steps, {s['statistics']['gnss_epochs']} GNSS "
              f"epochs in {s['runtime_s']:.2f} s -> {out}/"]
+    left = s.get("left_track")
+    if left:
+        lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
+                     f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
+                     "not used")
     errors = s.get("errors")
     if errors:
         a = errors["all"]

@@ -9,24 +9,62 @@ import json
 import math
 import sys
 
+import numpy as np
+
 from railnav.commands.support import positive_float, progress_bar
+from trackmodel.errors import TrackFileError
 from trackmodel.files import atomic_write_text
 from trackmodel.fit import DEFAULT_TOL_M, DEFAULT_VTOL_M, fit_track
 from trackmodel.io import read_track, write_track
 from trackmodel.plot import plot_track
-from trackmodel.polyline import read_polyline
+from trackmodel.polyline import Polyline, read_polyline, split_legs
 from trackmodel.summary import sample_track, track_info
 
 __all__ = ["register"]
 
 
+def read_survey(path) -> Polyline:
+    """A surveyed path: a polyline CSV (`trackmodel.polyline.read_polyline`), or a reference
+    trajectory in GPS week / seconds-of-week layout (`railnav.spp_report`), in time order.
+
+    Raises
+    ------
+    trackmodel.TrackFileError
+        When the file is neither (the polyline reader's error).
+    """
+    try:
+        return read_polyline(path)
+    except TrackFileError as polyline_error:
+        if polyline_error.column is None:
+            raise
+        from railnav.errors import ConfigError
+        from railnav.spp_report import read_reference_trajectory
+        try:
+            ref = read_reference_trajectory(path)
+        except (ConfigError, ValueError):
+            raise polyline_error from None
+        return Polyline(np.radians(ref["lat_deg"].to_numpy()),
+                        np.radians(ref["lon_deg"].to_numpy()), ref["h_m"].to_numpy())
+
+
+def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
+    """The points of leg `leg` (1-based) of a survey, and a note for the file's comment."""
+    if leg is None:
+        return poly, ""
+    legs = split_legs(poly)
+    if not 1 <= leg <= len(legs):
+        raise TrackFileError(f"--leg {leg}: the survey has {len(legs)} leg(s)", path=path)
+    index = legs[leg - 1]
+    return poly.take(index), f", leg {leg} of {len(legs)} (points {index[0]}-{index[-1]})"
+
+
 def _fit(args: argparse.Namespace) -> int:
-    poly = read_polyline(args.polyline)
+    poly, note = _leg(read_survey(args.polyline), args.leg, args.polyline)
     with progress_bar("fitting", enabled=not args.quiet) as progress:
         result = fit_track(poly.lat, poly.lon, poly.h, tol_m=args.tol_m, vtol_m=args.vtol_m,
                            progress=progress)
     write_track(result.track, args.out, comments=[
-        f"fitted by railnav track fit from {args.polyline} (tol_m={args.tol_m}): "
+        f"fitted by railnav track fit from {args.polyline}{note} (tol_m={args.tol_m}): "
         f"{result.n_sections} sections, max horizontal deviation "
         f"{result.max_horizontal_m:.3f} m over {int(result.residuals.kept.sum())} points"])
     if args.residuals:
@@ -70,7 +108,11 @@ def register(subparsers) -> None:
 
     p = sub.add_parser("fit", help="fit a track file to a surveyed polyline")
     p.add_argument("polyline", metavar="POLYLINE.csv",
-                   help="columns lat_deg, lon_deg and optional h_m, in travel order")
+                   help="columns lat_deg, lon_deg and optional h_m, in travel order; or a "
+                        "reference trajectory (GPS week, seconds of week, lat, lon, h)")
+    p.add_argument("--leg", type=int, default=None, metavar="N",
+                   help="fit only leg N (1-based) of a survey that reverses its direction "
+                        "(default: a reversal is an error that lists the legs)")
     p.add_argument("--tol-m", type=positive_float, default=DEFAULT_TOL_M,
                    help="largest horizontal deviation of a point, m (default %(default)s)")
     p.add_argument("--vtol-m", type=positive_float, default=DEFAULT_VTOL_M,
