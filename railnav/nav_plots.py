@@ -12,7 +12,8 @@ from matplotlib.figure import Figure
 
 from trackmodel.earth import ecef_to_enu, geodetic_to_ecef
 
-__all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "SIGMA_BAND"]
+__all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "errors_figure",
+           "estimates_figure", "track_estimate_figure", "SIGMA_BAND"]
 
 #: Width of the uncertainty bands, in standard deviations.
 SIGMA_BAND = 3.0
@@ -31,14 +32,31 @@ def _save(fig: Figure, path: str | os.PathLike) -> None:
 
 
 def plot_errors(errors, result, path: str | os.PathLike) -> None:
+    """`errors_figure` written to a PNG file."""
+    _save(errors_figure(errors, result), path)
+
+
+def plot_estimates(result, path: str | os.PathLike) -> None:
+    """`estimates_figure` written to a PNG file."""
+    _save(estimates_figure(result), path)
+
+
+def plot_track_estimate(track, result, path: str | os.PathLike, *, truth=None) -> None:
+    """`track_estimate_figure` written to a PNG file."""
+    _save(track_estimate_figure(track, result, truth=truth), path)
+
+
+def errors_figure(errors, result) -> Figure:
     """Errors against the truth with the filter's ±3σ bands, outages shaded.
 
     Parameters
     ----------
     errors : railnav.nav_metrics.ErrorSeries
     result : railnav.NavigationResult
-    path : str or os.PathLike
-        PNG file.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
     est, t = result.estimates, errors.time_s
     panels = [("along_track_m", "sigma_s_m", 1.0, "along-track error [m]"),
@@ -62,10 +80,10 @@ def plot_errors(errors, result, path: str | os.PathLike) -> None:
     axes[0].legend(loc="upper right", fontsize=8)
     axes[-1].set_xlabel("time from start [s]  (grey: GNSS outage)")
     fig.suptitle(f"{result.filter} filter: errors against the truth")
-    _save(fig, path)
+    return fig
 
 
-def plot_estimates(result, path: str | os.PathLike) -> None:
+def estimates_figure(result) -> Figure:
     """Estimated distance, speed and attitude with their σ (for runs without truth)."""
     est = result.estimates
     t = est["time_s"].to_numpy()
@@ -84,10 +102,10 @@ def plot_estimates(result, path: str | os.PathLike) -> None:
         ax.grid(True, lw=0.3)
     axes[-1].set_xlabel("time from start [s]  (grey: GNSS outage)")
     fig.suptitle(f"{result.filter} filter: estimates")
-    _save(fig, path)
+    return fig
 
 
-def plot_track_estimate(track, result, path: str | os.PathLike, *, truth=None) -> None:
+def track_estimate_figure(track, result, *, truth=None) -> Figure:
     """Map view (local east/north, m) of the track, the estimate and the outage spans."""
     s = np.linspace(0.0, track.length_m, 2000)
     line = track.at(s)
@@ -118,4 +136,4 @@ def plot_track_estimate(track, result, path: str | os.PathLike, *, truth=None) -
     ax.legend(loc="best", fontsize=8)
     ax.grid(True, lw=0.3)
     ax.set_title(f"{result.filter} filter on the track")
-    _save(fig, path)
+    return fig
