@@ -201,8 +201,9 @@ def split_legs(poly: Polyline, *, earth: Ellipsoid = WGS84) -> list[npt.NDArray[
 
     The cleaned points (`clean_polyline`) are searched for reversals (`find_reversal`)
     one after the other; a leg ends at the point before a reversal and the next starts at
-    the point after it. Pieces shorter than `MIN_LEG_M` (the back-and-forth of a turn
-    manoeuvre) are dropped.
+    the turning point: of the points within two reversal windows after it, the one
+    farthest along the leg's last direction. Pieces shorter than `MIN_LEG_M` (the
+    back-and-forth of a turn manoeuvre) are dropped.
 
     Parameters
     ----------
@@ -225,5 +226,18 @@ def split_legs(poly: Polyline, *, earth: Ellipsoid = WGS84) -> list[npt.NDArray[
         piece = xy[start:stop + 1]
         if np.hypot(*np.diff(piece, axis=0).T).sum() >= MIN_LEG_M:
             legs.append(np.arange(kept[start], kept[stop] + 1))
-        start = stop + 1
+        start = _turning_point(xy, stop) if reversal is not None else len(kept)
     return legs
+
+
+def _turning_point(xy: Array, stop: int) -> int:
+    """Index of the point after `stop` (within two reversal windows of path) that lies
+    farthest along the direction of the path's last `REVERSAL_CHORD_M` up to `stop`."""
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))])
+    back = max(0, int(np.searchsorted(s, s[stop] - REVERSAL_CHORD_M, side="right")) - 1)
+    direction = xy[stop] - xy[back]
+    last = int(np.searchsorted(s, s[stop] + 2 * (REVERSAL_CHORD_M + REVERSAL_WINDOW_M)))
+    candidates = np.arange(stop + 1, min(last + 1, len(xy)))
+    if candidates.size == 0:
+        return len(xy)
+    return int(candidates[np.argmax((xy[candidates] - xy[stop]) @ direction)])
