@@ -22,7 +22,7 @@ from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
 from railnav.filter_common import (GnssRowBuilder, scalar_point, start_on_track,
                                    states_from_values, track_estimates)
-from railnav.ins_clock_model import initial_variances
+from railnav.ins_clock_model import initial_variances, model_for_config
 from railnav.nav_config import NavigatorConfig
 from strapdown.gravity import g_n
 from strapdown.reduced import track_parameters
@@ -51,16 +51,9 @@ class ConstrainedFilter:
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config
-        systems = config.measurement.systems
-        self.isb_systems = tuple(systems[1:])
-        self.model = build_constrained_model(track.earth,
-                                             estimate_biases=config.biases_estimated,
-                                             isb_systems=self.isb_systems)
-        self.layout = self.model.layout
-        self.process = self.model.process
-        from gnss_obs.oscillator import oscillator_from_name
-        self.q_c = self.model.process_noise_density(config.imu,
-                                                    oscillator_from_name(config.oscillator))
+        self.model, self.q_c = model_for_config(build_constrained_model, track.earth, config)
+        self.layout, self.process = self.model.layout, self.model.process
+        self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}

@@ -63,6 +63,9 @@ def errors_figure(errors, result) -> Figure:
               ("speed_mps", "sigma_speed_mps", 1.0, "speed error [m/s]")]
     if "sigma_east_m" in est and "sigma_s_m" not in est:   # an unconstrained filter
         panels[0] = ("position_3d_m", None, 1.0, "3-D position error [m]")
+    if "sigma_cross_track_m" in est:   # a filter off the track: its cross and vertical errors
+        panels[1:1] = [("cross_track_m", "sigma_cross_track_m", 1.0, "cross-track error [m]"),
+                       ("vertical_m", "sigma_up_m", 1.0, "vertical error [m]")]
     for name in ("yaw", "pitch", "roll"):
         if f"sigma_{name}_deg" in est:
             panels.append((f"{name}_rad", f"sigma_{name}_deg", np.pi / 180.0,

@@ -32,7 +32,7 @@ from ekf.update import Observation
 from railnav.filter_common import (MIN_FIX_SIGMA_S_M, MIN_FIX_SIGMA_V_MPS, clock_from_fix,
                                    common_columns, states_from_values)
 from railnav.geodetic_rows import GeodeticRowBuilder
-from railnav.ins_clock_model import initial_variances, isb_state_name
+from railnav.ins_clock_model import initial_variances, isb_state_name, model_for_config
 from railnav.nav_config import NavigatorConfig
 from railnav.unconstrained_model import (POSITION_STATE_NAMES, VELOCITY_STATE_NAMES,
                                          build_unconstrained_model)
@@ -83,16 +83,9 @@ class UnconstrainedFilter:
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config
-        self.isb_systems = tuple(config.measurement.systems[1:])
-        self.isb_names = tuple(isb_state_name(s) for s in self.isb_systems)
-        self.model = build_unconstrained_model(track.earth,
-                                               estimate_biases=config.biases_estimated,
-                                               isb_systems=self.isb_systems)
-        self.layout = self.model.layout
-        self.process = self.model.process
-        from gnss_obs.oscillator import oscillator_from_name
-        self.q_c = self.model.process_noise_density(config.imu,
-                                                    oscillator_from_name(config.oscillator))
+        self.model, self.q_c = model_for_config(build_unconstrained_model, track.earth, config)
+        self.layout, self.process = self.model.layout, self.model.process
+        self.isb_names = tuple(isb_state_name(s) for s in self.model.isb_systems)
         self.rows = GeodeticRowBuilder(self.layout, gnss, config, self.isb_names,
                                        earth=track.earth)
         self._i_pos = [self.layout.index(n) for n in POSITION_STATE_NAMES]
