@@ -35,6 +35,12 @@ def test_json_layout_and_nees(result):
                             "latitude_max_rad": 3e-7}
     for key in ("attitude_max_rad", "v_north_max_mps", "latitude_max_rad"):
         assert np.isfinite(doc["constrained"][key]) and np.isfinite(doc["constrained"][f"{key}_p95"])
+    # the unconstrained baseline ran on the same trips: finite figures, and it leaves the
+    # track (cross-track error) where the constrained filter cannot
+    for key in ("v_north_max_mps", "latitude_max_rad", "outage1_end_position_m"):
+        assert np.isfinite(doc["unconstrained"][key])
+    cross = {f: doc[f]["cross_track_max_m"] for f in ("constrained", "unconstrained")}
+    assert cross["unconstrained"] > 1e3 * cross["constrained"]
     lo, hi = doc["nees_interval"]
     assert lo < doc["nees_dof"] < hi and doc["nees_inside_interval"] == (lo <= doc["nees_mean"] <= hi)
     assert doc["nees_inside_interval"]
@@ -45,4 +51,4 @@ def test_cli_prints_the_table_and_writes_json(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "max V_Y (north velocity) error" in printed and "≈0.02" in printed
     doc = json.loads((tmp_path / "paper2017.json").read_text())
-    assert {"paper", "constrained", "nees_mean"} <= set(doc)
+    assert {"paper", "constrained", "unconstrained", "nees_mean"} <= set(doc)
