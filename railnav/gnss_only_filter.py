@@ -11,13 +11,14 @@ constrained INS/GNSS filter). The speed is signed, so stops (``v = 0``) and reve
 Real (urban) pseudorange errors are correlated from epoch to epoch (code multipath while
 the vehicle is slow or stopped, residual ionosphere): the pseudorange variances are
 inflated by `correlation_inflation` of ``config.pseudorange_correlation_s`` so that the
-filter does not average them as if they were independent (measured on the urban drive,
-``benchmarks/bench_real_data.py``: without it the along-track σ is 2–4 times too small and
-the error larger). Gross outliers are rejected by the engine's χ² row gate
-(``config.gate_probability``). Optionally (`huber_k`) the rows are also down-weighted with
-Huber's weight at the prior (`railnav.robust_rows`); it is off by default because at a
-prior made over-confident by correlated errors it down-weights the good rows too (on the
-urban drive it made the along-track error larger).
+filter does not average them as if they were independent. Gross outliers are rejected by
+the engine's χ² row gate (``config.gate_probability``). Optionally (`huber_k`) the rows
+are also down-weighted with Huber's weight at the prior (`railnav.robust_rows`); it is off
+by default: at a prior made over-confident by correlated errors it down-weights the good
+rows too. Measured on the urban drive (``benchmarks/results/real_data.json``, horizontal
+RMS, GPS / GPS+Galileo): default 1.20 / 1.41 m; white pseudoranges (τ = 0) 2.05 / 2.01 m;
+with Huber k = 1.5 1.09 / 1.40 m (without the inflation Huber made it worse: 2.07 against
+1.93 m for GPS).
 """
 from __future__ import annotations
 
