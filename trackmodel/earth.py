@@ -120,6 +120,14 @@ def earth_from_name(name: str, *, radius_m: float | None = None) -> Ellipsoid:
     raise ValueError(f"earth must be 'wgs84' or 'sphere', got {name!r}")
 
 
+def _vectors(a: npt.ArrayLike, name: str) -> Array:
+    """`a` as float vectors with 3 components last; never guesses the layout."""
+    a = np.asarray(a, dtype=float)
+    if a.shape[-1:] != (3,):
+        raise ValueError(f"{name} must have shape (..., 3), got {a.shape}")
+    return a
+
+
 def radii(lat: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> tuple[Array, Array]:
     """Meridian and prime-vertical radii of curvature.
 
@@ -189,9 +197,7 @@ def ecef_to_geodetic(r_e: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> tuple[A
     ValueError
         If the last axis does not have length 3.
     """
-    r_e = np.asarray(r_e, dtype=float)
-    if r_e.shape[-1:] != (3,):
-        raise ValueError(f"r_e must have shape (..., 3), got {r_e.shape}")
+    r_e = _vectors(r_e, "r_e")
     x, y, z = r_e[..., 0], r_e[..., 1], r_e[..., 2]
     a, e2 = earth.a_m, earth.e2
     e4 = e2 * e2
@@ -255,10 +261,7 @@ def ecef_to_enu(r_e: npt.ArrayLike, *, lat0: float, lon0: float, h0: float,
     r_n : ndarray, shape (..., 3)
         East, north, up offsets from the origin, m.
     """
-    r_e = np.asarray(r_e, dtype=float)
-    if r_e.shape[-1:] != (3,):
-        raise ValueError(f"r_e must have shape (..., 3), got {r_e.shape}")
-    d = r_e - geodetic_to_ecef(lat0, lon0, h0, earth=earth)
+    d = _vectors(r_e, "r_e") - geodetic_to_ecef(lat0, lon0, h0, earth=earth)
     return np.einsum("ji,...j->...i", C_n_e(lat0, lon0), d)
 
 
@@ -281,11 +284,8 @@ def enu_to_ecef(r_n: npt.ArrayLike, *, lat0: float, lon0: float, h0: float,
     r_e : ndarray, shape (..., 3)
         ECEF position, m.
     """
-    r_n = np.asarray(r_n, dtype=float)
-    if r_n.shape[-1:] != (3,):
-        raise ValueError(f"r_n must have shape (..., 3), got {r_n.shape}")
     return geodetic_to_ecef(lat0, lon0, h0, earth=earth) + np.einsum(
-        "ij,...j->...i", C_n_e(lat0, lon0), r_n)
+        "ij,...j->...i", C_n_e(lat0, lon0), _vectors(r_n, "r_n"))
 
 
 def isometric_latitude(lat: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> Array:
