@@ -46,7 +46,8 @@ from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
 from railnav.nav_config import NavigatorConfig  # noqa: E402
 from railnav.runs import run_files  # noqa: E402
-from railnav.spp_report import accuracy_summary, read_reference_trajectory, spp_errors  # noqa: E402,E501
+from railnav.spp_report import (accuracy_summary, read_reference_trajectory,  # noqa: E402
+                                spp_errors)
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
