@@ -8,9 +8,9 @@ inputs with the track linearized along the predicted path (the per-step paramete
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
 distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
-(cm-accurate over a second); the track quantities are taken there and the model corrects
-them to first/second order in ``s − s_ref`` (`strapdown.reduced`), so the Jacobians with
-respect to ``s`` are the track's.
+(cm-accurate over a second); the track quantities are taken at the nearest node of a 0.5-m
+grid (`railnav.track_grid`) and the model corrects them to first/second order in
+``s − s_ref`` (`strapdown.reduced`), so the Jacobians with respect to ``s`` are the track's.
 """
 from __future__ import annotations
 
@@ -20,12 +20,12 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
-from railnav.filter_common import (GnssRowBuilder, scalar_point, start_on_track,
+from railnav.filter_common import (GnssRowBuilder, start_on_track,
                                    states_from_values, track_estimates)
 from railnav.ins_clock_model import initial_variances, model_for_config
 from railnav.nav_config import NavigatorConfig
+from railnav.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
-from strapdown.reduced import track_parameters
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
@@ -60,6 +60,7 @@ class ConstrainedFilter:
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
         self._gravity: dict[int, float] = {}
         self._chunk_end = None   # the track at the last sample of the latest chunk
+        self._grid = TrackParameterGrid(track)
 
     # -- inputs ----------------------------------------------------------------------------
     def inputs(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> tuple[Array, Array]:
@@ -82,10 +83,9 @@ class ConstrainedFilter:
         p : ndarray, shape (M, 16)
             `strapdown.reduced.TRACK_PARAMETER_NAMES` at the predicted ``s``.
         """
-        s_ref = self.predict_s(t, u, x_prev, t_prev)
-        points = self.track.at(s_ref)
-        self._chunk_end = scalar_point(points, -1)
-        return u, track_parameters(points, earth=self.track.earth)
+        params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
+        self._chunk_end = self._grid.point(int(nodes[-1]))
+        return u, params
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
