@@ -57,7 +57,8 @@ from railnav.nav_config import NavigatorConfig, SensorData
 from railnav.nav_result import NavigationResult
 
 __all__ = ["navigate", "InitialState", "make_filter", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
-           "END_MARGIN_SIGMA", "beyond_track"]
+           "END_MARGIN_SIGMA", "beyond_track", "filter_engine", "input_chunks",
+           "max_chunk_samples"]
 
 log = logging.getLogger(__name__)
 
@@ -173,35 +174,12 @@ def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Arr
          epoch_idx: npt.NDArray[np.intp], initial: InitialState, progress: Progress | None):
     """Stream the samples through the EKF; one result for the whole trip, and where the
     filter left the track (`beyond_track`) if it did (the run stops there)."""
-    store_every = max(1, int(round(1.0 / (config.output_rate_hz * np.median(np.diff(t))))))
-    gate = None if config.gate_probability is None else Gate(config.gate_probability,
-                                                             scope="rows")
-    engine = CdFilter(filt_obj.process, FilterConfig(gate=gate, store_every=store_every,
-                                                     full_covariance=True,
-                                                     time_tol_s=EPOCH_TIME_TOL_S))
+    dt = float(np.median(np.diff(t)))
+    engine = filter_engine(filt_obj, config, sample_interval_s=dt)
     at_sample = np.searchsorted(t, epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
-    q_c = filt_obj.q_c
     left: list[dict] = []
-
-    def chunks() -> Iterator[InputSeries]:
-        start = 0
-        bounds = iter(at_sample)
-        next_epoch = next(bounds, None)
-        max_len = max(1, int(round(MAX_CHUNK_S / np.median(np.diff(t)))))
-        while start < t.size:
-            if start > 0:
-                left.extend(beyond_track(filt_obj, engine.x, engine.P, engine.t))
-                if left:
-                    return
-            stop = min(start + max_len, t.size)
-            while next_epoch is not None and next_epoch < start:
-                next_epoch = next(bounds, None)
-            if next_epoch is not None and next_epoch < stop:
-                stop = next_epoch + 1
-            t_prev = engine.t if np.isfinite(engine.t) else t[0]
-            u_c, p_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, t_prev)
-            yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=q_c)
-            start = stop
+    chunks = input_chunks(filt_obj, engine, t, u, at_sample, max_len=max_chunk_samples(dt),
+                          left=left)
 
     def epochs() -> Iterator[Epoch]:
         for k, i in zip(at_sample, epoch_idx):
@@ -209,9 +187,79 @@ def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Arr
                 return
             yield Epoch(float(t[k]), functools.partial(_observations, filt_obj, int(i)))
 
-    parts = list(engine.stream(chunks(), epochs(), x0=initial.x0, P0=initial.P0,
+    parts = list(engine.stream(chunks, epochs(), x0=initial.x0, P0=initial.P0,
                                progress=progress, total=t.size - 1))
     return concatenate_results(parts), (left[0] if left else None)
+
+
+def filter_engine(filt_obj, config: NavigatorConfig, *, sample_interval_s: float) -> CdFilter:
+    """The EKF engine of a run: the filter object's process model, the configured gate,
+    estimates stored at ``config.output_rate_hz`` with their full covariance.
+
+    Parameters
+    ----------
+    filt_obj : filter object (`make_filter`)
+    config : NavigatorConfig
+    sample_interval_s : float
+        Typical interval of the filter's samples, s (sets the storage decimation).
+    """
+    store_every = max(1, int(round(1.0 / (config.output_rate_hz * sample_interval_s))))
+    gate = None if config.gate_probability is None else Gate(config.gate_probability,
+                                                             scope="rows")
+    return CdFilter(filt_obj.process, FilterConfig(gate=gate, store_every=store_every,
+                                                   full_covariance=True,
+                                                   time_tol_s=EPOCH_TIME_TOL_S))
+
+
+def max_chunk_samples(sample_interval_s: float) -> int:
+    """Samples in the longest chunk between re-linearizations (`MAX_CHUNK_S`)."""
+    return max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
+
+
+def input_chunks(filt_obj, engine: CdFilter, t: Array, u: Array,
+                 at_sample: npt.NDArray[np.intp], *, max_len: int,
+                 left: list[dict]) -> Iterator[InputSeries]:
+    """The engine's input chunks of samples ``t``: each ends at a GNSS epoch sample or after
+    `max_len` samples, and its track linearization starts from the engine's latest state.
+
+    Consumed by `ekf.CdFilter.stream` (lazily: each chunk's inputs are computed after the
+    previous chunk was filtered). Several calls may feed one stream with consecutive
+    sample blocks (`railnav.streaming`).
+
+    Parameters
+    ----------
+    filt_obj : filter object (`make_filter`)
+    engine : ekf.CdFilter
+        The engine that filters the chunks.
+    t : ndarray, shape (M,)
+        Sample times, s from the trip start (after the engine's last sample, if any).
+    u : ndarray, shape (M, n_u)
+        Raw inputs of the samples (IMU ``[f_b, ω_ib_b]``).
+    at_sample : ndarray of int
+        Indices into `t` of the GNSS epoch samples, increasing.
+    max_len : int
+        Longest chunk, samples (`max_chunk_samples`).
+    left : list
+        Receives the `beyond_track` record when the vehicle leaves the track; the chunks
+        stop there.
+    """
+    start = 0
+    bounds = iter(at_sample)
+    next_epoch = next(bounds, None)
+    while start < t.size:
+        if np.isfinite(engine.t):
+            left.extend(beyond_track(filt_obj, engine.x, engine.P, engine.t))
+            if left:
+                return
+        stop = min(start + max_len, t.size)
+        while next_epoch is not None and next_epoch < start:
+            next_epoch = next(bounds, None)
+        if next_epoch is not None and next_epoch < stop:
+            stop = next_epoch + 1
+        t_prev = engine.t if np.isfinite(engine.t) else t[0]
+        u_c, p_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, t_prev)
+        yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt_obj.q_c)
+        start = stop
 
 
 def beyond_track(filt_obj, x: Array, P: Array, time_s: float) -> list[dict]:
