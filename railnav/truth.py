@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import casadi as ca
@@ -41,7 +42,7 @@ from strapdown.gravity import g_n
 from strapdown.imu import Imu
 from trackmodel.earth import C_n_e, radii
 
-__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "ideal_imu"]
+__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "iter_truth", "ideal_imu"]
 
 Array = npt.NDArray[np.float64]
 
@@ -132,25 +133,82 @@ def simulate_truth(track, profile: SpeedProfile, *, duration_s: float, rate_hz: 
     ConfigError
         For non-positive duration or rate, or a start outside the track.
     """
+    n = _sample_count(track, duration_s=duration_s, rate_hz=rate_hz, start_s=start_s)
+    truth, _ = _truth_block(track, profile, 0, n, rate_hz=rate_hz, start_s=start_s)
+    _check_two_samples(truth)
+    return truth
+
+
+def iter_truth(track, profile: SpeedProfile, *, duration_s: float, rate_hz: float = 100.0,
+               start_s: float = 0.0, block_size: int) -> Iterator[Truth]:
+    """`simulate_truth` in consecutive blocks, for trips too long to hold in memory.
+
+    The blocks' concatenation equals ``simulate_truth(...)`` sample for sample: each sample
+    ``k`` is evaluated at ``k / rate_hz`` by the same code, and the trip ends at the same
+    sample when it reaches the track end.
+
+    Parameters
+    ----------
+    track, profile, duration_s, rate_hz, start_s
+        As for `simulate_truth`.
+    block_size : int
+        Samples per block (>= 2); the last block may be shorter.
+
+    Yields
+    ------
+    Truth
+        Samples ``[k0, k0 + block_size)`` of the trip.
+
+    Raises
+    ------
+    ConfigError
+        As `simulate_truth`, or for a block size below 2.
+    """
+    if not (isinstance(block_size, (int, np.integer)) and block_size >= 2):
+        raise ConfigError(f"block_size must be an integer >= 2, got {block_size!r}")
+    n = _sample_count(track, duration_s=duration_s, rate_hz=rate_hz, start_s=start_s)
+    for k0 in range(0, n, block_size):
+        block, ended = _truth_block(track, profile, k0, min(k0 + block_size, n),
+                                    rate_hz=rate_hz, start_s=start_s)
+        if k0 == 0:
+            _check_two_samples(block)
+        if block.time_s.size:
+            yield block
+        if ended:
+            return
+
+
+def _sample_count(track, *, duration_s: float, rate_hz: float, start_s: float) -> int:
+    """Number of samples of a trip of `duration_s` (validating the arguments)."""
     if not (math.isfinite(duration_s) and duration_s > 0):
         raise ConfigError(f"duration_s must be finite and > 0, got {duration_s!r}")
     if not (math.isfinite(rate_hz) and rate_hz > 0):
         raise ConfigError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
     if not 0.0 <= start_s < track.length_m:
         raise ConfigError(f"start_s must satisfy 0 <= start_s < {track.length_m} m")
-    n = int(math.floor(duration_s * rate_hz + 1e-9)) + 1
-    sample = profile.evaluate(np.arange(n) / rate_hz)
+    return int(math.floor(duration_s * rate_hz + 1e-9)) + 1
+
+
+def _check_two_samples(truth: Truth) -> None:
+    if truth.time_s.size < 2:
+        raise ConfigError("the trip leaves the track before its second sample")
+
+
+def _truth_block(track, profile: SpeedProfile, k0: int, k1: int, *, rate_hz: float,
+                 start_s: float) -> tuple[Truth, bool]:
+    """Samples ``k0 <= k < k1`` up to the first beyond the track end; and whether the trip
+    ended there (a sample was beyond the end)."""
+    sample = profile.evaluate(np.arange(k0, k1) / rate_hz)
     s = start_s + sample.s
     keep = s <= track.length_m
     keep = keep & (np.cumsum(~keep) == 0)  # stop at the first sample past the end
-    if keep.sum() < 2:
-        raise ConfigError("the trip leaves the track before its second sample")
     pt = track.at(s[keep])
     v = sample.v[keep]
     zero = np.zeros_like(v)
-    return Truth(time_s=sample.time_s[keep], s=pt.s, v=v, a=sample.a[keep], lat=pt.lat,
-                 lon=pt.lon, h=pt.h, r_e=pt.r_e, v_n=v[:, None] * pt.u_n, yaw=pt.azimuth,
-                 pitch=pt.elevation, roll=zero)
+    truth = Truth(time_s=sample.time_s[keep], s=pt.s, v=v, a=sample.a[keep], lat=pt.lat,
+                  lon=pt.lon, h=pt.h, r_e=pt.r_e, v_n=v[:, None] * pt.u_n, yaw=pt.azimuth,
+                  pitch=pt.elevation, roll=zero)
+    return truth, not bool(keep.all())
 
 
 def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:

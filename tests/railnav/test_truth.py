@@ -17,7 +17,7 @@ import pytest
 
 from railnav.profiles import constant_speed, station_stop_profile
 from railnav.scenarios import TRACKS_DIR, get_scenario
-from railnav.truth import _dC_n_e, ideal_imu, simulate_truth
+from railnav.truth import _dC_n_e, ideal_imu, iter_truth, simulate_truth
 from strapdown.backend import batch_call
 from strapdown.euler import C_b_n
 from strapdown.frames import omega_ie_n
@@ -225,3 +225,27 @@ def test_free_inertial_vertical_channel_diverges():
     g = np.linalg.norm(g_n(truth.lat, truth.h, earth=track.earth), axis=-1)
     expected = np.cosh(np.sqrt(2 * g / r) * truth.time_s)
     np.testing.assert_allclose(X[:, 8] - truth.h, expected, rtol=5e-3)
+
+
+@pytest.mark.parametrize("duration_s, block_size", [(60.0, 700), (60.0, 6001), (5000.0, 4096)])
+def test_iter_truth_blocks_equal_the_one_shot_truth(duration_s, block_size):
+    """Reference: `simulate_truth` in one call. The blocks of `iter_truth` (a size that does
+    not divide the samples; one block for all; a trip of curvy.csv that reaches the track
+    end inside a block) concatenate to the same samples, bit for bit, and so do the ideal
+    IMU records computed per block (the streaming simulation relies on both)."""
+    track = read_track(TRACKS_DIR / "curvy.csv")
+    profile = station_stop_profile(cruise_speed_mps=25.0, accel_time_s=60.0, brake_time_s=50.0,
+                                   cruise_before_stop_s=300.0, dwell_s=60.0)
+    whole = simulate_truth(track, profile, duration_s=duration_s, start_s=10.0)
+    blocks = list(iter_truth(track, profile, duration_s=duration_s, start_s=10.0,
+                             block_size=block_size))
+    assert all(b.time_s.size <= block_size for b in blocks)
+    for name in ("time_s", "s", "v", "a", "lat", "lon", "h", "r_e", "v_n", "yaw", "pitch",
+                 "roll"):
+        joined = np.concatenate([getattr(b, name) for b in blocks])
+        np.testing.assert_array_equal(joined, getattr(whole, name), err_msg=name)
+    imu_whole = ideal_imu(track, whole)
+    imu_blocks = [ideal_imu(track, b) for b in blocks]
+    np.testing.assert_array_equal(np.concatenate([i.f_b for i in imu_blocks]), imu_whole.f_b)
+    np.testing.assert_array_equal(np.concatenate([i.omega_ib_b for i in imu_blocks]),
+                                  imu_whole.omega_ib_b)
