@@ -152,21 +152,9 @@ class UnconstrainedFilter:
 
     def truth_states(self, truth, clock_bias_m: Array, clock_drift_mps: Array
                      ) -> tuple[Array, npt.NDArray[np.bool_]]:
-        """True states at the truth's samples, and which components are known.
-
-        Parameters
-        ----------
-        truth : railnav.truth.Truth
-            ``yaw, pitch, roll, lat, lon, h`` (K,) and ``v_n`` (K, 3).
-        clock_bias_m, clock_drift_mps : ndarray, shape (K,)
-            True receiver clock at those samples.
-
-        Returns
-        -------
-        x_true : ndarray, shape (K, n)
-            Unknown components (IMU biases) are 0.
-        known : ndarray of bool, shape (n,)
-        """
+        """True states of the K samples of `truth` (``yaw, pitch, roll, lat, lon, h`` (K,),
+        ``v_n`` (K, 3)) with the true clock (m, m/s; (K,) each), and which states are known:
+        all but the IMU biases (`railnav.filter_common.states_from_values`)."""
         v_n = np.asarray(truth.v_n, dtype=float)
         values = {"yaw": truth.yaw, "pitch": truth.pitch, "roll": truth.roll,
                   "lat": truth.lat, "lon": truth.lon, "h": truth.h,
