@@ -18,7 +18,8 @@ symbolic per-step function and its equations), ``compiled`` / ``propagate`` (run
 ``reference`` (the same step in NumPy), ``update`` / ``gating`` (discrete updates),
 ``series`` / ``cd_filter`` / ``history`` (the driver), ``smoother``, ``consistency``,
 ``linear`` / ``correlated`` / ``bank`` (linear KF, a linear step with measurement noise
-correlated with the process noise, multiple-model banks), ``examples``.
+correlated with the process noise, multiple-model banks), ``outliers`` (the fault
+hypothesis of a row, the common-offset test), ``examples``.
 
 Two properties to know when building a model on it:
 
@@ -32,7 +33,8 @@ Two properties to know when building a model on it:
 """
 from __future__ import annotations
 
-from ekf.bank import BankStep, Hypothesis, ModelBank, merge_gaussians
+from ekf.bank import (BankStep, Hypothesis, ModelBank, imm_starts, merge_gaussians,
+                      switching_update, uniform_switching)
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.compiled import CompileOptions
 from ekf.consistency import chi2_band, normalized_squares
@@ -44,17 +46,20 @@ from ekf.layout import StateLayout
 from ekf.linear import LinearModel, predict_linear
 from ekf.model import CdModel, MeasurementModel
 from ekf.propagate import Propagator, StepOutputs
-from ekf.series import Epoch, InputSeries
+from ekf.outliers import common_offset, fault_probability, fault_threshold
+from ekf.series import Epoch, EpochRows, InputSeries
 from ekf.smoother import SmoothedResult, rts_smooth
 from ekf.step import StepData, StepOptions, build_step
 from ekf.update import Observation, UpdateRecord, discrete_update, kalman_update
 
 __all__ = [
-    "BankStep", "CdFilter", "CdModel", "CompileOptions", "Epoch", "FilterConfig",
+    "BankStep", "CdFilter", "CdModel", "CompileOptions", "Epoch", "EpochRows", "FilterConfig",
     "FilterDivergedError", "FilterError", "FilterResult", "Gate", "Hypothesis",
     "InputSeries", "LinearModel", "MeasurementModel", "ModelBank", "ModelError",
     "Observation", "Propagator", "SmoothedResult", "SmootherData", "StateLayout",
     "StepData", "StepOptions", "StepOutputs", "UpdateRecord", "build_step", "chi2_band",
-    "chi2_threshold", "correlated_step", "discrete_update", "kalman_update", "merge_gaussians",
-    "normalized_squares", "predict_linear", "rts_smooth",
+    "chi2_threshold", "common_offset", "correlated_step", "discrete_update",
+    "fault_probability", "fault_threshold", "imm_starts", "kalman_update", "merge_gaussians",
+    "normalized_squares", "predict_linear", "rts_smooth", "switching_update",
+    "uniform_switching",
 ]

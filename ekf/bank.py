@@ -19,6 +19,13 @@ is: (re)initialize each hypothesis, predict, update, reweight, and mix:
     its own mixture ``Σ_i μ_{i|j} x_i`` of the previous estimates.
 
 Log-likelihoods are combined in log space (no underflow on long runs).
+
+The pieces are public for banks driven step by step from outside (e.g. filters that run
+their own time loops in lockstep): `switching_update` (the probability recursion),
+`imm_starts` (IMM mixing, with an optional ``convert(i, j, x, P)`` for hypotheses whose
+states are expressed in coordinates of their own, e.g. a distance along their own path)
+and `uniform_switching` (the switching matrix of a continuous-time chain that leaves
+each model at one rate, to the others alike).
 """
 from __future__ import annotations
 
@@ -33,10 +40,15 @@ from ekf.errors import ModelError
 from ekf.linear import LinearModel
 from ekf.update import UpdateRecord
 
-__all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians"]
+__all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians", "switching_update",
+           "imm_starts", "uniform_switching", "Convert"]
 
 Array = npt.NDArray[np.float64]
 Mode = Literal["static", "gpb1", "imm"]
+#: ``convert(i, j, x_i, P_i) -> (x, P)``: hypothesis i's estimate in hypothesis j's
+#: coordinates.
+Convert = Callable[[int, int, Array, Array], tuple[Array, Array]]
+_TINY = np.finfo(float).tiny
 
 
 @dataclass(frozen=True)
@@ -82,6 +94,110 @@ def merge_gaussians(weights: Array, means: Array, covs: Array) -> tuple[Array, A
     cov = np.einsum("j,jab->ab", weights, covs) + np.einsum("j,ja,jb->ab", weights, spread,
                                                            spread)
     return mean, 0.5 * (cov + cov.T)
+
+
+def _log(p: Array) -> Array:
+    return np.log(np.maximum(p, _TINY))
+
+
+def switching_update(log_mu: Array, log_lik: Array, transition: Array | None = None) -> Array:
+    """One step of the model-probability recursion, in log space.
+
+    Parameters
+    ----------
+    log_mu : ndarray, shape (J,)
+        Log probabilities of the previous step (normalized or not).
+    log_lik : ndarray, shape (J,)
+        Log-likelihood of this step's data under each model (``−inf`` allowed: the model
+        is ruled out).
+    transition : ndarray, shape (J, J), optional
+        ``Π[i, j] = P(model j now | model i before)``; None: no switching.
+
+    Returns
+    -------
+    ndarray, shape (J,)
+        Normalized ``log μ_j ∝ log c_j + log L_j``, ``c = Πᵀ μ``.
+    """
+    log_mu = np.asarray(log_mu, dtype=float)
+    if transition is not None:
+        mu = np.exp(log_mu - logsumexp(log_mu))
+        log_mu = _log(np.asarray(transition, dtype=float).T @ mu)
+    out = log_mu + np.asarray(log_lik, dtype=float)
+    return out - logsumexp(out)
+
+
+def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[Array], *,
+               convert: Convert | None = None, min_weight: float = 0.0
+               ) -> tuple[list[Array], list[Array]]:
+    """IMM mixing (Blom & Bar-Shalom 1988): each hypothesis' start of the next step.
+
+    Parameters
+    ----------
+    mu : ndarray, shape (J,)
+        Model probabilities (summing to 1).
+    transition : ndarray, shape (J, J)
+        Switching matrix (rows sum to 1).
+    xs, Ps : sequence of ndarray (n,), (n, n)
+        Each hypothesis' estimate in its own coordinates.
+    convert : callable, optional
+        ``convert(i, j, x_i, P_i)``: hypothesis i's estimate in j's coordinates (default:
+        all hypotheses share the coordinates).
+    min_weight : float
+        Mixing weights ``μ_{i|j}`` (i ≠ j) below this are left out (a weight ``w`` moves
+        the start by ``w`` times the difference of the two estimates).
+
+    Returns
+    -------
+    x0, P0 : lists of ndarray (n,), (n, n)
+        ``Σ_i μ_{i|j} x_{i→j}`` and its moment-matched covariance, ``μ_{i|j} = Π_ij μ_i / c_j``.
+    """
+    mu = np.asarray(mu, dtype=float)
+    c = transition.T @ mu
+    weights = transition * mu[:, None] / np.maximum(c, _TINY)[None, :]
+    x0, P0 = [], []
+    for j in range(mu.size):
+        use = [i for i in range(mu.size) if i == j or weights[i, j] > min_weight]
+        if use == [j]:
+            x0.append(xs[j])
+            P0.append(Ps[j])
+            continue
+        pairs = [(xs[i], Ps[i]) if i == j or convert is None else convert(i, j, xs[i], Ps[i])
+                 for i in use]
+        w = weights[use, j] / weights[use, j].sum()
+        x, P = merge_gaussians(w, np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
+        x0.append(x)
+        P0.append(P)
+    return x0, P0
+
+
+def uniform_switching(n_models: int, rate_per_s: float, dt_s: float) -> Array:
+    """Switching matrix over ``dt_s`` of a chain that leaves each model at ``rate_per_s``.
+
+    The continuous-time chain has generator ``Λ_ij = rate/(J − 1)`` (i ≠ j), ``Λ_ii = −rate``:
+    ``Π(Δt) = exp(Λ Δt) = 11ᵀ/J + (I − 11ᵀ/J) e^{−J rate Δt/(J − 1)}``, whose stationary
+    probabilities are uniform.
+
+    Parameters
+    ----------
+    n_models : int
+        ``J`` >= 1.
+    rate_per_s : float
+        Rate of leaving a model, 1/s, >= 0.
+    dt_s : float
+        Interval, s, >= 0.
+
+    Returns
+    -------
+    ndarray, shape (J, J)
+    """
+    if n_models < 1 or rate_per_s < 0.0 or dt_s < 0.0:
+        raise ModelError(f"uniform_switching needs J >= 1, rate >= 0 and dt >= 0; got "
+                         f"{n_models}, {rate_per_s}, {dt_s}")
+    if n_models == 1:
+        return np.ones((1, 1))
+    J = n_models
+    decay = np.exp(-J * rate_per_s * dt_s / (J - 1))
+    return np.full((J, J), 1.0 / J) + (np.eye(J) - np.full((J, J), 1.0 / J)) * decay
 
 
 @dataclass(frozen=True)
@@ -133,7 +249,7 @@ class ModelBank:
         prior = np.full(J, 1.0 / J) if prior is None else np.asarray(prior, dtype=float)
         if prior.shape != (J,) or np.any(prior < 0) or not np.isclose(prior.sum(), 1.0):
             raise ModelError("prior must be J probabilities summing to 1")
-        self.log_mu = np.log(np.maximum(prior, np.finfo(float).tiny))
+        self.log_mu = _log(prior)
         if mode not in ("static", "gpb1", "imm"):
             raise ModelError(f"unknown bank mode {mode!r}")
         if mode != "static":
@@ -151,20 +267,15 @@ class ModelBank:
         """Current model probabilities ``μ``, shape (J,)."""
         return np.exp(self.log_mu - logsumexp(self.log_mu))
 
-    def _starts(self) -> tuple[list[Array], list[Array], Array]:
-        """Initial conditions of this step and the log prior probabilities ``log c_j``."""
+    def _starts(self) -> tuple[list[Array], list[Array]]:
+        """Initial conditions of this step."""
         mu = self.probabilities
         if self.mode == "static":
-            return self.x, self.P, self.log_mu
-        c = self.transition.T @ mu
+            return self.x, self.P
         if self.mode == "gpb1":
             x, P = merge_gaussians(mu, np.array(self.x), np.array(self.P))
-            return [x] * len(mu), [P] * len(mu), np.log(np.maximum(c, np.finfo(float).tiny))
-        mix = self.transition * mu[:, None] / np.maximum(c, np.finfo(float).tiny)[None, :]
-        starts = [merge_gaussians(mix[:, j], np.array(self.x), np.array(self.P))
-                  for j in range(len(mu))]
-        return ([s[0] for s in starts], [s[1] for s in starts],
-                np.log(np.maximum(c, np.finfo(float).tiny)))
+            return [x] * len(mu), [P] * len(mu)
+        return imm_starts(mu, self.transition, self.x, self.P)
 
     def step(self, data: Any) -> BankStep:
         """Predict and update every hypothesis with this step's ``data``; reweight, mix.
@@ -174,14 +285,14 @@ class ModelBank:
         data : any
             Passed to every hypothesis' ``predict`` and ``update`` (e.g. ``z``).
         """
-        xs, Ps, log_c = self._starts()
+        xs, Ps = self._starts()
         log_lik = np.zeros(len(self.hypotheses))
         for j, hyp in enumerate(self.hypotheses):
             x, P = hyp.predict(xs[j], Ps[j], data)
             self.x[j], self.P[j], record = hyp.update(x, P, data)
             log_lik[j] = record.log_likelihood
-        log_mu = log_c + log_lik
-        self.log_mu = log_mu - logsumexp(log_mu)
+        self.log_mu = switching_update(self.log_mu, log_lik,
+                                       None if self.mode == "static" else self.transition)
         mu = self.probabilities
         x_mix = P_mix = None
         if len({x.shape for x in self.x}) == 1:

@@ -8,7 +8,8 @@ yielding one result per chunk (memory flat in the run length). Between two epoch
 steps run as ONE call of the compiled step loop (:mod:`ekf.propagate`); a span without
 epochs (a GNSS outage) is just a longer call.
 
-At an epoch sample the order is: discrete update of the prior, then that sample's
+At an epoch sample the order is: discrete update of the prior (after adding the epoch's
+jump covariance, :class:`~ekf.series.EpochRows`, when it gives one), then that sample's
 continuous measurement and the step to the next sample.
 """
 from __future__ import annotations
@@ -27,7 +28,7 @@ from ekf.history import FilterResult, Recorder
 from ekf.model import CdModel
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import Backend, Propagator, StepOutputs
-from ekf.series import Epoch, InputSeries
+from ekf.series import Epoch, EpochRows, InputSeries
 from ekf.step import StepOptions
 from ekf.update import Observation, UpdateRecord, discrete_update
 
@@ -226,11 +227,24 @@ class CdFilter:
                 break
             epochs.next()
             self.t = float(chunk.t[at])
-            rec.update(self.t, self.update(epoch.observations_at(self.x, self.P)))
+            rec.update(self.t, self.update(self._rows_at(epoch)))
             if at == n_samples - 1:
                 break
         self._last = chunk.slice(n_samples - 1, n_samples)
         self.t = float(chunk.t[-1])
+
+    def _rows_at(self, epoch: Epoch) -> Sequence[Observation]:
+        """The epoch's observations at the current prior, after adding its jump covariance
+        (:class:`~ekf.series.EpochRows`) to the prior."""
+        rows = epoch.observations_at(self.x, self.P)
+        if not isinstance(rows, EpochRows):
+            return rows
+        if rows.jump_covariance is not None:
+            if rows.jump_covariance.shape != self.P.shape:
+                raise ModelError(f"jump_covariance has shape {rows.jump_covariance.shape}, "
+                                 f"the state covariance {self.P.shape}")
+            self.P = self.P + rows.jump_covariance
+        return rows.observations
 
     def _sample_of(self, epoch: Epoch, t: Array) -> int | None:
         j = int(np.searchsorted(t, epoch.t - self.config.time_tol_s))

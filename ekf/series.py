@@ -8,7 +8,9 @@ the filter remembers the last sample of a chunk to form the step into the next.
 
 A discrete update (:class:`Epoch`) happens at a sample time, before that sample's
 continuous measurement. An epoch between samples must first be made a sample (split the
-step, interpolating the input).
+step, interpolating the input). An epoch's callable may answer with :class:`EpochRows`
+to add a jump covariance to the prior before the update (a state that jumped at the
+epoch, recognised from the epoch's own measurements).
 """
 from __future__ import annotations
 
@@ -21,7 +23,7 @@ import numpy.typing as npt
 from ekf.errors import ModelError
 from ekf.update import Observation
 
-__all__ = ["InputSeries", "Epoch"]
+__all__ = ["InputSeries", "Epoch", "EpochRows"]
 
 Array = npt.NDArray[np.float64]
 
@@ -114,7 +116,36 @@ class Epoch:
     observations: Sequence[Observation] | Callable[[Array, Array], Sequence[Observation]] = \
         field(default_factory=tuple)
 
-    def observations_at(self, x: Array, P: Array) -> Sequence[Observation]:
-        """The observations of this epoch, given the prior ``(x, P)`` at its time."""
+    def observations_at(self, x: Array, P: Array) -> "Sequence[Observation] | EpochRows":
+        """The observations of this epoch, given the prior ``(x, P)`` at its time (or
+        :class:`EpochRows` when the callable gives a jump covariance)."""
         obs = self.observations
         return obs(x, P) if callable(obs) else obs
+
+
+@dataclass(frozen=True)
+class EpochRows:
+    """An epoch's observations with a jump of the state at the epoch.
+
+    Attributes
+    ----------
+    observations : sequence of Observation
+    jump_covariance : ndarray, shape (n, n), optional
+        Added to the prior covariance before the update: the covariance of a jump of the
+        state at the epoch (symmetric positive semi-definite; e.g. a receiver clock step,
+        with one non-zero diagonal entry).
+    """
+
+    observations: Sequence[Observation]
+    jump_covariance: Array | None = None
+
+    def __post_init__(self) -> None:
+        Q = self.jump_covariance
+        if Q is not None:
+            Q = np.asarray(Q, dtype=float)
+            if Q.ndim != 2 or Q.shape[0] != Q.shape[1] or not np.all(np.isfinite(Q)):
+                raise ModelError(f"jump_covariance must be a finite square matrix, got shape "
+                                 f"{Q.shape}")
+            if not np.allclose(Q, Q.T) or np.any(np.diag(Q) < 0.0):
+                raise ModelError("jump_covariance must be symmetric with a diagonal >= 0")
+            object.__setattr__(self, "jump_covariance", Q)

@@ -141,3 +141,64 @@ def test_bank_validates_its_configuration():
         ModelBank(hyps, [X0, X0], [P0, P0], mode="gpb1")
     with pytest.raises(ModelError):
         ModelBank(hyps, [X0, X0], [P0, P0], prior=np.array([0.5, 0.6]))
+
+
+def test_uniform_switching_is_the_matrix_exponential_of_its_generator():
+    """Reference: `scipy.linalg.expm` of the generator (rate/(J−1) off the diagonal)."""
+    from scipy.linalg import expm
+
+    from ekf.bank import uniform_switching
+    for J, rate, dt in ((2, 1e-3, 1.0), (3, 0.05, 7.5), (4, 2.0, 0.3)):
+        gen = np.full((J, J), rate / (J - 1))
+        np.fill_diagonal(gen, -rate)
+        np.testing.assert_allclose(uniform_switching(J, rate, dt), expm(gen * dt), rtol=1e-12)
+    np.testing.assert_array_equal(uniform_switching(3, 0.1, 0.0), np.eye(3))
+    with pytest.raises(ModelError):
+        uniform_switching(2, -1.0, 1.0)
+
+
+def test_switching_update_equals_enumeration_over_model_sequences(rng):
+    """Exact reference: the forward recursion against the sum over all 2^K sequences
+    of prior × likelihood, for given per-step likelihoods of each model."""
+    from ekf.bank import switching_update
+    K = 6
+    log_lik = rng.normal(scale=2.0, size=(K, 2))
+    transition = np.array([[0.95, 0.05], [0.2, 0.8]])
+    log_mu = np.log(PRIOR)
+    for k in range(K):
+        log_mu = switching_update(log_mu, log_lik[k], transition if k else None)
+    weights = np.zeros(2)
+    for seq in itertools.product(range(2), repeat=K):
+        prior = PRIOR[seq[0]] * np.prod([transition[a, b] for a, b in zip(seq, seq[1:])])
+        weights[seq[-1]] += prior * np.exp(sum(log_lik[k, m] for k, m in enumerate(seq)))
+    np.testing.assert_allclose(np.exp(log_mu), weights / weights.sum(), rtol=RTOL)
+
+
+def test_imm_starts_in_own_coordinates_equal_the_shared_ones(rng):
+    """Hypothesis j keeps its state shifted by c_j (x_j = x + c_j): mixing through
+    ``convert`` must give the shared-coordinate mixture shifted by c_j."""
+    from ekf.bank import imm_starts
+    J, n = 3, 2
+    shift = rng.normal(size=(J, n)) * 10
+    xs = [rng.normal(size=n) for _ in range(J)]
+    Ps = []
+    for _ in range(J):
+        A = rng.normal(size=(n, n))
+        Ps.append(A @ A.T + np.eye(n))
+    mu = np.array([0.7, 0.2, 0.1])
+    transition = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
+    shared = imm_starts(mu, transition, xs, Ps)
+    own = imm_starts(mu, transition, [x + c for x, c in zip(xs, shift)], Ps,
+                     convert=lambda i, j, x, P: (x - shift[i] + shift[j], P))
+    for j in range(J):
+        np.testing.assert_allclose(own[0][j], shared[0][j] + shift[j], rtol=RTOL)
+        np.testing.assert_allclose(own[1][j], shared[1][j], rtol=RTOL)
+    # hypothesis 0 receives nothing from 2 (Π[2, 0] = 0); the mixture is its own moments
+    c = transition.T @ mu
+    w = transition[:, 0] * mu / c[0]
+    mean = sum(w[i] * xs[i] for i in range(J))
+    np.testing.assert_allclose(shared[0][0], mean, rtol=RTOL)
+    # a weight below min_weight leaves the estimate alone
+    lone = imm_starts(np.array([1 - 1e-12, 1e-12, 0.0]), np.eye(3) * 0.999 + 0.001 / 3, xs,
+                      Ps, min_weight=1e-6)
+    np.testing.assert_array_equal(lone[0][0], xs[0])

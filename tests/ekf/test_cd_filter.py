@@ -168,3 +168,49 @@ def test_bad_inputs_are_refused(tracking_system):
     with pytest.raises(ModelError):
         filt.run(InputSeries(t=t, u=np.zeros((5, 0)), q_c=Q_C), [], x0=np.zeros(3),
                  P0=np.eye(2))
+
+
+def test_jump_covariance_is_added_to_the_prior_before_the_update(tracking_system, rng):
+    """Reference: the manual propagate/update loop with ``P += Q_jump`` done by hand at the
+    second epoch (and the textbook Kalman update of that epoch written out here)."""
+    from ekf.series import EpochRows
+    model, samples, epochs, _, z_d = _scenario(tracking_system, rng)
+    x0, P0 = np.zeros(2), np.eye(2)
+    jump = np.diag([4.0, 0.0])   # a step of the first state, σ 2
+    jumped = [Epoch(e.t, (lambda obs: (lambda x, P: EpochRows(obs, jump)))(e.observations))
+              if i == 1 else e for i, e in enumerate(epochs)]
+    filt = CdFilter(model)
+    res = filt.run(samples, jumped, x0=x0, P0=P0)
+    filt.reset(x0, P0)
+    shaped = samples.shaped(0, 0, 1, 2)
+    start = 0
+    for i, epoch in enumerate(epochs):
+        k = int(round(epoch.t / DT))
+        filt.propagate(shaped.slice(start, k + 1))
+        if i == 1:
+            H = np.array([[1.0, 0.0]])
+            P = filt.P + jump
+            S = H @ P @ H.T + R_POS
+            K = P @ H.T / S
+            x_ref = filt.x + (K * (z_d[k] - filt.x[0])).ravel()
+            P_ref = (np.eye(2) - K @ H) @ P
+            filt.P = P
+        filt.update(epoch.observations)
+        if i == 1:
+            np.testing.assert_allclose(filt.x, x_ref, rtol=1e-12)
+            np.testing.assert_allclose(filt.P, P_ref, rtol=1e-12)
+        start = k + 1
+    np.testing.assert_allclose(res.x_final, filt.x, rtol=1e-12)
+    np.testing.assert_allclose(res.P_final, filt.P, rtol=1e-12)
+
+
+def test_bad_jump_covariance_is_refused(tracking_system, rng):
+    from ekf.series import EpochRows
+    with pytest.raises(ModelError, match="symmetric"):
+        EpochRows([], np.array([[1.0, 0.5], [0.0, 1.0]]))
+    with pytest.raises(ModelError, match="symmetric"):
+        EpochRows([], np.diag([-1.0, 0.0]))
+    model, samples, epochs, _, _ = _scenario(tracking_system, rng)
+    bad = [Epoch(epochs[0].t, lambda x, P: EpochRows([], np.eye(3)))]
+    with pytest.raises(ModelError, match="jump_covariance has shape"):
+        CdFilter(model).run(samples, bad, x0=np.zeros(2), P0=np.eye(2))
