@@ -18,6 +18,7 @@ from gnss_obs.oscillator import oscillator_from_name
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from railnav.errors import ConfigError
+from railnav.fault_detection import FaultDetectionConfig
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
@@ -80,6 +81,11 @@ class NavigatorConfig:
         variance of the mean of a long first-order Gauss–Markov sequence relative to
         white samples. 0: white (simulated data). Default 20 s: urban code multipath at
         tram speeds (railnav.gnss_only_filter).
+    fault_detection : railnav.fault_detection.FaultDetectionConfig or None
+        Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
+        prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
+        clock jumps; `railnav.fault_detection`); None: every row goes to the update (and
+        its χ² gate).
     """
 
     filter: str = "constrained"
@@ -99,6 +105,7 @@ class NavigatorConfig:
     initial_isb_sigma_m: float = 30.0
     along_accel_sigma_mps2: float = 1.0
     pseudorange_correlation_s: float = 20.0
+    fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
 
     def __post_init__(self) -> None:
         if self.filter not in FILTER_KINDS:
@@ -124,6 +131,10 @@ class NavigatorConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0, got {value!r}")
+        if not (self.fault_detection is None
+                or isinstance(self.fault_detection, FaultDetectionConfig)):
+            raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
+                              f"{self.fault_detection!r}")
         tau = self.pseudorange_correlation_s
         if not (isinstance(tau, (int, float)) and math.isfinite(tau) and tau >= 0):
             raise ConfigError(f"pseudorange_correlation_s must be a finite number >= 0, "

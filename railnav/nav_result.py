@@ -5,7 +5,12 @@ start), ``gps_time_s`` and the filter's columns (`railnav.filter_common.track_es
 for the track-based filters: ``s_m, lat_deg, lon_deg, h_m, speed_mps, yaw_deg, ...``,
 clock, and ``sigma_*`` of each). `NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
-innovation, sigma, nis, accepted``; innovation in m or m/s by kind).
+innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
+m or m/s by kind). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
+channel is out, `railnav.fault_detection`); ``accepted`` is ``status == "used"``;
+``fault_probability`` is the row's posterior fault probability and ``clock_jump_m`` a
+receiver clock jump declared at the row's epoch (NaN for filters without the fault screen,
+and where none was).
 """
 from __future__ import annotations
 
@@ -107,6 +112,11 @@ class NavigationResult:
                "nis_continuous_dof": self.nis_continuous_dof,
                "gnss_epochs": self.n_epochs, "gnss_rows": int(len(inn)),
                "gnss_rows_rejected": int((~inn["accepted"]).sum()) if len(inn) else 0}
+        if len(inn):
+            out["gnss_rows_excluded"] = int((inn["status"] == "excluded").sum())
+            jumps = inn.groupby("epoch")["clock_jump_m"].first().dropna()
+            out["clock_jumps"] = [{"time_s": float(inn.loc[inn["epoch"] == e, "time_s"].iloc[0]),
+                                   "jump_m": float(v)} for e, v in jumps.items()]
         for kind in ("pseudorange", "range_rate"):
             rows = inn[(inn["kind"] == kind) & inn["accepted"]] if len(inn) else inn
             out[f"nis_{kind}_mean"] = _finite_or_none(float(rows["nis"].mean())) \
@@ -120,6 +130,9 @@ def _finite_or_none(value: float):
 
 def _innovations(result: FilterResult, filt_obj, start_gps_time_s: float) -> pd.DataFrame:
     """One row per GNSS measurement, with the satellite and kind the filter recorded."""
+    screen = getattr(filt_obj, "screen", None)
+    if screen is not None and len(screen.epochs) == result.t_d.size:
+        return _screened_innovations(result, screen.frame(), start_gps_time_s)
     builder = getattr(filt_obj, "rows", None)
     sv = np.concatenate(builder.rows_sv) if builder is not None and builder.rows_sv else \
         np.zeros(0, dtype=object)
@@ -135,4 +148,32 @@ def _innovations(result: FilterResult, filt_obj, start_gps_time_s: float) -> pd.
                          "epoch": result.epoch_of, "sv": sv, "kind": kind,
                          "innovation": result.innov_d, "sigma": sigma,
                          "nis": (result.innov_d / sigma) ** 2 if n else np.zeros(0),
-                         "accepted": result.accepted})
+                         "accepted": result.accepted,
+                         "status": np.where(result.accepted, "used", "rejected").astype(object),
+                         "fault_probability": np.full(n, np.nan),
+                         "clock_jump_m": np.full(n, np.nan)})
+
+
+def _screened_innovations(result: FilterResult, rows: pd.DataFrame,
+                          start_gps_time_s: float) -> pd.DataFrame:
+    """Every screened row (`railnav.fault_detection.RowScreen.frame`); the used ones carry
+    the update's own innovation, σ and acceptance (its χ² gate may still reject)."""
+    used = (rows["status"] == "used").to_numpy()
+    if used.sum() != result.innov_d.size:
+        raise ValueError(f"{used.sum()} rows passed the screen but the filter updated with "
+                         f"{result.innov_d.size}")
+    accepted = np.zeros(len(rows), dtype=bool)
+    accepted[used] = result.accepted
+    status = rows["status"].to_numpy().copy()
+    status[used & ~accepted] = "rejected"
+    innovation, sigma = rows["innovation"].to_numpy().copy(), rows["sigma"].to_numpy().copy()
+    innovation[used], sigma[used] = result.innov_d, np.sqrt(result.s_d)
+    epoch = rows["screen_epoch"].to_numpy()
+    t = result.t_d[epoch] if len(rows) else np.zeros(0)
+    return pd.DataFrame({"time_s": t, "gps_time_s": t + start_gps_time_s, "epoch": epoch,
+                         "sv": rows["sv"].to_numpy(), "kind": rows["kind"].to_numpy(),
+                         "innovation": innovation, "sigma": sigma,
+                         "nis": (innovation / sigma) ** 2, "accepted": accepted,
+                         "status": status,
+                         "fault_probability": rows["fault_probability"].to_numpy(),
+                         "clock_jump_m": rows["clock_jump_m"].to_numpy()})
