@@ -4,9 +4,7 @@
 holds the process model (`railnav.constrained_model`), turns IMU samples into filter
 inputs with the track linearized along the predicted path (the per-step parameters of
 `strapdown.reduced`), and turns a GNSS epoch into pseudorange and range-rate rows
-(`railnav.gnss_rows`) at the prior's position on the track, screened at the prior for
-faulty satellites and receiver clock jumps (`railnav.fault_detection`,
-``config.fault_detection``).
+(`railnav.gnss_rows`) at the prior's position on the track.
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
 distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
@@ -20,10 +18,9 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.packing import unpack_sym
-from ekf.series import EpochRows
 from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
-from railnav.fault_detection import RowScreen
+from railnav.geometry_noise import geometry_variance
 from railnav.filter_common import (GnssRowBuilder, start_on_track,
                                    states_from_values, track_estimates)
 from railnav.ins_clock_model import initial_variances, model_for_config
@@ -60,7 +57,6 @@ class ConstrainedFilter:
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
-        self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
         self._gravity: dict[int, float] = {}
@@ -68,8 +64,9 @@ class ConstrainedFilter:
         self._grid = TrackParameterGrid(track)
 
     # -- inputs ----------------------------------------------------------------------------
-    def inputs(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> tuple[Array, Array]:
-        """Filter inputs and track parameters of samples ``t`` following ``t_prev``.
+    def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+               t_prev: float) -> tuple[Array, Array, Array]:
+        """Filter inputs, track parameters and geometry noise of samples ``t``.
 
         Parameters
         ----------
@@ -79,6 +76,8 @@ class ConstrainedFilter:
             IMU samples ``[f_b, ω_ib_b]`` (m/s², rad/s).
         x_prev : ndarray, shape (n,)
             Filter state at `t_prev`.
+        P_prev : ndarray, shape (n, n)
+            Its covariance.
         t_prev : float
             Time of `x_prev`, s.
 
@@ -87,10 +86,19 @@ class ConstrainedFilter:
         u : ndarray, shape (M, 6)
         p : ndarray, shape (M, 16)
             `strapdown.reduced.TRACK_PARAMETER_NAMES` at the predicted ``s``.
+        r_c : ndarray, shape (M, 2)
+            Density of the pseudo-observation noise that the uncertainty of ``s`` puts on
+            the track geometry (`railnav.geometry_noise`), (m/s²)²·s.
         """
         params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
         self._chunk_end = self._grid.point(int(nodes[-1]))
-        return u, params
+        i_s, i_v = self._i["s"], self._i["v"]
+        variance = geometry_variance(self._grid, params,
+                                     sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
+                                     speed_mps=abs(float(x_prev[i_v])))
+        step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
+            else float(t[0] - t_prev)
+        return u, params, variance * max(step, 0.0)
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
@@ -114,11 +122,9 @@ class ConstrainedFilter:
         return self._gravity[key]
 
     # -- discrete updates ------------------------------------------------------------------
-    def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:
-        """GNSS rows of epoch `index` at the prior ``(x, P)`` (see `GnssRowBuilder`), those
-        the fault screen lets through (with a clock jump's covariance when it sees one)."""
-        rows = self.rows.observations(index, x, self._chunk_end)
-        return self.screen.screen(rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1], x, P)
+    def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
+        """GNSS rows of epoch `index` at the prior ``x`` (see `GnssRowBuilder`)."""
+        return self.rows.observations(index, x, self._chunk_end)
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

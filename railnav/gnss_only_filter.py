@@ -114,7 +114,8 @@ class GnssOnlyFilter:
                                                            interval)
         self.n_inflated = 0
 
-    def inputs(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> tuple[Array, Array]:
+    def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+               t_prev: float) -> tuple[Array, Array, None]:
         """No inputs and no per-step parameters: arrays of shape ``(M, 0)``.
 
         Parameters
@@ -126,7 +127,7 @@ class GnssOnlyFilter:
         t_prev : float
         """
         empty = np.zeros((np.size(t), 0))
-        return empty, empty
+        return empty, empty, None
 
     def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
         """GNSS rows of epoch `index` at the prior ``(x, P)``: pseudorange variances

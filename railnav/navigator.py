@@ -28,8 +28,9 @@ reference implementation) provide:
 * ``layout`` (`ekf.StateLayout`), ``process`` (`ekf.CdModel`), ``q_c`` (its noise
   densities), ``needs_imu``, and ``rows`` with ``rows_sv``/``rows_kind`` lists (one array
   per processed epoch: the satellite and kind of each GNSS row, for ``innovations.csv``);
-* ``inputs(t, u, x_prev, t_prev) -> (u, p)``: the engine inputs and per-step parameters of
-  the samples ``t`` that follow the state ``x_prev`` at ``t_prev``;
+* ``inputs(t, u, x_prev, P_prev, t_prev) -> (u, p, r_c)``: the engine inputs, per-step
+  parameters and continuous-measurement noise densities (None: none) of the samples ``t``
+  that follow the state ``x_prev`` (covariance ``P_prev``) at ``t_prev``;
 * ``observations(index, x, P) -> list of ekf.Observation``: the rows of GNSS epoch
   ``index`` at the prior ``(x, P)``;
 * ``estimates(x, P_packed) -> dict of columns`` (`railnav.nav_result`);
@@ -257,8 +258,9 @@ def input_chunks(filt_obj, engine: CdFilter, t: Array, u: Array,
         if next_epoch is not None and next_epoch < stop:
             stop = next_epoch + 1
         t_prev = engine.t if np.isfinite(engine.t) else t[0]
-        u_c, p_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, t_prev)
-        yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt_obj.q_c)
+        u_c, p_c, r_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
+                                        t_prev)
+        yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt_obj.q_c, r_c=r_c)
         start = stop
 
 

@@ -92,9 +92,10 @@ class UnconstrainedFilter:
         self._i_vel = [self.layout.index(n) for n in VELOCITY_STATE_NAMES]
 
     # -- engine ----------------------------------------------------------------------------
-    def inputs(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> tuple[Array, Array]:
+    def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+               t_prev: float) -> tuple[Array, Array, None]:
         """The IMU samples ``u`` (M, 6) as they are, and no per-step parameter (M, 0)."""
-        return u, np.zeros((np.size(t), 0))
+        return u, np.zeros((np.size(t), 0)), None
 
     def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
         """GNSS rows of epoch `index` at the prior ``x`` (`GeodeticRowBuilder`)."""

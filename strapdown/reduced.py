@@ -51,6 +51,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from strapdown.backend import ops_for
 from strapdown.euler import C_b_n
 from strapdown.frames import radii_of_curvature
 from strapdown.kinematics import (SensorBiasStates, StateLayout, attitude_rates,
@@ -107,22 +108,24 @@ class ReducedModel:
 
 
 def cross_track_basis(u_n: Any) -> tuple[Any, Any]:
-    """Lateral and normal unit vectors across a tangent (CasADi 3x1 in, 3x1 out).
+    """Lateral and normal unit vectors across a tangent (CasADi 3x1 or NumPy (..., 3)).
 
     Parameters
     ----------
-    u_n : casadi 3x1
+    u_n : casadi 3x1 or ndarray, shape (..., 3)
         Track tangent in ENU (need not be exactly unit length).
 
     Returns
     -------
-    lateral, normal : casadi 3x1
+    lateral, normal : same type and shape as `u_n`
         See the module docstring.
     """
-    u_hat = u_n / ca.norm_2(u_n)
-    c = ca.sqrt(u_hat[0] ** 2 + u_hat[1] ** 2)
-    lateral = ca.vertcat(-u_hat[1] / c, u_hat[0] / c, 0.0)
-    normal = ca.vertcat(-u_hat[2] * u_hat[0] / c, -u_hat[2] * u_hat[1] / c, c)
+    ops = ops_for(u_n)
+    norm = ops.sqrt(ops.dot(u_n, u_n))
+    east, north, up = (ops.comp(u_n, i) / norm for i in range(3))
+    c = ops.sqrt(east * east + north * north)
+    lateral = ops.vec3(-north / c, east / c, 0.0 * c)
+    normal = ops.vec3(-up * east / c, -up * north / c, c)
     return lateral, normal
 
 

@@ -1,0 +1,89 @@
+r"""The track geometry's share of the pseudo-observation's uncertainty when ``s`` is uncertain.
+
+The accelerometer pseudo-observation predicts the centripetal acceleration across the
+track, ``v² P⊥ du/ds(s)``, at the estimated ``s`` and linearizes it there
+(`strapdown.reduced`: ``du/ds(s) ≈ du/ds(s_ref) + d²u/ds²(s_ref) (s − s_ref)``). Where the
+geometry is not linear within the uncertainty of ``s`` — at the joints of sections, where
+the curvature steps (an arc or a vertical curve without transition) or kinks (the ends of
+a clothoid) — the linearized EKF takes a tiny pseudo-observation noise at face value and
+explains the mismatch by the wrong states: during a GNSS outage an estimate a few metres
+ahead of the truth "sees" a vertical curve start 0.1 s early, and with a navigation-grade
+accelerometer (1 mm/s² per 100-Hz sample against v²Δκ ≈ 0.04 m/s²) it then drags ``v`` and
+``s`` back by tens of metres while σ_s stays at a metre.
+
+The remedy is statistical linearization (Gelb 1974, §6.2; the "consider" view of the
+geometry): with ``s ~ N(s_ref, σ_s²)``, the part of the predicted centripetal term that
+the linear model does not carry,
+
+``r(s') = du/ds(s') − du/ds(s_ref) − d²u/ds²(s_ref) (s' − s_ref)``,
+
+is an error of the pseudo-observation with variance ``v⁴ E[(P⊥ r)²]`` (per component,
+lateral and normal), evaluated here over the prior on the track grid (`railnav.track_grid`)
+with a midpoint rule of `QUADRATURE_NODES` points over ±4σ (a step's weight to within
+``φ(ξ)·Δξ/2 ≤ 0.04``; Gauss–Hermite rules, exact for polynomials, resolve steps worse). It is zero on straights, arcs and clothoids alike when
+σ_s is small against the distance to a joint (with GNSS, σ_s ≈ 0.5 m), so the information
+the filter draws from the track is untouched there, and it grows only where the geometry
+the filter assumes is really in doubt. The variances enter the engine as the independent
+continuous-measurement noise (`ekf.InputSeries.r_c`, a density: variance × step).
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
+
+__all__ = ["geometry_variance", "QUADRATURE_NODES", "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M"]
+
+Array = npt.NDArray[np.float64]
+
+#: Points of the midpoint rule over ±`QUADRATURE_HALF_WIDTH` standard deviations.
+QUADRATURE_NODES = 41
+QUADRATURE_HALF_WIDTH = 4.0
+#: Offsets from ``s_ref`` are capped at this distance, m (a σ_s of kilometres smears every
+#: curvature the track has; the cap only bounds the grid window).
+MAX_OFFSET_M = 2000.0
+
+_XI = np.linspace(-QUADRATURE_HALF_WIDTH, QUADRATURE_HALF_WIDTH, QUADRATURE_NODES)
+_W = np.exp(-0.5 * _XI ** 2)
+_W = _W / _W.sum()
+_U = slice(TRACK_PARAMETER_NAMES.index("u_E"), TRACK_PARAMETER_NAMES.index("u_U") + 1)
+_DU = slice(TRACK_PARAMETER_NAMES.index("du_E_ds"), TRACK_PARAMETER_NAMES.index("du_U_ds") + 1)
+_D2U = slice(TRACK_PARAMETER_NAMES.index("d2u_E_ds2"),
+             TRACK_PARAMETER_NAMES.index("d2u_U_ds2") + 1)
+
+
+def geometry_variance(grid, params: Array, *, sigma_s_m: float, speed_mps: float) -> Array:
+    """Variance of the unmodelled centripetal term, lateral and normal, per sample.
+
+    Parameters
+    ----------
+    grid : railnav.track_grid.TrackParameterGrid
+        The track's parameter grid.
+    params : ndarray, shape (M, 16)
+        The samples' track parameters (`strapdown.reduced.TRACK_PARAMETER_NAMES`).
+    sigma_s_m : float
+        Standard deviation of the along-track distance, m.
+    speed_mps : float
+        Speed, m/s.
+
+    Returns
+    -------
+    ndarray, shape (M, 2)
+        ``v⁴ E[(l·r)²]`` and ``v⁴ E[(n·r)²]``, (m/s²)².
+    """
+    m = params.shape[0]
+    offsets = np.clip(sigma_s_m * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
+    s_ref = params[:, 0]
+    length = grid.track.length_m
+    s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, length)
+    at_q, _ = grid.parameters(s_q.ravel())
+    at_q = at_q.reshape(m, offsets.size, -1)
+    delta = at_q[:, :, 0] - s_ref[:, None]
+    linear = params[:, None, _DU] + params[:, None, _D2U] * delta[..., None]
+    remainder = at_q[:, :, _DU] - linear
+    lateral, normal = cross_track_basis(params[:, _U])
+    r_l = np.einsum("mki,mi->mk", remainder, lateral)
+    r_n = np.einsum("mki,mi->mk", remainder, normal)
+    v4 = speed_mps ** 4
+    return v4 * np.stack([r_l ** 2 @ _W, r_n ** 2 @ _W], axis=-1)

@@ -1,0 +1,85 @@
+"""Geometry noise of the pseudo-observation (railnav/geometry_noise.py).
+
+References: closed forms for a curvature step (an arc or vertical curve without
+transition) under a Gaussian prior — the unmodelled term is v²Δκ·1[s' > s_j], whose
+variance is v⁴Δκ² p(1 − p) with p = Φ((s_ref − s_j)/σ) when the linear model carries no
+slope there — and zero on straights, arcs and clothoids; plus the regression case of the
+issue review: a navigation-grade outage on curvy.csv crossing a vertical curve's start.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.stats import norm
+
+from railnav.geometry_noise import geometry_variance
+from railnav.runs import run_simulated
+from railnav.scenarios import TRACKS_DIR, get_scenario
+from railnav.track_grid import TrackParameterGrid
+from trackmodel.io import read_track
+from trackmodel.sections import Section
+from trackmodel.track import Track
+
+SPEED = 25.0
+KAPPA = 1 / 2000     # 1/m
+GRID_HALF_STEP_M = 0.25
+
+
+def _step_tolerance(sigma):
+    """Midpoint rule: a step's weight to within φ_max·Δξ/2 = 0.399·0.2/2; the grid moves
+    the step by up to half a node spacing, φ_max·0.25/σ of probability."""
+    return SPEED ** 4 * KAPPA ** 2 * (0.04 + 0.399 * GRID_HALF_STEP_M / sigma)
+
+
+@pytest.fixture(scope="module")
+def step_track():
+    """A straight, then a 2000 m radius arc without transition (curvature step at 1000 m)."""
+    return Track.from_sections([Section(1000.0, azimuth_deg=10.0),
+                                Section(800.0, curvature_1pm=1 / 2000)],
+                               lat=np.radians(47.0), lon=np.radians(8.0))
+
+
+@pytest.mark.parametrize("s_ref, sigma", [(990.0, 5.0), (998.0, 3.0), (1003.0, 8.0),
+                                          (1020.0, 6.0)])
+def test_curvature_step_variance_is_bernoulli(step_track, s_ref, sigma):
+    grid = TrackParameterGrid(step_track)
+    params, _ = grid.parameters(np.array([s_ref]))
+    node = params[0, 0]
+    var = geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    # the linear model carries the curvature of the reference's side; the remainder is the
+    # step on the other side: mean square v⁴Δκ²·P(other side); all of it is lateral
+    p_other = norm.sf((1000.0 - node) / sigma) if node < 1000.0 else norm.cdf(
+        (1000.0 - node) / sigma)
+    assert var[0, 0] == pytest.approx(SPEED ** 4 * KAPPA ** 2 * p_other,
+                                      abs=_step_tolerance(sigma))
+    assert var[0, 1] < 1e-6 * max(var[0, 0], 1e-12)
+
+
+def test_no_geometry_noise_where_the_model_is_exact(step_track):
+    """Inside the straight the remainder is zero; inside the arc it is the rotation of the
+    curvature vector, |d³u/ds³| δ²/2 ≈ κ³(4σ)²/2, whose square times v⁴ bounds it (2.4e-6,
+    against v⁴Δκ²/4 ≈ 0.02 at a step)."""
+    grid = TrackParameterGrid(step_track)
+    params, _ = grid.parameters(np.array([300.0, 1400.0]))   # straight, inside the arc
+    sigma = 50.0
+    var = geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    assert np.all(var[0] < 1e-20)
+    assert np.all(var[1] < SPEED ** 4 * (KAPPA ** 3 * (4 * sigma) ** 2 / 2) ** 2)
+    params, _ = grid.parameters(np.array([995.0]))
+    assert np.all(geometry_variance(grid, params, sigma_s_m=0.2, speed_mps=SPEED) < 1e-20)
+
+
+def test_outage_across_a_vertical_curve_start_stays_consistent():
+    """Regression: navigation grade, outage 100–160 s on curvy.csv, seed 1. Without the
+    geometry noise the filter dragged s back 540 m at the vertical curve starting at
+    2500 m while σ_s stayed 1.9 m. Bound: the error stays within 4σ_s of the filter."""
+    track = read_track(TRACKS_DIR / "curvy.csv")
+    sc = replace(get_scenario("curvy"), imu_errors="navigation", outages=((100.0, 60.0),),
+                 duration_s=165.0)
+    out = run_simulated(track, sc, seed=1)
+    est = out.result.estimates
+    inside = (est["time_s"] >= 100.0) & (est["time_s"] < 160.0)
+    z = np.abs(out.errors.along_track_m[inside]) / est["sigma_s_m"][inside]
+    assert z.max() < 4.0
