@@ -76,6 +76,8 @@ class FilterResult:
     x_final, P_final : ndarray, shapes (n,), (n, n)
         The state and covariance at the end of the run (prior at the last sample, or
         posterior if an update happened there).
+    n_steps : int
+        Steps taken (every step, stored or not).
     """
 
     layout: StateLayout
@@ -100,6 +102,7 @@ class FilterResult:
     smoother: SmootherData | None
     x_final: Array
     P_final: Array
+    n_steps: int = 0
 
     def to_frame(self) -> "pd.DataFrame":
         """States and standard deviations at the stored times: columns ``t_s``,
@@ -133,6 +136,7 @@ class Recorder:
     nis_c_sum: float = 0.0
     nis_c_count: int = 0
     epochs: int = 0
+    n_steps: int = 0
 
     def _add(self, key: str, value: Array) -> None:
         self._parts.setdefault(key, []).append(value)
@@ -149,6 +153,7 @@ class Recorder:
         ``t`` (N,) are the step start times; ``out`` is a
         :class:`~ekf.propagate.StepOutputs`.
         """
+        self.n_steps += t.size
         keep = (first + np.arange(t.size)) % self.store_every == 0
         self._add("t", t[keep])
         self._add("x", out.x_filt[keep])
@@ -203,7 +208,8 @@ class Recorder:
             m_d=self._get("m_d", (), int), accepted_d=self._get("accepted_d", (), int),
             epoch_of=self._get("epoch_of", (), int), innov_d=self._get("innov_d", ()),
             s_d=self._get("s_d", ()), accepted=self._get("accepted", (), bool),
-            smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final))
+            smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final),
+            n_steps=self.n_steps)
 
 
 def concatenate_results(results: "list[FilterResult]") -> FilterResult:
@@ -243,4 +249,5 @@ def concatenate_results(results: "list[FilterResult]") -> FilterResult:
         nis_d=cat("nis_d"), log_lik_d=cat("log_lik_d"), m_d=cat("m_d"),
         accepted_d=cat("accepted_d"), epoch_of=epoch_of, innov_d=cat("innov_d"),
         s_d=cat("s_d"), accepted=cat("accepted"), smoother=smoother,
-        x_final=last.x_final, P_final=last.P_final)
+        x_final=last.x_final, P_final=last.P_final,
+        n_steps=int(sum(r.n_steps for r in results)))

@@ -101,7 +101,7 @@ class NavigationResult:
                    start_gps_time_s=float(start_gps_time_s), time_s=result.t, x=result.x, P=P,
                    estimates=estimates, innovations=innovations, nis_continuous_mean=nis_c,
                    nis_continuous_dof=n_c, outages=tuple(tuple(o) for o in outages),
-                   runtime_s=float(runtime_s), n_steps=int(result.nis_c_count or result.t.size),
+                   runtime_s=float(runtime_s), n_steps=int(result.n_steps),
                    n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj,
                    left_track=left_track)
 

@@ -116,7 +116,8 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
     Parameters
     ----------
     track : trackmodel.Track
-        The track the vehicle is on (the unconstrained filter uses it only for outputs).
+        The track the vehicle is on (the unconstrained filter uses it only for its initial
+        attitude from a GNSS fix and for the outputs).
     data : SensorData
         IMU and/or GNSS data with their common time reference.
     config : NavigatorConfig

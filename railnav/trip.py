@@ -100,12 +100,12 @@ def navigator_config_for(scenario: Scenario, *, filter: str = "constrained",
     initial σ of ``s`` and ``v`` are the scenario's initial errors. `overrides` replace
     any other `NavigatorConfig` field.
     """
-    return _simulated_sensor_config(
+    return replace(_simulated_sensor_config(
         filter=filter, systems=systems, imu_errors=scenario.imu_errors,
         clock=scenario.clock, sigma_pr_m=scenario.sigma_pseudorange_m,
         sigma_rr_mps=scenario.sigma_range_rate_mps,
         initial=(scenario.initial_attitude_sigma_rad, scenario.initial_s_sigma_m,
-                 scenario.initial_v_sigma_mps), **overrides)
+                 scenario.initial_v_sigma_mps)), **overrides)
 
 
 def navigator_config_from_simulation(meta: dict, *, filter: str = "constrained",
@@ -128,19 +128,20 @@ def navigator_config_from_simulation(meta: dict, *, filter: str = "constrained",
     try:
         sc = meta["scenario"]
         imu = ImuErrors(**sc["imu_errors"])
-        return _simulated_sensor_config(
+        config = _simulated_sensor_config(
             filter=filter, systems=meta.get("gnss_systems") or DEFAULT_SYSTEMS, imu_errors=imu,
             clock=sc["clock"], sigma_pr_m=float(sc["sigma_pseudorange_m"]),
             sigma_rr_mps=float(sc["sigma_range_rate_mps"]),
             initial=(float(sc["initial_attitude_sigma_rad"]), float(sc["initial_s_sigma_m"]),
-                     float(sc["initial_v_sigma_mps"])), **overrides)
+                     float(sc["initial_v_sigma_mps"])))
     except (KeyError, TypeError, ValueError) as exc:
         raise ConfigError(f"scenario.json lacks the sensor settings: {exc}") from None
+    return replace(config, **overrides)
 
 
 def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: str,
                              sigma_pr_m: float, sigma_rr_mps: float,
-                             initial: tuple[float, float, float], **overrides) -> NavigatorConfig:
+                             initial: tuple[float, float, float]) -> NavigatorConfig:
     measurement = MeasurementConfig(systems=systems, sigma_pr_m=sigma_pr_m,
                                     sigma_rr_mps=sigma_rr_mps, elevation_weighting=False,
                                     cn0_ref_dbhz=math.nan)
@@ -148,7 +149,7 @@ def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: st
                            measurement=measurement, initial_attitude_sigma_rad=initial[0],
                            initial_s_sigma_m=initial[1], initial_v_sigma_mps=initial[2],
                            pseudorange_correlation_s=0.0)   # the simulator's errors are white
-    return replace(base, **overrides)
+    return base
 
 
 def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool = True,

@@ -96,6 +96,7 @@ def test_streaming_in_chunks_equals_one_run(tracking_system, rng):
     for name in ("t", "x", "P_diag", "t_d", "nis_d", "innov_d", "epoch_of", "accepted"):
         np.testing.assert_allclose(getattr(joined, name), getattr(whole, name), rtol=1e-13)
     assert joined.nis_c_count == whole.nis_c_count
+    assert joined.n_steps == whole.n_steps == STEPS   # every step counted, stored or not
 
 
 def test_manual_propagate_and_update_equal_run(tracking_system, rng):

@@ -80,3 +80,12 @@ def test_malformed_imu_file_is_located(tmp_path, capsys):
     code = main(["-q", "run", PAPER, "--imu", str(bad), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and str(bad) in err and "\n" not in err
+
+
+def test_step_count_of_a_filter_without_continuous_measurement(tmp_path):
+    """Regression (baselines review): the unconstrained filter reported its stored samples
+    (10 Hz) as steps. Reference: 20 s at 100 Hz = 2000 steps."""
+    out = tmp_path / "u"
+    assert main(["-q", "run", PAPER, "--filter", "unconstrained", "--duration-s", "20",
+                 "--no-plots", "--out", str(out)]) == 0
+    assert json.loads((out / "summary.json").read_text())["steps"] == 2000

@@ -123,3 +123,12 @@ def test_epochs_between_imu_samples_become_samples():
     np.testing.assert_allclose(t2, np.sort(np.concatenate([t, [0.35, 0.72]])))
     for k in (0, 1):
         np.testing.assert_allclose(u2[:, k], np.interp(t2, t, u[:, k]))
+
+
+def test_navigator_config_for_takes_overrides_of_its_own_fields():
+    """Regression (baselines review): an override of a field the scenario also sets."""
+    sc = get_scenario("curvy")
+    config = navigator_config_for(sc, filter="unconstrained", imu_errors="mems",
+                                  gate_probability=None)
+    assert config.imu.name == "mems" and config.filter == "unconstrained"
+    assert config.gate_probability is None and config.oscillator == sc.clock
