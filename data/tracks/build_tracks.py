@@ -1,6 +1,6 @@
 """Rebuild the example track files of this folder (run from the repository root).
 
-    python data/tracks/build_tracks.py            # paper2017, curvy, east_west
+    python data/tracks/build_tracks.py            # paper2017, curvy, east_west, double_a/b
     python data/tracks/build_tracks.py --fit      # also refit barcelona_drive (~2 min)
 
 See README.md here for what each file is and where the surveyed path comes from.
@@ -17,6 +17,7 @@ import pandas as pd
 from trackmodel.earth import WGS84, sphere
 from trackmodel.fit import fit_track
 from trackmodel.io import write_track
+from trackmodel.offset import offset_track
 from trackmodel.sections import Section
 from trackmodel.track import Origin, Track
 
@@ -73,6 +74,31 @@ def east_west() -> Track:
     return Track(sections, Origin(45.0, 7.0, 250.0), WGS84)
 
 
+#: Distance between the centre lines of the two tracks of the double line, m (4.5 m: the
+#: track spacing of new main lines, e.g. EN 15273 / DB Ril 800.0130 for up to 200 km/h).
+DOUBLE_TRACK_SPACING_M = 4.5
+
+
+def double_line() -> tuple[Track, Track]:
+    """A ~23 km double line: track A, and track B 4.5 m to its right (`offset_track`).
+
+    Six curves of radius 600–2000 m with clothoids, both hands, two of them on ±1 %
+    grades; grades joined by vertical curves on straights.
+    """
+    g = math.degrees(math.atan(0.01))
+    sections = ([Section(2000.0, 40.0, 0.0)] + _vertical(300.0, g) + _straight(1000.0)
+                + _curve(800.0, 30.0, 120.0, True) + _straight(1500.0)
+                + _vertical(300.0, 0.0) + _straight(1200.0)
+                + _curve(1200.0, 45.0, 100.0, False) + _straight(2000.0)
+                + _curve(600.0, 25.0, 150.0, True) + _straight(1800.0)
+                + _vertical(300.0, -g) + _curve(2000.0, 15.0, 90.0, False)
+                + _straight(2500.0) + _vertical(300.0, 0.0)
+                + _curve(1000.0, 35.0, 110.0, True) + _straight(4000.0)
+                + _curve(700.0, 20.0, 120.0, False) + _straight(3000.0))
+    track_a = Track(sections, Origin(49.0, 9.0, 300.0), WGS84)
+    return track_a, offset_track(track_a, DOUBLE_TRACK_SPACING_M)
+
+
 def barcelona_survey() -> pd.DataFrame:
     ref = pd.read_csv(SURVEY)
     ref.columns = ["gps_week", "gps_sow_s", "lat_deg", "lon_deg", "h_m", "sdn_m", "sde_m",
@@ -89,6 +115,12 @@ def main(argv: list[str]) -> None:
                 comments=["synthetic main line, built by data/tracks/build_tracks.py"])
     write_track(east_west(), HERE / "east_west.csv",
                 comments=["east-west edge case: azimuth exactly 90 deg, then a U curve"])
+    track_a, track_b = double_line()
+    write_track(track_a, HERE / "double_a.csv",
+                comments=["double line, track A: built by data/tracks/build_tracks.py"])
+    write_track(track_b, HERE / "double_b.csv",
+                comments=[f"double line, track B: {DOUBLE_TRACK_SPACING_M} m to the right of "
+                          "double_a.csv (trackmodel.offset.offset_track)"])
     if "--fit" in argv:
         survey = barcelona_survey()
         survey.to_csv(HERE / "barcelona_drive_survey.csv", index=False)
