@@ -4,7 +4,9 @@
 holds the process model (`railnav.constrained_model`), turns IMU samples into filter
 inputs with the track linearized along the predicted path (the per-step parameters of
 `strapdown.reduced`), and turns a GNSS epoch into pseudorange and range-rate rows
-(`railnav.gnss_rows`) at the prior's position on the track.
+(`railnav.gnss_rows`) at the prior's position on the track, screened at the prior for
+faulty satellites and receiver clock jumps (`railnav.fault_detection`,
+``config.fault_detection``).
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
 distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
@@ -18,8 +20,10 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.packing import unpack_sym
+from ekf.series import EpochRows
 from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
+from railnav.fault_detection import RowScreen
 from railnav.geometry_noise import geometry_variance
 from railnav.filter_common import (GnssRowBuilder, start_on_track,
                                    states_from_values, track_estimates)
@@ -57,6 +61,7 @@ class ConstrainedFilter:
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
+        self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
         self._gravity: dict[int, float] = {}
@@ -122,9 +127,11 @@ class ConstrainedFilter:
         return self._gravity[key]
 
     # -- discrete updates ------------------------------------------------------------------
-    def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
-        """GNSS rows of epoch `index` at the prior ``x`` (see `GnssRowBuilder`)."""
-        return self.rows.observations(index, x, self._chunk_end)
+    def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:
+        """GNSS rows of epoch `index` at the prior ``(x, P)`` (see `GnssRowBuilder`), those
+        the fault screen lets through (with a clock jump's covariance when it sees one)."""
+        rows = self.rows.observations(index, x, self._chunk_end)
+        return self.screen.screen(rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1], x, P)
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
