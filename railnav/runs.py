@@ -70,6 +70,7 @@ class RunOutcome:
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
                   seed: int = 0, systems: str = "G", window: tuple[float, float] | None = None,
+                  faults: tuple = (),
                   progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Simulate `scenario` on `track` and filter it.
 
@@ -86,11 +87,13 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
         GNSS systems simulated and used.
     window : (start_s, end_s), optional
         Extra error-summary window.
+    faults : tuple of gnss_obs.SatelliteFault
+        Satellite faults simulated in the GNSS observations (times from the trip start).
     progress : callable(done, total), optional
         Filter steps.
     """
     config = config or navigator_config_for(scenario, systems=systems)
-    trip = simulate_trip(scenario, track=track, seed=seed, systems=systems)
+    trip = simulate_trip(scenario, track=track, seed=seed, systems=systems, faults=faults)
     filt = make_filter(trip.track, config, None)
     x_true, _ = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))
     P0 = filt.initial_covariance(sigma_s_m=config.initial_s_sigma_m or scenario.initial_s_sigma_m,
