@@ -57,9 +57,9 @@ from railnav.gnss_epochs import GnssEpochs
 from railnav.nav_config import NavigatorConfig, SensorData
 from railnav.nav_result import NavigationResult
 
-__all__ = ["navigate", "InitialState", "make_filter", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
-           "END_MARGIN_SIGMA", "beyond_track", "filter_engine", "input_chunks",
-           "max_chunk_samples"]
+__all__ = ["navigate", "InitialState", "make_filter", "TripSamples", "trip_samples",
+           "EPOCH_TIME_TOL_S", "MAX_CHUNK_S", "END_MARGIN_SIGMA", "beyond_track",
+           "filter_engine", "input_chunks", "max_chunk_samples"]
 
 log = logging.getLogger(__name__)
 
@@ -140,25 +140,13 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         If the covariance loses positive definiteness.
     """
     started = time.perf_counter()
-    samples_t, samples_u = _sample_times(data, config)
-    gnss = None
-    if data.obs is not None:
-        gnss = GnssEpochs.from_files(data.obs, data.nav, config.measurement,
-                                     start_gps_time_s=data.start_gps_time_s,
-                                     end_s=float(samples_t[-1]), outages=outages,
-                                     elevation_mask_deg=config.elevation_mask_deg)
-    filt_obj = make_filter(track, config, gnss)
+    trip = trip_samples(data, config, outages=outages)
+    filt_obj = make_filter(track, config, trip.gnss)
     if initial is None:
         from railnav.initialization import initial_from_gnss
-        initial = initial_from_gnss(filt_obj, data, config, gnss)
-    epoch_times = gnss.time_s if gnss is not None else np.zeros(0)
-    samples_t, samples_u = _insert_samples(samples_t, samples_u, epoch_times)
-    first = int(np.searchsorted(samples_t, initial.time_s - EPOCH_TIME_TOL_S))
-    samples_t, samples_u = samples_t[first:], samples_u[first:]
-    if samples_t.size < 2:
-        raise RailnavError("fewer than two samples after the initial time: nothing to filter")
-    use = epoch_times >= samples_t[0] - EPOCH_TIME_TOL_S
-    epoch_idx = np.flatnonzero(use)
+        initial = initial_from_gnss(filt_obj, data, config, trip.gnss)
+    samples_t, samples_u, epoch_idx = trip.from_time(initial.time_s)
+    epoch_times = trip.epoch_times
     result, left = _run(filt_obj, config, samples_t, samples_u, epoch_times, epoch_idx,
                         initial, progress)
     if left is not None:
@@ -170,6 +158,57 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         filt_obj, config, result, start_gps_time_s=data.start_gps_time_s, outages=outages,
         epoch_indices=epoch_idx, epoch_times=epoch_times,
         runtime_s=time.perf_counter() - started, left_track=left)
+
+
+@dataclass(frozen=True, eq=False)
+class TripSamples:
+    """What a run filters: the sample grid (GNSS epochs inserted) and the GNSS epochs.
+
+    Attributes
+    ----------
+    t : ndarray, shape (M,)
+        Sample times, s from the trip start.
+    u : ndarray, shape (M, n_u)
+        Inputs of the samples (interpolated at inserted epochs).
+    gnss : railnav.gnss_epochs.GnssEpochs or None
+    epoch_times : ndarray, shape (E,)
+        GNSS epoch times, s from the trip start.
+    """
+
+    t: Array
+    u: Array
+    gnss: GnssEpochs | None
+    epoch_times: Array
+
+    def from_time(self, start_s: float) -> tuple[Array, Array, npt.NDArray[np.intp]]:
+        """Samples ``t, u`` from `start_s` on and the indices of the epochs they reach.
+
+        Raises
+        ------
+        RailnavError
+            Fewer than two samples from `start_s`.
+        """
+        first = int(np.searchsorted(self.t, start_s - EPOCH_TIME_TOL_S))
+        t, u = self.t[first:], self.u[first:]
+        if t.size < 2:
+            raise RailnavError("fewer than two samples after the initial time: nothing to "
+                               "filter")
+        return t, u, np.flatnonzero(self.epoch_times >= t[0] - EPOCH_TIME_TOL_S)
+
+
+def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> TripSamples:
+    """The samples and GNSS epochs of a trip (steps 1–2 of `navigate`; also used to run
+    several filters over the same data, `railnav.track_bank`)."""
+    samples_t, samples_u = _sample_times(data, config)
+    gnss = None
+    if data.obs is not None:
+        gnss = GnssEpochs.from_files(data.obs, data.nav, config.measurement,
+                                     start_gps_time_s=data.start_gps_time_s,
+                                     end_s=float(samples_t[-1]), outages=outages,
+                                     elevation_mask_deg=config.elevation_mask_deg)
+    epoch_times = gnss.time_s if gnss is not None else np.zeros(0)
+    samples_t, samples_u = _insert_samples(samples_t, samples_u, epoch_times)
+    return TripSamples(samples_t, samples_u, gnss, epoch_times)
 
 
 def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Array,
