@@ -35,7 +35,8 @@ from railnav.trip import (SimulatedTrip, navigator_config_for, navigator_config_
 from strapdown.imu import read_imu_csv
 from trackmodel.files import atomic_write, atomic_write_text
 
-__all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT"]
+__all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT",
+           "read_sensor_files", "run_summary", "truth_start"]
 
 log = logging.getLogger(__name__)
 
@@ -95,19 +96,38 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
     config = config or navigator_config_for(scenario, systems=systems)
     trip = simulate_trip(scenario, track=track, seed=seed, systems=systems, faults=faults)
     filt = make_filter(trip.track, config, None)
-    x_true, _ = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))
-    P0 = filt.initial_covariance(sigma_s_m=config.initial_s_sigma_m or scenario.initial_s_sigma_m,
-                                 sigma_v_mps=config.initial_v_sigma_mps
-                                 or scenario.initial_v_sigma_mps)
-    rng = np.random.default_rng(trip.simulation.rng_streams[RNG_STREAMS["initial"]])
-    initial = initial_from_truth(x_true[0], P0, time_s=float(trip.truth.time_s[0]), rng=rng)
+    initial = truth_start(filt, trip, config)
     result = navigate(trip.track, trip.sensor_data(), config, outages=(), initial=initial,
                       progress=progress)
     result = replace(result, outages=scenario.outages)
     errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
-    summary = _summary(result, trip.track, errors, window, scenario.outages,
+    summary = run_summary(result, trip.track, errors, window, scenario.outages,
                        {"scenario": scenario.name, "seed": int(seed), "systems": systems})
     return RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+
+
+def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None):
+    """A simulated run's start: the true state plus an error drawn from the filter's own
+    initial covariance (`railnav.initialization.initial_from_truth`; the draw depends on
+    the trip's seed only).
+
+    Parameters
+    ----------
+    filt : filter object (`railnav.navigator.make_filter`)
+    trip : SimulatedTrip
+    config : NavigatorConfig
+    x_true : ndarray, shape (n,), optional
+        The true state at the trip start in the filter's layout (default: from
+        ``filt.truth_states``).
+    """
+    scenario = trip.scenario
+    if x_true is None:
+        x_true = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
+    P0 = filt.initial_covariance(sigma_s_m=config.initial_s_sigma_m or scenario.initial_s_sigma_m,
+                                 sigma_v_mps=config.initial_v_sigma_mps
+                                 or scenario.initial_v_sigma_mps)
+    rng = np.random.default_rng(trip.simulation.rng_streams[RNG_STREAMS["initial"]])
+    return initial_from_truth(x_true, P0, time_s=float(trip.truth.time_s[0]), rng=rng)
 
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
@@ -141,6 +161,20 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     window : (start_s, end_s), optional
     progress : callable(done, total), optional
     """
+    data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
+                                     start_gps_time_s=start_gps_time_s, config=config,
+                                     filter=filter, systems=systems)
+    result = navigate(track, data, config, outages=outages, progress=progress)
+    summary = run_summary(result, track, None, window, tuple(outages), {})
+    return RunOutcome(result, track, summary)
+
+
+def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,
+                      start_gps_time_s: float | None = None,
+                      config: NavigatorConfig | None = None, filter: str = "constrained",
+                      systems: str | None = None) -> tuple[SensorData, NavigatorConfig]:
+    """The sensor data of `run_files` and the navigator configuration it uses (see there
+    for the parameters and the defaults)."""
     if config is None:
         config = _default_file_config(imu_path, obs_path, filter, systems)
     if (obs_path is None) != (nav_path is None):
@@ -150,10 +184,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     nav = read_rinex_nav(nav_path) if nav_path is not None else None
     if start_gps_time_s is None:
         start_gps_time_s = _start_time(imu_path, obs)
-    data = SensorData(float(start_gps_time_s), imu=imu, obs=obs, nav=nav)
-    result = navigate(track, data, config, outages=outages, progress=progress)
-    summary = _summary(result, track, None, window, tuple(outages), {})
-    return RunOutcome(result, track, summary)
+    return SensorData(float(start_gps_time_s), imu=imu, obs=obs, nav=nav), config
 
 
 def _simulation_meta(*paths) -> dict | None:
@@ -195,7 +226,9 @@ def _start_time(imu_path, obs) -> float:
     raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")
 
 
-def _summary(result: NavigationResult, track, errors, window, outages, extra: dict) -> dict:
+def run_summary(result: NavigationResult, track, errors, window, outages, extra: dict) -> dict:
+    """The ``summary.json`` content of a run: filter, track, duration, statistics, left
+    track, `extra` keys, and with `errors` their summary (`railnav.nav_metrics.summarize`)."""
     est = result.estimates
     out = {"filter": result.filter, **extra,
            "track": {"length_m": float(track.length_m), "earth": track.earth.name},
