@@ -336,10 +336,7 @@ def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegme
     (`following`: the next segment, for the clock truth after this one's last epoch)."""
     result = concatenate_results(parts)
     counts.add(result)
-    rows = getattr(filt_obj, "rows", None)
-    if rows is not None:    # per-epoch row labels: not kept in streaming mode
-        rows.rows_sv.clear()
-        rows.rows_kind.clear()
+    _forget_epoch_records(filt_obj)
     if result.t.size == 0:
         return
     head = {"time_s": result.t, "gps_time_s": result.t + scenario.start_gps_time_s}
@@ -350,6 +347,22 @@ def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegme
                                                         following=following))
     stats.add(errors)
     writer.write(estimates, errors.to_frame())
+
+
+def _forget_epoch_records(filt_obj) -> None:
+    """Drop what the filter object keeps per GNSS epoch for ``innovations.csv`` (row labels
+    of `railnav.filter_common.EpochRowBuilder`, the records of
+    `railnav.fault_detection.RowScreen`): a streamed run does not write that file, and
+    those lists would grow with the trip. The screen's channel states, which carry over
+    from epoch to epoch, are kept."""
+    rows = getattr(filt_obj, "rows", None)
+    if rows is not None:
+        rows.rows_sv.clear()
+        rows.rows_kind.clear()
+    screen = getattr(filt_obj, "screen", None)
+    if screen is not None:
+        for records in (screen.epochs, screen._sv, screen._kind):
+            records.clear()
 
 
 class _Writer:
