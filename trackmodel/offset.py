@@ -18,9 +18,9 @@ elevation at its two ends (linear in between), the length ``∫(1 − k d) dx / 
 and the end curvature that makes its turn ``∫κ_B ds_B`` equal the given piece's, so the
 azimuth stays parallel after every piece (the end curvatures stay within ~1e-4 of
 ``k_B``; exact curvatures at both ends would leave 2.6e-6 rad of azimuth after a 120-m
-transition into a 600-m radius at 4.5 m). The geographic azimuth is kept: the parallel of a loxodrome
-at a constant azimuth drifts laterally by ``d tan φ Δφ`` (~2 cm over 20 km northward at
-48°), which the tests bound.
+transition into a 600-m radius at 4.5 m). The geographic azimuth is kept: the parallel of
+a loxodrome at a constant azimuth drifts laterally by ``d tan φ Δφ`` (~2 cm over 20 km
+northward at 48°), which the tests bound.
 """
 from __future__ import annotations
 

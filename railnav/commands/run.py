@@ -1,7 +1,10 @@
 """``railnav run TRACK [...]``: filter a trip on a track (simulated, or from sensor files).
 
 Thin layer over `railnav.runs.run_simulated` / `railnav.runs.run_files` and
-`railnav.runs.write_run` (STYLE.md §2.11).
+`railnav.runs.write_run` (STYLE.md §2.11). With several tracks (candidates: the tracks of
+a double line, the routes after a switch) over `railnav.track_runs.run_simulated_tracks` /
+`run_files_tracks` and `write_track_run`: one constrained filter per track and their
+probabilities (`railnav.track_bank`).
 """
 from __future__ import annotations
 
@@ -10,10 +13,12 @@ import logging
 from dataclasses import replace
 from pathlib import Path
 
-from railnav.commands.support import outage_window, positive_float, progress_bar
+from railnav.commands.support import (nonnegative_float, outage_window, positive_float,
+                                      positive_int, progress_bar)
 from railnav.errors import ConfigError
 from railnav.nav_config import FILTER_KINDS
 from railnav.scenarios import SCENARIOS, get_scenario
+from railnav.track_bank import DEFAULT_CROSSING_RATE_PER_S
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.io import read_track
 
@@ -45,8 +50,12 @@ def register(subparsers) -> None:
         description="With only a track, simulate a scenario on it (truth, IMU, GNSS) and "
                     "filter it; with --imu and/or --obs/--nav, filter those files. Writes "
                     "estimates.csv, innovations.csv, summary.json (+ errors.csv with a truth) "
-                    "and plots to DIR.")
-    p.add_argument("tracks", metavar="TRACK", nargs="+", help="track file(s) (.csv)")
+                    "and plots to DIR. With several tracks, run one constrained filter per "
+                    "candidate track and identify the track the train is on: summary.json "
+                    "gets track_probabilities, estimates.csv the columns track and "
+                    "track_probability, and track_probabilities.csv/.png are written.")
+    p.add_argument("tracks", metavar="TRACK", nargs="+",
+                   help="track file(s) (.csv); several: candidate tracks named by file stem")
     p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
@@ -73,6 +82,13 @@ def register(subparsers) -> None:
     p.add_argument("--window", type=time_window, default=None, metavar="START:END",
                    help="also summarize the errors over this window, s")
     p.add_argument("--seed", type=int, default=0, help="random seed of the simulation")
+    p.add_argument("--true-track", type=positive_int, default=1, metavar="N",
+                   help="several tracks, simulated trip: the track it runs on, 1 = the first "
+                        "given (default 1; the filters are not told)")
+    p.add_argument("--crossing-rate-per-s", type=nonnegative_float,
+                   default=DEFAULT_CROSSING_RATE_PER_S, metavar="RATE",
+                   help="several tracks: rate of changing tracks, 1/s (default "
+                        f"{DEFAULT_CROSSING_RATE_PER_S:g}; 0: no crossovers)")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
@@ -82,9 +98,9 @@ def register(subparsers) -> None:
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
     from railnav.runs import run_files, run_simulated, write_run
-    if len(args.tracks) > 1:
-        raise ConfigError("several candidate tracks need the multiple-model bank, which is "
-                          "not available in this version; give one track")
+    if args.true_track > len(args.tracks):
+        raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
+                          "given")
     if (args.obs is None) != (args.nav is None):
         raise ConfigError("--obs and --nav go together")
     if args.seed < 0:
@@ -93,6 +109,8 @@ def handler(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
+    if len(args.tracks) > 1:
+        return _several_tracks(args, out)
     track = read_track(args.tracks[0])
     files = args.imu is not None or args.obs is not None
     with progress_bar("filter", enabled=not args.quiet) as progress:
@@ -111,6 +129,37 @@ def handler(args: argparse.Namespace) -> int:
                                     systems=systems, window=args.window, progress=progress)
     write_run(outcome, out, plots=not args.no_plots)
     print(_report(outcome, out))
+    return 0
+
+
+def _several_tracks(args: argparse.Namespace, out: Path) -> int:
+    """``railnav run A.csv B.csv ...``: identify the track among candidates."""
+    from railnav.track_bank import TrackBankConfig
+    from railnav.track_runs import (run_files_tracks, run_simulated_tracks, track_names,
+                                    write_track_run)
+    if args.filter != "constrained":
+        raise ConfigError(f"several tracks run the constrained filter, not --filter "
+                          f"{args.filter}")
+    names = track_names(args.tracks)
+    tracks = [read_track(path) for path in args.tracks]
+    bank = TrackBankConfig(crossing_rate_per_s=args.crossing_rate_per_s)
+    with progress_bar("filters", enabled=not args.quiet) as progress:
+        if args.imu is not None or args.obs is not None:
+            run = run_files_tracks(tracks, names, imu_path=args.imu, obs_path=args.obs,
+                                   nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
+                                   systems=args.systems, outages=tuple(args.outage or ()),
+                                   bank=bank, window=args.window, progress=progress)
+        else:
+            from railnav.trip import navigator_config_for
+            scenario = _scenario(args)
+            systems = args.systems or "G"
+            run = run_simulated_tracks(tracks, names, scenario, true_track=args.true_track - 1,
+                                       config=navigator_config_for(scenario, systems=systems),
+                                       seed=args.seed, systems=systems, bank=bank,
+                                       window=args.window, progress=progress)
+    write_track_run(run, out, plots=not args.no_plots)
+    probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
+    print(_report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
     return 0
 
 

@@ -6,7 +6,8 @@ import contextlib
 import sys
 from collections.abc import Callable, Iterator
 
-__all__ = ["progress_bar", "positive_float", "positive_int", "nonnegative_int", "outage_window"]
+__all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
+           "nonnegative_int", "outage_window"]
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
@@ -47,6 +48,17 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
     if not (value > 0 and value < float("inf")):
         raise argparse.ArgumentTypeError(f"{text!r} must be a finite number > 0")
+    return value
+
+
+def nonnegative_float(text: str) -> float:
+    """argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not (0 <= value < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r} must be a finite number >= 0")
     return value
 
 

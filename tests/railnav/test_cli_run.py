@@ -10,6 +10,7 @@ from railnav.cli import main
 from railnav.scenarios import TRACKS_DIR
 
 PAPER = str(TRACKS_DIR / "paper2017.csv")
+DOUBLE_A, DOUBLE_B = str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")
 
 #: The estimates.csv contract (issue: time, position, speed, attitude, clock, 1-σ of each).
 ESTIMATE_COLUMNS = ["time_s", "gps_time_s", "s_m", "lat_deg", "lon_deg", "h_m", "speed_mps",
@@ -62,7 +63,9 @@ def test_files_from_simulate_run_the_same_filter(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["run", "missing.csv"], "missing.csv"),
     (["run", PAPER, "--obs", "x.rnx"], "--obs and --nav go together"),
-    (["run", PAPER, PAPER], "several candidate tracks"),
+    (["run", PAPER, PAPER], "distinct file names"),
+    (["run", PAPER, "--true-track", "2"], "--true-track 2"),
+    (["run", DOUBLE_A, DOUBLE_B, "--filter", "gnss-only"], "constrained filter"),
     (["run", PAPER, "--systems", "GX"], "--systems"),
 ])
 def test_bad_input_is_one_line_exit_2(tmp_path, capsys, argv, message):
@@ -89,3 +92,24 @@ def test_step_count_of_a_filter_without_continuous_measurement(tmp_path):
     assert main(["-q", "run", PAPER, "--filter", "unconstrained", "--duration-s", "20",
                  "--no-plots", "--out", str(out)]) == 0
     assert json.loads((out / "summary.json").read_text())["steps"] == 2000
+
+
+def test_several_tracks_identify_the_track(tmp_path, capsys):
+    """Two candidate tracks (the double line), the trip simulated on the second: the
+    contract outputs (summary track_probabilities by stem, estimates track columns)."""
+    out = tmp_path / "bank"
+    code = main(["-q", "run", DOUBLE_A, DOUBLE_B, "--true-track", "2", "--duration-s", "40",
+                 "--out", str(out)])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    probs = summary["track_probabilities"]
+    assert set(probs) == {"double_a", "double_b"} and sum(probs.values()) == pytest.approx(1.0)
+    assert summary["true_track"] == "double_b" and summary["tracks"] == ["double_a", "double_b"]
+    est = pd.read_csv(out / "estimates.csv")
+    assert set(ESTIMATE_COLUMNS) | {"track", "track_probability"} <= set(est.columns)
+    assert set(est["track"]) <= {"double_a", "double_b"}
+    assert ((est["track_probability"] >= 0.5) & (est["track_probability"] <= 1.0)).all()
+    table = pd.read_csv(out / "track_probabilities.csv")
+    assert list(table.columns) == ["time_s", "gps_time_s", "double_a", "double_b", "common_rows"]
+    assert (out / "track_probabilities.png").is_file()
+    assert "track probabilities at the end" in capsys.readouterr().out
