@@ -5,7 +5,8 @@ stored samples is added to a `RunningSummary` and forgotten. The running sums gi
 same figures as `summarize` of the whole series: RMS from the sum of squares and the
 count of finite values, maxima of |error|, each outage's value at its last stored sample
 (a later block inside the outage replaces it) and its maximum, and the NEES mean.
-Blocks must come in time order without repeated samples.
+Blocks must come in time order without repeated samples. `RunningCounts` counts the
+filter's work (steps, GNSS epochs and rows, NIS) the same way.
 """
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ import math
 import numpy as np
 import numpy.typing as npt
 
+from ekf.history import FilterResult
 from railnav.nav_metrics import ERROR_QUANTITIES, ErrorSeries
 
-__all__ = ["RunningSummary"]
+__all__ = ["RunningSummary", "RunningCounts"]
 
 Array = npt.NDArray[np.float64]
 
@@ -106,6 +108,43 @@ class RunningSummary:
         out["nees"] = {"mean": self._nees_sum / self._nees_count if self._nees_count else None,
                        "dof": self._nees_dof}
         return out
+
+
+class RunningCounts:
+    """Counters of a streamed filter's work for ``summary.json``: steps (set by the caller
+    from the engine's progress), GNSS epochs and rows, rejected rows, continuous and GNSS
+    row NIS sums, and the first and last stored times, s."""
+
+    def __init__(self) -> None:
+        self.steps = self.epochs = self.rows = self.rejected = 0
+        self.nis_c_sum, self.nis_c_count = 0.0, 0
+        self.nis_rows_sum, self.nis_rows_count = 0.0, 0
+        self.first_time_s = self.last_time_s = math.nan
+
+    def add(self, result: FilterResult) -> None:
+        """Add the counts of the next block of results (`ekf.FilterResult`)."""
+        self.nis_c_sum += result.nis_c_sum
+        self.nis_c_count += result.nis_c_count
+        self.epochs += int(result.t_d.size)
+        self.rows += int(result.innov_d.size)
+        self.rejected += int((~result.accepted).sum())
+        if result.innov_d.size:
+            nis = result.innov_d[result.accepted] ** 2 / result.s_d[result.accepted]
+            self.nis_rows_sum += float(nis.sum())
+            self.nis_rows_count += int(nis.size)
+        if result.t.size:
+            if not math.isfinite(self.first_time_s):
+                self.first_time_s = float(result.t[0])
+            self.last_time_s = float(result.t[-1])
+
+    def statistics(self) -> dict:
+        """The ``statistics`` block of ``summary.json`` (means None without samples)."""
+        def mean(total: float, n: int):
+            return total / n if n else None
+        return {"nis_continuous_mean": mean(self.nis_c_sum, self.nis_c_count),
+                "gnss_epochs": self.epochs, "gnss_rows": self.rows,
+                "gnss_rows_rejected": self.rejected,
+                "nis_gnss_rows_mean": mean(self.nis_rows_sum, self.nis_rows_count)}
 
 
 def _finite(value: float) -> float | None:

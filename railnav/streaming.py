@@ -49,7 +49,7 @@ from railnav.nav_config import NavigatorConfig
 from railnav.nav_metrics import error_series
 from railnav.navigator import (EPOCH_TIME_TOL_S, filter_engine, input_chunks, make_filter,
                                max_chunk_samples)
-from railnav.running_stats import RunningSummary
+from railnav.running_stats import RunningCounts, RunningSummary
 from railnav.runs import CSV_FLOAT_FORMAT
 from railnav.scenarios import RNG_STREAMS, Scenario
 from railnav.trip import DEFAULT_SYSTEMS, navigator_config_for
@@ -219,7 +219,7 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
 
     epochs = _nominal_epochs(scenario, track, registry, filt_obj, left)
     stats = RunningSummary(window=window, outages=scenario.outages)
-    counts = _Counts()
+    counts = RunningCounts()
     pending: list[FilterResult] = []
     owner: TripSegment | None = None
     total = _last_sample(scenario, track)
@@ -296,41 +296,8 @@ def _nominal_epochs(scenario: Scenario, track, registry: _EpochRegistry, filt_ob
         yield Epoch(t, functools.partial(registry.observations, filt_obj, k // step))
 
 
-class _Counts:
-    """Counters of the filter's work for ``summary.json``."""
-
-    def __init__(self) -> None:
-        self.steps = self.epochs = self.rows = self.rejected = 0
-        self.nis_c_sum, self.nis_c_count = 0.0, 0
-        self.nis_rows_sum, self.nis_rows_count = 0.0, 0
-        self.first_time_s = self.last_time_s = math.nan
-
-    def add(self, result: FilterResult) -> None:
-        self.nis_c_sum += result.nis_c_sum
-        self.nis_c_count += result.nis_c_count
-        self.epochs += int(result.t_d.size)
-        self.rows += int(result.innov_d.size)
-        self.rejected += int((~result.accepted).sum())
-        if result.innov_d.size:
-            nis = result.innov_d[result.accepted] ** 2 / result.s_d[result.accepted]
-            self.nis_rows_sum += float(nis.sum())
-            self.nis_rows_count += int(nis.size)
-        if result.t.size:
-            if not math.isfinite(self.first_time_s):
-                self.first_time_s = float(result.t[0])
-            self.last_time_s = float(result.t[-1])
-
-    def statistics(self) -> dict:
-        def mean(total: float, n: int):
-            return total / n if n else None
-        return {"nis_continuous_mean": mean(self.nis_c_sum, self.nis_c_count),
-                "gnss_epochs": self.epochs, "gnss_rows": self.rows,
-                "gnss_rows_rejected": self.rejected,
-                "nis_gnss_rows_mean": mean(self.nis_rows_sum, self.nis_rows_count)}
-
-
 def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegment | None,
-           filt_obj, track, scenario: Scenario, stats: RunningSummary, counts: _Counts,
+           filt_obj, track, scenario: Scenario, stats: RunningSummary, counts: RunningCounts,
            writer) -> None:
     """Evaluate, summarize and write one segment's stored estimates; then forget them
     (`following`: the next segment, for the clock truth after this one's last epoch)."""
@@ -391,7 +358,7 @@ class _Writer:
 
 
 def _summary(scenario: Scenario, config: NavigatorConfig, seed: int, systems: str, track,
-             stats: RunningSummary, counts: _Counts, left: dict | None,
+             stats: RunningSummary, counts: RunningCounts, left: dict | None,
              runtime_s: float) -> dict:
     """``summary.json`` of a streamed run (the keys of `railnav.runs`' summary)."""
     duration = counts.last_time_s - counts.first_time_s if stats.samples else 0.0
