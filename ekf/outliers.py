@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg as sla
 
 from ekf.errors import ModelError
 
@@ -136,8 +135,7 @@ def common_offset(innov: npt.ArrayLike, S: npt.ArrayLike, members: npt.ArrayLike
         raise ModelError(f"common_offset: innov {nu.shape}, S {S.shape}, members {d.shape}")
     if not d.any():
         raise ModelError("common_offset needs at least one member component")
-    factor = sla.cho_factor(S, lower=True, check_finite=False)
-    w_nu, w_d = sla.cho_solve(factor, np.column_stack([nu, d]), check_finite=False).T
+    w_nu, w_d = np.linalg.solve(S, np.column_stack([nu, d])).T
     info = float(d @ w_d)
     offset = float(d @ w_nu) / info
     nis_offset = offset * offset * info

@@ -55,7 +55,7 @@ class Channel:
         self._cusum = [0.0, 0.0]
         self._influence = np.zeros((2, n_states))
 
-    def admitted_row(self, r: float, failed: bool) -> bool:
+    def admitted_row(self, r: float, failed: bool, clip: float) -> bool:
         """Record a row of the admitted channel; True when the channel becomes excluded.
 
         Parameters
@@ -64,10 +64,11 @@ class Channel:
             Normalized innovation ``ν/√S``.
         failed : bool
             The row test failed (the row is rejected).
+        clip : float
+            The row test's threshold on ``|r|`` (``√config.nis_threshold``).
         """
         cfg = self.config
         self._failures.append(bool(failed))
-        clip = math.sqrt(cfg.nis_threshold)
         step = min(max(r, -clip), clip)
         self._cusum = [max(0.0, self._cusum[0] + step - cfg.drift_allowance),
                        max(0.0, self._cusum[1] - step - cfg.drift_allowance)]

@@ -56,7 +56,6 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-import scipy.linalg as sla
 
 from ekf.gating import chi2_threshold
 from ekf.outliers import common_offset, fault_probability, fault_threshold
@@ -293,6 +292,7 @@ class RowScreen:
             return status, np.full(keys.size, np.nan), []
         prob = fault_probability(r * r, prior=cfg.fault_prior, scale=cfg.fault_scale)
         failed = prob > cfg.decision_probability
+        clip = float(np.sqrt(cfg.nis_threshold))
         excluded = []
         for i, key in enumerate(keys):
             ch = self._channel(key)
@@ -300,7 +300,7 @@ class RowScreen:
                 status[i] = ROW_STATUSES[2]
                 if ch.excluded_row(float(r[i]), bool(failed[i])):
                     log.debug("channel %s re-admitted", key)
-            elif ch.admitted_row(float(r[i]), bool(failed[i])):
+            elif ch.admitted_row(float(r[i]), bool(failed[i]), clip):
                 status[i] = ROW_STATUSES[2]
                 excluded.append(key)
                 log.debug("channel %s excluded", key)
@@ -313,10 +313,16 @@ class RowScreen:
         """Each used row's correction ``K_i ν_i`` of this update, to its channel."""
         if self.config is None or not used.any():
             return
-        PHt = P @ H[used].T
-        K = sla.cho_solve(sla.cho_factor(S[np.ix_(used, used)], lower=True), PHt.T).T
-        for k, key in enumerate(keys[used]):
-            self._channels[key].add_influence(K[:, k] * nu[used][k])
+        H_u = H[used]
+        K_t = np.linalg.solve(S[np.ix_(used, used)], H_u @ P)   # Kᵀ, S symmetric
+        for k, (key, nu_k) in enumerate(zip(keys[used], nu[used])):
+            self._channels[key].add_influence(K_t[k] * nu_k)
+
+    def clear_records(self) -> None:
+        """Forget the recorded epochs (`frame`, `last`), keeping the channels' states (a
+        streaming run writes the records as it goes)."""
+        for records in (self.epochs, self._sv, self._kind):
+            records.clear()
 
     def frame(self) -> pd.DataFrame:
         """All screened rows: ``screen_epoch, sv, kind, innovation, sigma, nis, status,
