@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import itertools
 import json
 import logging
 import math
@@ -207,7 +208,7 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
     current: dict = {}
 
     def chunks() -> Iterator:
-        for segment in _chain(first, segments):
+        for segment in itertools.chain([first], segments):
             current["segment"] = segment
             registry.register(segment.gnss)
             times = segment.gnss.time_s if segment.gnss is not None else np.zeros(0)
@@ -243,11 +244,6 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
         log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s", left[0]["time_s"],
                     left[0]["s_m"], left[0]["end"])
     return stats, counts, (left[0] if left else None)
-
-
-def _chain(first, rest):
-    yield first
-    yield from rest
 
 
 def _initial_state(filt_obj, config: NavigatorConfig, scenario: Scenario,

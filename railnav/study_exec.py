@@ -9,7 +9,8 @@ order; the caller orders the table). Three engines, one contract:
   cores (``spawn`` start method: each worker imports the package afresh);
 * a scheduler: **Dask distributed** — ``"local"`` starts a `dask.distributed.LocalCluster`
   of ``workers`` single-threaded worker processes; ``"tcp://HOST:PORT"`` connects to a
-  running cluster (its workers need this package installed); a
+  running cluster (its workers need this package installed; the runs carry their
+  track files' text, so no shared file system is needed); a
   `dask.distributed.Client` is used as it is (and not closed).
 
 Closing the generator early (an exception in the caller, Ctrl-C) cancels the runs not

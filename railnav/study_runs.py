@@ -9,9 +9,13 @@ filters of one trip sit side by side). Each run has
   run's scenario parameters) — never from the order in which workers pick runs up. The
   filter is not part of it: the filters of a cell are compared on the same simulated
   trip;
-* a **run id**: the first 16 hex digits of the SHA-256 of its parameters and seed as
-  canonical JSON, stable across processes, machines and Python versions; resuming a
-  study skips the ids already written.
+* a **run id**: the first 16 hex digits of the SHA-256 of its parameters, seed and the
+  track file's content as canonical JSON, stable across processes, machines and Python
+  versions (an edited track file gives new ids); resuming a study skips the ids already
+  written.
+
+A `RunSpec` carries the track file's text, so workers on other machines need no shared
+file system (only this package).
 
 `run_one` simulates and filters one run (`railnav.runs.run_simulated`, or
 `railnav.streaming.stream_simulated` in streaming mode) and returns its row: the
@@ -28,7 +32,7 @@ import json
 import logging
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,8 +67,9 @@ class RunSpec:
     seed : int
     replicate : int
     track : str
-        As written in the configuration; ``track_path`` is its file.
-    track_path : str
+        As written in the configuration.
+    track_text : str
+        The content of its file (`trackmodel.io.parse_track_text`).
     scenario : str
     imu_grade : str
     speed_mps, duration_s : float
@@ -81,7 +86,7 @@ class RunSpec:
     seed: int
     replicate: int
     track: str
-    track_path: str
+    track_text: str = field(repr=False)
     scenario: str
     imu_grade: str
     speed_mps: float
@@ -124,6 +129,8 @@ def _digest_words(payload: dict) -> tuple[int, ...]:
 def expand_grid(config: StudyConfig) -> list[RunSpec]:
     """Every run of the study, in the module's order (module docstring)."""
     specs = []
+    texts = {t: config.track_path(t).read_text(encoding="utf-8") for t in config.tracks}
+    digests = {t: hashlib.sha256(text.encode()).hexdigest() for t, text in texts.items()}
     axes = itertools.product(config.tracks, config.imu_grades, config.speeds_mps,
                              config.sigma_pseudorange_m, config.sigma_range_rate_mps,
                              config.outage_sets, range(config.replicates), config.filters)
@@ -137,11 +144,11 @@ def expand_grid(config: StudyConfig) -> list[RunSpec]:
         words = () if config.common_random_numbers else _digest_words(scene)
         seed = derive_seed(config.seed, rep, words)
         identity = {**scene, "filter": kind, "replicate": rep, "seed": seed,
-                    "row_version": ROW_VERSION}
+                    "track_sha256": digests[track], "row_version": ROW_VERSION}
         run_id = hashlib.sha256(json.dumps(identity, sort_keys=True).encode()).hexdigest()[:16]
         specs.append(RunSpec(
             index=index, run_id=run_id, seed=seed, replicate=rep, track=track,
-            track_path=str(config.track_path(track)), scenario=config.scenario,
+            track_text=texts[track], scenario=config.scenario,
             imu_grade=grade, speed_mps=float(speed), duration_s=float(config.duration_s),
             filter=kind, sigma_pseudorange_m=float(s_pr), sigma_range_rate_mps=float(s_rr),
             outages=tuple((float(a), float(b)) for a, b in outages), systems=config.systems,
@@ -200,9 +207,9 @@ def _num(value) -> float:
 
 
 @functools.lru_cache(maxsize=8)
-def _track(path: str):
-    from trackmodel.io import read_track
-    return read_track(path)
+def _track(text: str, name: str):
+    from trackmodel.io import parse_track_text
+    return parse_track_text(text, path=name)
 
 
 def _summary(spec: RunSpec) -> dict:
@@ -216,7 +223,7 @@ def _summary(spec: RunSpec) -> dict:
                        sigma_pseudorange_m=spec.sigma_pseudorange_m,
                        sigma_range_rate_mps=spec.sigma_range_rate_mps)
     config = navigator_config_for(scenario, filter=spec.filter, systems=spec.systems)
-    track = _track(spec.track_path)
+    track = _track(spec.track_text, spec.track)
     if spec.mode == "streaming":
         return stream_simulated(track, scenario, config=config, seed=spec.seed,
                                 systems=spec.systems, segment_s=spec.segment_s).summary

@@ -51,6 +51,21 @@ def test_grid_count_order_and_seeds():
     assert derive_seed(7, 0) == specs[0].seed
 
 
+def test_run_ids_follow_the_track_content(tmp_path):
+    """The same track name with other content (a copy with a longer section) is another
+    run: new ids; the same content under a copy gives the same ids."""
+    config = load_study_config(TINY)
+    text = (DATA / "tracks" / "paper2017.csv").read_text()
+    (tmp_path / "paper2017.csv").write_text(text)
+    same = expand_grid(replace(config, base_dir=tmp_path))
+    (tmp_path / "paper2017.csv").write_text(text.replace("25000.0", "26000.0"))
+    edited = expand_grid(replace(config, base_dir=tmp_path))
+    original = expand_grid(config)
+    assert [s.run_id for s in same] == [s.run_id for s in original]
+    assert not {s.run_id for s in edited} & {s.run_id for s in original}
+    assert "26000.0" in edited[0].track_text
+
+
 def test_run_ids_are_stable_across_interpreters():
     """Another interpreter with another string-hash seed expands the same ids."""
     code = ("import json; from railnav.study_file import load_study_config; "
@@ -92,7 +107,7 @@ def test_row_carries_the_run_summary(index):
     spec = expand_grid(load_study_config(TINY))[index]
     row = run_one(spec)
     scenario = _scenario_of(spec)
-    summary = run_simulated(read_track(spec.track_path), scenario, seed=spec.seed,
+    summary = run_simulated(read_track(DATA / "tracks" / spec.track), scenario, seed=spec.seed,
                             config=navigator_config_for(scenario, filter=spec.filter)).summary
     _check_row(row, summary)
     assert list(row)[:len(spec.parameters())] == list(spec.parameters())
@@ -104,20 +119,19 @@ def test_streaming_row_carries_the_stream_summary():
     spec = expand_grid(config)[2]
     row = run_one(spec)
     scenario = _scenario_of(spec)
-    summary = stream_simulated(read_track(spec.track_path), scenario, seed=spec.seed,
+    summary = stream_simulated(read_track(DATA / "tracks" / spec.track), scenario, seed=spec.seed,
                                config=navigator_config_for(scenario, filter=spec.filter),
                                segment_s=7.0).summary
     _check_row(row, summary)
     assert row["mode"] == "streaming"
 
 
-def test_failed_run_is_a_row(tmp_path):
+def test_failed_run_is_a_row():
     """A run that cannot be simulated (a 0.1-m track: the trip leaves it at once) returns
     a failed row with the exception and NaN figures."""
-    track = tmp_path / "stub.csv"
-    track.write_text("lat_deg,lon_deg,h_m,length_m,azimuth_deg,elevation_deg\n"
-                     "50.45,30.52,100.0,0.1,30.0,0.0\n")
-    spec = replace(expand_grid(load_study_config(TINY))[0], track_path=str(track))
+    stub = ("lat_deg,lon_deg,h_m,length_m,azimuth_deg,elevation_deg\n"
+            "50.45,30.52,100.0,0.1,30.0,0.0\n")
+    spec = replace(expand_grid(load_study_config(TINY))[0], track_text=stub)
     row = run_one(spec)
     assert row["status"] == "failed"
     assert row["error"].startswith("ConfigError: the trip leaves the track")
