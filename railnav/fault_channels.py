@@ -10,10 +10,11 @@ A channel is one satellite's pseudorange or its range rate (`railnav.fault_detec
   ``C⁻ = max(0, C⁻ − r − δ)``; excluded when either exceeds ``h``;
 * its **influence**: the sum of the corrections its used rows made to the state,
   ``Σ K_i ν_i``, over each side's current CUSUM run (reset when that side returns to 0).
-  On exclusion the influence of the alarming side is what the fault may have pulled
-  into the state before it was caught; the screen adds its outer product to the prior
-  covariance (`ekf.EpochRows`), so the remaining satellites can pull the state back
-  instead of the filter keeping an error it no longer knows about;
+  On an exclusion by the drift test the influence of the alarming side is what the
+  fault may have pulled into the state before it was caught; the screen adds its outer
+  product to the prior covariance (`ekf.EpochRows`), so the remaining satellites can
+  pull the state back instead of the filter keeping an error it no longer knows about
+  (an exclusion for failed rows adds nothing: those rows were not used);
 
 and, while excluded, its last `readmission_passes` normalized innovations: it is
 re-admitted when all of them pass the row test and their mean is consistent with zero,
@@ -50,6 +51,7 @@ class Channel:
     def __init__(self, config, n_states: int) -> None:
         self.config = config
         self.excluded = False
+        self._drifted = False
         self._failures: deque = deque(maxlen=config.exclusion_window)
         self._passes: deque = deque(maxlen=config.readmission_passes)
         self._cusum = [0.0, 0.0]
@@ -77,7 +79,7 @@ class Channel:
                 self._influence[side] = 0.0
         drift = cfg.drift_threshold is not None and max(self._cusum) > cfg.drift_threshold
         if drift or sum(self._failures) >= cfg.exclusion_failures:
-            self.excluded = True
+            self.excluded, self._drifted = True, drift
             self._passes.clear()
             return True
         return False
@@ -89,8 +91,11 @@ class Channel:
                 self._influence[side] += delta_x
 
     def contamination(self) -> Array:
-        """What the channel may have pulled into the state: the influence of its larger
-        CUSUM side, shape (n,)."""
+        """What the channel may have pulled into the state when its drift test excluded
+        it: the influence of its larger CUSUM side, shape (n,); zeros when it was
+        excluded for failed rows (those were not used)."""
+        if not self._drifted:
+            return np.zeros(self._influence.shape[1])
         return self._influence[int(np.argmax(self._cusum))].copy()
 
     def excluded_row(self, r: float, failed: bool) -> bool:

@@ -24,9 +24,9 @@ r"""Satellite fault detection and exclusion (FDE) of a filter's GNSS rows, at th
    (Page 1954) of its normalized innovations ``r = ν/√S_ii`` (`drift_allowance` δ,
    `drift_threshold` h, in σ), each increment clipped at the row test's threshold so that
    one gross outlier never excludes alone. The CUSUM catches slow ramps, whose innovations
-   stay at 1–3σ for many epochs while the filter follows them. On exclusion the prior
-   covariance gets the outer product of what the channel's used rows had pulled into the
-   state during the CUSUM run, so the other satellites can pull it back. An excluded
+   stay at 1–3σ for many epochs while the filter follows them. On a drift exclusion the
+   prior covariance gets the outer product of what the channel's used rows had pulled
+   into the state during the CUSUM run, so the other satellites can pull it back. An excluded
    channel's innovations are still computed at each prior; it is re-admitted after
    `readmission_passes` consecutive passes of the row test whose mean is consistent with
    zero (a ramp still running passes single rows now and then, not this).
