@@ -113,3 +113,18 @@ def test_several_tracks_identify_the_track(tmp_path, capsys):
     assert list(table.columns) == ["time_s", "gps_time_s", "double_a", "double_b", "common_rows"]
     assert (out / "track_probabilities.png").is_file()
     assert "track probabilities at the end" in capsys.readouterr().out
+
+
+def test_several_tracks_from_simulated_files(tmp_path):
+    """railnav simulate's files on track B, filtered on both tracks from the first GNSS fix."""
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", DOUBLE_B, "--scenario", "curvy", "--duration-s", "60",
+                 "--seed", "2", "--out", str(sim)]) == 0
+    out = tmp_path / "run"
+    assert main(["-q", "run", DOUBLE_A, DOUBLE_B, "--imu", str(sim / "imu.csv"), "--obs",
+                 str(sim / "gnss_obs.rnx"), "--nav", str(sim / "gnss_nav.rnx"), "--no-plots",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    # a minute of 1 Hz GPS at the simulator's 3.9 m sigma: the evidence is ~2 nats per epoch
+    assert summary["track_probabilities"]["double_b"] > 0.99
+    assert "true_track" not in summary
