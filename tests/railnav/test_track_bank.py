@@ -115,11 +115,11 @@ def test_probabilities_are_the_forward_recursion_of_the_chain(short_run):
     eps = bank.bank.crossing_rate_per_s
     gen = np.array([[-eps, eps], [eps, -eps]])
     dts = np.diff(np.concatenate([[0.0], bank.time_s[:K]]))
+    log_pi = [None] + [np.log(expm(gen * dt)) for dt in dts[1:]]   # cycle 0 has no step
     weights = np.zeros(2)
     for seq in itertools.product(range(2), repeat=K):
         log_w = np.log(0.5) + sum(bank.log_likelihoods[k, m] for k, m in enumerate(seq))
-        for k in range(1, K):
-            log_w += np.log(expm(gen * dts[k])[seq[k - 1], seq[k]])
+        log_w += sum(log_pi[k][seq[k - 1], seq[k]] for k in range(1, K))
         weights[seq[-1]] += np.exp(log_w)
     np.testing.assert_allclose(bank.probabilities[K - 1], weights / weights.sum(), rtol=1e-9)
 
