@@ -283,6 +283,10 @@ def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayL
     geo = _geometry(sel, t, epoch, r_e, v_e, bias)
     keep = visible_after_outages(t, epoch, geo["elevation"], cfg.outages,
                                  mask_rad=np.deg2rad(cfg.elevation_mask_deg))
+    if not keep.any():
+        raise GnssError("no satellite is observed at any epoch (the outages cover the whole "
+                        "trip or the elevation mask hides every satellite); simulate "
+                        "without GNSS instead")
     geo = {k: v[keep] for k, v in geo.items()}
     epoch, sv, sel = epoch[keep], sv[keep], sel[keep].reset_index(drop=True)
     return _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg, nav, rng)

@@ -97,6 +97,13 @@ def test_outages_faults_and_mask(nav, rng):
                                atol=5e-4)  # RINEX rounding to 1 mm
 
 
+def test_outage_over_the_whole_trip_is_an_error_not_an_empty_file(nav, rng):
+    t, r_e, v_e = _trajectory(10)
+    cfg = GnssSimConfig(outages=(Outage(0.0, 10.0),))
+    with pytest.raises(GnssError, match="no satellite is observed"):
+        simulate_gnss(t, r_e, v_e, nav, cfg, rng=rng)
+
+
 def test_noise_has_the_configured_sigma(nav, rng):
     """Sample variance of the injected noise in its χ² 99.9 % band (elevation-independent),
     and the written Doppler is -ρ̇/λ of the noisy range rate."""
