@@ -93,7 +93,11 @@ def _quiet_dask() -> None:
 
 
 def _dask(specs: Sequence[RunSpec], scheduler, workers: int) -> Iterator[dict]:
-    from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+    try:
+        from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+    except ImportError:
+        raise ConfigError("a Dask scheduler needs dask.distributed: "
+                          "pip install 'railnav[cluster]'") from None
     _quiet_dask()
     cluster = None
     if isinstance(scheduler, Client):
