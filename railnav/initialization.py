@@ -6,7 +6,9 @@
   covariance (`filter.initial_from_fix`).
 * `initial_from_truth`: for simulations, ``x0 = x_true + e`` with ``e ~ N(0, P0)`` drawn from
   the filter's own initial covariance, so that the filter's covariance is honest from the
-  first step (needed for NEES statistics).
+  first step (needed for NEES statistics). Components whose truth is itself a draw from
+  the filter's prior (the IMU biases: the simulator draws them from the grade's figures)
+  start at the prior mean instead; a second draw would double their error variance.
 """
 from __future__ import annotations
 
@@ -105,17 +107,22 @@ def initial_from_gnss(filt_obj, data, config, gnss):
 
 
 def initial_from_truth(x_true: npt.ArrayLike, P0: npt.ArrayLike, *, time_s: float,
-                       rng: np.random.Generator):
+                       rng: np.random.Generator, drawn: npt.ArrayLike | None = None):
     """``x0 = x_true + e``, ``e ~ N(0, P0)``: an honest start for simulations.
 
     Parameters
     ----------
     x_true : array_like, shape (n,)
-        True state at `time_s`.
+        True state at `time_s`; for components not `drawn`, the prior mean.
     P0 : array_like, shape (n, n)
-        The filter's initial covariance.
+        The filter's initial covariance (no correlation between drawn and other
+        components).
     time_s : float
     rng : numpy.random.Generator
+    drawn : array_like of bool, shape (n,), optional
+        Components that get the drawn error (default all). The others start at `x_true`:
+        use it for states whose simulated truth is unknown to the filter and was drawn
+        from the same prior (IMU biases), so that their error is that draw alone.
 
     Returns
     -------
@@ -124,4 +131,6 @@ def initial_from_truth(x_true: npt.ArrayLike, P0: npt.ArrayLike, *, time_s: floa
     from railnav.navigator import InitialState
     P0 = np.asarray(P0, dtype=float)
     error = np.linalg.cholesky(P0) @ rng.standard_normal(P0.shape[0])
+    if drawn is not None:
+        error = np.where(np.asarray(drawn, dtype=bool), error, 0.0)
     return InitialState(float(time_s), np.asarray(x_true, dtype=float) + error, P0)

@@ -121,13 +121,15 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
         ``filt.truth_states``).
     """
     scenario = trip.scenario
+    states, known = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))
     if x_true is None:
-        x_true = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
+        x_true = states[0]
     P0 = filt.initial_covariance(sigma_s_m=config.initial_s_sigma_m or scenario.initial_s_sigma_m,
                                  sigma_v_mps=config.initial_v_sigma_mps
                                  or scenario.initial_v_sigma_mps)
     rng = np.random.default_rng(trip.simulation.rng_streams[RNG_STREAMS["initial"]])
-    return initial_from_truth(x_true, P0, time_s=float(trip.truth.time_s[0]), rng=rng)
+    return initial_from_truth(x_true, P0, time_s=float(trip.truth.time_s[0]), rng=rng,
+                              drawn=known)
 
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,

@@ -251,13 +251,14 @@ def _initial_state(filt_obj, config: NavigatorConfig, scenario: Scenario,
     """The truth at the first sample with errors drawn from the filter's covariance
     (as `railnav.runs.run_simulated`)."""
     truth = first.truth
-    x_true, _ = filt_obj.truth_states(truth, *first.clock_truth(truth.time_s))
+    x_true, known = filt_obj.truth_states(truth, *first.clock_truth(truth.time_s))
     P0 = filt_obj.initial_covariance(
         sigma_s_m=config.initial_s_sigma_m or scenario.initial_s_sigma_m,
         sigma_v_mps=config.initial_v_sigma_mps or scenario.initial_v_sigma_mps)
     streams = np.random.SeedSequence(int(seed)).spawn(len(RNG_STREAMS))
     rng = np.random.default_rng(streams[RNG_STREAMS["initial"]])
-    return initial_from_truth(x_true[0], P0, time_s=float(truth.time_s[0]), rng=rng)
+    return initial_from_truth(x_true[0], P0, time_s=float(truth.time_s[0]), rng=rng,
+                              drawn=known)
 
 
 def _last_sample(scenario: Scenario, track) -> int:
