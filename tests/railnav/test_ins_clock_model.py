@@ -142,3 +142,13 @@ def test_constrained_noise_map_and_pseudo_observation_noise_are_minus_input_deri
     D = np.array(model.process.D(x, u, p))
     np.testing.assert_allclose(D[:, :6], D_fd, rtol=RTOL_G, atol=ATOL_G)
     assert not D[:, 6:].any()
+
+
+def test_an_ideal_imu_is_filtered_with_the_papers_white_noise():
+    """The accelerometer observation needs a positive noise: a ``perfect`` IMU gets the
+    2017 paper's densities (its preset) instead of zero."""
+    paper, osc = IMU_GRADES["paper2017"], oscillator_from_name("tcxo")
+    model = build_constrained_model(WGS84, estimate_biases=False, isb_systems=())
+    q = model.process_noise_density(IMU_GRADES["perfect"], osc)
+    np.testing.assert_array_equal(q[:6], [paper.accel_noise_density_mps2_rthz ** 2] * 3
+                                  + [paper.gyro_noise_density_radps_rthz ** 2] * 3)
