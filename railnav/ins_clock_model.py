@@ -60,11 +60,11 @@ CLOCK_STATE_NAMES = ("clock_bias", "clock_drift")
 ISB_RANDOM_WALK_M2PS = 1e-5
 #: Names of the IMU white-noise components (accelerometer, then gyro; body axes).
 IMU_NOISE_NAMES = ("w_fx", "w_fy", "w_fz", "w_wx", "w_wy", "w_wz")
-#: The white noise the filter assumes at least (accelerometer m/s²/√Hz, gyro rad/√s): the
-#: 2017 paper's figures. The accelerometer observation's noise must be positive, so an
-#: ideal (``perfect``) IMU is filtered as if it had the paper's noise.
-MIN_ACCEL_NOISE_DENSITY_MPS2_RTHZ = 1e-5
-MIN_GYRO_NOISE_DENSITY_RADPS_RTHZ = 1e-6
+#: The white noise the filter assumes for an ideal IMU (zero noise; accelerometer
+#: m/s²/√Hz, gyro rad/√s): the 2017 paper's figures. The accelerometer observation's noise
+#: must be positive, so a ``perfect`` IMU is filtered as if it had the paper's noise.
+IDEAL_ACCEL_NOISE_DENSITY_MPS2_RTHZ = 1e-5
+IDEAL_GYRO_NOISE_DENSITY_RADPS_RTHZ = 1e-6
 #: Bias random walks are kept strictly positive so that the covariance stays definite.
 _MIN_BIAS_DENSITY = 1e-30
 #: Bias variances are kept positive so that P0 is definite even for a perfect IMU.
@@ -125,8 +125,8 @@ class InsClockModel:
         Parameters
         ----------
         imu : ImuErrors
-            The IMU grade the filter assumes (white noise at least the
-            ``MIN_*_NOISE_DENSITY`` figures).
+            The IMU grade the filter assumes (a zero white noise is replaced by the
+            ``IDEAL_*_NOISE_DENSITY`` figures).
         oscillator : Oscillator
             The receiver clock the filter assumes.
 
@@ -134,8 +134,8 @@ class InsClockModel:
         -------
         ndarray, shape (n_w,)
         """
-        accel = max(imu.accel_noise_density_mps2_rthz, MIN_ACCEL_NOISE_DENSITY_MPS2_RTHZ)
-        gyro = max(imu.gyro_noise_density_radps_rthz, MIN_GYRO_NOISE_DENSITY_RADPS_RTHZ)
+        accel = imu.accel_noise_density_mps2_rthz or IDEAL_ACCEL_NOISE_DENSITY_MPS2_RTHZ
+        gyro = imu.gyro_noise_density_radps_rthz or IDEAL_GYRO_NOISE_DENSITY_RADPS_RTHZ
         q = [accel ** 2] * 3 + [gyro ** 2] * 3
         if self.estimate_biases:
             q += [bias_random_walk_density(imu.accel_bias_instability_mps2,
