@@ -76,6 +76,24 @@ def geometry_variance(grid, params: Array, *, sigma_s_m: float, speed_mps: float
     offsets = np.clip(sigma_s_m * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
     s_ref = params[:, 0]
     length = grid.track.length_m
+    if _inside_one_loxodrome(grid.track, s_ref.min() + offsets[0], s_ref.max() + offsets[-1]):
+        return np.zeros((m, 2))
+    return _quadrature(grid, params, offsets, speed_mps)
+
+
+def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
+    """Whether [s_lo, s_hi] (m, clipped to the track) lies in one straight section: its
+    tangent is smooth to all orders there (a loxodrome at constant grade), and the part the
+    second-order expansion leaves out is ~(Δs/R_earth)³, far below any accelerometer."""
+    k = track.section_of(np.clip([s_lo, s_hi], 0.0, track.length_m))
+    return bool(k[0] == k[1] and track.table.is_loxodrome[k[0]])
+
+
+def _quadrature(grid, params: Array, offsets: Array, speed_mps: float) -> Array:
+    """`geometry_variance` by the midpoint rule at the given offsets from ``s_ref``."""
+    m = params.shape[0]
+    s_ref = params[:, 0]
+    length = grid.track.length_m
     s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, length)
     at_q, _ = grid.parameters(s_q.ravel())
     at_q = at_q.reshape(m, offsets.size, -1)

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from railnav.geometry_noise import geometry_variance
+from railnav.geometry_noise import MAX_OFFSET_M, _XI, _quadrature, geometry_variance
 from railnav.runs import run_simulated
 from railnav.scenarios import TRACKS_DIR, get_scenario
 from railnav.track_grid import TrackParameterGrid
@@ -69,6 +69,19 @@ def test_no_geometry_noise_where_the_model_is_exact(step_track):
     assert np.all(var[1] < SPEED ** 4 * (KAPPA ** 3 * (4 * sigma) ** 2 / 2) ** 2)
     params, _ = grid.parameters(np.array([995.0]))
     assert np.all(geometry_variance(grid, params, sigma_s_m=0.2, speed_mps=SPEED) < 1e-20)
+
+
+@pytest.mark.parametrize("sigma", [0.5, 50.0, 400.0])
+def test_one_straight_section_takes_the_shortcut_the_quadrature_agrees_with(sigma):
+    """Inside one loxodrome `geometry_variance` returns zero without the quadrature; the
+    quadrature (the general path) gives the same to < 1e-20 (m/s²)² on the paper's
+    sphere straight at σ_s up to 400 m."""
+    track = read_track(TRACKS_DIR / "paper2017.csv")
+    grid = TrackParameterGrid(track)
+    params, _ = grid.parameters(np.linspace(5000.0, 5040.0, 5))
+    offsets = np.clip(sigma * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
+    assert np.all(geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED) == 0.0)
+    assert np.all(_quadrature(grid, params, offsets, SPEED) < 1e-20)
 
 
 def test_outage_across_a_vertical_curve_start_stays_consistent():
