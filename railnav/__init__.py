@@ -2,5 +2,60 @@
 
 Assembles the four library packages into scenarios (truth, sensors, faults), the
 navigator (constrained, unconstrained and GNSS-only filters), the ``railnav`` command
-line, plots and studies. Everything the CLI does is a public function here first.
+line, plots and studies. Everything the CLI does is a public function here first, with
+the same defaults; the main ones are importable from the package itself::
+
+    from railnav import get_scenario, run_simulated, reproduce_paper2017, run_study
+
+=====================================  ===========================================
+command                                function(s)
+=====================================  ===========================================
+``railnav simulate``                   `simulate_trip`, `get_scenario`
+``railnav run TRACK``                  `run_simulated`, `run_files`, `write_run`
+                                       (`navigate` underneath, `NavigatorConfig`)
+``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
+``railnav reproduce NAME``             `run_experiment` (`reproduce_paper2017`,
+                                       `reproduce_anomaly2021`)
+``railnav study CONFIG.toml``          `load_study_config`, `run_study`
+``railnav spp``                        `gnss_obs.solve_spp`, `spp_errors`,
+                                       `accuracy_summary`
+``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
+=====================================  ===========================================
+
+The names are imported on first use (PEP 562), so ``import railnav`` stays cheap.
 """
+from __future__ import annotations
+
+import importlib
+
+#: Public name -> the module that owns it.
+_EXPORTS = {
+    "navigate": "navigator", "NavigatorConfig": "nav_config",
+    "NavigationResult": "nav_result",
+    "run_simulated": "runs", "run_files": "runs", "write_run": "runs", "RunOutcome": "runs",
+    "simulate_trip": "trip", "navigator_config_for": "trip",
+    "get_scenario": "scenarios", "Scenario": "scenarios",
+    "run_experiment": "reproduce", "reproduce_paper2017": "paper2017",
+    "reproduce_anomaly2021": "anomaly2021",
+    "run_study": "studies", "load_study_config": "study_file", "StudyConfig": "study_config",
+    "stream_simulated": "streaming",
+    "run_simulated_tracks": "track_runs", "run_files_tracks": "track_runs",
+    "TrackBankConfig": "track_bank", "FaultDetectionConfig": "fault_detection",
+    "spp_errors": "spp_report", "accuracy_summary": "spp_report",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'railnav' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f"railnav.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
