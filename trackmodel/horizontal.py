@@ -18,6 +18,7 @@ import numpy.typing as npt
 
 from trackmodel.clothoid import PlaneCurve
 from trackmodel.fit_plane import PlaneFit, fit_plane
+from trackmodel.lsq import levenberg_marquardt
 from trackmodel.knots import prune, refine, simplify
 from trackmodel.pieces import Shape
 from trackmodel.reference import reference_azimuth
@@ -32,6 +33,12 @@ CArray = npt.NDArray[np.complex128]
 SEGMENT_RMS_FRACTION = 0.1
 #: Sample spacing of a fitted curve's azimuth when a changed layout is set to follow it, m.
 FOLLOW_SAMPLE_M = 2.0
+FOLLOW_MIN_PER_PIECE = 4
+FOLLOW_MAX_PER_PIECE = 16
+#: Weight of the prior holding each curvature near its start (see `_values_prior`).
+VALUE_PRIOR_WEIGHT = 1e-3
+FOLLOW_ITERATIONS = 20
+FOLLOW_RTOL = 1e-3
 
 
 def _bounded(shape: Shape, kappa_max: float, min_length_m: float) -> Shape:
@@ -44,14 +51,76 @@ def _start(z_ref: complex, offset: float, azimuth0: float) -> complex:
     return z_ref - 1j * offset * np.exp(1j * (0.5 * np.pi - azimuth0))
 
 
-def _follow(curve: PlaneCurve, shape: Shape) -> tuple[complex, float, Shape]:
-    """Start point, start azimuth and curvatures of a new layout that follow a fitted
-    curve's azimuth (linear least squares)."""
-    n = max(3, int(np.ceil(curve.length / FOLLOW_SAMPLE_M)) + 1)
-    sigma = np.linspace(0.0, curve.length, n)
-    Y = running_integral(sigma, curve.azimuth(sigma))
-    (offset, azimuth0), shape = fit_values(sigma, Y, shape, integrations=2)
-    return _start(curve.z0, offset, azimuth0), azimuth0, shape
+def _values_prior(shape: Shape) -> Array:
+    """Weight of each free value's prior (m per 1/m): `VALUE_PRIOR_WEIGHT` · ℓ²/8, ℓ the
+    longest piece the value acts on (its lateral effect there)."""
+    layout, L = shape.layout, shape.lengths
+    longest = np.zeros(layout.n_values + 1)
+    np.maximum.at(longest, layout.start_index, L)
+    np.maximum.at(longest, layout.end_index, L)
+    return VALUE_PRIOR_WEIGHT * longest[1:] ** 2 / 8.0
+
+
+def follow(shape: Shape, z0: complex, azimuth0: float, sigma: Array, z_target: CArray,
+           w_of_s: Callable[[Array], Array], *, kappa_max: float
+           ) -> tuple[complex, float, Shape]:
+    """Start point, start azimuth and curvatures of a layout (lengths held) whose positions
+    at the fixed arc lengths `sigma` (m) follow `z_target` (plane m): Levenberg–Marquardt
+    on the 2-D position differences, with a weak prior on the curvatures.
+
+    Fixed positions along the curve leave no foot-point ambiguity, so this converges from
+    a rough start (a curve whose azimuth errors accumulated into tens of metres of drift)
+    where the foot-point fit (`trackmodel.fit_plane`) would fall into a false minimum.
+    """
+    layout, lengths = shape.layout, shape.lengths
+    values0 = np.clip(shape.values, -kappa_max, kappa_max)
+    prior = _values_prior(shape)
+    n = layout.n_values
+
+    def curve(x: Array) -> PlaneCurve:
+        return PlaneCurve(layout.pieces(lengths, x[3:]), complex(x[0], x[1]), float(x[2]),
+                          w_of_s)
+
+    def residuals(x: Array) -> Array:
+        d = curve(x).position(sigma)[0] - z_target
+        return np.concatenate([d.real, d.imag, prior * (x[3:] - values0)])
+
+    def jacobian(x: Array) -> Array:
+        Jz = curve(x).jacobian(sigma)
+        m = len(lengths)
+        Jz = np.concatenate([Jz[:, :3], layout.value_jacobian(Jz[:, 3 + m:3 + 2 * m],
+                                                              Jz[:, 3 + 2 * m:])], axis=1)
+        Jp = np.zeros((n, 3 + n))
+        Jp[np.arange(n), 3 + np.arange(n)] = prior
+        return np.concatenate([Jz.real, Jz.imag, Jp])
+
+    x0 = np.concatenate([[z0.real, z0.imag, azimuth0], values0])
+    bound = np.concatenate([np.full(3, np.inf), np.full(n, kappa_max)])
+    x = levenberg_marquardt(residuals, jacobian, x0, -bound, bound,
+                            max_iterations=FOLLOW_ITERATIONS, rtol=FOLLOW_RTOL)
+    return complex(x[0], x[1]), float(x[2]), Shape(layout, lengths, x[3:])
+
+
+def follow_samples(knots: Array) -> Array:
+    """Positions (m) where a layout with these piece ends is made to follow a target:
+    every `FOLLOW_SAMPLE_M` within each piece, but at least `FOLLOW_MIN_PER_PIECE` and at
+    most `FOLLOW_MAX_PER_PIECE` per piece (a long straight needs no more than a short arc)."""
+    L = np.diff(knots)
+    n = np.clip(np.ceil(L / FOLLOW_SAMPLE_M), FOLLOW_MIN_PER_PIECE,
+                FOLLOW_MAX_PER_PIECE).astype(np.intp)
+    piece = np.repeat(np.arange(len(L)), n)
+    k = np.arange(piece.size) - np.repeat(np.cumsum(n) - n, n)
+    return np.append(knots[piece] + k * (L / n)[piece], knots[-1])
+
+
+def _follow_curve(curve: PlaneCurve, shape: Shape, kappa_max: float
+                  ) -> tuple[complex, float, Shape]:
+    """A changed layout set to follow a fitted curve (its lengths scaled to the curve's)."""
+    shape = Shape(shape.layout, shape.lengths * curve.length / shape.lengths.sum(),
+                  shape.values)
+    sigma = follow_samples(shape.pieces.knots)
+    return follow(shape, curve.z0, curve.azimuth0, sigma, curve.position(sigma)[0],
+                  curve.w_of_s, kappa_max=kappa_max)
 
 
 def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol_m: float,
@@ -87,14 +156,20 @@ def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol
     shape = segment(ref.sigma, Y, SEGMENT_RMS_FRACTION * tol_m, HORIZONTAL_KINDS)
     (offset, azimuth0), shape = fit_values(ref.sigma, Y, shape, integrations=2)
     shape = _bounded(shape, kappa_max, min_length_m)
-    z0 = _start(ref.z[0], offset, azimuth0)
+    sigma = np.minimum(follow_samples(shape.pieces.knots), ref.sigma[-1])
+    z_ref = np.interp(sigma, ref.sigma, ref.z.real) + 1j * np.interp(sigma, ref.sigma,
+                                                                      ref.z.imag)
+    z0, azimuth0, shape = follow(shape, _start(ref.z[0], offset, azimuth0), azimuth0,
+                                 sigma, z_ref, w_of_s, kappa_max=kappa_max)
+    s0 = ref.s_points
 
     def fit(shape: Shape, warm: PlaneFit | None) -> PlaneFit:
         if warm is None:
-            z, azimuth, guess = z0, azimuth0, s
+            z, azimuth, guess = z0, azimuth0, s0
         else:
-            z, azimuth, shape = _follow(warm.curve, shape)
-            shape, guess = _bounded(shape, kappa_max, min_length_m), warm.s
+            shape = _bounded(shape, kappa_max, min_length_m)
+            z, azimuth, shape = _follow_curve(warm.curve, shape, kappa_max)
+            guess = warm.s
         return fit_plane(P, guess, shape, z0=z, azimuth0=azimuth, w_of_s=w_of_s,
                          tol_m=tol_m, kappa_max=kappa_max, min_length_m=min_length_m)
 

@@ -123,13 +123,20 @@ class Layout:
         np.add.at(count, self.end_index, 1.0)
         return (total / np.maximum(count, 1.0))[1:]
 
+    @cached_property
+    def _incidence(self) -> tuple[Array, Array]:
+        """One-hot maps of the pieces' start and end values onto the free values, (m, n)."""
+        m, n = len(self.kinds), self.n_values
+        S, E = np.zeros((m, n + 1)), np.zeros((m, n + 1))
+        S[np.arange(m), self.start_index] = 1.0
+        E[np.arange(m), self.end_index] = 1.0
+        return S[:, 1:], E[:, 1:]
+
     def value_jacobian(self, d_start: Array, d_end: Array) -> Array:
         """Chain rule: derivatives with respect to the piece start/end values, shape
         (..., m) each, to derivatives with respect to the free values, shape (..., n)."""
-        out = np.zeros(d_start.shape[:-1] + (self.n_values + 1,), dtype=d_start.dtype)
-        for index, d in ((self.start_index, d_start), (self.end_index, d_end)):
-            np.add.at(out, (..., index), d)
-        return out[..., 1:]
+        S, E = self._incidence
+        return d_start @ S + d_end @ E
 
 
 @dataclass(frozen=True)

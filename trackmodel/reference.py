@@ -22,6 +22,10 @@ CArray = npt.NDArray[np.complex128]
 
 #: Spacing of the reference samples, m.
 SAMPLE_STEP_M = 2.0
+#: Spacing (in the chord parameter) of the dense samples that give the reference's own
+#: arc length, m: the samples are re-spaced by arc length (the chord length of noisy,
+#: dense points at a stop is longer than the path).
+FINE_STEP_M = 0.25
 #: Median absolute deviation to the standard deviation of a normal distribution.
 MAD_TO_SIGMA = 1.4826
 #: Range of log10 λ searched (λ: the smoothing spline's penalty weight, m³) and bisections.
@@ -77,16 +81,20 @@ class Reference:
         Unwrapped azimuth, rad.
     noise_m : float
         The lateral noise of the points estimated by `noise_level`, m.
+    s_points : ndarray, shape (N,)
+        The reference's arc length at each point's chord length, m: a first guess of the
+        points' positions along a curve that follows the reference.
     """
 
     sigma: Array
     z: CArray
     azimuth: Array
     noise_m: float
+    s_points: Array
 
 
 def reference_azimuth(P: CArray, s: Array, *, step_m: float = SAMPLE_STEP_M) -> Reference:
-    """A smoothing spline through the points, sampled every `step_m`.
+    """A smoothing spline through the points, sampled every `step_m` of its arc length.
 
     Parameters
     ----------
@@ -98,17 +106,25 @@ def reference_azimuth(P: CArray, s: Array, *, step_m: float = SAMPLE_STEP_M) -> 
     Returns
     -------
     Reference
+        Samples at ``sigma`` = the spline's own arc length.
     """
-    n = max(3, int(np.ceil(s[-1] / step_m)) + 1)
-    sigma = np.linspace(0.0, s[-1], n)
     noise = noise_level(P)
+    fine = np.linspace(0.0, s[-1], max(3, int(np.ceil(s[-1] / FINE_STEP_M)) + 1))
     if len(s) >= MIN_SPLINE_POINTS:
         sx, sy = _smoothing_spline(P, s, noise)
-        dx, dy = sx.derivative()(sigma), sy.derivative()(sigma)
-        z = sx(sigma) + 1j * sy(sigma)
+        z_fine = sx(fine) + 1j * sy(fine)
     else:
+        z_fine = np.interp(fine, s, P.real) + 1j * np.interp(fine, s, P.imag)
+    arc = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(z_fine)))])
+    n = max(3, int(np.ceil(arc[-1] / step_m)) + 1)
+    sigma = np.linspace(0.0, arc[-1], n)
+    at = np.interp(sigma, arc, fine)                     # chord parameter of each sample
+    if len(s) >= MIN_SPLINE_POINTS:
+        z = sx(at) + 1j * sy(at)
+        d = sx.derivative()(at) + 1j * sy.derivative()(at)
+    else:
+        z = np.interp(at, fine, z_fine.real) + 1j * np.interp(at, fine, z_fine.imag)
         dz = np.diff(P)
-        j = np.clip(np.searchsorted(s, sigma, side="right") - 1, 0, len(dz) - 1)
-        dx, dy = dz.real[j], dz.imag[j]
-        z = np.interp(sigma, s, P.real) + 1j * np.interp(sigma, s, P.imag)
-    return Reference(sigma, z, np.unwrap(np.arctan2(dx, dy)), noise)
+        d = dz[np.clip(np.searchsorted(s, at, side="right") - 1, 0, len(dz) - 1)]
+    return Reference(sigma, z, np.unwrap(np.arctan2(d.real, d.imag)), noise,
+                     np.interp(s, fine, arc))
