@@ -71,8 +71,10 @@ MAX_FITS = 12
 #: A vertical joint this close to a horizontal one is moved onto it, m (the height moves
 #: by at most the elevation change times this: millimetres).
 JOINT_MERGE_M = 0.5
-#: Spacing of the table of w(s), plane metres per track metre, m.
-SPEED_TABLE_STEP_M = 10.0
+#: Spacing of the table of w(s), plane metres per track metre, m (with the vertical
+#: joints added): w follows cos ϑ, which changes within a vertical curve of a few metres
+#: (a 10-m table put 0.1 m of along-track error into a street corner on a steep curve).
+SPEED_TABLE_STEP_M = 1.0
 
 
 @dataclass(frozen=True)
@@ -103,6 +105,7 @@ class TrackFit:
 def _speed(plane: MercatorPlane, s: Array, lat: Array, profile: Profile, length: float):
     """Tabulated ``w(s)`` from the points' latitudes (rad) at their positions s (m)."""
     grid = np.linspace(0.0, length, max(2, int(np.ceil(length / SPEED_TABLE_STEP_M)) + 1))
+    grid = np.union1d(grid, profile.knots[profile.knots < length])
     return plane.speed(grid, np.interp(grid, s, lat), profile.elevation_at(grid),
                        profile.height_at(grid))
 
@@ -222,24 +225,27 @@ def _fit(poly: Polyline, kept, pts: Polyline, *, tol_m: float, vtol_m: float,
                fit_vertical(s, pts.h, vtol_m=vtol_m, min_length_m=MIN_VERTICAL_PIECE_M,
                             max_fits=MAX_FITS).profile)
     tol_inner = INNER_TOL_FRACTION * tol_m
+    fit = None
     for round_ in range(MAX_VERIFY_ROUNDS):
         w_of_s = _speed(plane, s, pts.lat, profile, s[-1])
         fit = fit_horizontal(P, s, w_of_s, tol_m=tol_inner, kappa_max=kappa_max,
-                             min_length_m=MIN_PIECE_M, max_fits=MAX_FITS, progress=progress)
-        if pts.h is not None:
-            profile = fit_vertical(np.maximum.accumulate(fit.s), pts.h, vtol_m=vtol_m,
-                                   min_length_m=MIN_VERTICAL_PIECE_M, max_fits=MAX_FITS).profile
-            w_of_s = _speed(plane, fit.s, pts.lat, profile, fit.curve.length)
-            fit = fit_plane(P, fit.s, fit.shape, z0=fit.curve.z0, azimuth0=fit.curve.azimuth0,
-                            w_of_s=w_of_s, tol_m=tol_inner, kappa_max=kappa_max,
-                            min_length_m=MIN_PIECE_M)
+                             min_length_m=MIN_PIECE_M, max_fits=MAX_FITS, warm=fit,
+                             progress=progress)
+        if pts.h is not None and round_ == 0:
+            s = np.maximum.accumulate(fit.s)
+            profile = fit_vertical(s, pts.h, vtol_m=vtol_m, min_length_m=MIN_VERTICAL_PIECE_M,
+                                   max_fits=MAX_FITS).profile
+            fit = fit_horizontal(P, s, _speed(plane, s, pts.lat, profile, fit.curve.length),
+                                 tol_m=tol_inner, kappa_max=kappa_max,
+                                 min_length_m=MIN_PIECE_M, max_fits=MAX_FITS, warm=fit)
         lat0, lon0 = plane.from_plane(fit.curve.z0)
         track = Track(_sections(fit, profile),
                       Origin(math.degrees(lat0), math.degrees(lon0), profile.h0), earth)
         residuals = _verify(track, poly, kept)
         worst = float(residuals.loc[residuals.kept, "horizontal_m"].max())
-        log.info("fit round %d: %d sections, max horizontal deviation %.3f m", round_,
-                 len(track.sections), worst)
+        log.info("fit round %d: %d horizontal and %d vertical pieces, %d sections, max "
+                 "horizontal deviation %.3f m", round_, len(fit.shape.kinds),
+                 len(profile.shape.kinds), len(track.sections), worst)
         if worst <= tol_m:
             return TrackFit(track, residuals, worst)
         tol_inner *= TIGHTEN

@@ -113,18 +113,20 @@ def follow_samples(knots: Array) -> Array:
     return np.append(knots[piece] + k * (L / n)[piece], knots[-1])
 
 
-def _follow_curve(curve: PlaneCurve, shape: Shape, kappa_max: float
-                  ) -> tuple[complex, float, Shape]:
-    """A changed layout set to follow a fitted curve (its lengths scaled to the curve's)."""
+def _follow_curve(curve: PlaneCurve, shape: Shape, w_of_s: Callable[[Array], Array],
+                  kappa_max: float) -> tuple[complex, float, Shape]:
+    """A changed layout (with plane metres per track metre `w_of_s`) set to follow a
+    fitted curve (its lengths scaled to the curve's)."""
     shape = Shape(shape.layout, shape.lengths * curve.length / shape.lengths.sum(),
                   shape.values)
     sigma = follow_samples(shape.pieces.knots)
     return follow(shape, curve.z0, curve.azimuth0, sigma, curve.position(sigma)[0],
-                  curve.w_of_s, kappa_max=kappa_max)
+                  w_of_s, kappa_max=kappa_max)
 
 
 def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol_m: float,
                    kappa_max: float, min_length_m: float, max_fits: int,
+                   warm: PlaneFit | None = None,
                    progress: Callable[[int, int], None] | None = None) -> PlaneFit:
     """Fit a lean chain of pieces to plane points within `tol_m`.
 
@@ -144,6 +146,9 @@ def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol
         Shortest piece, m.
     max_fits : int
         Refits allowed to each of the simplification and the pruning.
+    warm : PlaneFit, optional
+        An earlier fit to start from (another `w_of_s` or `tol_m`): its layout is refitted,
+        refined and simplified instead of a new first segmentation.
     progress : callable(done, total), optional
         Called after each refinement round.
 
@@ -151,6 +156,33 @@ def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol
     -------
     PlaneFit
     """
+    def fit(shape: Shape, warm: PlaneFit | None) -> PlaneFit:
+        if warm is None:
+            z, azimuth, guess = first
+        else:
+            shape = _bounded(shape, kappa_max, min_length_m)
+            z, azimuth, shape = _follow_curve(warm.curve, shape, w_of_s, kappa_max)
+            guess = warm.s
+        return fit_plane(P, guess, shape, z0=z, azimuth0=azimuth, w_of_s=w_of_s,
+                         tol_m=tol_m, kappa_max=kappa_max, min_length_m=min_length_m)
+
+    if warm is None:
+        *first, shape = _first_guess(P, s, w_of_s, tol_m=tol_m, kappa_max=kappa_max,
+                                     min_length_m=min_length_m)
+    else:
+        shape = warm.shape
+    result = refine(fit, shape, tol_m, min_length_m=min_length_m, continuous=False,
+                    warm=warm, progress=progress)
+    result = simplify(fit, result, tol_m, max_fits=max_fits)
+    return prune(fit, result, tol_m, continuous=False, max_fits=max_fits)
+
+
+def _first_guess(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol_m: float,
+                 kappa_max: float, min_length_m: float
+                 ) -> tuple[complex, float, Array, Shape]:
+    """Start point (plane m), start azimuth (rad), the points' positions along s (m) and
+    the layout of a first guess: the segmentation of a smooth reference, set to follow its
+    positions."""
     ref = reference_azimuth(P, s)
     Y = running_integral(ref.sigma, ref.azimuth)
     shape = segment(ref.sigma, Y, SEGMENT_RMS_FRACTION * tol_m, HORIZONTAL_KINDS)
@@ -161,19 +193,4 @@ def fit_horizontal(P: CArray, s: Array, w_of_s: Callable[[Array], Array], *, tol
                                                                       ref.z.imag)
     z0, azimuth0, shape = follow(shape, _start(ref.z[0], offset, azimuth0), azimuth0,
                                  sigma, z_ref, w_of_s, kappa_max=kappa_max)
-    s0 = ref.s_points
-
-    def fit(shape: Shape, warm: PlaneFit | None) -> PlaneFit:
-        if warm is None:
-            z, azimuth, guess = z0, azimuth0, s0
-        else:
-            shape = _bounded(shape, kappa_max, min_length_m)
-            z, azimuth, shape = _follow_curve(warm.curve, shape, kappa_max)
-            guess = warm.s
-        return fit_plane(P, guess, shape, z0=z, azimuth0=azimuth, w_of_s=w_of_s,
-                         tol_m=tol_m, kappa_max=kappa_max, min_length_m=min_length_m)
-
-    result = refine(fit, shape, tol_m, min_length_m=min_length_m, continuous=False,
-                    progress=progress)
-    result = simplify(fit, result, tol_m, max_fits=max_fits)
-    return prune(fit, result, tol_m, continuous=False, max_fits=max_fits)
+    return z0, azimuth0, ref.s_points, shape

@@ -28,12 +28,16 @@ from trackmodel.pieces import CONST, FREE, RAMP, ZERO, Shape
 log = logging.getLogger(__name__)
 
 __all__ = ["refine", "simplify", "prune", "insert_pieces", "remove_piece",
-           "MAX_REFINE_ROUNDS"]
+           "MAX_REFINE_ROUNDS", "STALL_ROUNDS"]
 
 Array = npt.NDArray[np.float64]
 FitFn = Callable[[Shape, Any], Any]
 
 MAX_REFINE_ROUNDS = 25
+#: Refinement stops after this many rounds in a row that did not lower the largest
+#: deviation by `STALL_FRACTION` of it.
+STALL_ROUNDS = 3
+STALL_FRACTION = 0.02
 #: Violating points whose indices are at most this far apart form one run.
 RUN_GAP_POINTS = 2
 #: A flat arc: its curvature moves its middle by less than this fraction of the tolerance.
@@ -99,17 +103,20 @@ def _runs(bad: npt.NDArray[np.intp], residual: Array) -> list[int]:
 
 def refine(fit: FitFn, shape: Shape, tol_m: float, *, min_length_m: float, continuous: bool,
            warm: Any = None, progress: Callable[[int, int], None] | None = None):
-    """Fit, then add pieces where points are outside `tol_m` until none is (or
-    `MAX_REFINE_ROUNDS` pass). Returns the last fit result."""
+    """Fit, then add pieces where points are outside `tol_m` until none is, or
+    `MAX_REFINE_ROUNDS` pass, or `STALL_ROUNDS` rounds in a row did not lower the largest
+    deviation (points no piece can reach: a height glitch). Returns the fit result with
+    the smallest largest deviation."""
     result = fit(shape, warm)
+    best, stalled = result, 0
     for round_ in range(MAX_REFINE_ROUNDS):
         r = result.residual_m
         worst = _runs(np.flatnonzero(np.abs(r) > tol_m), r)
         log.debug("refine round %d: %d pieces, max |r| %.3f m, %d runs outside", round_,
-                  len(result.shape.kinds), np.abs(r).max(initial=0.0), len(worst))
+                  len(result.shape.kinds), _worst(result), len(worst))
         if progress is not None:
             progress(round_ + 1, MAX_REFINE_ROUNDS)
-        if not worst:
+        if not worst or stalled >= STALL_ROUNDS:
             break
         s = result.s
         gap = np.diff(s)
@@ -117,11 +124,19 @@ def refine(fit: FitFn, shape: Shape, tol_m: float, *, min_length_m: float, conti
         shape = insert_pieces(result.shape, s[worst], around[worst],
                               min_length_m=min_length_m, continuous=continuous)
         result = fit(shape, result)
-    return result
+        if _worst(result) < (1.0 - STALL_FRACTION) * _worst(best):
+            best, stalled = result, 0
+        else:
+            stalled += 1
+    return result if _worst(result) <= _worst(best) else best
+
+
+def _worst(result) -> float:
+    return float(np.abs(result.residual_m).max(initial=0.0))
 
 
 def _within(result, tol_m: float) -> bool:
-    return bool(np.abs(result.residual_m).max(initial=0.0) <= tol_m)
+    return _worst(result) <= tol_m
 
 
 def _try_batches(fit: FitFn, result, tol_m: float, candidates: list[int],
@@ -147,7 +162,7 @@ def _try_batches(fit: FitFn, result, tol_m: float, candidates: list[int],
         trial = fit(apply(result.shape, batch), result)
         fits += 1
         log.debug("batch of %d changes: %d pieces, max |r| %.3f m", len(batch),
-                  len(trial.shape.kinds), np.abs(trial.residual_m).max(initial=0.0))
+                  len(trial.shape.kinds), _worst(trial))
         if _within(trial, tol_m):
             return trial, fits
         if len(batch) == 1:
@@ -159,7 +174,9 @@ def _try_batches(fit: FitFn, result, tol_m: float, candidates: list[int],
 
 def simplify(fit: FitFn, result, tol_m: float, *, max_fits: int):
     """Tie transitions to their neighbours' curvatures (`FREE` → `RAMP`) and turn arcs of
-    negligible curvature into straights, in batches kept when within `tol_m`."""
+    negligible curvature into straights, in batches kept when within `tol_m` (or, for a
+    result already outside it, not farther outside)."""
+    tol_m = max(tol_m, _worst(result))
     fits = 0
     failed: list[float] = []
     while fits < max_fits:
@@ -198,7 +215,9 @@ def _removal_cost(shape: Shape) -> Array:
 
 
 def prune(fit: FitFn, result, tol_m: float, *, continuous: bool, max_fits: int):
-    """Remove pieces (cheapest first) while the refit stays within `tol_m`."""
+    """Remove pieces (cheapest first) while the refit stays within `tol_m` (or, for a
+    result already outside it, not farther outside)."""
+    tol_m = max(tol_m, _worst(result))
     fits = 0
     failed: list[float] = []
     while fits < max_fits and len(result.shape.kinds) > 1:

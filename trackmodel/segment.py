@@ -98,6 +98,7 @@ def segment(sigma: Array, Y: Array, rms_m: float, kinds: dict[int, int], *,
     """
     stride = max(1, int(np.ceil(len(sigma) / MAX_CANDIDATES)))
     index = np.unique(np.append(np.arange(0, len(sigma), stride), len(sigma) - 1))
+    index = index[np.diff(sigma[index], append=np.inf) > 0]      # one joint per position
     x, y = sigma[index], Y[index]
     n = len(x)
     best = np.full(n, np.inf)
