@@ -249,5 +249,9 @@ def _fit(poly: Polyline, kept, pts: Polyline, *, tol_m: float, vtol_m: float,
         if worst <= tol_m:
             return TrackFit(track, residuals, worst)
         tol_inner *= TIGHTEN
-    raise TrackError(f"could not fit within {tol_m} m (best {worst:.3f} m); "
-                     "check the survey for gross errors")
+    i = int(residuals.loc[residuals.kept, "horizontal_m"].idxmax())
+    raise TrackError(
+        f"could not fit within {tol_m} m (best {worst:.3f} m, at point {i} (0-based; lat "
+        f"{math.degrees(poly.lat[i]):.7f}°, lon {math.degrees(poly.lon[i]):.7f}°)) with "
+        f"radii of at least {1.0 / kappa_max:g} m: check the survey there for a sharp "
+        "corner or a gross error")
