@@ -39,7 +39,7 @@ import pandas as pd
 from trackmodel.blas import single_blas_thread
 from trackmodel.earth import WGS84, Ellipsoid
 from trackmodel.errors import TrackError
-from trackmodel.fit_plane import PlaneFit, fit_plane
+from trackmodel.fit_plane import PlaneFit
 from trackmodel.horizontal import fit_horizontal
 from trackmodel.mercator import MercatorPlane
 from trackmodel.polyline import Polyline, clean_polyline, find_reversal, local_enu, split_legs
@@ -65,7 +65,7 @@ MAX_VERIFY_ROUNDS = 3
 #: Shortest horizontal piece, m, and shortest vertical piece (survey heights are noisier
 #: than positions; vertical curves of railways and tramways are tens of metres long).
 MIN_PIECE_M = 1.0
-MIN_VERTICAL_PIECE_M = 10.0
+MIN_VERTICAL_PIECE_M = 20.0
 #: Refits allowed to each of the simplification and the pruning.
 MAX_FITS = 12
 #: A vertical joint this close to a horizontal one is moved onto it, m (the height moves

@@ -27,7 +27,7 @@ from trackmodel.clothoid import PlaneCurve
 from trackmodel.lsq import levenberg_marquardt
 from trackmodel.pieces import FREE, Layout, Shape
 
-__all__ = ["PlaneFit", "Boundary", "WHOLE", "fit_plane", "HINGE_FRACTION"]
+__all__ = ["PlaneFit", "fit_plane", "HINGE_FRACTION"]
 
 Array = npt.NDArray[np.float64]
 CArray = npt.NDArray[np.complex128]
@@ -37,12 +37,6 @@ HINGE_FRACTION = 0.8
 #: Weight of the hinge relative to a plain residual (its square multiplies the excess²).
 HINGE_WEIGHT = 10.0
 END_WEIGHT = 10.0
-#: Weight of a window's end gap to the held rest of the chain (m per m) and the lever that
-#: turns an azimuth gap into metres; weight of a pinned curvature (m per 1/m): the held
-#: joints are met to well below a millimetre.
-JOINT_WEIGHT = 1.0e4
-JOINT_AZIMUTH_LEVER_M = 1.0e3
-PIN_WEIGHT = 1.0e7
 #: Weak prior on the piece lengths (residual metres per metre of change): joints whose
 #: position hardly matters (two transitions in line, an arc of tiny curvature next to a
 #: straight) stay put instead of creeping along a flat valley of the cost.
@@ -100,35 +94,6 @@ def _jump_rows(layout: Layout, lengths: Array) -> Array:
     return np.array(rows) if rows else np.zeros((0, layout.n_values))
 
 
-@dataclass(frozen=True)
-class Boundary:
-    """How the ends of a fitted stretch are held.
-
-    Attributes
-    ----------
-    start_free : bool
-        The start point and azimuth are parameters (else held at their initial values).
-    end_target : tuple (complex, float) or None
-        The end must meet this point (plane m) with this azimuth (rad): the stretch is a
-        window of a chain whose next piece is held.
-    pins : tuple of (int, float)
-        Free values (index into the layout's values) held at a value (1/m): curvatures
-        shared with a held neighbour.
-    first_along, last_along : bool
-        The first point lies across the start (its along-track offset is a residual); the
-        last point across the end.
-    """
-
-    start_free: bool = True
-    end_target: tuple[complex, float] | None = None
-    pins: tuple[tuple[int, float], ...] = ()
-    first_along: bool = True
-    last_along: bool = True
-
-
-WHOLE = Boundary()
-
-
 class _Problem:
     """Residuals and Jacobian of one layout; remembers the last foot points.
 
@@ -136,12 +101,11 @@ class _Problem:
     """
 
     def __init__(self, P: CArray, s: Array, layout: Layout, w_of_s, tol_m: float,
-                 lengths0: Array, boundary: Boundary) -> None:
+                 lengths0: Array) -> None:
         self.P, self.s, self.layout, self.w_of_s = P, s, layout, w_of_s
         self.m = len(layout)
         self.lengths0 = lengths0
-        self.boundary = boundary
-        self.fixed = _fixed_rows(layout, lengths0, boundary)
+        self.fixed = _jump_rows(layout, lengths0)
         gap = np.diff(s)
         gaps = np.maximum(np.append(gap, 0.0), np.insert(gap, 0, 0.0))
         self.window = np.maximum(MIN_WINDOW_M, 2.0 * gaps)
@@ -172,29 +136,14 @@ class _Problem:
 
     def residuals(self, x: Array) -> Array:
         curve, _, _, _, r = self.evaluate(x)
-        b, m = self.boundary, self.m
+        m = self.m
         excess = np.sign(r) * np.maximum(np.abs(r) - self.t0, 0.0)
         ends, z, e, w = self._end_state(curve)
         along = END_WEIGHT * np.real(np.conj(e) * (self.P[[0, -1]] - z)) / w
-        parts = [r, HINGE_WEIGHT * excess, along[self._along_rows]]
-        if b.end_target is not None:
-            gap = (z[1] - b.end_target[0]) / w[1]
-            turn = (curve.azimuth(ends[1:])[0] - b.end_target[1]) * JOINT_AZIMUTH_LEVER_M
-            parts.append(JOINT_WEIGHT * np.array([gap.real, gap.imag, turn]))
+        parts = [r, HINGE_WEIGHT * excess, along]
         parts.append(LENGTH_PRIOR_WEIGHT * (x[3:3 + m] - self.lengths0))
-        parts.append(self.fixed @ x[3 + m:] - self.fixed_target)
+        parts.append(self.fixed @ x[3 + m:])
         return np.concatenate(parts)
-
-    @property
-    def _along_rows(self) -> list[int]:
-        return [k for k, keep in enumerate((self.boundary.first_along,
-                                            self.boundary.last_along)) if keep]
-
-    @property
-    def fixed_target(self) -> Array:
-        pins = self.boundary.pins
-        return np.concatenate([np.zeros(len(self.fixed) - len(pins)),
-                               [PIN_WEIGHT * v for _, v in pins]])
 
     def jacobian(self, x: Array) -> Array:
         curve, s, e, w, r = self.evaluate(x)
@@ -203,8 +152,6 @@ class _Problem:
         Jr = -np.real(np.conj(-1j * e)[:, None] * Jz) / w[:, None]
         active = (np.abs(r) > self.t0)[:, None]
         blocks = [Jr, HINGE_WEIGHT * active * Jr, END_WEIGHT * self._end_rows(curve)]
-        if self.boundary.end_target is not None:
-            blocks.append(JOINT_WEIGHT * self._target_rows(curve))
         Jp = np.zeros((m, Jr.shape[1]))
         Jp[np.arange(m), 3 + np.arange(m)] = LENGTH_PRIOR_WEIGHT
         Jf = np.zeros((len(self.fixed), Jr.shape[1]))
@@ -233,30 +180,11 @@ class _Problem:
         de_dA = np.exp(-1j * curve.azimuth(ends))               # ∂e/∂A
         rows = (-np.real(np.conj(e)[:, None] * Jz)
                 + np.real(np.conj(de_dA) * (self.P[[0, -1]] - z))[:, None] * JA)
-        return (self._to_parameters(rows) / w[:, None])[self._along_rows]
-
-    def _target_rows(self, curve: PlaneCurve) -> Array:
-        """Jacobian of the end's position (real, imaginary; ground m) and azimuth gaps."""
-        _, _, _, w, Jz, JA = self._end_jacobians(curve)
-        rows = np.vstack([Jz[1].real / w[1], Jz[1].imag / w[1],
-                          JA[1] * JOINT_AZIMUTH_LEVER_M])
-        return self._to_parameters(rows)
-
-
-def _fixed_rows(layout: Layout, lengths: Array, boundary: Boundary) -> Array:
-    """Rows on the free values: weak penalties on the curvature jumps at the ends of
-    `FREE` pieces, then the pins (`PIN_WEIGHT`), shape (rows, n)."""
-    rows = list(_jump_rows(layout, lengths))
-    for index, _ in boundary.pins:
-        row = np.zeros(layout.n_values)
-        row[index] = PIN_WEIGHT
-        rows.append(row)
-    return np.array(rows) if rows else np.zeros((0, layout.n_values))
-
+        return self._to_parameters(rows) / w[:, None]
 
 def fit_plane(P: CArray, s: Array, shape: Shape, *, z0: complex, azimuth0: float,
               w_of_s: Callable[[Array], Array], tol_m: float, kappa_max: float,
-              min_length_m: float, boundary: Boundary = WHOLE,
+              min_length_m: float,
               max_iterations: int = MAX_ITERATIONS) -> PlaneFit:
     """Fit a curve of the shape's layout to points P, starting from the shape.
 
@@ -280,8 +208,6 @@ def fit_plane(P: CArray, s: Array, shape: Shape, *, z0: complex, azimuth0: float
         Largest |curvature|, 1/m (1 / the smallest radius).
     min_length_m : float
         Shortest piece, m.
-    boundary : Boundary
-        How the ends are held (default: a whole track, both ends free).
 
     Returns
     -------
@@ -290,13 +216,11 @@ def fit_plane(P: CArray, s: Array, shape: Shape, *, z0: complex, azimuth0: float
     layout = shape.layout
     m = len(layout)
     x0 = np.concatenate([[z0.real, z0.imag, azimuth0], shape.lengths, shape.values])
-    free = np.inf if boundary.start_free else 0.0
-    lower = np.concatenate([x0[:3] - free, np.full(m, min_length_m),
+    lower = np.concatenate([np.full(3, -np.inf), np.full(m, min_length_m),
                             np.full(layout.n_values, -kappa_max)])
-    upper = np.concatenate([x0[:3] + free, np.full(m, np.inf),
+    upper = np.concatenate([np.full(3, np.inf), np.full(m, np.inf),
                             np.full(layout.n_values, kappa_max)])
-    problem = _Problem(P, s, layout, w_of_s, tol_m, np.maximum(shape.lengths, min_length_m),
-                       boundary)
+    problem = _Problem(P, s, layout, w_of_s, tol_m, np.maximum(shape.lengths, min_length_m))
     x = levenberg_marquardt(problem.residuals, problem.jacobian, x0, lower, upper,
                             max_iterations=max_iterations)
     curve, s, _, _, r = problem.evaluate(x)

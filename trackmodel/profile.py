@@ -27,7 +27,7 @@ __all__ = ["Profile", "VerticalFit", "fit_vertical", "flat_profile"]
 Array = npt.NDArray[np.float64]
 
 #: Fitted elevations are kept within ±0.2 rad (20 % grade: beyond any railway or tramway).
-MAX_ELEVATION_RAD = 0.2
+MAX_ELEVATION_RAD = 0.1
 GRID_STEP_M = 1.0
 #: The first segmentation follows the heights within this fraction of ``vtol_m`` (RMS).
 SEGMENT_RMS_FRACTION = 0.3
