@@ -1,240 +1,227 @@
-"""Least-squares fit of a plane clothoid spline (fixed knots) to surveyed points.
+"""Least-squares fit of a plane curve of typed pieces (`trackmodel.clothoid`) to points.
 
-The points ``P_i`` (complex plane metres) are fitted by a `ClothoidSpline` with
-Levenberg–Marquardt on the **normal** residuals ``n(s_i)·(P_i − z(s_i)) / μ_i`` (ground
-metres; ``s_i`` the foot point of ``P_i``, re-projected at every step; ``μ`` the plane
-metres per ground metre). The first point also gives an along-track residual (it pins the
-start) and the end of the spline follows the last point's foot. A weak penalty on the
-curvature change between knots (a lateral-offset equivalent weighted by `SMOOTH_WEIGHT`)
-keeps knots without nearby points determined.
+For a fixed `Layout` (which pieces are straights, arcs and transitions) the parameters are
+the start point and azimuth, the piece lengths and the free curvatures. They are adjusted
+by Levenberg–Marquardt (`trackmodel.lsq`; bounds: lengths at least ``min_length_m``,
+curvatures within ``±kappa_max``) on
 
-Before the normal-residual stage, a few steps with full 2-D residuals at fixed ``s_i``
-(the chord lengths) bring a rough initial guess close (no foot-point ambiguity there).
+* the **normal** residuals ``n(s_i)·(P_i − z(s_i)) / w(s_i)`` (ground metres; ``s_i`` the
+  foot point of ``P_i``, found again at every evaluation, so the along-track derivative
+  vanishes);
+* a **tolerance hinge** ``√β · max(0, |r_i| − t0)`` per point (``t0`` = `HINGE_FRACTION` of
+  the tolerance): least squares alone centres the curve on the noise; the hinge makes the
+  fit spend its freedom on the few points near the tolerance instead of needing new
+  sections for them;
+* the **along-track** residuals of the first and last point (weight `END_WEIGHT`): the
+  track starts at the first point's foot and ends at the last one's.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from trackmodel.clothoid import ClothoidSpline, heading_basis
+from trackmodel.clothoid import PlaneCurve
+from trackmodel.lsq import levenberg_marquardt
+from trackmodel.pieces import FREE, Layout, Shape
 
-__all__ = ["PlaneFit", "fit_plane", "initial_knots", "initial_spline", "project_on_spline"]
+__all__ = ["PlaneFit", "fit_plane", "HINGE_FRACTION"]
 
 Array = npt.NDArray[np.float64]
 CArray = npt.NDArray[np.complex128]
 
-#: Weight of the curvature-smoothness penalty relative to a point residual (m per m).
-SMOOTH_WEIGHT = 1e-2
-#: Grid step of the spline integration, m, and at most this turn per step, rad
-#: (Simpson's error per metre ~ (step κ)⁴/2880: < 1e-9 at 0.05 rad).
-GRID_STEP_M = 1.0
-GRID_TURN_RAD = 0.05
-MIN_GRID_STEP_M = 0.02
-PROJECTION_STEPS = 5
-MAX_LM_STEPS = 15
-#: LM stops when the cost falls by less than this fraction.
-LM_RTOL = 1e-6
-INITIAL_2D_STEPS = 6
-#: Chord length used for the initial heading estimate, m.
-HEADING_CHORD_M = 5.0
-#: Largest move of the spline end towards the last point per fit, m.
-MAX_END_SHIFT_M = 20.0
-#: Initial knots: one where the chord heading has turned by this much, rad, or after
-#: `INITIAL_KNOT_SPACING_M`.
-TURN_PER_KNOT_RAD = 0.2
-INITIAL_KNOT_SPACING_M = 200.0
+#: The hinge starts at this fraction of the tolerance.
+HINGE_FRACTION = 0.8
+#: Weight of the hinge relative to a plain residual (its square multiplies the excess²).
+HINGE_WEIGHT = 10.0
+END_WEIGHT = 10.0
+#: Weak prior on the piece lengths (residual metres per metre of change): joints whose
+#: position hardly matters (two transitions in line, an arc of tiny curvature next to a
+#: straight) stay put instead of creeping along a flat valley of the cost.
+LENGTH_PRIOR_WEIGHT = 0.1
+#: Weight of the curvature jumps at the ends of free transitions (lateral-equivalent):
+#: pieces whose joint curvature is free otherwise leave near-null directions (zigzags of
+#: the values that hardly move the curve).
+JUMP_WEIGHT = 0.1
+
+#: Foot points are searched within this distance of the previous ones, m, or within two
+#: point gaps where the points are farther apart.
+MIN_WINDOW_M = 10.0
+MAX_ITERATIONS = 30
 
 
 @dataclass(frozen=True)
 class PlaneFit:
-    """A fitted spline with the foot points and normal residuals of the points (m)."""
+    """A fitted curve with the foot points (m) and normal residuals (ground m) of the points.
 
-    spline: ClothoidSpline
+    Attributes
+    ----------
+    shape : Shape
+        The fitted layout, lengths (m) and curvatures (1/m).
+    curve : PlaneCurve
+    s : ndarray, shape (N,)
+        Foot points of the points, m.
+    residual_m : ndarray, shape (N,)
+        Signed normal distances of the points from the curve, ground m (+ right).
+    """
+
+    shape: Shape
+    curve: PlaneCurve
     s: Array
     residual_m: Array
 
-
-def _grid(length: float, curvature: Array) -> Array:
-    step = max(min(GRID_STEP_M, GRID_TURN_RAD / max(np.abs(curvature).max(), 1e-12)),
-               MIN_GRID_STEP_M)
-    n = max(2, int(np.ceil(length / step)) + 1)
-    return np.linspace(0.0, length, n)
+    @property
+    def worst_m(self) -> float:
+        return float(np.abs(self.residual_m).max(initial=0.0))
 
 
-def make_spline(knots: Array, z0: complex, azimuth0: float, curvature: Array,
-                w_of_s) -> ClothoidSpline:
-    """Spline on a fresh grid; ``w_of_s(s)`` gives plane metres per track metre."""
-    curvature = np.asarray(curvature, float)
-    g = _grid(knots[-1], curvature)
-    return ClothoidSpline(knots, complex(z0), float(azimuth0), curvature,
-                          g, w_of_s(g), w_of_s(0.5 * (g[:-1] + g[1:])))
+def _jump_rows(layout: Layout, lengths: Array) -> Array:
+    """Weak penalty rows on the curvature jumps at the ends of `FREE` pieces, shape
+    (joints, n): ``JUMP_WEIGHT · (b_j − a_{j+1}) · ℓ² / 8`` (lateral-equivalent metres,
+    ℓ the shorter of the two pieces)."""
+    rows = []
+    kinds = layout.kinds
+    for j in range(len(kinds) - 1):
+        if FREE not in (kinds[j], kinds[j + 1]):
+            continue
+        row = np.zeros(layout.n_values + 1)
+        scale = JUMP_WEIGHT * min(lengths[j], lengths[j + 1]) ** 2 / 8.0
+        row[layout.end_index[j]] += scale
+        row[layout.start_index[j + 1]] -= scale
+        rows.append(row[1:])
+    return np.array(rows) if rows else np.zeros((0, layout.n_values))
 
 
-def project_on_spline(spline: ClothoidSpline, P: CArray, s: Array) -> Array:
-    """Foot points ``s`` (m) of points P, by Newton steps from a guess."""
-    L = spline.knots[-1]
-    for _ in range(PROJECTION_STEPS):
-        z, e = spline.position(s)
-        w = np.interp(s, spline.grid_s, spline.w)
-        s = np.clip(s + np.real(np.conj(e) * (P - z)) / w, 0.0, L)
-    return s
+class _Problem:
+    """Residuals and Jacobian of one layout; remembers the last foot points.
 
+    Parameters ``x = [X0, Y0, A0, L_0…L_{m-1}, v_1…v_n]``.
+    """
 
-def chord_headings(P: CArray, s: Array) -> tuple[Array, Array]:
-    """Azimuth (rad, unwrapped) of chords of about `HEADING_CHORD_M`, at their midpoints."""
-    j = np.searchsorted(s, s + HEADING_CHORD_M)
-    i = np.flatnonzero(j < len(s))
-    if len(i) < 2:
-        i, j = np.arange(len(s) - 1), np.arange(1, len(s))
-    else:
-        j = j[i]
-    return 0.5 * (s[i] + s[j]), np.unwrap(np.pi / 2 - np.angle(P[j] - P[i]))
+    def __init__(self, P: CArray, s: Array, layout: Layout, w_of_s, tol_m: float,
+                 lengths0: Array) -> None:
+        self.P, self.s, self.layout, self.w_of_s = P, s, layout, w_of_s
+        self.m = len(layout)
+        self.lengths0 = lengths0
+        self.fixed = _jump_rows(layout, lengths0)
+        gap = np.diff(s)
+        gaps = np.maximum(np.append(gap, 0.0), np.insert(gap, 0, 0.0))
+        self.window = np.maximum(MIN_WINDOW_M, 2.0 * gaps)
+        self.t0 = HINGE_FRACTION * tol_m
+        self.cache: dict = {}
+        self.best_cost = np.inf
 
+    def curve(self, x: Array) -> PlaneCurve:
+        m = self.m
+        return PlaneCurve(self.layout.pieces(x[3:3 + m], x[3 + m:]), complex(x[0], x[1]),
+                          float(x[2]), self.w_of_s)
 
-def initial_knots(P: CArray, s: Array) -> Array:
-    """Knots where the survey's heading turns (dense in corners, sparse on straights), m."""
-    mid, heading = chord_headings(P, s)
-    turn = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(heading)))])
-    knots, last_turn = [0.0], 0.0
-    for x, t in zip(mid, turn):
-        if (t - last_turn >= TURN_PER_KNOT_RAD or x - knots[-1] >= INITIAL_KNOT_SPACING_M) \
-                and x - knots[-1] >= 2.0 and s[-1] - x >= 2.0:
-            knots.append(x)
-            last_turn = t
-    return np.append(knots, s[-1])
+    def evaluate(self, x: Array):
+        key = x.tobytes()
+        if key not in self.cache:
+            curve = self.curve(x)
+            s = curve.foot_points(self.P, self.s, self.window)
+            z, e, w = curve.position(s)
+            r = np.real(np.conj(-1j * e) * (self.P - z)) / w
+            self.cache = {key: (curve, s, e, w, r)}
+            if r @ r < self.best_cost:           # warm start only from the best so far
+                self.best_cost, self.s = r @ r, s
+        return self.cache[key]
 
+    def _end_state(self, curve: PlaneCurve):
+        ends = np.array([0.0, curve.length])
+        return ends, *curve.position(ends)
 
-def initial_spline(P: CArray, s: Array, knots: Array, w_of_s) -> ClothoidSpline:
-    """Spline from the chord headings of the points (least squares over the knots)."""
-    mid, heading = chord_headings(P, s)
-    B = np.column_stack([np.ones_like(mid), heading_basis(knots, mid)])
-    D = _smooth_rows(knots)
-    lhs = B.T @ B + np.pad(D.T @ D, ((1, 0), (1, 0))) + 1e-12 * np.eye(B.shape[1])
-    x = np.linalg.solve(lhs, B.T @ heading)
-    return make_spline(knots, P[0], x[0], x[1:], w_of_s)
+    def residuals(self, x: Array) -> Array:
+        curve, _, _, _, r = self.evaluate(x)
+        m = self.m
+        excess = np.sign(r) * np.maximum(np.abs(r) - self.t0, 0.0)
+        ends, z, e, w = self._end_state(curve)
+        along = END_WEIGHT * np.real(np.conj(e) * (self.P[[0, -1]] - z)) / w
+        parts = [r, HINGE_WEIGHT * excess, along]
+        parts.append(LENGTH_PRIOR_WEIGHT * (x[3:3 + m] - self.lengths0))
+        parts.append(self.fixed @ x[3 + m:])
+        return np.concatenate(parts)
 
+    def jacobian(self, x: Array) -> Array:
+        curve, s, e, w, r = self.evaluate(x)
+        m = self.m
+        Jz = self._to_parameters(curve.jacobian(s))
+        Jr = -np.real(np.conj(-1j * e)[:, None] * Jz) / w[:, None]
+        active = (np.abs(r) > self.t0)[:, None]
+        blocks = [Jr, HINGE_WEIGHT * active * Jr, END_WEIGHT * self._end_rows(curve)]
+        Jp = np.zeros((m, Jr.shape[1]))
+        Jp[np.arange(m), 3 + np.arange(m)] = LENGTH_PRIOR_WEIGHT
+        Jf = np.zeros((len(self.fixed), Jr.shape[1]))
+        Jf[:, 3 + m:] = self.fixed
+        return np.concatenate(blocks + [Jp, Jf])
 
-def _smooth_rows(knots: Array) -> Array:
-    """Penalty rows on the curvature differences (lateral-offset equivalent), (m, m + 1)."""
-    dt = np.diff(knots)
-    m = len(knots) - 1
-    D = np.zeros((m, m + 1))
-    idx = np.arange(m)
-    scale = np.sqrt(SMOOTH_WEIGHT) * 0.5 * dt * dt
-    D[idx, idx], D[idx, idx + 1] = -scale, scale
-    return D
+    def _to_parameters(self, Jz: Array) -> Array:
+        """Columns (z0, A0, lengths, starts, ends) to (z0, A0, lengths, free values)."""
+        m = self.m
+        return np.concatenate([Jz[:, :3 + m], self.layout.value_jacobian(
+            Jz[:, 3 + m:3 + 2 * m], Jz[:, 3 + 2 * m:])], axis=1)
 
+    def _end_jacobians(self, curve: PlaneCurve):
+        """``∂z`` and ``∂A`` at s = 0 and at the end s = L, which moves with every length
+        (``dz(L)/dL_j += w e``, ``dA(L)/dL_j += κ(L)``)."""
+        ends, z, e, w = self._end_state(curve)
+        Jz, JA = curve.jacobian(ends), curve.azimuth_jacobian(ends)
+        Jz[1, 3:3 + self.m] += w[1] * e[1]
+        JA[1, 3:3 + self.m] += curve.pieces.value(ends[1:])[0]
+        return ends, z, e, w, Jz, JA
 
-def _rows(spline: ClothoidSpline, P: CArray, s: Array, s_fixed: bool):
-    """Residuals (ground m) and Jacobian rows for the current spline."""
-    z, e = spline.position(s)
-    mu = np.interp(s, spline.grid_s, spline.w)
-    J = spline.jacobian(s)
-    if s_fixed:                                   # full 2-D residuals at fixed s
-        d = (P - z) / mu
-        Jd = J / mu[:, None]
-        return np.concatenate([d.real, d.imag]), -np.vstack([Jd.real, Jd.imag])
-    n = e * (-1j)                                 # right-hand normal
-    r = np.real(np.conj(n) * (P - z)) / mu
-    Jr = -np.real(np.conj(n)[:, None] * J) / mu[:, None]
-    along = np.real(np.conj(e[0]) * (P[0] - z[0])) / mu[0]
-    Ja = -np.real(np.conj(e[0]) * J[0]) / mu[0]
-    return np.append(r, along), np.vstack([Jr, Ja])
+    def _end_rows(self, curve: PlaneCurve) -> Array:
+        """Jacobian of the along-track residuals ``e·(P − z)/w`` of the first point at
+        s = 0 and of the last point at the end; the tangent turns with A."""
+        ends, z, e, w, Jz, JA = self._end_jacobians(curve)
+        de_dA = np.exp(-1j * curve.azimuth(ends))               # ∂e/∂A
+        rows = (-np.real(np.conj(e)[:, None] * Jz)
+                + np.real(np.conj(de_dA) * (self.P[[0, -1]] - z))[:, None] * JA)
+        return self._to_parameters(rows) / w[:, None]
 
-
-def _theta(spline: ClothoidSpline) -> Array:
-    return np.concatenate([[spline.z0.real, spline.z0.imag, spline.azimuth0], spline.curvature])
-
-
-def _with_theta(spline: ClothoidSpline, theta: Array, knots: Array, w_of_s) -> ClothoidSpline:
-    return make_spline(knots, theta[0] + 1j * theta[1], theta[2], theta[3:], w_of_s)
-
-
-def _cost(spline, P, s, s_fixed, D):
-    if not s_fixed:
-        s = project_on_spline(spline, P, s)
-    r, J = _rows(spline, P, s, s_fixed)
-    pen = D @ spline.curvature
-    return r @ r + pen @ pen, r, J, s
-
-
-def _lm(spline: ClothoidSpline, P: CArray, s: Array, w_of_s, *, s_fixed: bool,
-        max_steps: int) -> tuple[ClothoidSpline, Array]:
-    knots = spline.knots
-    D = _smooth_rows(knots)
-    lam = 1e-3
-    cost, r, J, s = _cost(spline, P, s, s_fixed, D)
-    for _ in range(max_steps):
-        theta = _theta(spline)
-        DD = np.pad(D.T @ D, ((3, 0), (3, 0)))
-        JTJ = J.T @ J + DD
-        g = J.T @ r + DD @ theta
-        improved = False
-        for _ in range(8):
-            A = JTJ + lam * np.diag(np.diag(JTJ) + 1e-12)
-            step = -np.linalg.solve(A, g)
-            trial = _with_theta(spline, theta + step, knots, w_of_s)
-            t_cost, t_r, t_J, t_s = _cost(trial, P, s, s_fixed, D)
-            if t_cost < cost:
-                improved = True
-                break
-            lam *= 10.0
-        if not improved:
-            break
-        done = cost - t_cost < 1e-12 + LM_RTOL * cost
-        spline, cost, r, J, s = trial, t_cost, t_r, t_J, t_s
-        lam = max(lam / 10.0, 1e-9)
-        if done:
-            break
-    return spline, s
-
-
-def _follow_last_point(spline: ClothoidSpline, P: CArray, w_of_s) -> ClothoidSpline:
-    """Move the last knot so that the spline ends at the last point's foot."""
-    L = spline.knots[-1]
-    z, e = spline.position(np.array([L]))
-    w = spline.w[-1]
-    extra = float(np.real(np.conj(e[0]) * (P[-1] - z[0])) / w)
-    last = spline.knots[-1] - spline.knots[-2]
-    extra = float(np.clip(extra, -0.5 * last, max(last, MAX_END_SHIFT_M)))
-    knots = spline.knots.copy()
-    knots[-1] = L + extra
-    curvature = spline.curvature.copy()
-    return make_spline(knots, spline.z0, spline.azimuth0, curvature, w_of_s)
-
-
-def fit_plane(P: CArray, s: Array, knots: Array, w_of_s, *,
-              start: ClothoidSpline | None = None) -> PlaneFit:
-    """Fit a clothoid spline with the given knots to points P.
+def fit_plane(P: CArray, s: Array, shape: Shape, *, z0: complex, azimuth0: float,
+              w_of_s: Callable[[Array], Array], tol_m: float, kappa_max: float,
+              min_length_m: float,
+              max_iterations: int = MAX_ITERATIONS) -> PlaneFit:
+    """Fit a curve of the shape's layout to points P, starting from the shape.
 
     Parameters
     ----------
     P : ndarray of complex, shape (N,)
-        Points in the plane (X east + i Y north), plane metres.
+        Points in the plane (X east + i Y north), plane metres, in order.
     s : ndarray, shape (N,)
-        Initial along-track positions of the points, m (increasing).
-    knots : ndarray, shape (m + 1,)
-        Knots, m; ``knots[-1]`` is the initial length.
+        Guesses of their along-track positions from the curve's start, m.
+    shape : Shape
+        Layout, initial piece lengths (m) and curvatures (1/m).
+    z0 : complex
+        Initial start point, plane metres.
+    azimuth0 : float
+        Initial start azimuth, rad.
     w_of_s : callable
-        Plane metres per track metre as a function of s.
-    start : ClothoidSpline, optional
-        Warm start: its azimuth and curvature profile are resampled at `knots`.
+        Plane metres per track metre as a function of s (m, from the curve's start).
+    tol_m : float
+        The horizontal tolerance, m (sets the hinge).
+    kappa_max : float
+        Largest |curvature|, 1/m (1 / the smallest radius).
+    min_length_m : float
+        Shortest piece, m.
 
     Returns
     -------
     PlaneFit
     """
-    if start is None:
-        spline = initial_spline(P, s, knots, w_of_s)
-        spline, _ = _lm(spline, P, s, w_of_s, s_fixed=True, max_steps=INITIAL_2D_STEPS)
-    else:
-        spline = make_spline(knots, start.z0, start.azimuth0,
-                             start.curvature_at(knots), w_of_s)
-    for _ in range(2):
-        spline, s = _lm(spline, P, s, w_of_s, s_fixed=False, max_steps=MAX_LM_STEPS)
-        spline = _follow_last_point(spline, P, w_of_s)
-        s = project_on_spline(spline, P, s)
-    r, _ = _rows(spline, P, s, s_fixed=False)
-    return PlaneFit(spline, s, r[:-1])
+    layout = shape.layout
+    m = len(layout)
+    x0 = np.concatenate([[z0.real, z0.imag, azimuth0], shape.lengths, shape.values])
+    lower = np.concatenate([np.full(3, -np.inf), np.full(m, min_length_m),
+                            np.full(layout.n_values, -kappa_max)])
+    upper = np.concatenate([np.full(3, np.inf), np.full(m, np.inf),
+                            np.full(layout.n_values, kappa_max)])
+    problem = _Problem(P, s, layout, w_of_s, tol_m, np.maximum(shape.lengths, min_length_m))
+    x = levenberg_marquardt(problem.residuals, problem.jacobian, x0, lower, upper,
+                            max_iterations=max_iterations)
+    curve, s, _, _, r = problem.evaluate(x)
+    return PlaneFit(Shape(layout, x[3:3 + m], x[3 + m:]), curve, s, r)

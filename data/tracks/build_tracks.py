@@ -1,7 +1,7 @@
 """Rebuild the example track files of this folder (run from the repository root).
 
     python data/tracks/build_tracks.py            # paper2017, curvy, east_west, double_a/b
-    python data/tracks/build_tracks.py --fit      # also refit barcelona_drive (~2 min)
+    python data/tracks/build_tracks.py --fit      # also refit barcelona_drive (~6 s)
 
 See README.md here for what each file is and where the surveyed path comes from.
 """
