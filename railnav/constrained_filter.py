@@ -24,7 +24,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from railnav.constrained_model import build_constrained_model, isb_state_name
 from railnav.fault_detection import RowScreen
-from railnav.geometry_noise import geometry_variance
+from railnav.geometry_noise import statistical_parameters
 from railnav.filter_common import (GnssRowBuilder, start_on_track,
                                    states_from_values, track_estimates)
 from railnav.ins_clock_model import initial_variances, model_for_config
@@ -98,9 +98,9 @@ class ConstrainedFilter:
         params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
         self._chunk_end = self._grid.point(int(nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
-        variance = geometry_variance(self._grid, params,
-                                     sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
-                                     speed_mps=abs(float(x_prev[i_v])))
+        params, variance = statistical_parameters(
+            self._grid, params, sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
+            speed_mps=abs(float(x_prev[i_v])))
         step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
             else float(t[0] - t_prev)
         return u, params, variance * max(step, 0.0)

@@ -33,7 +33,8 @@ import numpy.typing as npt
 
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["geometry_variance", "QUADRATURE_NODES", "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M"]
+__all__ = ["statistical_parameters", "geometry_variance", "QUADRATURE_NODES",
+           "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -43,6 +44,9 @@ QUADRATURE_HALF_WIDTH = 4.0
 #: Offsets from ``s_ref`` are capped at this distance, m (a σ_s of kilometres smears every
 #: curvature the track has; the cap only bounds the grid window).
 MAX_OFFSET_M = 2000.0
+#: Above this σ_s (m) the curvature vector is linearized statistically over the prior:
+#: four grid steps (`railnav.track_grid.GRID_STEP_M`), so that the ±4σ nodes are distinct.
+STATISTICAL_MIN_SIGMA_M = 2.0
 
 _XI = np.linspace(-QUADRATURE_HALF_WIDTH, QUADRATURE_HALF_WIDTH, QUADRATURE_NODES)
 _W = np.exp(-0.5 * _XI ** 2)
@@ -54,7 +58,23 @@ _D2U = slice(TRACK_PARAMETER_NAMES.index("d2u_E_ds2"),
 
 
 def geometry_variance(grid, params: Array, *, sigma_s_m: float, speed_mps: float) -> Array:
-    """Variance of the unmodelled centripetal term, lateral and normal, per sample.
+    """Variance of the unmodelled centripetal term, lateral and normal, per sample
+    (the second output of `statistical_parameters`)."""
+    return statistical_parameters(grid, params, sigma_s_m=sigma_s_m, speed_mps=speed_mps)[1]
+
+
+def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: float
+                           ) -> tuple[Array, Array]:
+    """Track parameters linearized over the prior of ``s``, and what they leave out.
+
+    Where the prior is wider than the grid (``σ_s`` > `STATISTICAL_MIN_SIGMA_M`), the
+    curvature vector's value and slope in ``p`` are replaced by their statistical
+    linearization over ``s' ~ N(s_ref, σ_s²)`` (Gelb 1974, §6.2): the mean
+    ``E[du/ds(s')]`` and the regression slope ``Cov(du/ds(s'), s') / Var(s')``. A
+    GNSS-less estimate a hundred metres short of a curve then predicts the curve's share
+    of centripetal acceleration and gets a slope with respect to ``s`` (the curve's onset
+    moves ``s``) instead of a zero slope that leaves the lateral acceleration to the
+    attitude. With a narrow prior the local expansion is kept.
 
     Parameters
     ----------
@@ -69,16 +89,27 @@ def geometry_variance(grid, params: Array, *, sigma_s_m: float, speed_mps: float
 
     Returns
     -------
-    ndarray, shape (M, 2)
-        ``v⁴ E[(l·r)²]`` and ``v⁴ E[(n·r)²]``, (m/s²)².
+    params : ndarray, shape (M, 16)
+        The parameters the filter uses (a copy when changed).
+    variance : ndarray, shape (M, 2)
+        ``v⁴ E[(l·r)²]`` and ``v⁴ E[(n·r)²]`` of the remainder ``r`` of the curvature
+        vector about the linearization used, (m/s²)².
     """
     m = params.shape[0]
     offsets = np.clip(sigma_s_m * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
     s_ref = params[:, 0]
-    length = grid.track.length_m
     if _inside_one_loxodrome(grid.track, s_ref.min() + offsets[0], s_ref.max() + offsets[-1]):
-        return np.zeros((m, 2))
-    return _quadrature(grid, params, offsets, speed_mps)
+        return params, np.zeros((m, 2))
+    du, delta = _nodes(grid, params, offsets)
+    if sigma_s_m > STATISTICAL_MIN_SIGMA_M:
+        params = params.copy()
+        mean_delta = delta @ _W
+        centred = delta - mean_delta[:, None]
+        var_delta = centred ** 2 @ _W
+        slope = np.einsum("mki,mk,k->mi", du, centred, _W) / var_delta[:, None]
+        params[:, _DU] = np.einsum("mki,k->mi", du, _W) - slope * mean_delta[:, None]
+        params[:, _D2U] = slope
+    return params, _remainder_variance(params, du, delta, speed_mps)
 
 
 def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
@@ -89,19 +120,27 @@ def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
     return bool(k[0] == k[1] and track.table.is_loxodrome[k[0]])
 
 
-def _quadrature(grid, params: Array, offsets: Array, speed_mps: float) -> Array:
-    """`geometry_variance` by the midpoint rule at the given offsets from ``s_ref``."""
-    m = params.shape[0]
-    s_ref = params[:, 0]
-    length = grid.track.length_m
-    s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, length)
+def _nodes(grid, params: Array, offsets: Array) -> tuple[Array, Array]:
+    """Curvature vectors (M, K, 3), 1/m, at the grid nodes nearest ``s_ref + offsets``, and
+    the nodes' distances from ``s_ref`` (M, K), m."""
+    m, s_ref = params.shape[0], params[:, 0]
+    s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, grid.track.length_m)
     at_q, _ = grid.parameters(s_q.ravel())
     at_q = at_q.reshape(m, offsets.size, -1)
-    delta = at_q[:, :, 0] - s_ref[:, None]
-    linear = params[:, None, _DU] + params[:, None, _D2U] * delta[..., None]
-    remainder = at_q[:, :, _DU] - linear
+    return at_q[:, :, _DU], at_q[:, :, 0] - s_ref[:, None]
+
+
+def _remainder_variance(params: Array, du: Array, delta: Array, speed_mps: float) -> Array:
+    """``v⁴ E[(P⊥ r)²]`` per component for ``r = du/ds(s') − (du_ref + d2u_ref δ)``."""
+    remainder = du - (params[:, None, _DU] + params[:, None, _D2U] * delta[..., None])
     lateral, normal = cross_track_basis(params[:, _U])
     r_l = np.einsum("mki,mi->mk", remainder, lateral)
     r_n = np.einsum("mki,mi->mk", remainder, normal)
-    v4 = speed_mps ** 4
-    return v4 * np.stack([r_l ** 2 @ _W, r_n ** 2 @ _W], axis=-1)
+    return speed_mps ** 4 * np.stack([r_l ** 2 @ _W, r_n ** 2 @ _W], axis=-1)
+
+
+def _quadrature(grid, params: Array, offsets: Array, speed_mps: float) -> Array:
+    """The remainder variance about the local expansion in `params`, by the midpoint rule
+    at the given offsets (the general path that `_inside_one_loxodrome` short-cuts)."""
+    du, delta = _nodes(grid, params, offsets)
+    return _remainder_variance(params, du, delta, speed_mps)

@@ -14,7 +14,9 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from railnav.geometry_noise import MAX_OFFSET_M, _XI, _quadrature, geometry_variance
+from railnav.geometry_noise import (MAX_OFFSET_M, STATISTICAL_MIN_SIGMA_M, _XI, _quadrature,
+                                    geometry_variance, statistical_parameters)
+from strapdown.reduced import cross_track_basis
 from railnav.runs import run_simulated
 from railnav.scenarios import TRACKS_DIR, get_scenario
 from railnav.track_grid import TrackParameterGrid
@@ -43,18 +45,42 @@ def step_track():
 
 @pytest.mark.parametrize("s_ref, sigma", [(990.0, 5.0), (998.0, 3.0), (1003.0, 8.0),
                                           (1020.0, 6.0)])
-def test_curvature_step_variance_is_bernoulli(step_track, s_ref, sigma):
+def test_curvature_step_is_linearized_statistically(step_track, s_ref, sigma):
+    """A curvature step Δκ at s_j under s' ~ N(s_ref, σ²): the mean of the lateral curvature
+    is Δκ·p (p = P(s' > s_j)), the regression slope Δκ φ(z)/σ (Stein's lemma, z = (s_j −
+    s_ref)/σ), and what the line leaves out has the variance Δκ²(p(1 − p) − φ(z)²)."""
     grid = TrackParameterGrid(step_track)
     params, _ = grid.parameters(np.array([s_ref]))
     node = params[0, 0]
-    var = geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
-    # the linear model carries the curvature of the reference's side; the remainder is the
-    # step on the other side: mean square v⁴Δκ²·P(other side); all of it is lateral
-    p_other = norm.sf((1000.0 - node) / sigma) if node < 1000.0 else norm.cdf(
-        (1000.0 - node) / sigma)
-    assert var[0, 0] == pytest.approx(SPEED ** 4 * KAPPA ** 2 * p_other,
+    eff, var = statistical_parameters(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    lateral, _ = cross_track_basis(params[:, 7:10])
+    arc, _ = grid.parameters(np.array([1400.0]))
+    kappa_l = float(arc[0, 10:13] @ lateral[0])          # signed lateral curvature of the arc
+    z = (1000.0 - node) / sigma
+    p, phi = norm.sf(z), norm.pdf(z)
+    tol_p = _step_tolerance(sigma) / (SPEED ** 4 * KAPPA ** 2)   # in probability units
+    # the line is read at δ = 0, not at the nodes' mean offset (up to half a grid step):
+    # slope × that offset, ≤ φ_max·0.25/σ in the same units
+    tol_mean = tol_p + 0.399 * GRID_HALF_STEP_M / sigma
+    assert eff[0, 10:13] @ lateral[0] == pytest.approx(kappa_l * p, abs=abs(kappa_l) * tol_mean)
+    assert eff[0, 13:16] @ lateral[0] == pytest.approx(kappa_l * phi / sigma,
+                                                       abs=abs(kappa_l) * tol_p / sigma)
+    assert var[0, 0] == pytest.approx(SPEED ** 4 * KAPPA ** 2 * (p * (1 - p) - phi ** 2),
                                       abs=_step_tolerance(sigma))
     assert var[0, 1] < 1e-6 * max(var[0, 0], 1e-12)
+
+
+def test_narrow_prior_keeps_the_local_expansion_and_its_bernoulli_remainder(step_track):
+    """σ_s at most `STATISTICAL_MIN_SIGMA_M`: the parameters are the local ones and the
+    remainder of a step is v⁴Δκ² P(other side) (the local model carries one side)."""
+    grid = TrackParameterGrid(step_track)
+    sigma = STATISTICAL_MIN_SIGMA_M
+    params, _ = grid.parameters(np.array([999.0]))
+    eff, var = statistical_parameters(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    assert eff is params
+    p_other = norm.sf((1000.0 - params[0, 0]) / sigma)
+    assert var[0, 0] == pytest.approx(SPEED ** 4 * KAPPA ** 2 * p_other,
+                                      abs=_step_tolerance(sigma))
 
 
 def test_no_geometry_noise_where_the_model_is_exact(step_track):
