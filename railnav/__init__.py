@@ -13,6 +13,8 @@ command                                function(s)
 ``railnav simulate``                   `simulate_trip`, `get_scenario`
 ``railnav run TRACK``                  `run_simulated`, `run_files`, `write_run`
                                        (`navigate` underneath, `NavigatorConfig`)
+``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
+                                       (`baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
 ``railnav reproduce NAME``             `run_experiment` (`reproduce_paper2017`,
                                        `reproduce_anomaly2021`)
@@ -42,6 +44,8 @@ _EXPORTS = {
     "run_simulated_tracks": "track_runs", "run_files_tracks": "track_runs",
     "TrackBankConfig": "track_bank", "FaultDetectionConfig": "fault_detection",
     "spp_errors": "spp_report", "accuracy_summary": "spp_report",
+    "read_baro_csv": "baro_run", "check_run_baro": "baro_run",
+    "baro_track_check": "baro",
 }
 
 __all__ = sorted(_EXPORTS)

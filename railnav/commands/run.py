@@ -89,6 +89,11 @@ def register(subparsers) -> None:
                    default=DEFAULT_CROSSING_RATE_PER_S, metavar="RATE",
                    help="several tracks: rate of changing tracks, 1/s (default "
                         f"{DEFAULT_CROSSING_RATE_PER_S:g}; 0: no crossovers)")
+    p.add_argument("--baro", metavar="BARO.csv", default=None,
+                   help="barometric altimeter readings (columns gps_time_s or time_s, "
+                        "baro_h_m): bias estimated against the track height, GNSS heights "
+                        "checked against the calibrated baro (baro.csv, baro_gnss.csv, "
+                        "summary.json 'baro'); one track only")
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
@@ -110,7 +115,13 @@ def handler(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
     if len(args.tracks) > 1:
+        if args.baro is not None:
+            raise ConfigError("--baro works with one track")
         return _several_tracks(args, out)
+    baro = None
+    if args.baro is not None:
+        from railnav.baro_run import read_baro_csv
+        baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
     files = args.imu is not None or args.obs is not None
     with progress_bar("filter", enabled=not args.quiet) as progress:
@@ -127,9 +138,33 @@ def handler(args: argparse.Namespace) -> int:
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=args.seed,
                                     systems=systems, window=args.window, progress=progress)
+    baro_check = None if baro is None else _baro_check(args, outcome, baro)
     write_run(outcome, out, plots=not args.no_plots)
+    if baro_check is not None:
+        _write_baro(baro_check, out)
     print(_report(outcome, out))
     return 0
+
+
+def _baro_check(args: argparse.Namespace, outcome, baro):
+    """Run the baro check (GNSS heights from a single-point solution with the run's
+    measurement model) and add its summary to the run's (written with it)."""
+    from railnav.baro_run import baro_summary, check_run_baro
+    obs = nav = None
+    if args.obs is not None:
+        from gnss_obs.rinex_nav import read_rinex_nav
+        from gnss_obs.rinex_obs import read_rinex_obs
+        obs, nav = read_rinex_obs(args.obs), read_rinex_nav(args.nav)
+    check = check_run_baro(outcome, baro, obs=obs, nav=nav)
+    outcome.summary["baro"] = baro_summary(check)
+    return check
+
+
+def _write_baro(check, out: Path) -> None:
+    from trackmodel.files import atomic_write
+    for name, frame in (("baro.csv", check.to_frame()), ("baro_gnss.csv", check.gnss_frame())):
+        with atomic_write(out / name, newline="") as fh:
+            frame.to_csv(fh, index=False)
 
 
 def _several_tracks(args: argparse.Namespace, out: Path) -> int:
@@ -206,4 +241,10 @@ def _report(outcome, out: Path) -> str:
         for o in errors["outages"]:
             lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
                          f"at its end {o['at_end']['along_track_m']:+.3f} m")
+    baro = s.get("baro")
+    if baro:
+        lines.append(f"  baro bias {baro['bias_m']:+.2f} ± {baro['sigma_bias_m']:.2f} m "
+                     f"({baro['bias_flagged']} of {baro['readings']} readings flagged); "
+                     f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
+                     "heights disagree")
     return "\n".join(lines)
