@@ -19,6 +19,10 @@ from strapdown.errors import ImuInputError
 
 __all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "RATE_TOLERANCE"]
 
+#: Read CSV floats exactly (pandas < 3 needs "round_trip"; pandas 3 does it by default and
+#: deprecates the argument).
+_EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+
 Array = npt.NDArray[np.float64]
 
 #: Column names of imu.csv, in order.
@@ -78,7 +82,7 @@ def read_imu_csv(path: str | os.PathLike) -> Imu:
         fewer than 2 rows, or non-uniform / non-increasing time.
     """
     try:
-        frame = pd.read_csv(path, float_precision="round_trip")
+        frame = pd.read_csv(path, **_EXACT_FLOATS)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise ImuInputError(f"not a CSV table ({' '.join(str(exc).split())})", path=path) from None
     missing = [c for c in IMU_COLUMNS if c not in frame.columns]

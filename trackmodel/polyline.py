@@ -190,8 +190,9 @@ def find_reversal(xy: Array) -> int | None:
     ok = ok[ahead[later[ok]] < len(s)]
     chord = xy[np.minimum(ahead, len(s) - 1)] - xy
     c0, c1 = chord[ok], chord[later[ok]]
-    cos_turn = np.einsum("ij,ij->i", c0, c1) / (
-        np.linalg.norm(c0, axis=1) * np.linalg.norm(c1, axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):   # a zero chord: NaN, no reversal
+        cos_turn = np.einsum("ij,ij->i", c0, c1) / (
+            np.linalg.norm(c0, axis=1) * np.linalg.norm(c1, axis=1))
     bad = np.flatnonzero(cos_turn < math.cos(math.radians(REVERSAL_TURN_DEG)))
     return int(ok[bad[0]]) if len(bad) else None
 
