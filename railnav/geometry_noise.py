@@ -12,19 +12,27 @@ accelerometer (1 mm/s² per 100-Hz sample against v²Δκ ≈ 0.04 m/s²) it the
 ``s`` back by tens of metres while σ_s stays at a metre.
 
 The remedy is statistical linearization (Gelb 1974, §6.2; the "consider" view of the
-geometry): with ``s ~ N(s_ref, σ_s²)``, the part of the predicted centripetal term that
-the linear model does not carry,
+geometry). With ``s ~ N(s_ref, σ_s²)`` and σ_s above a few grid steps, the curvature
+vector's value and slope in ``p`` become its mean and regression slope over that prior
+(`statistical_parameters`), so that a curve the estimate may already be in is predicted in
+proportion and moves ``s``; and the part of the predicted centripetal term that the line
+does not carry,
 
-``r(s') = du/ds(s') − du/ds(s_ref) − d²u/ds²(s_ref) (s' − s_ref)``,
+``r(s') = du/ds(s') − (du/ds)_lin − (d²u/ds²)_lin (s' − s_ref)``,
 
 is an error of the pseudo-observation with variance ``v⁴ E[(P⊥ r)²]`` (per component,
 lateral and normal), evaluated here over the prior on the track grid (`railnav.track_grid`)
 with a midpoint rule of `QUADRATURE_NODES` points over ±4σ (a step's weight to within
-``φ(ξ)·Δξ/2 ≤ 0.04``; Gauss–Hermite rules, exact for polynomials, resolve steps worse). It is zero on straights, arcs and clothoids alike when
-σ_s is small against the distance to a joint (with GNSS, σ_s ≈ 0.5 m), so the information
+``φ(ξ)·Δξ/2 ≤ 0.04``; Gauss–Hermite rules, exact for polynomials, resolve steps worse).
+It is zero on straights, arcs and clothoids alike when σ_s is small against the distance
+to a joint (with GNSS, σ_s ≈ 0.5 m), so the information
 the filter draws from the track is untouched there, and it grows only where the geometry
 the filter assumes is really in doubt. The variances enter the engine as the independent
 continuous-measurement noise (`ekf.InputSeries.r_c`, a density: variance × step).
+
+Limit: this is still one Gaussian. When σ_s is tens of metres at the onset of a curve's
+centripetal acceleration (a long outage with a MEMS IMU), the filter can explain the
+onset with its attitude instead of ``s`` and run away (notebooks/05, MEMS 300 s).
 """
 from __future__ import annotations
 
