@@ -14,7 +14,6 @@ this module feeds it from a run:
 """
 from __future__ import annotations
 
-import math
 import os
 
 import numpy as np
@@ -22,6 +21,7 @@ import pandas as pd
 
 from railnav.baro import BaroCheck, BaroConfig, baro_track_check
 from railnav.errors import ConfigError
+from trackmodel.errors import finite_column
 
 __all__ = ["read_baro_csv", "check_run_baro", "baro_summary", "BARO_TIME_COLUMNS"]
 
@@ -56,14 +56,8 @@ def read_baro_csv(path: str | os.PathLike) -> pd.DataFrame:
             raise ConfigError(f"missing column {wanted}", path=path)
     if frame.empty:
         raise ConfigError("no rows", path=path)
-    out = {}
-    for col in (time_col, "baro_h_m"):
-        values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            raise ConfigError(f"not a finite number: {frame[col].iloc[bad[0]]!r}", path=path,
-                              row=int(bad[0]) + 1, column=col)
-        out[col] = values
+    out = {col: finite_column(frame, col, path=path, error=ConfigError)
+           for col in (time_col, "baro_h_m")}
     steps = np.flatnonzero(np.diff(out[time_col]) <= 0)
     if steps.size:
         raise ConfigError("times must increase", path=path, row=int(steps[0]) + 2,
@@ -140,5 +134,5 @@ def _spp_heights(obs, nav, measurement, start_gps_time_s: float):
     ok = np.all(np.isfinite(spp.r_e), axis=1)
     h = ecef_to_geodetic(spp.r_e[ok])[2]
     sigma = np.sqrt(spp.cov_enu_m2[ok, 2, 2])
-    keep = np.isfinite(sigma) & (sigma > 0) & (sigma < math.inf)
+    keep = np.isfinite(sigma) & (sigma > 0)
     return (spp.gps_time_s[ok][keep] - start_gps_time_s, h[keep], sigma[keep])

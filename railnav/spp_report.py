@@ -24,6 +24,7 @@ import pandas as pd
 
 from railnav.errors import ConfigError
 from trackmodel.earth import C_n_e, ecef_to_enu, geodetic_to_ecef
+from trackmodel.errors import finite_column
 from trackmodel.files import atomic_write
 
 __all__ = ["read_reference_trajectory", "spp_errors", "SppAccuracy", "accuracy_summary",
@@ -73,12 +74,7 @@ def read_reference_trajectory(path: str | os.PathLike) -> pd.DataFrame:
     if df.empty:
         raise ConfigError("reference file has no rows", path=path)
     for c in df.columns:
-        values = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            raise ConfigError(f"{df[c].iloc[bad[0]]!r} is not a finite number", path=path,
-                              row=int(bad[0]) + 1, column=c)
-        df[c] = values
+        df[c] = finite_column(df, c, path=path, error=ConfigError)
     return df.sort_values("gps_time_s").reset_index(drop=True)
 
 

@@ -16,6 +16,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from strapdown.errors import ImuInputError
+from trackmodel.errors import finite_column
 
 __all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "RATE_TOLERANCE"]
 
@@ -89,12 +90,7 @@ def read_imu_csv(path: str | os.PathLike) -> Imu:
     if missing:
         raise ImuInputError(f"missing columns {missing}", path=path)
     for col in IMU_COLUMNS:
-        values = pd.to_numeric(frame[col], errors="coerce").to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            raise ImuInputError(f"{frame[col].iloc[bad[0]]!r} is not a finite number",
-                                path=path, row=int(bad[0]) + 1, column=col)
-        frame[col] = values
+        frame[col] = finite_column(frame, col, path=path, error=ImuInputError)
     if len(frame) < 2:
         raise ImuInputError("needs at least 2 samples", path=path)
     t = frame["time_s"].to_numpy()

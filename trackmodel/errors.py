@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["InputError", "TrackError", "TrackFileError"]
+import numpy as np
+
+__all__ = ["InputError", "TrackError", "TrackFileError", "finite_column"]
 
 
 class InputError(ValueError):
@@ -59,6 +61,31 @@ class InputError(ValueError):
         if self.path is None:
             self.path = os.fspath(path)
         return self
+
+
+def finite_column(frame, column: str, *, path: str | os.PathLike | None = None,
+                  error: type[InputError] = InputError) -> np.ndarray:
+    """A table column as floats, or `error` located at the first value that is not a
+    finite number (``row`` 1-based, header not counted).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The table as read (any dtype).
+    column : str
+        Column name (must exist).
+    path : str or os.PathLike, optional
+        The file, for the message.
+    error : type
+        The reader's `InputError` subclass.
+    """
+    import pandas as pd
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        raise error(f"{frame[column].iloc[bad[0]]!r} is not a finite number", path=path,
+                    row=int(bad[0]) + 1, column=column)
+    return values
 
 
 class TrackError(Exception):

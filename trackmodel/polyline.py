@@ -24,7 +24,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.earth import WGS84, Ellipsoid, ecef_to_enu, geodetic_to_ecef
-from trackmodel.errors import TrackFileError
+from trackmodel.errors import TrackFileError, finite_column
 
 __all__ = ["Polyline", "read_polyline", "clean_polyline", "find_reversal", "split_legs",
            "MIN_SPACING_M", "MAX_TURN_DEG", "MIN_LEG_M"]
@@ -105,13 +105,7 @@ def read_polyline(path: str | os.PathLike) -> Polyline:
     cols = [c for c in ("lat_deg", "lon_deg", "h_m") if c in frame.columns]
     values = {}
     for c in cols:
-        numeric = pd.to_numeric(frame[c], errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(numeric)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            raise TrackFileError(f"{frame[c].iloc[row]!r} is not a finite number", path=path,
-                                 row=row + 1, column=c)
-        values[c] = numeric
+        values[c] = finite_column(frame, c, path=path, error=TrackFileError)
     big = np.abs(values["lat_deg"]) >= 89.9
     if big.any():
         row = int(np.flatnonzero(big)[0])
