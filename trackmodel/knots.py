@@ -176,17 +176,12 @@ def simplify(fit: FitFn, result, tol_m: float, *, max_fits: int):
     """Tie transitions to their neighbours' curvatures (`FREE` → `RAMP`) and turn arcs of
     negligible curvature into straights, in batches kept when within `tol_m` (or, for a
     result already outside it, not farther outside)."""
-    tol_m = max(tol_m, _worst(result))
-    fits = 0
-    failed: list[float] = []
-    while fits < max_fits:
-        shape = result.shape
+
+    def changes(shape: Shape):
         pc = shape.pieces
         flat = np.abs(pc.start) * pc.lengths ** 2 / 8.0 < FLAT_FRACTION * tol_m
         candidates = [j for j, k in enumerate(shape.kinds)
                       if k == FREE or (k == CONST and flat[j])]
-        if not candidates:
-            break
 
         def apply(shape: Shape, batch: list[int]) -> Shape:
             rows = _rows(shape)
@@ -196,6 +191,25 @@ def simplify(fit: FitFn, result, tol_m: float, *, max_fits: int):
                     rows[j][2] = rows[j][3] = 0.0
             return _build(rows, False)
 
+        return candidates, apply
+
+    return _refine(fit, result, tol_m, changes, max_fits=max_fits)
+
+
+def _refine(fit: FitFn, result, tol_m: float,
+            changes: Callable[[Shape], tuple[list[int], Callable[[Shape, list[int]], Shape]]],
+            *, max_fits: int):
+    """Apply rounds of `changes` (candidate pieces and how to change them, from the current
+    shape) through `_try_batches` until a round changes nothing, no candidate is left or
+    `max_fits` refits are spent; the tolerance is at least the result's own worst
+    deviation (a result already outside it may not get farther outside)."""
+    tol_m = max(tol_m, _worst(result))
+    fits = 0
+    failed: list[float] = []
+    while fits < max_fits:
+        candidates, apply = changes(result.shape)
+        if not candidates:
+            break
         new, n = _try_batches(fit, result, tol_m, candidates, apply, max_fits - fits, failed)
         fits += n
         if new is result:
@@ -217,20 +231,16 @@ def _removal_cost(shape: Shape) -> Array:
 def prune(fit: FitFn, result, tol_m: float, *, continuous: bool, max_fits: int):
     """Remove pieces (cheapest first) while the refit stays within `tol_m` (or, for a
     result already outside it, not farther outside)."""
-    tol_m = max(tol_m, _worst(result))
-    fits = 0
-    failed: list[float] = []
-    while fits < max_fits and len(result.shape.kinds) > 1:
-        order = [int(j) for j in np.argsort(_removal_cost(result.shape))]
+
+    def changes(shape: Shape):
+        if len(shape.kinds) <= 1:
+            return [], None
 
         def apply(shape: Shape, batch: list[int]) -> Shape:
             for j in sorted(batch, reverse=True):
                 shape = remove_piece(shape, j, continuous=continuous)
             return shape
 
-        new, n = _try_batches(fit, result, tol_m, order, apply, max_fits - fits, failed)
-        fits += n
-        if new is result:
-            break
-        result = new
-    return result
+        return [int(j) for j in np.argsort(_removal_cost(shape))], apply
+
+    return _refine(fit, result, tol_m, changes, max_fits=max_fits)
