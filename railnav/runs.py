@@ -33,7 +33,7 @@ from gnss_obs.measurements import MeasurementConfig
 from railnav.trip import (SimulatedTrip, navigator_config_for, navigator_config_from_simulation,
                           simulate_trip)
 from strapdown.imu import read_imu_csv
-from trackmodel.files import atomic_write, atomic_write_text
+from trackmodel.files import atomic_write_csv, atomic_write_text
 
 __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT",
            "read_sensor_files", "run_summary", "truth_start"]
@@ -252,8 +252,7 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
     written = []
 
     def csv(name: str, frame: pd.DataFrame) -> None:
-        with atomic_write(out / name, newline="") as fh:
-            frame.to_csv(fh, index=False, float_format=CSV_FLOAT_FORMAT)
+        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT)
         written.append(out / name)
 
     csv("estimates.csv", outcome.result.estimates)

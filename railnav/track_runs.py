@@ -29,7 +29,7 @@ from railnav.scenarios import Scenario
 from railnav.track_bank import TrackBankConfig, convert_state, navigate_tracks
 from railnav.track_bank_result import TrackBankResult
 from railnav.trip import navigator_config_for, simulate_trip
-from trackmodel.files import atomic_write
+from trackmodel.files import atomic_write_csv
 
 __all__ = ["TrackRunOutcome", "run_simulated_tracks", "run_files_tracks", "write_track_run",
            "track_names", "correct_share"]
@@ -153,8 +153,8 @@ def write_track_run(run: TrackRunOutcome, out_dir: str | os.PathLike, *,
     """Write a run over candidate tracks into `out_dir` (module docstring)."""
     out = Path(out_dir)
     written = write_run(run.outcome, out, plots=plots)
-    with atomic_write(out / "track_probabilities.csv", newline="") as fh:
-        run.bank.probability_frame().to_csv(fh, index=False, float_format=CSV_FLOAT_FORMAT)
+    atomic_write_csv(out / "track_probabilities.csv", run.bank.probability_frame(),
+                     float_format=CSV_FLOAT_FORMAT)
     written.append(out / "track_probabilities.csv")
     if plots:
         from railnav.track_plots import plot_track_probabilities

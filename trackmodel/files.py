@@ -12,7 +12,7 @@ import tempfile
 from collections.abc import Iterator
 from typing import IO
 
-__all__ = ["atomic_write", "atomic_write_text"]
+__all__ = ["atomic_write", "atomic_write_text", "atomic_write_csv"]
 
 
 @contextlib.contextmanager
@@ -62,3 +62,10 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     """Write `text` to `path` atomically (UTF-8)."""
     with atomic_write(path) as fh:
         fh.write(text)
+
+
+def atomic_write_csv(path: str | os.PathLike, frame, *, float_format: str | None = None) -> None:
+    """Write a pandas table to `path` atomically as CSV (no index; `float_format` as in
+    ``DataFrame.to_csv``)."""
+    with atomic_write(path, newline="") as fh:
+        frame.to_csv(fh, index=False, float_format=float_format)

@@ -161,10 +161,9 @@ def _baro_check(args: argparse.Namespace, outcome, baro):
 
 
 def _write_baro(check, out: Path) -> None:
-    from trackmodel.files import atomic_write
-    for name, frame in (("baro.csv", check.to_frame()), ("baro_gnss.csv", check.gnss_frame())):
-        with atomic_write(out / name, newline="") as fh:
-            frame.to_csv(fh, index=False)
+    from trackmodel.files import atomic_write_csv
+    atomic_write_csv(out / "baro.csv", check.to_frame())
+    atomic_write_csv(out / "baro_gnss.csv", check.gnss_frame())
 
 
 def _several_tracks(args: argparse.Namespace, out: Path) -> int:

@@ -15,7 +15,7 @@ from railnav.commands.support import outage_window, positive_float, progress_bar
 from railnav.scenarios import SCENARIOS, get_scenario, scenario_to_dict
 from railnav.trip import DEFAULT_SYSTEMS, simulate_trip
 from strapdown.imu_errors import IMU_GRADES
-from trackmodel.files import atomic_write, atomic_write_text
+from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.io import read_track
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]
@@ -72,10 +72,8 @@ def handler(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     if trip.gnss is not None:
         write_simulation(out, trip.gnss, trip.nav)
-    with atomic_write(out / "truth.csv", newline="") as fh:
-        result.truth.to_frame().to_csv(fh, index=False, float_format=FLOAT_FORMAT)
-    with atomic_write(out / "imu.csv", newline="") as fh:
-        result.imu_measured.to_frame().to_csv(fh, index=False, float_format=FLOAT_FORMAT)
+    atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
+    atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
     meta = {"scenario": scenario_to_dict(scenario), "track": str(Path(args.track)),
             "seed": args.seed, "gnss_written": trip.gnss is not None,
             "gnss_systems": args.systems if trip.gnss is not None else None,

@@ -20,7 +20,7 @@ from gnss_obs.spp import SppConfig, solve_spp
 from railnav.commands.support import progress_bar
 from railnav.errors import ConfigError
 from railnav.spp_report import accuracy_summary, plot_spp, read_reference_trajectory, spp_errors
-from trackmodel.files import atomic_write
+from trackmodel.files import atomic_write_csv
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]
 
@@ -75,8 +75,7 @@ def handler(args: argparse.Namespace) -> int:
         result = solve_spp(obs, nav, config, progress=progress)
     frame = result.to_frame()
     errors = spp_errors(frame, reference) if reference is not None else None
-    with atomic_write(out / "spp.csv", newline="") as fh:
-        frame.to_csv(fh, index=False, float_format=FLOAT_FORMAT)
+    atomic_write_csv(out / "spp.csv", frame, float_format=FLOAT_FORMAT)
     plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
     for line in _summary(frame, config):
         print(line)

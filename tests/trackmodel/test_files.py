@@ -6,7 +6,7 @@ import stat
 
 import pytest
 
-from trackmodel.files import atomic_write, atomic_write_text
+from trackmodel.files import atomic_write, atomic_write_csv, atomic_write_text
 
 
 def test_written_file_has_umask_permissions(tmp_path):
@@ -29,3 +29,11 @@ def test_failure_leaves_previous_content_and_no_temporary(tmp_path):
             raise RuntimeError("boom")
     assert path.read_text() == "old"
     assert [p.name for p in tmp_path.iterdir()] == ["b.txt"]
+
+
+def test_csv_has_no_index_and_the_given_float_format(tmp_path):
+    import pandas as pd
+    path = tmp_path / "t.csv"
+    atomic_write_csv(path, pd.DataFrame({"a": [1.0 / 3.0], "b": [2]}), float_format="%.3g")
+    assert path.read_text().splitlines() == ["a,b", "0.333,2"]
+    assert [p.name for p in tmp_path.iterdir()] == ["t.csv"]
