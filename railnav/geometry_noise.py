@@ -41,7 +41,7 @@ import numpy.typing as npt
 
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["statistical_parameters", "geometry_variance", "QUADRATURE_NODES",
+__all__ = ["statistical_parameters", "QUADRATURE_NODES",
            "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
 
 Array = npt.NDArray[np.float64]
@@ -63,12 +63,6 @@ _U = slice(TRACK_PARAMETER_NAMES.index("u_E"), TRACK_PARAMETER_NAMES.index("u_U"
 _DU = slice(TRACK_PARAMETER_NAMES.index("du_E_ds"), TRACK_PARAMETER_NAMES.index("du_U_ds") + 1)
 _D2U = slice(TRACK_PARAMETER_NAMES.index("d2u_E_ds2"),
              TRACK_PARAMETER_NAMES.index("d2u_U_ds2") + 1)
-
-
-def geometry_variance(grid, params: Array, *, sigma_s_m: float, speed_mps: float) -> Array:
-    """Variance of the unmodelled centripetal term, lateral and normal, per sample
-    (the second output of `statistical_parameters`)."""
-    return statistical_parameters(grid, params, sigma_s_m=sigma_s_m, speed_mps=speed_mps)[1]
 
 
 def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: float

@@ -15,7 +15,7 @@ import pytest
 from scipy.stats import norm
 
 from railnav.geometry_noise import (MAX_OFFSET_M, STATISTICAL_MIN_SIGMA_M, _XI, _quadrature,
-                                    geometry_variance, statistical_parameters)
+                                    statistical_parameters)
 from strapdown.reduced import cross_track_basis
 from railnav.runs import run_simulated
 from railnav.scenarios import TRACKS_DIR, get_scenario
@@ -90,23 +90,25 @@ def test_no_geometry_noise_where_the_model_is_exact(step_track):
     grid = TrackParameterGrid(step_track)
     params, _ = grid.parameters(np.array([300.0, 1400.0]))   # straight, inside the arc
     sigma = 50.0
-    var = geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    _, var = statistical_parameters(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
     assert np.all(var[0] < 1e-20)
     assert np.all(var[1] < SPEED ** 4 * (KAPPA ** 3 * (4 * sigma) ** 2 / 2) ** 2)
     params, _ = grid.parameters(np.array([995.0]))
-    assert np.all(geometry_variance(grid, params, sigma_s_m=0.2, speed_mps=SPEED) < 1e-20)
+    _, var = statistical_parameters(grid, params, sigma_s_m=0.2, speed_mps=SPEED)
+    assert np.all(var < 1e-20)
 
 
 @pytest.mark.parametrize("sigma", [0.5, 50.0, 400.0])
 def test_one_straight_section_takes_the_shortcut_the_quadrature_agrees_with(sigma):
-    """Inside one loxodrome `geometry_variance` returns zero without the quadrature; the
+    """Inside one loxodrome `statistical_parameters` returns zero without the quadrature; the
     quadrature (the general path) gives the same to < 1e-20 (m/s²)² on the paper's
     sphere straight at σ_s up to 400 m."""
     track = read_track(TRACKS_DIR / "paper2017.csv")
     grid = TrackParameterGrid(track)
     params, _ = grid.parameters(np.linspace(5000.0, 5040.0, 5))
     offsets = np.clip(sigma * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
-    assert np.all(geometry_variance(grid, params, sigma_s_m=sigma, speed_mps=SPEED) == 0.0)
+    eff, var = statistical_parameters(grid, params, sigma_s_m=sigma, speed_mps=SPEED)
+    assert eff is params and np.all(var == 0.0)
     assert np.all(_quadrature(grid, params, offsets, SPEED) < 1e-20)
 
 
