@@ -76,8 +76,8 @@ def check_run_baro(outcome, baro: pd.DataFrame, *, obs=None, nav=None, measureme
     baro : pandas.DataFrame
         From `read_baro_csv`.
     obs, nav : gnss_obs.RinexObs, gnss_obs.RinexNav, optional
-        Observations and navigation data for the GNSS heights (default: a simulated run's
-        own; none for a file run without them: then only the bias is checked).
+        Observations and navigation data for the GNSS heights (default: the run's own,
+        simulated or read; without them only the bias is checked).
     measurement : gnss_obs.MeasurementConfig, optional
         The single-point solution's measurement model (default: the run's own, from its
         filter's configuration).
@@ -99,6 +99,8 @@ def check_run_baro(outcome, baro: pd.DataFrame, *, obs=None, nav=None, measureme
     sigma_track = np.interp(t, t_est, est["sigma_up_m"].to_numpy())
     if obs is None and outcome.trip is not None and outcome.trip.gnss is not None:
         obs, nav = outcome.trip.gnss.obs, outcome.trip.nav
+    elif obs is None and outcome.data is not None:
+        obs, nav = outcome.data.obs, outcome.data.nav
     if measurement is None:
         run_config = getattr(result.filter_object, "config", None)
         measurement = getattr(run_config, "measurement", None)

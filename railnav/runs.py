@@ -59,6 +59,8 @@ class RunOutcome:
     trip : SimulatedTrip or None
         The simulation, for simulated runs.
     truth : railnav.truth.Truth or None
+    data : SensorData or None
+        The sensor data read, for runs on files.
     """
 
     result: NavigationResult
@@ -67,6 +69,7 @@ class RunOutcome:
     errors: ErrorSeries | None = None
     trip: SimulatedTrip | None = None
     truth: object = None
+    data: SensorData | None = None
 
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
@@ -168,7 +171,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
                                      filter=filter, systems=systems)
     result = navigate(track, data, config, outages=outages, progress=progress)
     summary = run_summary(result, track, None, window, tuple(outages), {})
-    return RunOutcome(result, track, summary)
+    return RunOutcome(result, track, summary, data=data)
 
 
 def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,

@@ -138,7 +138,7 @@ def handler(args: argparse.Namespace) -> int:
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=args.seed,
                                     systems=systems, window=args.window, progress=progress)
-    baro_check = None if baro is None else _baro_check(args, outcome, baro)
+    baro_check = None if baro is None else _baro_check(outcome, baro)
     write_run(outcome, out, plots=not args.no_plots)
     if baro_check is not None:
         _write_baro(baro_check, out)
@@ -146,16 +146,11 @@ def handler(args: argparse.Namespace) -> int:
     return 0
 
 
-def _baro_check(args: argparse.Namespace, outcome, baro):
+def _baro_check(outcome, baro):
     """Run the baro check (GNSS heights from a single-point solution with the run's
     measurement model) and add its summary to the run's (written with it)."""
     from railnav.baro_run import baro_summary, check_run_baro
-    obs = nav = None
-    if args.obs is not None:
-        from gnss_obs.rinex_nav import read_rinex_nav
-        from gnss_obs.rinex_obs import read_rinex_obs
-        obs, nav = read_rinex_obs(args.obs), read_rinex_nav(args.nav)
-    check = check_run_baro(outcome, baro, obs=obs, nav=nav)
+    check = check_run_baro(outcome, baro)
     outcome.summary["baro"] = baro_summary(check)
     return check
 
