@@ -6,7 +6,7 @@ both alike:
 * ``fault_screen``: `railnav.navigate` on the 2017 paper's simulated trip (1000 s, 100 Hz
   IMU, ~900 GNSS epochs) with ``NavigatorConfig.fault_detection`` on (the default) and off;
   the target is at most +10 % (``ratio_on_over_off``, best of the repeats);
-* ``track_bank``: `railnav.track_bank.navigate_tracks` with the two tracks of the double line
+* ``track_bank``: `railnav.navigation.bank.navigate_tracks` with the two tracks of the double line
   (300 s of the ``curvy`` scenario) against `railnav.navigate` on one of them (the issue
   expects ~N x the single filter for N tracks).
 
@@ -28,11 +28,11 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_navigator  # noqa: E402  (the 2017 trip and its start live there)
 
-from railnav.navigator import make_filter, navigate  # noqa: E402
-from railnav.runs import truth_start  # noqa: E402
-from railnav.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
-from railnav.track_bank import convert_state, navigate_tracks  # noqa: E402
-from railnav.trip import navigator_config_for, simulate_trip  # noqa: E402
+from railnav.navigation.navigator import make_filter, navigate  # noqa: E402
+from railnav.jobs.run import truth_start  # noqa: E402
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
+from railnav.navigation.bank import convert_state, navigate_tracks  # noqa: E402
+from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
 RESULTS = HERE / "results" / "multiple_models.json"

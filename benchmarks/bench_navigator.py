@@ -34,10 +34,10 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_ekf_engine  # noqa: E402  (the NumPy reference loop lives there)
 
-from railnav.initialization import initial_from_truth  # noqa: E402
-from railnav.navigator import make_filter, navigate  # noqa: E402
-from railnav.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
-from railnav.trip import navigator_config_for, simulate_trip  # noqa: E402
+from railnav.navigation.initialization import initial_from_truth  # noqa: E402
+from railnav.navigation.navigator import make_filter, navigate  # noqa: E402
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
+from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
 RESULTS = HERE / "results" / "navigator.json"

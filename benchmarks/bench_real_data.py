@@ -16,7 +16,7 @@ them):
 
 Figures: horizontal RMS / 95 %, vertical RMS, and the horizontal error split along/across
 the track (each position and the reference projected on the track: ``Δs`` and
-``Δcross``). Sensitivity of gnss-only (the design choices of `railnav.gnss_only_filter`):
+``Δcross``). Sensitivity of gnss-only (the design choices of `railnav.filters.gnss_only`):
 white pseudorange errors (τ = 0), σ_a = 0.5 m/s², Huber row weights, and the dual-frequency
 ionosphere-free combination (with the SPP on the same measurements) to show what the
 ionosphere residual costs. Also: the reference's distance to the track (the fit's part).
@@ -44,9 +44,9 @@ from gnss_obs.measurements import MeasurementConfig  # noqa: E402
 from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
-from railnav.nav_config import NavigatorConfig  # noqa: E402
-from railnav.runs import run_files  # noqa: E402
-from railnav.spp_report import (accuracy_summary, read_reference_trajectory,  # noqa: E402
+from railnav.config import NavigatorConfig  # noqa: E402
+from railnav.jobs.run import run_files  # noqa: E402
+from railnav.evaluation.spp_accuracy import (accuracy_summary, read_reference_trajectory,  # noqa: E402
                                 spp_errors)
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
@@ -54,14 +54,14 @@ from trackmodel.io import read_track  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 TRACK = REPO / "data" / "tracks" / "barcelona_drive.csv"
 RESULTS = Path(__file__).resolve().parent / "results" / "real_data.json"
-EPOCH_DECIMALS = 3     # epochs matched on gps_time_s to 1 ms (railnav.spp_report)
+EPOCH_DECIMALS = 3     # epochs matched on gps_time_s to 1 ms (railnav.evaluation.spp_accuracy)
 
 
 def gnss_only(track, obs_path, nav_path, config: NavigatorConfig, **filter_kw):
     """Run the gnss-only filter; its estimates at the epochs, run time, summary."""
     t0 = time.perf_counter()
     if filter_kw:
-        import railnav.gnss_only_filter as gof
+        import railnav.filters.gnss_only as gof
         saved = gof.GnssOnlyFilter.__init__.__kwdefaults__.copy()
         gof.GnssOnlyFilter.__init__.__kwdefaults__.update(filter_kw)
     try:

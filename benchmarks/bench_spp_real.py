@@ -1,7 +1,7 @@
 """railnav SPP against gnss-lib-py's weighted least squares on the shared urban drive.
 
 Data: ``/work/shared/data/gnss_urban_drive`` (rover, 2020-11-29 12:40-12:48 GPST, and its
-post-processed reference trajectory). Every solution is scored by `railnav.spp_report` on
+post-processed reference trajectory). Every solution is scored by `railnav.evaluation.spp_accuracy` on
 the same epochs (those where every method has a fix and the reference has a position):
 horizontal RMS / 95 %, vertical RMS, and the Doppler speed error against central
 differences of the reference.
@@ -51,7 +51,7 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.sp3 import read_sp3
 from gnss_obs.spp import SppConfig, solve_spp
-from railnav.spp_report import accuracy_summary, read_reference_trajectory, spp_errors
+from railnav.evaluation.spp_accuracy import accuracy_summary, read_reference_trajectory, spp_errors
 from trackmodel.earth import ecef_to_geodetic
 from trackmodel.files import atomic_write_text
 

@@ -4,7 +4,7 @@
 a WGS-84 track with a clothoid-arc-clothoid curve and a vertical curve, error-free IMU.
 Timed in one process (first call includes CasADi's one-off block construction):
 
-* ``simulate``           — `railnav.truth.simulate_truth` + `ideal_imu`;
+* ``simulate``           — `railnav.simulation.truth.simulate_truth` + `ideal_imu`;
 * ``full_rk4``           — 9-state model, `strapdown.rk4.integrate`;
 * ``reduced_rk4``        — reduced model, track parameters given per step;
 * ``reduced_on_track``   — reduced model following its own s (`integrate_on_track`).
@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from railnav.profiles import constant_speed
-from railnav.truth import ideal_imu, simulate_truth
+from railnav.simulation.profiles import constant_speed
+from railnav.simulation.truth import ideal_imu, simulate_truth
 from strapdown.mechanization import build_full_model
 from strapdown.reduced import build_reduced_model, track_parameters
 from strapdown.rk4 import integrate

@@ -4,11 +4,11 @@ Measured on this machine, in one invocation:
 
 * ``runs_per_hour``: a study of the 2017 paper's scenario (1000 s at 100 Hz, 1 Hz GNSS,
   two 50-s outages, the paper's IMU, the constrained filter; ``--runs`` replicate seeds)
-  run by `railnav.studies.run_study` with 1 worker (in this process), a local process
+  run by `railnav.studies.study.run_study` with 1 worker (in this process), a local process
   pool of 2 workers, and a Dask `LocalCluster` of 2 worker processes. Wall time includes
   the pool or cluster start-up and writing the parts and ``results.parquet`` (no plots);
   ``scaling_2_over_1`` is the ratio of the 2-worker and 1-worker rates.
-* ``streaming``: `railnav.streaming.stream_simulated` of a 10-hour trip at 100 Hz
+* ``streaming``: `railnav.navigation.streaming.stream_simulated` of a 10-hour trip at 100 Hz
   (3.6 M IMU steps) on a 740-km synthetic line (`long_line`: 18-km straights joined by
   10° curves of 2 km radius with 150-m clothoids, WGS-84), tactical IMU, GPS + Galileo
   (the shipped file has 16 GPS satellites: alone they drop to 1-3 in view late in the
@@ -58,8 +58,8 @@ def long_line():
 
 
 def _study_config(runs: int):
-    from railnav.scenarios import get_scenario
-    from railnav.study_config import StudyConfig
+    from railnav.simulation.scenarios import get_scenario
+    from railnav.studies.config import StudyConfig
     paper = get_scenario("paper2017")
     return StudyConfig(
         name="bench-paper2017", seed=1, replicates=runs, scenario="paper2017",
@@ -71,7 +71,7 @@ def _study_config(runs: int):
 
 
 def _time_study(runs: int, **engine) -> dict:
-    from railnav.studies import run_study
+    from railnav.studies.study import run_study
     config = _study_config(runs)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
@@ -84,7 +84,7 @@ def _time_study(runs: int, **engine) -> dict:
 
 
 def _throughput(runs: int) -> dict:
-    from railnav.study_runs import expand_grid, run_one
+    from railnav.studies.runs import expand_grid, run_one
     run_one(expand_grid(_study_config(1))[0])      # compiled code built and cached
     out = {"one_worker": _time_study(runs, workers=1),
            "pool_two_workers": _time_study(runs, workers=2),
@@ -97,9 +97,9 @@ def _throughput(runs: int) -> dict:
 
 def _stream_child(hours: float, out_dir: str) -> None:
     """In a fresh process: one streamed trip; prints its figures as JSON."""
-    from railnav.scenarios import get_scenario
-    from railnav.streaming import stream_simulated
-    from railnav.trip import navigator_config_for
+    from railnav.simulation.scenarios import get_scenario
+    from railnav.navigation.streaming import stream_simulated
+    from railnav.simulation.trip import navigator_config_for
     scenario = replace(get_scenario("paper2017"), duration_s=hours * HOUR_S,
                        imu_errors="tactical", default_track=None,
                        outages=tuple((600.0 + HOUR_S * h, 120.0) for h in range(int(hours))))

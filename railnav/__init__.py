@@ -32,20 +32,20 @@ import importlib
 
 #: Public name -> the module that owns it.
 _EXPORTS = {
-    "navigate": "navigator", "NavigatorConfig": "nav_config",
-    "NavigationResult": "nav_result",
-    "run_simulated": "runs", "run_files": "runs", "write_run": "runs", "RunOutcome": "runs",
-    "simulate_trip": "trip", "navigator_config_for": "trip",
-    "get_scenario": "scenarios", "Scenario": "scenarios",
-    "run_experiment": "reproduce", "reproduce_paper2017": "paper2017",
-    "reproduce_anomaly2021": "anomaly2021",
-    "run_study": "studies", "load_study_config": "study_file", "StudyConfig": "study_config",
-    "stream_simulated": "streaming",
-    "run_simulated_tracks": "track_runs", "run_files_tracks": "track_runs",
-    "TrackBankConfig": "track_bank", "FaultDetectionConfig": "fault_detection",
-    "spp_errors": "spp_report", "accuracy_summary": "spp_report",
-    "read_baro_csv": "baro_run", "check_run_baro": "baro_run",
-    "baro_track_check": "baro",
+    "navigate": "navigation.navigator", "NavigatorConfig": "config",
+    "NavigationResult": "navigation.result",
+    "run_simulated": "jobs.run", "run_files": "jobs.run", "write_run": "jobs.run", "RunOutcome": "jobs.run",
+    "simulate_trip": "simulation.trip", "navigator_config_for": "simulation.trip",
+    "get_scenario": "simulation.scenarios", "Scenario": "simulation.scenarios",
+    "run_experiment": "reproduce.common", "reproduce_paper2017": "reproduce.paper2017",
+    "reproduce_anomaly2021": "reproduce.anomaly2021",
+    "run_study": "studies.study", "load_study_config": "studies.file", "StudyConfig": "studies.config",
+    "stream_simulated": "navigation.streaming",
+    "run_simulated_tracks": "jobs.tracks", "run_files_tracks": "jobs.tracks",
+    "TrackBankConfig": "navigation.bank", "FaultDetectionConfig": "filters.fault_detection",
+    "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
+    "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
+    "baro_track_check": "evaluation.baro",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -1,9 +1,9 @@
 """``railnav reproduce EXPERIMENT [--runs N] [--seed N] [--out DIR]``.
 
-Thin layer over `railnav.reproduce.run_experiment` (STYLE.md §2.11): runs a source
+Thin layer over `railnav.reproduce.common.run_experiment` (STYLE.md §2.11): runs a source
 paper's experiment as a seeded Monte Carlo, prints our figures (median and 95th
 percentile over the runs) next to the paper's, and writes ``DIR/<EXPERIMENT>.json``
-atomically (`railnav.reproduce.write_result_json`).
+atomically (`railnav.reproduce.common.write_result_json`).
 """
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import logging
 from pathlib import Path
 
 from railnav.commands.support import nonnegative_int, positive_int, progress_bar
-from railnav.reproduce import EXPERIMENTS, run_experiment, write_result_json
+from railnav.reproduce.common import EXPERIMENTS, run_experiment, write_result_json
 
 __all__ = ["register", "handler", "DEFAULT_SEED"]
 

@@ -1,10 +1,10 @@
 """``railnav run TRACK [...]``: filter a trip on a track (simulated, or from sensor files).
 
-Thin layer over `railnav.runs.run_simulated` / `railnav.runs.run_files` and
-`railnav.runs.write_run` (STYLE.md §2.11). With several tracks (candidates: the tracks of
-a double line, the routes after a switch) over `railnav.track_runs.run_simulated_tracks` /
+Thin layer over `railnav.jobs.run.run_simulated` / `railnav.jobs.run.run_files` and
+`railnav.jobs.run.write_run` (STYLE.md §2.11). With several tracks (candidates: the tracks of
+a double line, the routes after a switch) over `railnav.jobs.tracks.run_simulated_tracks` /
 `run_files_tracks` and `write_track_run`: one constrained filter per track and their
-probabilities (`railnav.track_bank`).
+probabilities (`railnav.navigation.bank`).
 """
 from __future__ import annotations
 
@@ -16,9 +16,9 @@ from pathlib import Path
 from railnav.commands.support import (nonnegative_float, outage_window, positive_float,
                                       positive_int, progress_bar)
 from railnav.errors import ConfigError
-from railnav.nav_config import FILTER_KINDS
-from railnav.scenarios import SCENARIOS, get_scenario
-from railnav.track_bank import DEFAULT_CROSSING_RATE_PER_S
+from railnav.config import FILTER_KINDS
+from railnav.simulation.scenarios import SCENARIOS, get_scenario
+from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.io import read_track
 
@@ -102,7 +102,7 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
-    from railnav.runs import run_files, run_simulated, write_run
+    from railnav.jobs.run import run_files, run_simulated, write_run
     if args.true_track > len(args.tracks):
         raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
                           "given")
@@ -120,7 +120,7 @@ def handler(args: argparse.Namespace) -> int:
         return _several_tracks(args, out)
     baro = None
     if args.baro is not None:
-        from railnav.baro_run import read_baro_csv
+        from railnav.jobs.baro import read_baro_csv
         baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
     files = args.imu is not None or args.obs is not None
@@ -133,7 +133,7 @@ def handler(args: argparse.Namespace) -> int:
                                 progress=progress)
         else:
             scenario = _scenario(args)
-            from railnav.trip import navigator_config_for
+            from railnav.simulation.trip import navigator_config_for
             systems = args.systems or "G"
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=args.seed,
@@ -149,7 +149,7 @@ def handler(args: argparse.Namespace) -> int:
 def _baro_check(outcome, baro):
     """Run the baro check (GNSS heights from a single-point solution with the run's
     measurement model) and add its summary to the run's (written with it)."""
-    from railnav.baro_run import baro_summary, check_run_baro
+    from railnav.jobs.baro import baro_summary, check_run_baro
     check = check_run_baro(outcome, baro)
     outcome.summary["baro"] = baro_summary(check)
     return check
@@ -163,8 +163,8 @@ def _write_baro(check, out: Path) -> None:
 
 def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     """``railnav run A.csv B.csv ...``: identify the track among candidates."""
-    from railnav.track_bank import TrackBankConfig
-    from railnav.track_runs import (run_files_tracks, run_simulated_tracks, track_names,
+    from railnav.navigation.bank import TrackBankConfig
+    from railnav.jobs.tracks import (run_files_tracks, run_simulated_tracks, track_names,
                                     write_track_run)
     if args.filter != "constrained":
         raise ConfigError(f"several tracks run the constrained filter, not --filter "
@@ -179,7 +179,7 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
                                    systems=args.systems, outages=tuple(args.outage or ()),
                                    bank=bank, window=args.window, progress=progress)
         else:
-            from railnav.trip import navigator_config_for
+            from railnav.simulation.trip import navigator_config_for
             scenario = _scenario(args)
             systems = args.systems or "G"
             run = run_simulated_tracks(tracks, names, scenario, true_track=args.true_track - 1,

@@ -1,6 +1,6 @@
 """``railnav simulate TRACK --scenario NAME ...``: truth.csv, imu.csv and scenario.json.
 
-Thin layer over `railnav.scenarios.simulate_scenario` (STYLE.md §2.11).
+Thin layer over `railnav.simulation.scenarios.simulate_scenario` (STYLE.md §2.11).
 """
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ from pathlib import Path
 
 from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
-from railnav.scenarios import SCENARIOS, get_scenario, scenario_to_dict
-from railnav.trip import DEFAULT_SYSTEMS, simulate_trip
+from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
+from railnav.simulation.trip import DEFAULT_SYSTEMS, simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.io import read_track

@@ -3,7 +3,7 @@
 Thin layer over `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the RINEX files, builds
 an `SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
 ``DIR/spp.png``, prints a summary and, with ``--ref``, the accuracy against the reference
-(`railnav.spp_report`).
+(`railnav.evaluation.spp_accuracy`).
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.commands.support import progress_bar
 from railnav.errors import ConfigError
-from railnav.spp_report import accuracy_summary, plot_spp, read_reference_trajectory, spp_errors
+from railnav.evaluation.spp_accuracy import accuracy_summary, plot_spp, read_reference_trajectory, spp_errors
 from trackmodel.files import atomic_write_csv
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]

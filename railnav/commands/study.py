@@ -1,6 +1,6 @@
 """``railnav study CONFIG.toml --out DIR``: a Monte Carlo study into one results table.
 
-Thin layer over `railnav.study_file.load_study_config` and `railnav.studies.run_study`
+Thin layer over `railnav.studies.file.load_study_config` and `railnav.studies.study.run_study`
 (STYLE.md §2.11).
 """
 from __future__ import annotations
@@ -39,8 +39,8 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav study``; returns the exit status."""
-    from railnav.studies import run_study
-    from railnav.study_file import load_study_config
+    from railnav.studies.study import run_study
+    from railnav.studies.file import load_study_config
     config = load_study_config(args.config)
     with progress_bar("runs", enabled=not args.quiet) as progress:
         result = run_study(config, args.out, scheduler=args.scheduler, workers=args.workers,

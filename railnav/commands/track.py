@@ -25,7 +25,7 @@ __all__ = ["register"]
 
 def read_survey(path) -> Polyline:
     """A surveyed path: a polyline CSV (`trackmodel.polyline.read_polyline`), or a reference
-    trajectory in GPS week / seconds-of-week layout (`railnav.spp_report`), in time order.
+    trajectory in GPS week / seconds-of-week layout (`railnav.evaluation.spp_accuracy`), in time order.
 
     Raises
     ------
@@ -38,7 +38,7 @@ def read_survey(path) -> Polyline:
         if polyline_error.column is None:
             raise
         from railnav.errors import ConfigError
-        from railnav.spp_report import read_reference_trajectory
+        from railnav.evaluation.spp_accuracy import read_reference_trajectory
         try:
             ref = read_reference_trajectory(path)
         except (ConfigError, ValueError):

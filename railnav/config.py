@@ -1,0 +1,186 @@
+"""Configuration of the navigator and the sensor data it consumes.
+
+`NavigatorConfig` says which filter runs and what it assumes (IMU grade, clock, GNSS
+measurement model, gating, output rate, initial uncertainty); `SensorData` carries the
+recorded or simulated measurements with the one time reference that links them
+(`start_gps_time_s`: the GPS time of ``time_s = 0``).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from gnss_obs.errors import GnssError
+from gnss_obs.measurements import MeasurementConfig
+from gnss_obs.oscillator import oscillator_from_name
+from gnss_obs.rinex_nav import RinexNav
+from gnss_obs.rinex_obs import RinexObs
+from railnav.errors import ConfigError
+from railnav.filters.fault_detection import FaultDetectionConfig
+from strapdown.errors import StrapdownError
+from strapdown.imu import Imu
+from strapdown.imu_errors import ImuErrors, imu_grade
+
+__all__ = ["NavigatorConfig", "SensorData", "FILTER_KINDS", "Outage"]
+
+#: The filters `railnav.navigate` can run.
+FILTER_KINDS = ("constrained", "unconstrained", "gnss-only")
+
+#: A GNSS outage: (start, duration), seconds from ``time_s = 0``.
+Outage = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class NavigatorConfig:
+    """What the navigator runs and assumes.
+
+    Parameters
+    ----------
+    filter : {"constrained", "unconstrained", "gnss-only"}
+        The track-constrained INS/GNSS filter, the unconstrained 9-state INS/GNSS
+        baseline, or the track-constrained GNSS-only filter (no IMU).
+    imu_errors : str or ImuErrors
+        IMU grade the filter assumes (`strapdown.imu_errors.IMU_GRADES`).
+    estimate_imu_biases : bool or None
+        Augment the state with accelerometer and gyro biases; None: when the IMU grade
+        has biases (anything but ``perfect`` and ``paper2017``).
+    oscillator : str
+        Receiver clock model (`gnss_obs.oscillator.OSCILLATORS`).
+    measurement : gnss_obs.MeasurementConfig
+        GNSS systems, corrections and measurement σ model.
+    elevation_mask_deg : float
+        Satellites lower than this are not used, deg.
+    use_doppler : bool
+        Update with range rates (Doppler) as well as pseudoranges.
+    gate_probability : float or None
+        Per-row χ² gate of the GNSS updates (probability of accepting a correct row);
+        None: no gate.
+    output_rate_hz : float
+        Rate of the stored estimates, Hz (the filter itself runs at the IMU rate).
+    initial_attitude_sigma_rad : float
+        1σ of the initial attitude about the track's, rad.
+    initial_s_sigma_m, initial_v_sigma_mps : float or None
+        1σ of the initial distance (m) and speed (m/s); None: from the first GNSS fix.
+    initial_clock_bias_sigma_m, initial_clock_drift_sigma_mps : float
+        1σ of the initial receiver clock, m and m/s.
+    initial_isb_sigma_m : float
+        1σ of the initial inter-system biases, m.
+    along_accel_sigma_mps2 : float
+        GNSS-only filter: along-track acceleration taken as white noise, 1σ per √s
+        (spectral density ``σ²``, (m/s²)²·s). Default 1 m/s²: of the order of the largest
+        service accelerations and braking of trams and urban trains (~1–1.3 m/s²), the
+        white-noise-acceleration rule ``√(q T) ≈ a_max`` at T = 1 s (Bar-Shalom et al.,
+        *Estimation with Applications to Tracking and Navigation*, §6.2.2).
+    pseudorange_correlation_s : float
+        GNSS-only filter: correlation time of the pseudorange errors (code multipath,
+        residual atmosphere), s. Treated as white, errors correlated from epoch to epoch
+        make the filter average them as if independent; the pseudorange variances are
+        inflated by ``(1 + ρ)/(1 − ρ)``, ``ρ = exp(−Δt/τ)`` (Δt the epoch interval): the
+        variance of the mean of a long first-order Gauss–Markov sequence relative to
+        white samples. 0: white (simulated data). Default 20 s: urban code multipath at
+        tram speeds (railnav.filters.gnss_only).
+    fault_detection : railnav.filters.fault_detection.FaultDetectionConfig or None
+        Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
+        prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
+        clock jumps; `railnav.filters.fault_detection`); None: every row goes to the update (and
+        its χ² gate).
+    """
+
+    filter: str = "constrained"
+    imu_errors: str | ImuErrors = "tactical"
+    estimate_imu_biases: bool | None = None
+    oscillator: str = "tcxo"
+    measurement: MeasurementConfig = field(default_factory=lambda: MeasurementConfig(systems="G"))
+    elevation_mask_deg: float = 10.0
+    use_doppler: bool = True
+    gate_probability: float | None = 0.9999
+    output_rate_hz: float = 10.0
+    initial_attitude_sigma_rad: float = 1e-3
+    initial_s_sigma_m: float | None = None
+    initial_v_sigma_mps: float | None = None
+    initial_clock_bias_sigma_m: float = 30.0
+    initial_clock_drift_sigma_mps: float = 1.0
+    initial_isb_sigma_m: float = 30.0
+    along_accel_sigma_mps2: float = 1.0
+    pseudorange_correlation_s: float = 20.0
+    fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
+
+    def __post_init__(self) -> None:
+        if self.filter not in FILTER_KINDS:
+            raise ConfigError(f"filter must be one of {', '.join(FILTER_KINDS)}, "
+                              f"got {self.filter!r}")
+        try:
+            imu_grade(self.imu_errors)
+            oscillator_from_name(self.oscillator)
+        except (StrapdownError, GnssError) as exc:
+            raise ConfigError(str(exc)) from None
+        if not (-90.0 <= self.elevation_mask_deg < 90.0):
+            raise ConfigError(f"elevation_mask_deg must be in [-90, 90), got "
+                              f"{self.elevation_mask_deg!r}")
+        if self.gate_probability is not None and not 0.0 < self.gate_probability < 1.0:
+            raise ConfigError(f"gate_probability must be in (0, 1) or None, got "
+                              f"{self.gate_probability!r}")
+        positive = ["output_rate_hz", "initial_attitude_sigma_rad", "initial_clock_bias_sigma_m",
+                    "initial_clock_drift_sigma_mps", "initial_isb_sigma_m",
+                    "along_accel_sigma_mps2"]
+        positive += [n for n in ("initial_s_sigma_m", "initial_v_sigma_mps")
+                     if getattr(self, n) is not None]
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ConfigError(f"{name} must be a finite number > 0, got {value!r}")
+        if not (self.fault_detection is None
+                or isinstance(self.fault_detection, FaultDetectionConfig)):
+            raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
+                              f"{self.fault_detection!r}")
+        tau = self.pseudorange_correlation_s
+        if not (isinstance(tau, (int, float)) and math.isfinite(tau) and tau >= 0):
+            raise ConfigError(f"pseudorange_correlation_s must be a finite number >= 0, "
+                              f"got {tau!r}")
+
+    @property
+    def imu(self) -> ImuErrors:
+        """The IMU error parameters the filter assumes."""
+        return imu_grade(self.imu_errors)
+
+    @property
+    def biases_estimated(self) -> bool:
+        """Whether the state carries IMU biases."""
+        if self.estimate_imu_biases is not None:
+            return bool(self.estimate_imu_biases)
+        imu = self.imu
+        return any(getattr(imu, name) > 0 for name in (
+            "accel_bias_mps2", "gyro_bias_radps", "accel_bias_instability_mps2",
+            "gyro_bias_instability_radps"))
+
+
+@dataclass(frozen=True, eq=False)
+class SensorData:
+    """Measurements for one trip.
+
+    Parameters
+    ----------
+    start_gps_time_s : float
+        GPS time of ``time_s = 0``, s since 1980-01-06.
+    imu : strapdown.Imu or None
+        IMU samples (``time_s`` from the trip start); None for the GNSS-only filter.
+    obs : gnss_obs.RinexObs or None
+        GNSS observations; None for pure dead reckoning on the track.
+    nav : gnss_obs.RinexNav or None
+        Broadcast navigation data (required with `obs`).
+    """
+
+    start_gps_time_s: float
+    imu: Imu | None = None
+    obs: RinexObs | None = None
+    nav: RinexNav | None = None
+
+    def __post_init__(self) -> None:
+        if not np.isfinite(self.start_gps_time_s):
+            raise ConfigError(f"start_gps_time_s must be finite, got {self.start_gps_time_s!r}")
+        if (self.obs is None) != (self.nav is None):
+            raise ConfigError("GNSS observations and navigation data go together")
+        if self.imu is None and self.obs is None:
+            raise ConfigError("no sensor data: give an IMU, GNSS observations, or both")

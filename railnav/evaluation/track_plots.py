@@ -1,0 +1,52 @@
+"""Plots of parallel-track identification: the track probabilities over time.
+
+Same conventions as `railnav.evaluation.plots` (a `matplotlib.figure.Figure`, outages shaded).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from railnav.evaluation.plots import _save, _shade
+
+__all__ = ["track_probabilities_figure", "plot_track_probabilities"]
+
+#: Floor of the "1 − p" axis (probabilities within this of 1 are drawn at it).
+MIN_MISS = 1e-6
+
+
+def track_probabilities_figure(bank, *, outages=()) -> Figure:
+    """Each candidate's probability (top) and its distance to 1 on a log axis (bottom).
+
+    Parameters
+    ----------
+    bank : railnav.navigation.bank_result.TrackBankResult
+    outages : sequence of (start_s, duration_s)
+        Shaded.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = Figure(figsize=(9, 5.5), layout="constrained")
+    top, bottom = fig.subplots(2, 1, sharex=True)
+    for j, name in enumerate(bank.names):
+        p = bank.probabilities[:, j]
+        top.plot(bank.time_s, p, lw=1.2, label=name)
+        bottom.semilogy(bank.time_s, np.maximum(1.0 - p, MIN_MISS), lw=1.0, label=name)
+    for ax in (top, bottom):
+        _shade(ax, outages)
+        ax.grid(True, alpha=0.3)
+    top.set_ylabel("probability")
+    top.set_ylim(-0.02, 1.02)
+    top.legend(loc="center right")
+    bottom.set_ylabel("1 − probability")
+    bottom.set_xlabel("time from the trip start, s")
+    return fig
+
+
+def plot_track_probabilities(bank, path: str | os.PathLike, *, outages=()) -> None:
+    """`track_probabilities_figure` written to a PNG file."""
+    _save(track_probabilities_figure(bank, outages=outages), path)

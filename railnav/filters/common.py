@@ -1,0 +1,326 @@
+"""Pieces shared by the filter objects (most by those whose position is the distance ``s``).
+
+* `EpochRowBuilder`: an epoch's pseudorange/range-rate `ekf.Observation` s at a receiver
+  guess, and the per-row record (satellite, kind) for ``innovations.csv``; its subclass
+  `GnssRowBuilder` builds them at the prior's point on the track (the unconstrained
+  filter's, `railnav.filters.geodetic_rows.GeodeticRowBuilder`, at its geodetic position);
+* `track_estimates`: the estimate columns of ``estimates.csv`` from states on the track,
+  `common_columns` those of the states every filter writes as they are (attitude, clock,
+  biases);
+* `states_from_values` (true states for NEES) and `clock_from_fix` (clock states at a
+  first GNSS fix), for every filter;
+* `start_on_track`: a first GNSS fix projected on the track (``s``, ``v``, clock, their σ).
+"""
+from __future__ import annotations
+
+from dataclasses import fields
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.layout import StateLayout
+from ekf.update import Observation
+from railnav.filters.gnss_rows import (GnssRows, build_gnss_rows, pseudorange_parameters,
+                               range_rate_parameters, track_rows)
+from trackmodel.earth import C_n_e, ecef_to_geodetic
+
+__all__ = ["EpochRowBuilder", "GnssRowBuilder", "track_estimates", "ROW_KINDS",
+           "state_columns", "scalar_point", "REFERENCE_REUSE_M", "common_columns",
+           "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M",
+           "MIN_FIX_SIGMA_V_MPS"]
+
+Array = npt.NDArray[np.float64]
+
+#: A reference track point this close to the prior's ``s`` (m) is used as it is: the rows'
+#: third-order expansion (`railnav.filters.gnss_rows`) errs by ~δ⁴|d²κ/ds²|/24 (zero on straights,
+#: arcs and clothoids; the neglected frame terms are ~1e-10 m⁻²·δ³).
+REFERENCE_REUSE_M = 1.0
+#: Kinds of GNSS rows, as written in ``innovations.csv``.
+ROW_KINDS = ("pseudorange", "range_rate")
+#: Floors of the initial σ taken from a GNSS fix (a fix's own σ can be optimistic), m, m/s.
+MIN_FIX_SIGMA_S_M = 1.0
+MIN_FIX_SIGMA_V_MPS = 0.05
+
+
+class EpochRowBuilder:
+    """Builds the GNSS rows of an epoch at a receiver guess and remembers what each row was.
+
+    Parameters
+    ----------
+    rows : railnav.filters.gnss_rows.GnssRows
+        The row models (their receiver part comes from the subclass).
+    gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+    config : railnav.NavigatorConfig
+
+    Attributes
+    ----------
+    rows_sv, rows_kind : list of ndarray
+        Per processed epoch, the satellite and kind of each row (in update order).
+    """
+
+    def __init__(self, rows: GnssRows, gnss, config) -> None:
+        self.rows, self.gnss, self.config = rows, gnss, config
+        self.isb_systems = tuple(name.removeprefix("isb_") for name in rows.isb_names)
+        self.rows_sv: list[np.ndarray] = []
+        self.rows_kind: list[np.ndarray] = []
+
+    def rows_at(self, index: int, r_guess_e: Array, part: Array) -> list[Observation]:
+        """The rows of GNSS epoch `index`, satellites prepared at `r_guess_e`.
+
+        Parameters
+        ----------
+        index : int
+        r_guess_e : ndarray, shape (3,)
+            Receiver position guess, ECEF, m (transmission times, elevations, delays).
+        part : ndarray, shape (k,)
+            The receiver part of every row (`railnav.filters.gnss_rows.pseudorange_parameters`).
+        """
+        prepared = self.gnss.prepare(index, r_guess_e)
+        obs, sv, kind = [], [], []
+        if len(prepared):
+            obs.append(Observation(self.rows.pseudorange, prepared.pseudorange_m[:, None],
+                                   prepared.sigma_pr_m ** 2,
+                                   pseudorange_parameters(part, prepared, self.isb_systems)))
+            sv.append(prepared.sv)
+            kind.append(np.full(len(prepared), ROW_KINDS[0], dtype=object))
+        if self.config.use_doppler and len(prepared):
+            dop = prepared.subset(np.isfinite(prepared.range_rate_mps))
+            if len(dop):
+                obs.append(Observation(self.rows.range_rate, dop.range_rate_mps[:, None],
+                                       dop.sigma_rr_mps ** 2, range_rate_parameters(part, dop)))
+                sv.append(dop.sv)
+                kind.append(np.full(len(dop), ROW_KINDS[1], dtype=object))
+        self.rows_sv.append(np.concatenate(sv) if sv else np.zeros(0, dtype=object))
+        self.rows_kind.append(np.concatenate(kind) if kind else np.zeros(0, dtype=object))
+        return obs
+
+
+class GnssRowBuilder(EpochRowBuilder):
+    """The GNSS rows of the filters whose position is ``s`` on a track.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    layout : ekf.StateLayout
+        With states ``s, v, clock_bias, clock_drift`` (+ `isb_names`).
+    gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+    config : railnav.NavigatorConfig
+    isb_names : tuple of str
+        Inter-system bias states, in the order of ``gnss.config.systems[1:]``.
+    """
+
+    def __init__(self, track, layout: StateLayout, gnss, config, isb_names: tuple[str, ...]):
+        super().__init__(build_gnss_rows(layout, isb_names), gnss, config)
+        self.track, self.layout = track, layout
+        self.i_s = layout.index("s")
+
+    def observations(self, index: int, x: Array, reference=None) -> list[Observation]:
+        """The rows of GNSS epoch `index` at the prior state ``x``.
+
+        Parameters
+        ----------
+        index : int
+        x : ndarray, shape (n,)
+        reference : trackmodel.TrackPoint, optional
+            A scalar track point near the prior's ``s`` to linearize at (the rows are exact
+            to second order in ``s − s_ref``); queried at ``s`` when absent or farther than
+            `REFERENCE_REUSE_M`.
+        """
+        s = min(max(float(x[self.i_s]), 0.0), self.track.length_m)
+        point = reference
+        if point is None or abs(float(point.s) - s) > REFERENCE_REUSE_M:
+            point = self.track.at(s)
+        return self.rows_at(index, point.r_e, track_rows(point, earth=self.track.earth))
+
+
+def scalar_point(points, i: int):
+    """Element `i` of a `trackmodel.TrackPoint` of arrays, as a scalar point."""
+    return type(points)(**{f.name: getattr(points, f.name)[i] for f in fields(points)})
+
+
+def state_columns(layout: StateLayout, x: Array, var: Array, names: dict[str, str]
+                  ) -> dict[str, Array]:
+    """Columns ``<column>`` and ``sigma_<column>`` for the states named in `names`.
+
+    Parameters
+    ----------
+    layout : ekf.StateLayout
+    x, var : ndarray, shape (K, n)
+        States and their variances.
+    names : dict of str to str
+        State name -> column name (with its unit); states absent from the layout skip.
+    """
+    out: dict[str, Array] = {}
+    for state, column in names.items():
+        if state in layout.names:
+            i = layout.index(state)
+            out[column] = x[:, i]
+            out["sigma_" + column] = np.sqrt(var[:, i])
+    return out
+
+
+#: Non-attitude states written as they are (column names carry the units).
+_PLAIN_STATES = {"clock_bias": "clock_bias_m", "clock_drift": "clock_drift_mps",
+                 "b_ax": "accel_bias_x_mps2", "b_ay": "accel_bias_y_mps2",
+                 "b_az": "accel_bias_z_mps2", "b_gx": "gyro_bias_x_radps",
+                 "b_gy": "gyro_bias_y_radps", "b_gz": "gyro_bias_z_radps"}
+
+
+def track_estimates(track, layout: StateLayout, x: Array, var: Array) -> dict[str, Array]:
+    """Estimate columns of filters whose position is ``s`` on `track`.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    layout : ekf.StateLayout
+    x, var : ndarray, shape (K, n)
+        Stored states and the diagonal of their covariance.
+
+    Returns
+    -------
+    dict of str to ndarray (K,)
+        ``s_m, lat_deg, lon_deg, h_m, speed_mps, v_east_mps, v_north_mps, v_up_mps``, the
+        attitude in degrees when estimated, clock, biases and inter-system biases, and the
+        ``sigma_*`` of each (``sigma_east_m`` etc. are ``σ_s`` projected on the tangent).
+    """
+    s = np.clip(x[:, layout.index("s")], 0.0, track.length_m)
+    v = x[:, layout.index("v")]
+    point = track.at(s)
+    sig_s = np.sqrt(var[:, layout.index("s")])
+    sig_v = np.sqrt(var[:, layout.index("v")])
+    u = point.u_n
+    cols = {"s_m": s, "lat_deg": np.degrees(point.lat), "lon_deg": np.degrees(point.lon),
+            "h_m": point.h, "speed_mps": v, "v_east_mps": v * u[:, 0],
+            "v_north_mps": v * u[:, 1], "v_up_mps": v * u[:, 2]}
+    common, common_sigma = common_columns(layout, x, var)
+    cols.update(common)
+    cols.update({"sigma_s_m": sig_s, "sigma_east_m": sig_s * np.abs(u[:, 0]),
+                 "sigma_north_m": sig_s * np.abs(u[:, 1]), "sigma_up_m": sig_s * np.abs(u[:, 2]),
+                 "sigma_speed_mps": sig_v})
+    cols.update(common_sigma)
+    return cols
+
+
+def common_columns(layout: StateLayout, x: Array, var: Array
+                   ) -> tuple[dict[str, Array], dict[str, Array]]:
+    """Columns of the states written as they are, whatever the filter's position states.
+
+    Parameters
+    ----------
+    layout : ekf.StateLayout
+    x, var : ndarray, shape (K, n)
+        Stored states and the diagonal of their covariance.
+
+    Returns
+    -------
+    values, sigmas : dict of str to ndarray (K,)
+        The attitude in degrees (yaw in [0, 360)), clock, IMU biases and inter-system
+        biases of the layout, and their ``sigma_*`` (written after the values).
+    """
+    cols: dict[str, Array] = {}
+    sig: dict[str, Array] = {}
+    for name in ("yaw", "pitch", "roll"):
+        if name in layout.names:
+            i = layout.index(name)
+            angle = x[:, i] % (2 * np.pi) if name == "yaw" else x[:, i]
+            cols[f"{name}_deg"] = np.degrees(angle)
+            sig[f"sigma_{name}_deg"] = np.degrees(np.sqrt(var[:, i]))
+    for key, value in state_columns(layout, x, var, _PLAIN_STATES).items():
+        (sig if key.startswith("sigma_") else cols)[key] = value
+    for name in layout.names:
+        if name.startswith("isb_"):
+            cols[f"{name}_m"] = x[:, layout.index(name)]
+            sig[f"sigma_{name}_m"] = np.sqrt(var[:, layout.index(name)])
+    return cols, sig
+
+
+def states_from_values(layout: StateLayout, values: dict, k: int
+                       ) -> tuple[Array, npt.NDArray[np.bool_]]:
+    """True states from named values (a filter's ``truth_states``).
+
+    Parameters
+    ----------
+    layout : ekf.StateLayout
+    values : dict of str to ndarray (k,) or float
+        The known states by name.
+    k : int
+        Number of samples.
+
+    Returns
+    -------
+    x_true : ndarray, shape (k, n)
+        Unknown components (IMU biases) are 0.
+    known : ndarray of bool, shape (n,)
+        The named states, and the inter-system biases (the simulator has one receiver
+        clock for every system: they are 0).
+    """
+    x = np.zeros((k, layout.size))
+    known = np.zeros(layout.size, dtype=bool)
+    for i, name in enumerate(layout.names):
+        if name in values:
+            x[:, i], known[i] = values[name], True
+        elif name.startswith("isb_"):
+            known[i] = True
+    return x, known
+
+
+def clock_from_fix(config, fix, isb_names: tuple[str, ...]) -> dict[str, float]:
+    """Receiver clock states at a GNSS fix: the clock of the first system, and each
+    inter-system bias as the difference to it (0 when the fix has none).
+
+    Parameters
+    ----------
+    config : railnav.NavigatorConfig
+    fix : railnav.navigation.initialization.GnssFix
+    isb_names : tuple of str
+        Inter-system bias states (``isb_<system>``).
+
+    Returns
+    -------
+    dict of str to float
+        ``clock_bias`` (m), ``clock_drift`` (m/s) and the `isb_names` (m).
+    """
+    bias = fix.clock_bias_m.get(config.measurement.systems[0], 0.0)
+    values = {"clock_bias": bias, "clock_drift": fix.clock_drift_mps}
+    for name in isb_names:
+        other = fix.clock_bias_m.get(name.removeprefix("isb_"), np.nan)
+        values[name] = other - bias if np.isfinite(other) else 0.0
+    return values
+
+
+def start_on_track(track, config, fix, isb_names: tuple[str, ...]) -> tuple[dict, float, float]:
+    """A GNSS fix projected on the track: state values and the σ of ``s`` and ``v``.
+
+    The fix is projected on the track (``s``); the speed is the fix velocity along the
+    tangent (signed: negative towards the track start); the clock is the fix's clock of the
+    first system and each inter-system bias the difference to it (0 when the fix has none).
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    config : railnav.NavigatorConfig
+        Its ``initial_s_sigma_m`` / ``initial_v_sigma_mps`` override the fix's σ.
+    fix : railnav.navigation.initialization.GnssFix
+    isb_names : tuple of str
+        Inter-system bias states (``isb_<system>``).
+
+    Returns
+    -------
+    values : dict of str to float
+        ``s, v, clock_bias, clock_drift`` and the `isb_names`; plus ``point``, the
+        `trackmodel.TrackPoint` at ``s``.
+    sigma_s_m, sigma_v_mps : float
+        Floored at `MIN_FIX_SIGMA_S_M` / `MIN_FIX_SIGMA_V_MPS`.
+    """
+    lat, lon, h = ecef_to_geodetic(fix.r_e, earth=track.earth)
+    s0 = float(track.project(lat, lon, h).s[0])
+    point = track.at(s0)
+    t_n = np.asarray(point.u_n, dtype=float)
+    t_e = C_n_e(point.lat, point.lon) @ t_n
+    sigma_s = config.initial_s_sigma_m or max(
+        float(np.sqrt(t_n @ fix.cov_enu_m2 @ t_n)), MIN_FIX_SIGMA_S_M)
+    sigma_v = config.initial_v_sigma_mps or max(
+        float(np.sqrt(t_n @ fix.cov_v_enu_m2ps2 @ t_n)), MIN_FIX_SIGMA_V_MPS)
+    values = {"point": point, "s": s0, "v": float(t_e @ fix.v_e),
+              **clock_from_fix(config, fix, isb_names)}
+    return values, sigma_s, sigma_v

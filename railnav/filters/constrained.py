@@ -1,0 +1,184 @@
+"""The track-constrained, tightly coupled INS/GNSS filter (the 2017 paper's, corrected).
+
+`ConstrainedFilter` is what `railnav.navigate` drives for ``filter="constrained"``: it
+holds the process model (`railnav.filters.constrained_model`), turns IMU samples into filter
+inputs with the track linearized along the predicted path (the per-step parameters of
+`strapdown.reduced`), and turns a GNSS epoch into pseudorange and range-rate rows
+(`railnav.filters.gnss_rows`) at the prior's position on the track, screened at the prior for
+faulty satellites and receiver clock jumps (`railnav.filters.fault_detection`,
+``config.fault_detection``).
+
+Reference path of a chunk: from the filter's state at the chunk start, the along-track
+distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
+(cm-accurate over a second); the track quantities are taken at the nearest node of a 0.5-m
+grid (`railnav.filters.track_grid`) and the model corrects them to first/second order in
+``s − s_ref`` (`strapdown.reduced`), so the Jacobians with respect to ``s`` are the track's.
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.packing import unpack_sym
+from ekf.series import EpochRows
+from ekf.update import Observation
+from railnav.filters.constrained_model import build_constrained_model, isb_state_name
+from railnav.filters.fault_detection import RowScreen
+from railnav.filters.geometry_noise import statistical_parameters
+from railnav.filters.common import (GnssRowBuilder, start_on_track,
+                                   states_from_values, track_estimates)
+from railnav.filters.ins_clock_model import initial_variances, model_for_config
+from railnav.config import NavigatorConfig
+from railnav.filters.track_grid import TrackParameterGrid
+from strapdown.gravity import g_n
+from trackmodel.track import Track
+
+__all__ = ["ConstrainedFilter"]
+
+Array = npt.NDArray[np.float64]
+
+#: Gravity for the along-track prediction is looked up once per this much track, m (it
+#: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
+_GRAVITY_CACHE_M = 1000.0
+
+
+class ConstrainedFilter:
+    """Model, inputs and GNSS rows of the constrained filter for one track.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    config : NavigatorConfig
+    gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+    """
+
+    needs_imu = True
+
+    def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
+        self.track, self.config = track, config
+        self.model, self.q_c = model_for_config(build_constrained_model, track.earth, config)
+        self.layout, self.process = self.model.layout, self.model.process
+        self.isb_systems = self.model.isb_systems
+        self.rows = GnssRowBuilder(track, self.layout, gnss, config,
+                                   tuple(isb_state_name(s) for s in self.isb_systems))
+        self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
+        self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
+        self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
+        self._gravity: dict[int, float] = {}
+        self._chunk_end = None   # the track at the last sample of the latest chunk
+        self._grid = TrackParameterGrid(track)
+
+    # -- inputs ----------------------------------------------------------------------------
+    def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+               t_prev: float) -> tuple[Array, Array, Array]:
+        """Filter inputs, track parameters and geometry noise of samples ``t``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (M,)
+            Sample times, s (after `t_prev`).
+        u : ndarray, shape (M, 6)
+            IMU samples ``[f_b, ω_ib_b]`` (m/s², rad/s).
+        x_prev : ndarray, shape (n,)
+            Filter state at `t_prev`.
+        P_prev : ndarray, shape (n, n)
+            Its covariance.
+        t_prev : float
+            Time of `x_prev`, s.
+
+        Returns
+        -------
+        u : ndarray, shape (M, 6)
+        p : ndarray, shape (M, 16)
+            `strapdown.reduced.TRACK_PARAMETER_NAMES` at the predicted ``s``.
+        r_c : ndarray, shape (M, 2)
+            Density of the pseudo-observation noise that the uncertainty of ``s`` puts on
+            the track geometry (`railnav.filters.geometry_noise`), (m/s²)²·s.
+        """
+        params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
+        self._chunk_end = self._grid.point(int(nodes[-1]))
+        i_s, i_v = self._i["s"], self._i["v"]
+        params, variance = statistical_parameters(
+            self._grid, params, sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
+            speed_mps=abs(float(x_prev[i_v])))
+        step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
+            else float(t[0] - t_prev)
+        return u, params, variance * max(step, 0.0)
+
+    def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
+        """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
+        i = self._i
+        gravity = self._gravity_near(x_prev[i["s"]])
+        f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
+        accel = f_x - gravity * np.sin(x_prev[i["pitch"]])
+        dt = np.diff(np.concatenate([[t_prev], t]))
+        v = x_prev[i["v"]] + np.cumsum(accel * dt)
+        v_mid = 0.5 * (np.concatenate([[x_prev[i["v"]]], v[:-1]]) + v)
+        s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
+        return np.clip(s, 0.0, self.track.length_m)
+
+    def _gravity_near(self, s: float) -> float:
+        """|g| (m/s²) at the track point nearest `s`, cached per kilometre of track."""
+        key = int(s // _GRAVITY_CACHE_M)
+        if key not in self._gravity:
+            point = self.track.at(min(max(s, 0.0), self.track.length_m))
+            self._gravity[key] = float(np.linalg.norm(g_n(point.lat, point.h,
+                                                          earth=self.track.earth)))
+        return self._gravity[key]
+
+    # -- discrete updates ------------------------------------------------------------------
+    def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:
+        """GNSS rows of epoch `index` at the prior ``(x, P)`` (see `GnssRowBuilder`), those
+        the fault screen lets through (with a clock jump's covariance when it sees one)."""
+        rows = self.rows.observations(index, x, self._chunk_end)
+        return self.screen.screen(rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1], x, P)
+
+    # -- start -----------------------------------------------------------------------------
+    def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
+        """Diagonal initial covariance in the layout's order (config's attitude and clock σ)."""
+        var = initial_variances(self.config, self.layout)
+        var.update({"s": sigma_s_m ** 2, "v": sigma_v_mps ** 2})
+        return np.diag([var[name] for name in self.layout.names])
+
+    def initial_from_fix(self, fix) -> tuple[Array, Array]:
+        """State and covariance at a GNSS fix (`railnav.navigation.initialization.GnssFix`).
+
+        The fix is projected on the track (`railnav.filters.common.start_on_track`); the
+        attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0).
+        """
+        values, sigma_s, sigma_v = start_on_track(
+            self.track, self.config, fix, tuple(isb_state_name(s) for s in self.isb_systems))
+        point = values.pop("point")
+        values.update({"yaw": float(point.azimuth), "pitch": float(point.elevation),
+                       "roll": 0.0})
+        x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
+        return x0, self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v)
+
+    def truth_states(self, truth, clock_bias_m: Array, clock_drift_mps: Array
+                     ) -> tuple[Array, npt.NDArray[np.bool_]]:
+        """True states at the truth's samples, and which components are known.
+
+        Parameters
+        ----------
+        truth : railnav.simulation.truth.Truth
+            (K samples).
+        clock_bias_m, clock_drift_mps : ndarray, shape (K,)
+            True receiver clock at those samples.
+
+        Returns
+        -------
+        x_true : ndarray, shape (K, n)
+            Unknown components (IMU biases) are 0.
+        known : ndarray of bool, shape (n,)
+        """
+        known_values = {"yaw": truth.yaw, "pitch": truth.pitch, "roll": truth.roll,
+                        "s": truth.s, "v": truth.v, "clock_bias": clock_bias_m,
+                        "clock_drift": clock_drift_mps}
+        return states_from_values(self.layout, known_values, np.size(truth.s))
+
+    # -- outputs ---------------------------------------------------------------------------
+    def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
+        """Estimate columns (`railnav.navigation.result.ESTIMATE_COLUMNS`) of stored states."""
+        P = unpack_sym(P_packed)
+        var = np.diagonal(P, axis1=1, axis2=2)
+        return track_estimates(self.track, self.layout, x, var)

@@ -1,0 +1,373 @@
+r"""Satellite fault detection and exclusion (FDE) of a filter's GNSS rows, at the prior.
+
+`RowScreen` looks at every GNSS epoch's rows before the filter's update, with the prior
+``(x, P)`` of that epoch, and decides which rows the update uses:
+
+1. **Receiver clock jump.** A step of the receiver clock moves every pseudorange by the
+   same amount and no range rate. The common-offset GLR test (`ekf.outliers.common_offset`
+   on the pseudorange rows of the admitted channels, with the full innovation covariance
+   ``S = H P Hᵀ + R``) declares a jump when the offset part of the NIS exceeds the χ²₁
+   quantile of `FaultDetectionConfig.clock_jump_false_alarm` while the residual is
+   consistent (χ²_{m−1} at `CLOCK_RESIDUAL_PROBABILITY`). The clock bias then gets the
+   jump variance ``(clock_jump_sigma_factor · â)²`` added to its prior variance
+   (`ekf.EpochRows`): the update estimates the jump from all rows and no satellite is
+   blamed. Without it every pseudorange would fail and every satellite be excluded.
+2. **Fault hypothesis of each row** (Herasimov et al. 2018, SEEDS.md §3; `ekf.outliers`):
+   normal ``ν ~ N(0, S_ii)`` or a fault, uninformative about the state, ``ν ~ N(0, κ² S_ii)``,
+   with a prior fault probability ``p`` per row and epoch; the posterior fault probability
+   ``π`` of each row is recorded; a row with ``π > decision_probability`` is *rejected*
+   (not used at this epoch).
+3. **Exclusion and re-admission, per channel** (a channel is one satellite's pseudorange,
+   or its range rate: a code fault leaves the Doppler usable; `railnav.filters.fault_channels`).
+   A channel is *excluded* when it failed `exclusion_failures` times within its last
+   `exclusion_window` epochs, or when its **drift test** fires: a two-sided CUSUM
+   (Page 1954) of its normalized innovations ``r = ν/√S_ii`` (`drift_allowance` δ,
+   `drift_threshold` h, in σ), each increment clipped at the row test's threshold so that
+   one gross outlier never excludes alone. The CUSUM catches slow ramps, whose innovations
+   stay at 1–3σ for many epochs while the filter follows them. On a drift exclusion the
+   prior covariance gets the outer product of what the channel's used rows had pulled
+   into the state during the CUSUM run, so the other satellites can pull it back. An excluded
+   channel's innovations are still computed at each prior; it is re-admitted after
+   `readmission_passes` consecutive passes of the row test whose mean is consistent with
+   zero (a ramp still running passes single rows now and then, not this).
+
+Each row gets a status, ``used``, ``rejected`` or ``excluded`` (the row on which a channel
+becomes excluded is marked ``excluded``), and its fault probability, written to
+``innovations.csv`` (`railnav.navigation.result`). `RowScreen.last` keeps the latest epoch's
+innovations and their full covariance (the track bank compares filters on the rows they all
+used: `railnav.navigation.bank`).
+
+Default parameters: ``p = 0.01``, ``κ = 10``, decision ½ give the gate
+``|ν| > 3.73 √S`` (`ekf.fault_threshold`), a little tighter than the navigator's χ² row gate
+at 0.9999 (3.89σ), so a fault-free row is rejected with probability 1.9e-4; three failures
+in five epochs exclude (a fault-free channel: ~1e-10 per epoch); the CUSUM with
+``δ = 0.35``, ``h = 9`` has an in-control run length of ~2500 epochs per channel
+(Siegmund's approximation ``(e^{2δ(h+1.166)} − 2δ(h+1.166) − 1)/(2δ²)``, halved for two
+sides) and detects a 2σ mean shift in ~6 epochs; ten consecutive passes re-admit
+(10 s at 1 Hz). (δ, h) were chosen on 0.5 m/s ramps on each of the 7 satellites of `curvy`
+over seeds 1–3 and checked on seeds 4–6: the largest pull was 2.97σ in both sets, at
+0.4–0.6 % fault-free rows not used; (0.5, 8) gave 3.45σ and 0.1–0.3 %.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from ekf.gating import chi2_threshold
+from ekf.outliers import common_offset, fault_probability, fault_threshold
+from ekf.series import EpochRows
+from ekf.update import Observation
+from railnav.errors import ConfigError
+from railnav.filters.fault_channels import Channel
+
+__all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "ROW_STATUSES",
+           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: Row statuses of ``innovations.csv``.
+ROW_STATUSES = ("used", "rejected", "excluded")
+#: The residual of a declared clock jump must be consistent at this probability (the row
+#: gate's level: a jump is not declared while one satellite also fails).
+CLOCK_RESIDUAL_PROBABILITY = 0.9999
+#: Rows that move with the receiver clock bias.
+JUMP_ROW_KIND = "pseudorange"
+#: A common offset is tested only on at least this many pseudoranges (with fewer, one
+#: faulty satellite and a clock jump cannot be told apart).
+MIN_JUMP_ROWS = 4
+
+
+@dataclass(frozen=True)
+class FaultDetectionConfig:
+    """Parameters of the fault detection and exclusion (module docstring).
+
+    Parameters
+    ----------
+    fault_prior : float
+        Prior probability that a row is a fault, per row and epoch, in (0, 1).
+    fault_scale : float
+        κ > 1: a fault's innovation spread relative to the normal one.
+    decision_probability : float
+        A row whose fault probability exceeds this is rejected, in (0, 1).
+    exclusion_failures, exclusion_window : int
+        A channel with this many failures within its last `exclusion_window` epochs is
+        excluded (1 <= failures <= window).
+    readmission_passes : int
+        Consecutive passes (epochs of the channel) that re-admit an excluded channel, >= 1.
+    clock_jump_false_alarm : float or None
+        Per-epoch false-alarm probability of the clock-jump test, in (0, 1); None: no
+        clock-jump test.
+    clock_jump_sigma_factor : float
+        The jump variance added to the clock bias is ``(factor · â)²``, > 0 (3: the
+        update's prior on the jump is three times broader than the jump seen).
+    drift_allowance, drift_threshold : float or None
+        CUSUM allowance δ >= 0 and alarm threshold h > 0 of the drift test, in σ of the
+        innovation; ``drift_threshold=None``: no drift test.
+    """
+
+    fault_prior: float = 0.01
+    fault_scale: float = 10.0
+    decision_probability: float = 0.5
+    exclusion_failures: int = 3
+    exclusion_window: int = 5
+    readmission_passes: int = 10
+    clock_jump_false_alarm: float | None = 1e-7
+    clock_jump_sigma_factor: float = 3.0
+    drift_allowance: float = 0.35
+    drift_threshold: float | None = 9.0
+
+    def __post_init__(self) -> None:
+        for name in ("fault_prior", "decision_probability"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and 0.0 < value < 1.0):
+                raise ConfigError(f"{name} must be in (0, 1), got {value!r}")
+        if not (isinstance(self.fault_scale, (int, float)) and self.fault_scale > 1.0):
+            raise ConfigError(f"fault_scale must be > 1, got {self.fault_scale!r}")
+        counts = (self.exclusion_failures, self.exclusion_window, self.readmission_passes)
+        if not all(isinstance(c, int) and c >= 1 for c in counts) or \
+                self.exclusion_failures > self.exclusion_window:
+            raise ConfigError("need integers 1 <= exclusion_failures <= exclusion_window and "
+                              f"readmission_passes >= 1, got {counts}")
+        alarm = self.clock_jump_false_alarm
+        if alarm is not None and not (isinstance(alarm, (int, float)) and 0.0 < alarm < 1.0):
+            raise ConfigError(f"clock_jump_false_alarm must be in (0, 1) or None, got {alarm!r}")
+        if not (isinstance(self.clock_jump_sigma_factor, (int, float))
+                and self.clock_jump_sigma_factor > 0):
+            raise ConfigError(f"clock_jump_sigma_factor must be > 0, got "
+                              f"{self.clock_jump_sigma_factor!r}")
+        if not (isinstance(self.drift_allowance, (int, float)) and self.drift_allowance >= 0):
+            raise ConfigError(f"drift_allowance must be >= 0, got {self.drift_allowance!r}")
+        h = self.drift_threshold
+        if h is not None and not (isinstance(h, (int, float)) and h > 0):
+            raise ConfigError(f"drift_threshold must be > 0 or None, got {h!r}")
+
+    @property
+    def nis_threshold(self) -> float:
+        """The normalized innovation squared above which a row is rejected."""
+        return fault_threshold(prior=self.fault_prior, scale=self.fault_scale,
+                               decision=self.decision_probability)
+
+
+@dataclass(frozen=True, eq=False)
+class EpochScreen:
+    """One screened epoch.
+
+    Attributes
+    ----------
+    keys : ndarray of str, shape (m,)
+        ``"<sv>/<kind>"`` of each row.
+    innov : ndarray, shape (m,)
+        Innovations at the prior, m or m/s.
+    S : ndarray, shape (m, m)
+        Their covariance ``H P Hᵀ + R`` (after a clock jump's variance was added).
+    status : ndarray of str, shape (m,)
+    fault_probability : ndarray, shape (m,)
+    clock_jump_m : float
+        The common pseudorange offset declared a clock jump, m (NaN: none).
+    """
+
+    keys: np.ndarray
+    innov: Array
+    S: Array
+    status: np.ndarray
+    fault_probability: Array
+    clock_jump_m: float
+
+    @property
+    def used(self) -> npt.NDArray[np.bool_]:
+        """Rows given to the update."""
+        return self.status == ROW_STATUSES[0]
+
+
+@dataclass
+class RowScreen:
+    """Screens each epoch's GNSS rows at the prior (module docstring).
+
+    Parameters
+    ----------
+    config : FaultDetectionConfig or None
+        None: every row is used (the innovations are still recorded).
+    clock_index : int or None
+        Index of the receiver clock bias state (m) in the filter's layout; None: no clock
+        jump test.
+    """
+
+    config: FaultDetectionConfig | None
+    clock_index: int | None = None
+    epochs: list[EpochScreen] = field(default_factory=list)
+    _sv: list[np.ndarray] = field(default_factory=list)
+    _kind: list[np.ndarray] = field(default_factory=list)
+    _channels: dict[str, Channel] = field(default_factory=dict)
+    _n_states: int = 0
+
+    @property
+    def last(self) -> EpochScreen | None:
+        """The latest screened epoch (None before the first)."""
+        return self.epochs[-1] if self.epochs else None
+
+    def screen(self, observations: list[Observation], sv: np.ndarray, kind: np.ndarray,
+               x: Array, P: Array) -> list[Observation] | EpochRows:
+        """The rows of one epoch the update should use.
+
+        Parameters
+        ----------
+        observations : list of ekf.Observation
+            The epoch's rows (scalar rows, diagonal ``R``), in the order of `sv` / `kind`.
+        sv, kind : ndarray of str, shape (m,)
+            Satellite and kind (`railnav.filters.common.ROW_KINDS`) of each row.
+        x : ndarray, shape (n,)
+            Prior state.
+        P : ndarray, shape (n, n)
+            Prior covariance.
+
+        Returns
+        -------
+        list of ekf.Observation, or ekf.EpochRows
+            The used rows; an `ekf.EpochRows` with the clock-jump covariance when a jump
+            was declared.
+        """
+        self._n_states = x.size
+        nu, H, R = _evaluate(observations, x)
+        S = H @ P @ H.T + np.diag(R)
+        keys = np.array([f"{a}/{b}" for a, b in zip(sv, kind)], dtype=object)
+        Q = np.zeros_like(P)
+        jump = self._clock_jump(keys, kind, nu, S) if nu.size else None
+        if jump is not None:
+            Q[self.clock_index, self.clock_index] = jump[1]
+            S = S + H @ Q @ H.T
+        r = nu / np.sqrt(np.diag(S)) if nu.size else nu
+        status, prob, newly_excluded = self._decide(keys, r)
+        for key in newly_excluded:   # what the channel pulled in before it was caught
+            delta = self._channels[key].contamination()
+            Q += np.outer(delta, delta)
+        if newly_excluded:
+            S = H @ (P + Q) @ H.T + np.diag(R)
+        used = status == ROW_STATUSES[0]
+        self._add_influence(keys, used, nu, H, S, P + Q)
+        self.epochs.append(EpochScreen(keys, nu, S, status, prob,
+                                       float(jump[0]) if jump is not None else np.nan))
+        self._sv.append(np.asarray(sv, dtype=object))
+        self._kind.append(np.asarray(kind, dtype=object))
+        rows = _subset(observations, used)
+        return EpochRows(rows, Q) if Q.any() else rows
+
+    def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
+                    ) -> tuple[float, float] | None:
+        """(offset m, jump variance m²) of a declared receiver clock jump, or None."""
+        cfg = self.config
+        if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
+            return None
+        admitted = np.array([not self._channel(k).excluded for k in keys])
+        members = (np.asarray(kind) == JUMP_ROW_KIND)[admitted]
+        if members.sum() < MIN_JUMP_ROWS:
+            return None
+        sub = np.ix_(admitted, admitted)
+        offset, _, nis_offset, nis_residual = common_offset(nu[admitted], S[sub], members)
+        if nis_offset <= chi2_threshold(1.0 - cfg.clock_jump_false_alarm, 1):
+            return None
+        if nis_residual > chi2_threshold(CLOCK_RESIDUAL_PROBABILITY, int(admitted.sum()) - 1):
+            log.debug("common pseudorange offset %.1f m with an inconsistent residual: "
+                      "not taken for a clock jump", offset)
+            return None
+        log.debug("receiver clock jump of %.1f m", offset)
+        return offset, (cfg.clock_jump_sigma_factor * offset) ** 2
+
+    def _channel(self, key: str) -> Channel:
+        if key not in self._channels:
+            self._channels[key] = Channel(self.config, self._n_states)
+        return self._channels[key]
+
+    def _decide(self, keys: np.ndarray, r: Array) -> tuple[np.ndarray, Array, list[str]]:
+        """Status and fault probability of each row from its normalized innovation `r`,
+        and the channels excluded at this epoch; updates the channels."""
+        cfg = self.config
+        status = np.full(keys.size, ROW_STATUSES[0], dtype=object)
+        if cfg is None:
+            return status, np.full(keys.size, np.nan), []
+        prob = fault_probability(r * r, prior=cfg.fault_prior, scale=cfg.fault_scale)
+        failed = prob > cfg.decision_probability
+        clip = float(np.sqrt(cfg.nis_threshold))
+        excluded = []
+        for i, key in enumerate(keys):
+            ch = self._channel(key)
+            if ch.excluded:
+                status[i] = ROW_STATUSES[2]
+                if ch.excluded_row(float(r[i]), bool(failed[i])):
+                    log.debug("channel %s re-admitted", key)
+            elif ch.admitted_row(float(r[i]), bool(failed[i]), clip):
+                status[i] = ROW_STATUSES[2]
+                excluded.append(key)
+                log.debug("channel %s excluded", key)
+            elif failed[i]:
+                status[i] = ROW_STATUSES[1]
+        return status, prob, excluded
+
+    def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
+                       H: Array, S: Array, P: Array) -> None:
+        """Each used row's correction ``K_i ν_i`` of this update, to its channel."""
+        if self.config is None or not used.any():
+            return
+        H_u = H[used]
+        K_t = np.linalg.solve(S[np.ix_(used, used)], H_u @ P)   # Kᵀ, S symmetric
+        for k, (key, nu_k) in enumerate(zip(keys[used], nu[used])):
+            self._channels[key].add_influence(K_t[k] * nu_k)
+
+    def clear_records(self) -> None:
+        """Forget the recorded epochs (`frame`, `last`), keeping the channels' states (a
+        streaming run writes the records as it goes)."""
+        for records in (self.epochs, self._sv, self._kind):
+            records.clear()
+
+    def frame(self) -> pd.DataFrame:
+        """All screened rows: ``screen_epoch, sv, kind, innovation, sigma, nis, status,
+        fault_probability, clock_jump_m`` (the epoch's declared jump on each of its rows)."""
+        if not self.epochs:
+            return pd.DataFrame({c: [] for c in ("screen_epoch", "sv", "kind", "innovation",
+                                                 "sigma", "nis", "status",
+                                                 "fault_probability", "clock_jump_m")})
+        sizes = [e.innov.size for e in self.epochs]
+        var = np.concatenate([np.diag(e.S) for e in self.epochs])
+        innov = np.concatenate([e.innov for e in self.epochs])
+        return pd.DataFrame({
+            "screen_epoch": np.repeat(np.arange(len(sizes)), sizes),
+            "sv": np.concatenate(self._sv), "kind": np.concatenate(self._kind),
+            "innovation": innov, "sigma": np.sqrt(var), "nis": innov ** 2 / var,
+            "status": np.concatenate([e.status for e in self.epochs]),
+            "fault_probability": np.concatenate([e.fault_probability for e in self.epochs]),
+            "clock_jump_m": np.repeat([e.clock_jump_m for e in self.epochs], sizes)})
+
+
+def _evaluate(observations: list[Observation], x: Array) -> tuple[Array, Array, Array]:
+    """Innovations ``z − h(x)``, Jacobians and noise variances of all rows."""
+    n = x.size
+    if not observations:
+        return np.zeros(0), np.zeros((0, n)), np.zeros(0)
+    nus, Hs, Rs = [], [], []
+    for obs in observations:
+        if obs.R.ndim != 1 or obs.model.k != 1:
+            raise ValueError(f"{obs.model.name}: the row screen needs scalar rows with "
+                             "diagonal R (variances)")
+        z_pred, H = obs.model.evaluate(x, obs.p)
+        nus.append(obs.z.reshape(-1) - z_pred)
+        Hs.append(H)
+        Rs.append(obs.R)
+    return np.concatenate(nus), np.vstack(Hs), np.concatenate(Rs)
+
+
+def _subset(observations: list[Observation], keep: npt.NDArray[np.bool_]) -> list[Observation]:
+    """The observations restricted to the rows `keep` (in the stacked order)."""
+    out, start = [], 0
+    for obs in observations:
+        k = keep[start:start + obs.rows]
+        start += obs.rows
+        if k.all():
+            out.append(obs)
+        elif k.any():
+            out.append(replace(obs, z=obs.z[k], R=obs.R[k], p=obs.p[k]))
+    return out

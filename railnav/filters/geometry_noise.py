@@ -1,0 +1,148 @@
+r"""The track geometry's share of the pseudo-observation's uncertainty when ``s`` is uncertain.
+
+The accelerometer pseudo-observation predicts the centripetal acceleration across the
+track, ``v² P⊥ du/ds(s)``, at the estimated ``s`` and linearizes it there
+(`strapdown.reduced`: ``du/ds(s) ≈ du/ds(s_ref) + d²u/ds²(s_ref) (s − s_ref)``). Where the
+geometry is not linear within the uncertainty of ``s`` — at the joints of sections, where
+the curvature steps (an arc or a vertical curve without transition) or kinks (the ends of
+a clothoid) — the linearized EKF takes a tiny pseudo-observation noise at face value and
+explains the mismatch by the wrong states: during a GNSS outage an estimate a few metres
+ahead of the truth "sees" a vertical curve start 0.1 s early, and with a navigation-grade
+accelerometer (1 mm/s² per 100-Hz sample against v²Δκ ≈ 0.04 m/s²) it then drags ``v`` and
+``s`` back by tens of metres while σ_s stays at a metre.
+
+The remedy is statistical linearization (Gelb 1974, §6.2; the "consider" view of the
+geometry). With ``s ~ N(s_ref, σ_s²)`` and σ_s above a few grid steps, the curvature
+vector's value and slope in ``p`` become its mean and regression slope over that prior
+(`statistical_parameters`), so that a curve the estimate may already be in is predicted in
+proportion and moves ``s``; and the part of the predicted centripetal term that the line
+does not carry,
+
+``r(s') = du/ds(s') − (du/ds)_lin − (d²u/ds²)_lin (s' − s_ref)``,
+
+is an error of the pseudo-observation with variance ``v⁴ E[(P⊥ r)²]`` (per component,
+lateral and normal), evaluated here over the prior on the track grid (`railnav.filters.track_grid`)
+with a midpoint rule of `QUADRATURE_NODES` points over ±4σ (a step's weight to within
+``φ(ξ)·Δξ/2 ≤ 0.04``; Gauss–Hermite rules, exact for polynomials, resolve steps worse).
+It is zero on straights, arcs and clothoids alike when σ_s is small against the distance
+to a joint (with GNSS, σ_s ≈ 0.5 m), so the information
+the filter draws from the track is untouched there, and it grows only where the geometry
+the filter assumes is really in doubt. The variances enter the engine as the independent
+continuous-measurement noise (`ekf.InputSeries.r_c`, a density: variance × step).
+
+Limit: this is still one Gaussian. When σ_s is tens of metres at the onset of a curve's
+centripetal acceleration (a long outage with a MEMS IMU), the filter can explain the
+onset with its attitude instead of ``s`` and run away (notebooks/05, MEMS 300 s).
+"""
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
+
+__all__ = ["statistical_parameters", "QUADRATURE_NODES",
+           "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
+
+Array = npt.NDArray[np.float64]
+
+#: Points of the midpoint rule over ±`QUADRATURE_HALF_WIDTH` standard deviations.
+QUADRATURE_NODES = 41
+QUADRATURE_HALF_WIDTH = 4.0
+#: Offsets from ``s_ref`` are capped at this distance, m (a σ_s of kilometres smears every
+#: curvature the track has; the cap only bounds the grid window).
+MAX_OFFSET_M = 2000.0
+#: Above this σ_s (m) the curvature vector is linearized statistically over the prior:
+#: four grid steps (`railnav.filters.track_grid.GRID_STEP_M`), so that the ±4σ nodes are distinct.
+STATISTICAL_MIN_SIGMA_M = 2.0
+
+_XI = np.linspace(-QUADRATURE_HALF_WIDTH, QUADRATURE_HALF_WIDTH, QUADRATURE_NODES)
+_W = np.exp(-0.5 * _XI ** 2)
+_W = _W / _W.sum()
+_U = slice(TRACK_PARAMETER_NAMES.index("u_E"), TRACK_PARAMETER_NAMES.index("u_U") + 1)
+_DU = slice(TRACK_PARAMETER_NAMES.index("du_E_ds"), TRACK_PARAMETER_NAMES.index("du_U_ds") + 1)
+_D2U = slice(TRACK_PARAMETER_NAMES.index("d2u_E_ds2"),
+             TRACK_PARAMETER_NAMES.index("d2u_U_ds2") + 1)
+
+
+def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: float
+                           ) -> tuple[Array, Array]:
+    """Track parameters linearized over the prior of ``s``, and what they leave out.
+
+    Where the prior is wider than the grid (``σ_s`` > `STATISTICAL_MIN_SIGMA_M`), the
+    curvature vector's value and slope in ``p`` are replaced by their statistical
+    linearization over ``s' ~ N(s_ref, σ_s²)`` (Gelb 1974, §6.2): the mean
+    ``E[du/ds(s')]`` and the regression slope ``Cov(du/ds(s'), s') / Var(s')``. A
+    GNSS-less estimate a hundred metres short of a curve then predicts the curve's share
+    of centripetal acceleration and gets a slope with respect to ``s`` (the curve's onset
+    moves ``s``) instead of a zero slope that leaves the lateral acceleration to the
+    attitude. With a narrow prior the local expansion is kept.
+
+    Parameters
+    ----------
+    grid : railnav.filters.track_grid.TrackParameterGrid
+        The track's parameter grid.
+    params : ndarray, shape (M, 16)
+        The samples' track parameters (`strapdown.reduced.TRACK_PARAMETER_NAMES`).
+    sigma_s_m : float
+        Standard deviation of the along-track distance, m.
+    speed_mps : float
+        Speed, m/s.
+
+    Returns
+    -------
+    params : ndarray, shape (M, 16)
+        The parameters the filter uses (a copy when changed).
+    variance : ndarray, shape (M, 2)
+        ``v⁴ E[(l·r)²]`` and ``v⁴ E[(n·r)²]`` of the remainder ``r`` of the curvature
+        vector about the linearization used, (m/s²)².
+    """
+    m = params.shape[0]
+    offsets = np.clip(sigma_s_m * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
+    s_ref = params[:, 0]
+    if _inside_one_loxodrome(grid.track, s_ref.min() + offsets[0], s_ref.max() + offsets[-1]):
+        return params, np.zeros((m, 2))
+    du, delta = _nodes(grid, params, offsets)
+    if sigma_s_m > STATISTICAL_MIN_SIGMA_M:
+        params = params.copy()
+        mean_delta = delta @ _W
+        centred = delta - mean_delta[:, None]
+        var_delta = centred ** 2 @ _W
+        slope = np.einsum("mki,mk,k->mi", du, centred, _W) / var_delta[:, None]
+        params[:, _DU] = np.einsum("mki,k->mi", du, _W) - slope * mean_delta[:, None]
+        params[:, _D2U] = slope
+    return params, _remainder_variance(params, du, delta, speed_mps)
+
+
+def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
+    """Whether [s_lo, s_hi] (m, clipped to the track) lies in one straight section: its
+    tangent is smooth to all orders there (a loxodrome at constant grade), and the part the
+    second-order expansion leaves out is ~(Δs/R_earth)³, far below any accelerometer."""
+    k = track.section_of(np.clip([s_lo, s_hi], 0.0, track.length_m))
+    return bool(k[0] == k[1] and track.table.is_loxodrome[k[0]])
+
+
+def _nodes(grid, params: Array, offsets: Array) -> tuple[Array, Array]:
+    """Curvature vectors (M, K, 3), 1/m, at the grid nodes nearest ``s_ref + offsets``, and
+    the nodes' distances from ``s_ref`` (M, K), m."""
+    m, s_ref = params.shape[0], params[:, 0]
+    s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, grid.track.length_m)
+    at_q, _ = grid.parameters(s_q.ravel())
+    at_q = at_q.reshape(m, offsets.size, -1)
+    return at_q[:, :, _DU], at_q[:, :, 0] - s_ref[:, None]
+
+
+def _remainder_variance(params: Array, du: Array, delta: Array, speed_mps: float) -> Array:
+    """``v⁴ E[(P⊥ r)²]`` per component for ``r = du/ds(s') − (du_ref + d2u_ref δ)``."""
+    remainder = du - (params[:, None, _DU] + params[:, None, _D2U] * delta[..., None])
+    lateral, normal = cross_track_basis(params[:, _U])
+    r_l = np.einsum("mki,mi->mk", remainder, lateral)
+    r_n = np.einsum("mki,mi->mk", remainder, normal)
+    return speed_mps ** 4 * np.stack([r_l ** 2 @ _W, r_n ** 2 @ _W], axis=-1)
+
+
+def _quadrature(grid, params: Array, offsets: Array, speed_mps: float) -> Array:
+    """The remainder variance about the local expansion in `params`, by the midpoint rule
+    at the given offsets (the general path that `_inside_one_loxodrome` short-cuts)."""
+    du, delta = _nodes(grid, params, offsets)
+    return _remainder_variance(params, du, delta, speed_mps)

@@ -1,0 +1,276 @@
+r"""An inertial mechanization augmented with the receiver clock: the inertial filters' model.
+
+Both inertial filters (track-constrained, `railnav.filters.constrained_model`; unconstrained,
+`railnav.filters.unconstrained_model`) run a strapdown mechanization (`strapdown`) with the
+GNSS receiver clock appended. This module owns what they share, so that they are tuned
+alike for the same configuration:
+
+State (`ekf.StateLayout`, names used everywhere; never indices)::
+
+    [<navigation states>, (b_ax, b_ay, b_az, b_gx, b_gy, b_gz), clock_bias, clock_drift,
+     (isb_<system> ...)]
+
+IMU biases m/s² and rad/s, receiver clock bias m (``c δt_r``) and drift m/s,
+inter-system biases m (one per GNSS system after the first, e.g. ``isb_E`` for Galileo
+time against GPS time).
+
+Noise ``w`` (spectral densities ``q_c``, `InsClockModel.process_noise_density`)::
+
+    [w_f (3, (m/s²)²·s), w_ω (3, (rad/s)²·s), (w_ba (3), w_bg (3)), w_b (m²/s), w_d (m²/s³),
+     (w_isb (m²/s) ...)]
+
+The IMU white noise is an error of the measured input, so it enters the dynamics as
+``G = −∂f/∂u`` and an optional continuous pseudo-observation as ``D = −∂h_c/∂u`` (the
+SAME ``w_f``: the 2017 paper's eq. 14 correlated noise). IMU biases are random walks
+(``ḃ = w``) whose density ``2σ²/τ`` matches the Gauss–Markov bias instability of the
+grade over times short against ``τ``, plus a constant part carried by the initial
+covariance. The clock is the two-state oscillator model of `gnss_obs.oscillator`
+(``ḃ = d + w_b``, ``ḋ = w_d``); inter-system biases are random walks of density
+`ISB_RANDOM_WALK_M2PS`.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+import numpy.typing as npt
+
+from ekf.layout import StateLayout
+from ekf.model import CdModel
+from gnss_obs.oscillator import Oscillator
+from strapdown.imu_errors import ImuErrors
+from strapdown.kinematics import BIAS_STATE_NAMES, INPUT_NAMES
+from trackmodel.earth import Ellipsoid
+
+__all__ = ["InsClockModel", "assemble_ins_clock_model", "CLOCK_STATE_NAMES",
+           "ISB_RANDOM_WALK_M2PS", "isb_state_name", "bias_random_walk_density",
+           "IMU_NOISE_NAMES", "model_name", "initial_variances", "model_for_config"]
+
+Array = npt.NDArray[np.float64]
+#: A function of the INS part of the state, the input and the per-step parameters.
+InsExpression = Callable[[Any, Any, Any], Any]
+
+#: Receiver clock states: bias (m) and drift (m/s).
+CLOCK_STATE_NAMES = ("clock_bias", "clock_drift")
+#: Spectral density of the inter-system bias random walk, m²/s (a slowly wandering
+#: GPS-Galileo time offset of the receiver: ~0.3 m per hour).
+ISB_RANDOM_WALK_M2PS = 1e-5
+#: Names of the IMU white-noise components (accelerometer, then gyro; body axes).
+IMU_NOISE_NAMES = ("w_fx", "w_fy", "w_fz", "w_wx", "w_wy", "w_wz")
+#: The white noise the filter assumes for an ideal IMU (zero noise; accelerometer
+#: m/s²/√Hz, gyro rad/√s): the 2017 paper's figures. The accelerometer observation's noise
+#: must be positive, so a ``perfect`` IMU is filtered as if it had the paper's noise.
+IDEAL_ACCEL_NOISE_DENSITY_MPS2_RTHZ = 1e-5
+IDEAL_GYRO_NOISE_DENSITY_RADPS_RTHZ = 1e-6
+#: Bias random walks are kept strictly positive so that the covariance stays definite.
+_MIN_BIAS_DENSITY = 1e-30
+#: Bias variances are kept positive so that P0 is definite even for a perfect IMU.
+_MIN_BIAS_VARIANCE = 1e-16
+
+
+def isb_state_name(system: str) -> str:
+    """State name of the inter-system bias of a GNSS system letter (``"E"`` -> ``isb_E``)."""
+    return f"isb_{system}"
+
+
+def bias_random_walk_density(sigma: float, tau_s: float) -> float:
+    """``2σ²/τ``: the random walk that follows a Gauss–Markov process for ``t ≪ τ``.
+
+    Parameters
+    ----------
+    sigma : float
+        Stationary σ of the Gauss–Markov bias (m/s² or rad/s).
+    tau_s : float
+        Its correlation time, s.
+
+    Returns
+    -------
+    float
+        Spectral density, (m/s²)²/s or (rad/s)²/s, floored at a tiny positive value.
+    """
+    return max(2.0 * sigma * sigma / tau_s, _MIN_BIAS_DENSITY)
+
+
+@dataclass(frozen=True, eq=False)
+class InsClockModel:
+    """An inertial filter's process model (see the module docstring).
+
+    Attributes
+    ----------
+    process : ekf.CdModel
+        ``f(x, u, p)``, ``G`` (and ``h_c``, ``D`` when the mechanization has a continuous
+        pseudo-observation) with ``u = [f_b, ω_ib_b]`` (6).
+    layout : ekf.StateLayout
+    earth : Ellipsoid
+    estimate_biases : bool
+    isb_systems : tuple of str
+        Systems with an inter-system bias state.
+    noise_names : tuple of str
+        Names of the components of ``w`` (and of `process_noise_density`).
+    """
+
+    process: CdModel
+    layout: StateLayout
+    earth: Ellipsoid
+    estimate_biases: bool
+    isb_systems: tuple[str, ...]
+    noise_names: tuple[str, ...]
+
+    def process_noise_density(self, imu: ImuErrors, oscillator: Oscillator) -> Array:
+        """Diagonal spectral density ``q_c`` of ``w`` (units in the module docstring).
+
+        Parameters
+        ----------
+        imu : ImuErrors
+            The IMU grade the filter assumes (a zero white noise is replaced by the
+            ``IDEAL_*_NOISE_DENSITY`` figures).
+        oscillator : Oscillator
+            The receiver clock the filter assumes.
+
+        Returns
+        -------
+        ndarray, shape (n_w,)
+        """
+        accel = imu.accel_noise_density_mps2_rthz or IDEAL_ACCEL_NOISE_DENSITY_MPS2_RTHZ
+        gyro = imu.gyro_noise_density_radps_rthz or IDEAL_GYRO_NOISE_DENSITY_RADPS_RTHZ
+        q = [accel ** 2] * 3 + [gyro ** 2] * 3
+        if self.estimate_biases:
+            q += [bias_random_walk_density(imu.accel_bias_instability_mps2,
+                                           imu.accel_bias_tau_s)] * 3
+            q += [bias_random_walk_density(imu.gyro_bias_instability_radps,
+                                           imu.gyro_bias_tau_s)] * 3
+        q += [oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
+        q += [ISB_RANDOM_WALK_M2PS] * len(self.isb_systems)
+        return np.array(q, dtype=float)
+
+
+def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: InsExpression,
+                             *, earth: Ellipsoid, estimate_biases: bool,
+                             isb_systems: tuple[str, ...], n_p: int, name: str,
+                             ins_h_c: InsExpression | None = None,
+                             ins_D: InsExpression | None = None) -> InsClockModel:
+    """Append bias, clock and inter-system-bias states to a mechanization.
+
+    Parameters
+    ----------
+    nav_blocks : sequence of (str, int or tuple of str)
+        The navigation states' `ekf.StateLayout` blocks, in the mechanization's order.
+    ins_f, ins_G : callable(x_ins, u, p) -> casadi.SX
+        The mechanization's ``ẋ_ins`` (n_ins) and ``∂ẋ_ins/∂u`` (n_ins x 6), where
+        ``x_ins`` is the navigation states followed by the six bias states when
+        `estimate_biases` (random walks: the mechanization's own bias dynamics are 0).
+    earth : Ellipsoid
+    estimate_biases : bool
+    isb_systems : tuple of str
+        GNSS systems that get an inter-system bias state.
+    n_p : int
+        Size of the per-step parameter vector ``p``.
+    name : str
+        Identifier of the generated code.
+    ins_h_c, ins_D : callable(x_ins, u, p) -> casadi.SX, optional
+        A continuous pseudo-observation (n_c) and its ``∂h_c/∂u`` (n_c x 6).
+
+    Returns
+    -------
+    InsClockModel
+    """
+    blocks = list(nav_blocks)
+    if estimate_biases:
+        blocks.append(("imu_bias", BIAS_STATE_NAMES))
+    blocks.append(("clock", CLOCK_STATE_NAMES))
+    if isb_systems:
+        blocks.append(("isb", tuple(isb_state_name(s) for s in isb_systems)))
+    layout = StateLayout.from_blocks(blocks)
+    walk_names = (BIAS_STATE_NAMES if estimate_biases else ()) + CLOCK_STATE_NAMES + \
+        tuple(isb_state_name(s) for s in isb_systems)
+    walk_states = [layout.index(n) for n in walk_names]
+    n_ins = layout.index(CLOCK_STATE_NAMES[0])
+
+    x = ca.SX.sym("x", layout.size)
+    u = ca.SX.sym("u", len(INPUT_NAMES))
+    p = ca.SX.sym("p", n_p)
+    x_ins = x[:n_ins]
+    n_after = layout.size - n_ins
+    xdot = ca.vertcat(ins_f(x_ins, u, p), x[layout.index("clock_drift")],
+                      ca.SX.zeros(n_after - 1))
+    G_imu = ca.vertcat(-ins_G(x_ins, u, p), ca.SX.zeros(n_after, len(INPUT_NAMES)))
+    G_walk = ca.SX.zeros(layout.size, len(walk_states))
+    for col, row in enumerate(walk_states):
+        G_walk[row, col] = 1.0
+    h_c = D = None
+    if ins_h_c is not None:
+        h_c = ins_h_c(x_ins, u, p)
+        D = ca.horzcat(-ins_D(x_ins, u, p), ca.SX.zeros(h_c.shape[0], len(walk_states)))
+    process = CdModel.from_expressions(layout, x, u, p, xdot, h_c=h_c,
+                                       G=ca.horzcat(G_imu, G_walk), D=D, name=name)
+    noise_names = IMU_NOISE_NAMES + tuple(f"w_{n}" for n in walk_names)
+    return InsClockModel(process=process, layout=layout, earth=earth,
+                         estimate_biases=estimate_biases, isb_systems=tuple(isb_systems),
+                         noise_names=noise_names)
+
+
+def model_for_config(build: Callable[..., InsClockModel], earth: Ellipsoid, config
+                     ) -> tuple[InsClockModel, Array]:
+    """An inertial filter's model for a configuration, and the noise densities it assumes.
+
+    Parameters
+    ----------
+    build : callable(earth, *, estimate_biases, isb_systems) -> InsClockModel
+        The model builder (`railnav.filters.constrained_model.build_constrained_model`, ...).
+    earth : Ellipsoid
+    config : railnav.NavigatorConfig
+        Biases estimated or not, GNSS systems (one ISB state per system after the first),
+        IMU grade and oscillator assumed.
+
+    Returns
+    -------
+    model : InsClockModel
+    q_c : ndarray, shape (n_w,)
+        `InsClockModel.process_noise_density` of the config's IMU and oscillator.
+    """
+    from gnss_obs.oscillator import oscillator_from_name
+    model = build(earth, estimate_biases=config.biases_estimated,
+                  isb_systems=tuple(config.measurement.systems[1:]))
+    return model, model.process_noise_density(config.imu,
+                                              oscillator_from_name(config.oscillator))
+
+
+def initial_variances(config, layout: StateLayout) -> dict[str, float]:
+    """Initial variances of the states every inertial filter has, by state name.
+
+    Parameters
+    ----------
+    config : railnav.NavigatorConfig
+        Its initial attitude, clock and inter-system-bias σ, and the IMU grade it assumes
+        (each bias: its constant part and its instability, in quadrature).
+    layout : ekf.StateLayout
+
+    Returns
+    -------
+    dict of str to float
+        ``yaw, pitch, roll`` (rad²), the IMU biases ((m/s²)², (rad/s)²), ``clock_bias``
+        (m²), ``clock_drift`` (m²/s²) and the layout's ``isb_*`` (m²).
+    """
+    imu, attitude = config.imu, config.initial_attitude_sigma_rad ** 2
+    accel = max(imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2,
+                _MIN_BIAS_VARIANCE)
+    gyro = max(imu.gyro_bias_radps ** 2 + imu.gyro_bias_instability_radps ** 2,
+               _MIN_BIAS_VARIANCE)
+    var = {"yaw": attitude, "pitch": attitude, "roll": attitude,
+           CLOCK_STATE_NAMES[0]: config.initial_clock_bias_sigma_m ** 2,
+           CLOCK_STATE_NAMES[1]: config.initial_clock_drift_sigma_mps ** 2}
+    var.update({name: accel for name in BIAS_STATE_NAMES[:3]})
+    var.update({name: gyro for name in BIAS_STATE_NAMES[3:]})
+    var.update({name: config.initial_isb_sigma_m ** 2 for name in layout.names
+                if name.startswith("isb_")})
+    return var
+
+
+def model_name(prefix: str, earth: Ellipsoid, biases: bool, isb: tuple[str, ...]) -> str:
+    """An identifier naming a model's generated code (its cache key includes the source)."""
+    radius = f"{earth.a_m:.0f}".replace(".", "_")
+    return f"{prefix}_{earth.name}_{radius}{'_bias' if biases else ''}" \
+           f"{'_isb' + ''.join(isb) if isb else ''}"

@@ -1,0 +1,136 @@
+"""Where a filter starts: the first GNSS fix, or the truth with drawn errors (simulation).
+
+* `initial_from_gnss`: single-point positioning (`gnss_obs.solve_spp`) over the first epochs
+  of the trip; the first epoch with a position and a Doppler velocity gives the fix, which
+  the filter turns into its state (projected on the track for the track-based filters) and
+  covariance (`filter.initial_from_fix`).
+* `initial_from_truth`: for simulations, ``x0 = x_true + e`` with ``e ~ N(0, P0)`` drawn from
+  the filter's own initial covariance, so that the filter's covariance is honest from the
+  first step (needed for NEES statistics). Components whose truth is itself a draw from
+  the filter's prior (the IMU biases: the simulator draws them from the grade's figures)
+  start at the prior mean instead; a second draw would double their error variance.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+import numpy.typing as npt
+
+from gnss_obs.spp import SppConfig, solve_spp
+from railnav.errors import RailnavError
+
+__all__ = ["GnssFix", "first_fix", "initial_from_gnss", "initial_from_truth",
+           "MAX_INITIAL_EPOCHS"]
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+#: Epochs searched for a first fix.
+MAX_INITIAL_EPOCHS = 60
+
+
+@dataclass(frozen=True)
+class GnssFix:
+    """A single-epoch GNSS solution.
+
+    Attributes
+    ----------
+    time_s : float
+        s from the trip start.
+    r_e, v_e : ndarray, shape (3,)
+        ECEF position (m) and velocity (m/s).
+    clock_bias_m : dict of str to float
+        Receiver clock bias seen by each system, m.
+    clock_drift_mps : float
+        m/s.
+    cov_enu_m2, cov_v_enu_m2ps2 : ndarray, shape (3, 3)
+        Position and velocity covariance in ENU, m² and (m/s)².
+    """
+
+    time_s: float
+    r_e: Array
+    v_e: Array
+    clock_bias_m: dict[str, float]
+    clock_drift_mps: float
+    cov_enu_m2: Array
+    cov_v_enu_m2ps2: Array
+
+
+def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
+    """The first epoch of the trip with a position and a velocity.
+
+    Parameters
+    ----------
+    data : railnav.SensorData
+    config : railnav.NavigatorConfig
+    max_epochs : int
+        How many epochs to try.
+
+    Raises
+    ------
+    RailnavError
+        If none of them gives a fix.
+    """
+    table = data.obs.table
+    times = np.unique(table["gps_time_s"].to_numpy())
+    times = times[times >= data.start_gps_time_s - 1e-6][:max_epochs]
+    if times.size == 0:
+        raise RailnavError("no GNSS epoch at or after the trip start")
+    sub = replace(data.obs, table=table[table["gps_time_s"].isin(times)])
+    spp = solve_spp(sub, data.nav, SppConfig(measurement=config.measurement,
+                                            elevation_mask_deg=config.elevation_mask_deg))
+    ok = np.all(np.isfinite(spp.r_e), axis=1) & np.all(np.isfinite(spp.v_e), axis=1)
+    if not ok.any():
+        raise RailnavError(f"no GNSS fix with velocity in the first {times.size} epochs "
+                           "(too few satellites?)")
+    k = int(np.argmax(ok))
+    return GnssFix(time_s=float(spp.gps_time_s[k] - data.start_gps_time_s),
+                   r_e=spp.r_e[k], v_e=spp.v_e[k],
+                   clock_bias_m={s: float(spp.clock_bias_m[s][k]) for s in spp.systems},
+                   clock_drift_mps=float(spp.clock_drift_mps[k]),
+                   cov_enu_m2=spp.cov_enu_m2[k], cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k])
+
+
+def initial_from_gnss(filt_obj, data, config, gnss):
+    """The filter's `railnav.navigation.navigator.InitialState` at the first GNSS fix."""
+    from railnav.navigation.navigator import InitialState
+    if gnss is None:
+        raise RailnavError("no GNSS data to start from: give GNSS observations or an "
+                           "initial state")
+    fix = first_fix(data, config)
+    x0, P0 = filt_obj.initial_from_fix(fix)
+    log.info("started at t=%.3f s from a GNSS fix", fix.time_s)
+    return InitialState(fix.time_s, x0, P0)
+
+
+def initial_from_truth(x_true: npt.ArrayLike, P0: npt.ArrayLike, *, time_s: float,
+                       rng: np.random.Generator, drawn: npt.ArrayLike | None = None):
+    """``x0 = x_true + e``, ``e ~ N(0, P0)``: an honest start for simulations.
+
+    Parameters
+    ----------
+    x_true : array_like, shape (n,)
+        True state at `time_s`; for components not `drawn`, the prior mean.
+    P0 : array_like, shape (n, n)
+        The filter's initial covariance (no correlation between drawn and other
+        components).
+    time_s : float
+    rng : numpy.random.Generator
+    drawn : array_like of bool, shape (n,), optional
+        Components that get the drawn error (default all). The others start at `x_true`:
+        use it for states whose simulated truth is unknown to the filter and was drawn
+        from the same prior (IMU biases), so that their error is that draw alone.
+
+    Returns
+    -------
+    railnav.navigation.navigator.InitialState
+    """
+    from railnav.navigation.navigator import InitialState
+    P0 = np.asarray(P0, dtype=float)
+    error = np.linalg.cholesky(P0) @ rng.standard_normal(P0.shape[0])
+    if drawn is not None:
+        error = np.where(np.asarray(drawn, dtype=bool), error, 0.0)
+    return InitialState(float(time_s), np.asarray(x_true, dtype=float) + error, P0)

@@ -1,0 +1,179 @@
+"""What a navigation run produces: estimates, innovations and filter statistics.
+
+`NavigationResult.estimates` is the ``estimates.csv`` table: ``time_s`` (from the trip
+start), ``gps_time_s`` and the filter's columns (`railnav.filters.common.track_estimates`
+for the track-based filters: ``s_m, lat_deg, lon_deg, h_m, speed_mps, yaw_deg, ...``,
+clock, and ``sigma_*`` of each). `NavigationResult.innovations` is ``innovations.csv``: one
+row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
+innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
+m or m/s by kind). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
+channel is out, `railnav.filters.fault_detection`); ``accepted`` is ``status == "used"``;
+``fault_probability`` is the row's posterior fault probability and ``clock_jump_m`` a
+receiver clock jump declared at the row's epoch (NaN for filters without the fault screen,
+and where none was).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from ekf.history import FilterResult
+from ekf.layout import StateLayout
+
+__all__ = ["NavigationResult"]
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class NavigationResult:
+    """A navigation run.
+
+    Attributes
+    ----------
+    filter : str
+        ``constrained``, ``unconstrained`` or ``gnss-only``.
+    layout : ekf.StateLayout
+    start_gps_time_s : float
+        GPS time of ``time_s = 0``, s.
+    time_s : ndarray, shape (K,)
+        Stored sample times, s from the trip start.
+    x : ndarray, shape (K, n)
+        State after all measurements at each stored sample.
+    P : ndarray, shape (K, n(n+1)/2)
+        Its covariance, packed (`ekf.packing`).
+    estimates : pandas.DataFrame
+        The ``estimates.csv`` table (module docstring).
+    innovations : pandas.DataFrame
+        The ``innovations.csv`` table (module docstring).
+    nis_continuous_mean : float
+        Mean NIS of the accelerometer pseudo-observation per step (expected: its dimension,
+        2), NaN without one.
+    nis_continuous_dof : int
+    outages : tuple of (start_s, duration_s)
+    runtime_s : float
+        Wall time of `railnav.navigate`, s.
+    n_steps, n_epochs : int
+        Filter steps and GNSS updates.
+    raw : ekf.FilterResult
+    filter_object : object
+        The filter that ran (`railnav.filters.constrained.ConstrainedFilter`, ...): its
+        layout, track and ``truth_states`` for evaluation.
+    left_track : dict or None
+        Where the run stopped because ``s`` left the track (`railnav.navigation.navigator.beyond_track`:
+        ``time_s, gps_time_s, s_m, sigma_s_m, end, track_length_m``); None when it ran
+        through the data.
+    """
+
+    filter: str
+    layout: StateLayout
+    start_gps_time_s: float
+    time_s: Array
+    x: Array
+    P: Array
+    estimates: pd.DataFrame
+    innovations: pd.DataFrame
+    nis_continuous_mean: float
+    nis_continuous_dof: int
+    outages: tuple
+    runtime_s: float
+    n_steps: int
+    n_epochs: int
+    raw: FilterResult = field(repr=False)
+    filter_object: object = field(repr=False, default=None)
+    left_track: dict | None = None
+
+    @classmethod
+    def assemble(cls, filt_obj, config, result: FilterResult, *, start_gps_time_s: float,
+                 outages, epoch_indices, epoch_times, runtime_s: float,
+                 left_track: dict | None = None) -> "NavigationResult":
+        """Build the result of a finished run (called by `railnav.navigate`)."""
+        P = result.P if result.P is not None else np.zeros((result.t.size, 0))
+        head = {"time_s": result.t, "gps_time_s": result.t + start_gps_time_s}
+        estimates = pd.DataFrame({**head, **filt_obj.estimates(result.x, P)})
+        innovations = _innovations(result, filt_obj, start_gps_time_s)
+        n_c = result.innov_c.shape[1] if result.innov_c.ndim == 2 else 0
+        nis_c = result.nis_c_sum / result.nis_c_count if result.nis_c_count else float("nan")
+        return cls(filter=config.filter, layout=result.layout,
+                   start_gps_time_s=float(start_gps_time_s), time_s=result.t, x=result.x, P=P,
+                   estimates=estimates, innovations=innovations, nis_continuous_mean=nis_c,
+                   nis_continuous_dof=n_c, outages=tuple(tuple(o) for o in outages),
+                   runtime_s=float(runtime_s), n_steps=int(result.n_steps),
+                   n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj,
+                   left_track=left_track)
+
+    def statistics(self) -> dict:
+        """Filter self-consistency figures for ``summary.json`` (no truth needed)."""
+        inn = self.innovations
+        out = {"nis_continuous_mean": _finite_or_none(self.nis_continuous_mean),
+               "nis_continuous_dof": self.nis_continuous_dof,
+               "gnss_epochs": self.n_epochs, "gnss_rows": int(len(inn)),
+               "gnss_rows_rejected": int((~inn["accepted"]).sum()) if len(inn) else 0}
+        if len(inn):
+            out["gnss_rows_excluded"] = int((inn["status"] == "excluded").sum())
+            jumps = inn.groupby("epoch")["clock_jump_m"].first().dropna()
+            out["clock_jumps"] = [{"time_s": float(inn.loc[inn["epoch"] == e, "time_s"].iloc[0]),
+                                   "jump_m": float(v)} for e, v in jumps.items()]
+        for kind in ("pseudorange", "range_rate"):
+            rows = inn[(inn["kind"] == kind) & inn["accepted"]] if len(inn) else inn
+            out[f"nis_{kind}_mean"] = _finite_or_none(float(rows["nis"].mean())) \
+                if len(rows) else None
+        return out
+
+
+def _finite_or_none(value: float):
+    return float(value) if np.isfinite(value) else None
+
+
+def _innovations(result: FilterResult, filt_obj, start_gps_time_s: float) -> pd.DataFrame:
+    """One row per GNSS measurement, with the satellite and kind the filter recorded."""
+    screen = getattr(filt_obj, "screen", None)
+    if screen is not None and len(screen.epochs) == result.t_d.size:
+        return _screened_innovations(result, screen.frame(), start_gps_time_s)
+    builder = getattr(filt_obj, "rows", None)
+    sv = np.concatenate(builder.rows_sv) if builder is not None and builder.rows_sv else \
+        np.zeros(0, dtype=object)
+    kind = np.concatenate(builder.rows_kind) if builder is not None and builder.rows_kind else \
+        np.zeros(0, dtype=object)
+    n = result.innov_d.size
+    if sv.size != n:   # an epoch record the builder did not see: keep numbers, drop labels
+        sv = np.full(n, "", dtype=object)
+        kind = np.full(n, "", dtype=object)
+    t = result.t_d[result.epoch_of] if n else np.zeros(0)
+    sigma = np.sqrt(result.s_d)
+    return pd.DataFrame({"time_s": t, "gps_time_s": t + start_gps_time_s,
+                         "epoch": result.epoch_of, "sv": sv, "kind": kind,
+                         "innovation": result.innov_d, "sigma": sigma,
+                         "nis": (result.innov_d / sigma) ** 2 if n else np.zeros(0),
+                         "accepted": result.accepted,
+                         "status": np.where(result.accepted, "used", "rejected").astype(object),
+                         "fault_probability": np.full(n, np.nan),
+                         "clock_jump_m": np.full(n, np.nan)})
+
+
+def _screened_innovations(result: FilterResult, rows: pd.DataFrame,
+                          start_gps_time_s: float) -> pd.DataFrame:
+    """Every screened row (`railnav.filters.fault_detection.RowScreen.frame`); the used ones carry
+    the update's own innovation, σ and acceptance (its χ² gate may still reject)."""
+    used = (rows["status"] == "used").to_numpy()
+    if used.sum() != result.innov_d.size:
+        raise ValueError(f"{used.sum()} rows passed the screen but the filter updated with "
+                         f"{result.innov_d.size}")
+    accepted = np.zeros(len(rows), dtype=bool)
+    accepted[used] = result.accepted
+    status = rows["status"].to_numpy().copy()
+    status[used & ~accepted] = "rejected"
+    innovation, sigma = rows["innovation"].to_numpy().copy(), rows["sigma"].to_numpy().copy()
+    innovation[used], sigma[used] = result.innov_d, np.sqrt(result.s_d)
+    epoch = rows["screen_epoch"].to_numpy()
+    t = result.t_d[epoch] if len(rows) else np.zeros(0)
+    return pd.DataFrame({"time_s": t, "gps_time_s": t + start_gps_time_s, "epoch": epoch,
+                         "sv": rows["sv"].to_numpy(), "kind": rows["kind"].to_numpy(),
+                         "innovation": innovation, "sigma": sigma,
+                         "nis": (innovation / sigma) ** 2, "accepted": accepted,
+                         "status": status,
+                         "fault_probability": rows["fault_probability"].to_numpy(),
+                         "clock_jump_m": rows["clock_jump_m"].to_numpy()})

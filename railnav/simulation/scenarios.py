@@ -1,0 +1,245 @@
+"""Named scenarios (speed profile + sensors) and the simulation of a scenario on a track.
+
+A `Scenario` is applicable to any track: it says how the train moves (a `SpeedProfile`
+and a duration), what the IMU is (rate and error grade), what initial errors a filter
+starts with, and the GNSS settings the GNSS simulator uses. `SCENARIOS` holds the named
+ones; build others with ``dataclasses.replace(get_scenario("curvy"), ...)`` or from
+scratch. `simulate_scenario` produces the truth and the ideal and measured IMU records.
+
+Random numbers: ``numpy.random.SeedSequence(seed).spawn(3)`` gives independent streams,
+child 0 for the IMU errors, child 1 for GNSS measurements, child 2 for initial errors,
+so adding or changing one sensor does not change the others' draws.
+"""
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gnss_obs.gpstime import calendar_to_gps_time_s
+from railnav.errors import ConfigError
+from railnav.simulation.profiles import SpeedProfile, constant_speed, station_stop_profile
+from railnav.simulation.truth import Truth, ideal_imu, simulate_truth
+from strapdown.errors import StrapdownError
+from strapdown.imu import Imu
+from strapdown.imu_errors import ImuErrors, apply_imu_errors, imu_grade
+from railnav_data import TRACKS, shipped_path
+
+__all__ = ["Scenario", "SimulationResult", "SCENARIOS", "get_scenario", "simulate_scenario",
+           "TRACKS_DIR", "DEFAULT_START_GPS_TIME_S", "scenario_to_dict", "RNG_STREAMS"]
+
+log = logging.getLogger(__name__)
+
+#: Example tracks shipped with the repository.
+TRACKS_DIR = shipped_path(TRACKS)
+#: 2020-11-29 12:40:00 GPST: inside the validity of the shipped broadcast navigation file.
+DEFAULT_START_GPS_TIME_S = float(calendar_to_gps_time_s(2020, 11, 29, 12, 40, 0))
+#: Indices of the independent random streams spawned from the seed.
+RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2}
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A trip's motion and sensors, independent of the track.
+
+    Parameters
+    ----------
+    name : str
+    profile : SpeedProfile
+        Speed versus time from the trip start.
+    duration_s : float
+        Trip duration, s (the trip ends at the track end at the latest).
+    imu_rate_hz : float
+        IMU sample rate, Hz.
+    imu_errors : str or ImuErrors
+        IMU grade preset name (`strapdown.imu_errors.IMU_GRADES`) or parameters.
+    default_track : str or None
+        File name in `TRACKS_DIR` of the track the scenario was designed for.
+    start_s : float
+        Along-track distance at t = 0, m.
+    initial_attitude_sigma_rad, initial_s_sigma_m, initial_v_sigma_mps : float
+        1σ initial errors a filter starts with: rad, m, m/s.
+    gnss_rate_hz : float
+        GNSS epoch rate, Hz.
+    sigma_pseudorange_m, sigma_range_rate_mps : float
+        1σ GNSS measurement noise: m, m/s.
+    outages : tuple of (start_s, duration_s)
+        GNSS outages, seconds from the trip start.
+    start_gps_time_s : float
+        GPS time of the trip start, s since 1980-01-06.
+    clock : str
+        Receiver clock preset name (GNSS simulator).
+    """
+
+    name: str
+    profile: SpeedProfile
+    duration_s: float
+    imu_rate_hz: float = 100.0
+    imu_errors: str | ImuErrors = "tactical"
+    default_track: str | None = None
+    start_s: float = 0.0
+    initial_attitude_sigma_rad: float = 1e-3
+    initial_s_sigma_m: float = 5.0
+    initial_v_sigma_mps: float = 0.1
+    gnss_rate_hz: float = 1.0
+    sigma_pseudorange_m: float = math.sqrt(15.0)
+    sigma_range_rate_mps: float = math.sqrt(0.5)
+    outages: tuple[tuple[float, float], ...] = ()
+    start_gps_time_s: float = DEFAULT_START_GPS_TIME_S
+    clock: str = "tcxo"
+
+    def __post_init__(self) -> None:
+        positive = ("duration_s", "imu_rate_hz", "gnss_rate_hz", "sigma_pseudorange_m",
+                    "sigma_range_rate_mps")
+        for name in positive:
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ConfigError(f"{name} must be finite and > 0, got {value!r}")
+        for name in ("start_s", "initial_attitude_sigma_rad", "initial_s_sigma_m",
+                     "initial_v_sigma_mps"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ConfigError(f"{name} must be finite and >= 0, got {value!r}")
+        outages = tuple((float(a), float(b)) for a, b in self.outages)
+        if any(not (a >= 0 and b > 0 and math.isfinite(a + b)) for a, b in outages):
+            raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got {outages}")
+        object.__setattr__(self, "outages", outages)
+        try:
+            imu_grade(self.imu_errors)
+        except StrapdownError as exc:
+            raise ConfigError(str(exc)) from None
+
+    @property
+    def imu(self) -> ImuErrors:
+        """The IMU error parameters."""
+        return imu_grade(self.imu_errors)
+
+    def with_overrides(self, *, speed_mps: float | None = None,
+                       duration_s: float | None = None) -> "Scenario":
+        """Override the profile's top speed (scaling all speeds) and/or the duration."""
+        out = self
+        if speed_mps is not None:
+            out = replace(out, profile=out.profile.scaled_to(speed_mps))
+        if duration_s is not None:
+            out = replace(out, duration_s=duration_s)
+        return out
+
+
+def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
+    """The scenario's parameters as JSON-ready data (IMU errors expanded)."""
+    data = asdict(scenario)
+    data["imu_errors"] = asdict(scenario.imu)
+    data["outages"] = [list(o) for o in scenario.outages]
+    return data
+
+
+SCENARIOS: dict[str, Scenario] = {
+    "paper2017": Scenario(
+        name="paper2017", profile=constant_speed(20.0), duration_s=1000.0,
+        imu_rate_hz=100.0, imu_errors="paper2017", default_track="paper2017.csv",
+        sigma_pseudorange_m=math.sqrt(15.0), sigma_range_rate_mps=math.sqrt(0.5),
+        outages=((100.0, 50.0), (500.0, 50.0))),
+    "curvy": Scenario(
+        name="curvy", duration_s=1000.0, imu_errors="tactical", default_track="curvy.csv",
+        profile=station_stop_profile(cruise_speed_mps=25.0, accel_time_s=60.0,
+                                     brake_time_s=50.0, cruise_before_stop_s=300.0,
+                                     dwell_s=60.0, start_dwell_s=10.0)),
+}
+
+
+def get_scenario(name: str) -> Scenario:
+    """The named scenario.
+
+    Raises
+    ------
+    ConfigError
+        For an unknown name.
+    """
+    try:
+        return SCENARIOS[name]
+    except KeyError:
+        raise ConfigError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}") from None
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """What `simulate_scenario` produces.
+
+    Attributes
+    ----------
+    scenario : Scenario
+    track : trackmodel.Track
+    seed : int
+    truth : Truth
+    imu_ideal : Imu
+        Error-free IMU.
+    imu_measured : Imu
+        IMU with the scenario's errors.
+    rng_streams : tuple of numpy.random.SeedSequence
+        The spawned streams (see `RNG_STREAMS`), for the sensors simulated later.
+    """
+
+    scenario: Scenario
+    track: Any
+    seed: int
+    truth: Truth
+    imu_ideal: Imu
+    imu_measured: Imu
+    rng_streams: tuple = field(repr=False, default=())
+
+
+def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
+                      progress: Callable[[int, int], None] | None = None) -> SimulationResult:
+    """Simulate a scenario's truth and IMU on a track.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    track : trackmodel.Track, str or os.PathLike, optional
+        The track or its file; default the scenario's `default_track` in `TRACKS_DIR`.
+    seed : int
+        Seed of every random draw (>= 0).
+    progress : callable, optional
+        ``progress(done, total)`` over the 3 stages (truth, ideal IMU, errors).
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    ConfigError
+        No track given and no default, or a bad seed.
+    trackmodel.TrackFileError, OSError
+        For a bad track file.
+    """
+    from trackmodel.io import read_track
+
+    if not (isinstance(seed, (int, np.integer)) and seed >= 0):
+        raise ConfigError(f"seed must be an integer >= 0, got {seed!r}")
+    if track is None:
+        if scenario.default_track is None:
+            raise ConfigError(f"scenario {scenario.name!r} has no default track; give one")
+        track = TRACKS_DIR / scenario.default_track
+    if not hasattr(track, "at"):
+        track = read_track(track)
+    tick = progress or (lambda done, total: None)
+    streams = tuple(np.random.SeedSequence(int(seed)).spawn(len(RNG_STREAMS)))
+    truth = simulate_truth(track, scenario.profile, duration_s=scenario.duration_s,
+                           rate_hz=scenario.imu_rate_hz, start_s=scenario.start_s)
+    if truth.time_s[-1] < scenario.duration_s - 0.5 / scenario.imu_rate_hz:
+        log.info("the trip reaches the track end at t = %.2f s (scenario: %.2f s)",
+                 truth.time_s[-1], scenario.duration_s)
+    tick(1, 3)
+    imu_ideal = ideal_imu(track, truth)
+    tick(2, 3)
+    imu_measured = apply_imu_errors(imu_ideal, scenario.imu,
+                                    np.random.default_rng(streams[RNG_STREAMS["imu"]]))
+    tick(3, 3)
+    return SimulationResult(scenario=scenario, track=track, seed=int(seed), truth=truth,
+                            imu_ideal=imu_ideal, imu_measured=imu_measured, rng_streams=streams)

@@ -1,0 +1,120 @@
+"""``railnav track fit|sample|info|plot`` in-process: outputs and one-line errors."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from railnav.cli import main
+from trackmodel.io import read_track
+from trackmodel.polyline import REVERSAL_CHORD_M, REVERSAL_WINDOW_M
+
+TRACKS = Path(__file__).resolve().parents[3] / "data" / "tracks"
+ATOL_SAMPLE_DEG = 1e-9       # sample CSV written with 10 significant digits... of degrees
+SPACING_M = 5.0              # of the survey points
+#: A leg ends at most this far before the turning point: `find_reversal`'s chord and
+#: window, a point spacing for their discretization and one for the apex point (cleaned as
+#: a spike when the way back retraces the way out).
+MAX_LEG_CUT_M = REVERSAL_CHORD_M + REVERSAL_WINDOW_M + 2 * SPACING_M
+TOL_M = 0.5                  # the fit's default tolerance
+
+
+def test_sample_matches_track(tmp_path):
+    out = tmp_path / "samples.csv"
+    assert main(["-q", "track", "sample", str(TRACKS / "paper2017.csv"), "--step-m", "100",
+                 "--out", str(out)]) == 0
+    frame = pd.read_csv(out)
+    assert list(frame.columns) == ["s_m", "lat_deg", "lon_deg", "h_m", "azimuth_deg",
+                                   "elevation_deg", "curvature_1pm"]
+    assert len(frame) == 251 and frame.s_m.iloc[-1] == 25_000.0
+    # the paper's straight: h = h0 + s sin(π/60), constant A = 30°, ϑ = 3°
+    assert np.allclose(frame.h_m, 100.0 + frame.s_m * np.sin(np.pi / 60), atol=1e-6)
+    assert np.allclose(frame.azimuth_deg, 30.0) and np.allclose(frame.elevation_deg, 3.0)
+
+
+def test_info_prints_figures(capsys):
+    assert main(["track", "info", str(TRACKS / "curvy.csv")]) == 0
+    out = capsys.readouterr().out
+    assert "min radius 600.0 m" in out and "max grade 2.00 %" in out
+
+
+def test_plot_writes_png(tmp_path):
+    out = tmp_path / "t.png"
+    assert main(["track", "plot", str(TRACKS / "east_west.csv"), "--out", str(out)]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fit_writes_a_track_within_tolerance(tmp_path):
+    survey = pd.read_csv(TRACKS / "barcelona_drive_survey.csv").iloc[:60]
+    poly = tmp_path / "poly.csv"
+    survey[["lat_deg", "lon_deg"]].to_csv(poly, index=False)
+    out = tmp_path / "track.csv"
+    assert main(["-q", "track", "fit", str(poly), "--tol-m", "0.5", "--out", str(out)]) == 0
+    track = read_track(out)
+    proj = track.project(np.radians(survey.lat_deg), np.radians(survey.lon_deg))
+    assert np.hypot(proj.cross_track_m, proj.along_m).max() <= 0.5
+
+
+@pytest.mark.parametrize("text,message", [
+    ("lat_deg,lon_deg\n41.6,abc\n", "row 1, lon_deg: 'abc' is not a finite number"),
+    ("lat_deg\n41.6\n", "lon_deg: required column missing"),
+    ("", "empty file"),
+])
+def test_fit_bad_polyline_exit_2(tmp_path, capsys, text, message):
+    poly = tmp_path / "poly.csv"
+    poly.write_text(text)
+    out = tmp_path / "track.csv"
+    assert main(["track", "fit", str(poly), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.strip() == f"error: {poly}: {message}"
+    assert not out.exists()
+
+
+def _out_and_back(tmp_path):
+    """A survey in the reference-trajectory layout (GPS week, seconds of week, lat, lon, h):
+    400 m along a known track, then back along it to 152 m (a turn on the spot)."""
+    from trackmodel.sections import Section
+    from trackmodel.track import Origin, Track
+    truth = Track([Section(150.0, 40.0, 0.0), Section(100.0, None, None, 0.0, 1 / 120),
+                   Section(150.0, None, None, 1 / 120, 1 / 120)], Origin(41.6, 2.35, 250.0))
+    s = np.concatenate([np.arange(0.0, 400.0, SPACING_M), [400.0],
+                        np.arange(397.0, 150.0, -SPACING_M)])
+    pt = truth.at(s)
+    frame = pd.DataFrame({"week": 2134, "sow": 45600.0 + np.arange(s.size),
+                          "lat": np.degrees(pt.lat), "lon": np.degrees(pt.lon), "h": pt.h})
+    path = tmp_path / "reference.csv"
+    path.write_text("# GPSW,GPSSoW,latitude(deg),longitude(deg),height(m)\n"
+                    + frame.to_csv(header=False, index=False))
+    return path, truth
+
+
+def test_fit_of_a_survey_that_reverses_names_its_legs(tmp_path, capsys):
+    survey, _ = _out_and_back(tmp_path)
+    code = main(["-q", "track", "fit", str(survey), "--out", str(tmp_path / "t.csv")])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "reverses its direction" in err and "--leg N" in err and "2: points" in err
+    assert not (tmp_path / "t.csv").exists()
+
+
+
+
+def test_fit_of_one_leg(tmp_path):
+    """--leg 1 covers the known track from 0 out to the turn in its direction, --leg 2 from
+    the turn back to 152 m in the other direction (points located by projection)."""
+    survey, truth = _out_and_back(tmp_path)
+    turn_m = 400.0 - MAX_LEG_CUT_M
+    for leg, span_m in ((1, [0.0, turn_m]), (2, [turn_m, 152.0])):
+        out = tmp_path / f"leg{leg}.csv"
+        assert main(["-q", "track", "fit", str(survey), "--leg", str(leg),
+                     "--out", str(out)]) == 0
+        track = read_track(out)
+        pt = truth.at(np.array(span_m))
+        proj = track.project(pt.lat, pt.lon, pt.h)
+        assert np.all(proj.distance_m <= TOL_M)
+        assert proj.s[1] - proj.s[0] >= abs(span_m[1] - span_m[0]) - 2 * TOL_M
+        assert f"leg {leg} of 2" in out.read_text().splitlines()[1]
+    assert main(["-q", "track", "fit", str(survey), "--leg", "3", "--out",
+                 str(tmp_path / "x.csv")]) == 2

@@ -1,0 +1,234 @@
+"""GNSS-only track-constrained filter: process model vs closed form, correlated-error
+inflation vs the AR(1) variance of the mean, Huber weights, simulated trips (NEES over
+seeds, a station stop, a reversal with a hand-made truth), leaving the track's end."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.linalg import block_diag
+
+from ekf.cd_filter import CdFilter
+from ekf.consistency import chi2_band
+from ekf.model import MeasurementModel
+from ekf.series import InputSeries
+from ekf.update import Observation
+from gnss_obs.oscillator import oscillator_from_name, process_noise
+from gnss_obs.simulate import GnssSimConfig, default_nav_path, simulate_gnss
+from gnss_obs.rinex_nav import read_rinex_nav
+from railnav.filters.constrained_model import ISB_RANDOM_WALK_M2PS
+from railnav.filters.gnss_only import GnssOnlyFilter, correlation_inflation
+from railnav.filters.gnss_only_model import build_gnss_only_model
+from railnav.config import NavigatorConfig, SensorData
+from railnav.navigation.navigator import END_MARGIN_SIGMA, InitialState, navigate
+from railnav.simulation.profiles import constant_speed, station_stop_profile
+from railnav.filters.robust_rows import huber_inflate, huber_variance_scale
+from railnav.jobs.run import run_simulated
+from railnav.simulation.scenarios import DEFAULT_START_GPS_TIME_S, TRACKS_DIR, Scenario
+from railnav.simulation.trip import navigator_config_for
+from trackmodel.earth import C_n_e
+from trackmodel.io import read_track
+from trackmodel.sections import Section
+from trackmodel.track import Origin, Track
+
+#: Rounding of the propagated mean and covariance, relative to the largest entry.
+RTOL_ROUNDING = 1e-10
+#: The AR(1) variance-of-the-mean factor at n = 1e5 samples differs from its limit by
+#: 2ρ/(n(1−ρ)²)·(1−ρⁿ) relative, < 3e-4 for τ ≤ 20 Δt.
+RTOL_AR1_LIMIT = 1e-3
+#: Along-track and speed errors stay within this many σ at every stored sample of a run
+#: (~1500 correlated samples: 4.5σ has a 7e-6 two-sided tail per sample).
+MAX_SIGMAS = 4.5
+SEEDS = range(8)
+NEES_TIME_S = 140.0          # one time per run (runs are independent, samples are not)
+STRAIGHT = TRACKS_DIR / "east_west.csv"   # its first 10 km are a straight due east
+
+
+def _config(**overrides) -> NavigatorConfig:
+    """What the simulator does: constant σ, white errors, a TCXO."""
+    sc = Scenario(name="t", profile=constant_speed(10.0), duration_s=10.0,
+                  sigma_pseudorange_m=3.0, sigma_range_rate_mps=0.1)
+    return navigator_config_for(sc, filter="gnss-only", **overrides)
+
+
+# -- process model ---------------------------------------------------------------------------
+def test_layout_names_follow_the_systems():
+    assert build_gnss_only_model(()).layout.names == ("s", "v", "clock_bias", "clock_drift")
+    assert build_gnss_only_model(("E", "C")).layout.names[-2:] == ("isb_E", "isb_C")
+
+
+def test_propagation_matches_closed_form_discretization(rng):
+    """Mean and covariance over 1 s (10 steps) against Φ P Φᵀ + Q written out: the
+    constant-velocity Q of white acceleration (Bar-Shalom §6.2.2), the oscillator's Q
+    (`gnss_obs.oscillator.process_noise`) and the ISB random walk."""
+    model = build_gnss_only_model(("E",))
+    sigma_a, dt, steps = 0.7, 0.1, 10
+    osc = oscillator_from_name("tcxo")
+    q_c = model.process_noise_density(along_accel_sigma_mps2=sigma_a, oscillator=osc)
+    A = rng.standard_normal((5, 5))
+    P0 = A @ A.T + np.eye(5)
+    x0 = np.array([12.0, -3.0, 150.0, 0.4, 2.0])
+    filt = CdFilter(model.process)
+    filt.reset(x0, P0)
+    t = np.arange(steps + 1) * dt
+    filt.propagate(InputSeries(t=t, u=np.zeros((t.size, 0)), q_c=q_c))
+    T = t[-1]
+    F2 = np.array([[1.0, T], [0.0, 1.0]])
+    Phi = block_diag(F2, F2, [[1.0]])
+    Q = block_diag(sigma_a ** 2 * np.array([[T ** 3 / 3, T ** 2 / 2], [T ** 2 / 2, T]]),
+                   process_noise(osc, T), [[ISB_RANDOM_WALK_M2PS * T]])
+    P_expected = Phi @ P0 @ Phi.T + Q
+    # The engine's step takes the noise over a step at its midpoint: on a variance term
+    # ∫ q (T − τ)² dτ that quadrature errs by q T dt²/12 (the midpoint rule's bound with
+    # f'' = 2q); the linear and constant terms are exact.
+    quadrature = max(q_c[0], q_c[2]) * T * dt ** 2 / 12.0
+    np.testing.assert_allclose(filt.x, Phi @ x0, rtol=0, atol=RTOL_ROUNDING * 150.0)
+    np.testing.assert_allclose(filt.P, P_expected, rtol=0,
+                               atol=quadrature + RTOL_ROUNDING * np.abs(P_expected).max())
+    np.testing.assert_allclose(filt.P - Phi @ P0 @ Phi.T, Q, rtol=0.01,
+                               atol=RTOL_ROUNDING * np.abs(P_expected).max())
+
+
+# -- correlated errors, robust weights -------------------------------------------------------
+@pytest.mark.parametrize("tau_s", [2.0, 20.0])
+def test_inflation_is_the_ar1_variance_of_the_mean(tau_s):
+    """n·Var(mean)/σ² = 1 + 2 Σ (1 − k/n) ρᵏ for an AR(1) sequence, summed directly."""
+    n, dt = 100_000, 1.0
+    rho = math.exp(-dt / tau_s)
+    k = np.arange(1, n)
+    exact = 1.0 + 2.0 * np.sum((1.0 - k / n) * rho ** k)
+    assert correlation_inflation(tau_s, dt) == pytest.approx(exact, rel=RTOL_AR1_LIMIT)
+    assert correlation_inflation(0.0, dt) == 1.0
+
+
+def test_huber_scale_closed_form():
+    r = np.array([0.0, 1.0, -1.5, 3.0, -30.0])
+    np.testing.assert_allclose(huber_variance_scale(r, 1.5), [1.0, 1.0, 1.0, 2.0, 20.0])
+
+
+def test_huber_inflation_of_a_linear_row():
+    """z = pᵀx rows: S = pᵀPp + R by hand; outliers get S' = S·r/k, the others keep R."""
+    import casadi as ca
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p", 2)
+    model = MeasurementModel.from_expression(x, p, ca.dot(p, x), "dot")
+    model = MeasurementModel(model.h, "dot", compiled=False)
+    P = np.array([[2.0, 0.5], [0.5, 1.0]])
+    x0 = np.array([1.0, -1.0])
+    rows = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    R = np.array([1.0, 4.0, 0.5])
+    S = np.einsum("ij,jk,ik->i", rows, P, rows) + R
+    pred = rows @ x0
+    z = pred + np.array([0.5, 10.0, -1.0]) * np.sqrt(S)       # r = 0.5, 10, 1
+    (obs,), n = huber_inflate([Observation(model, z[:, None], R, rows)], x0, P, k=1.5)
+    assert n == 1
+    S_new = S - R + obs.R
+    np.testing.assert_allclose(S_new, S * np.array([1.0, 10.0 / 1.5, 1.0]), rtol=1e-12)
+
+
+# -- simulated trips --------------------------------------------------------------------------
+def _scenario(profile, duration_s=150.0) -> Scenario:
+    return Scenario(name="gnss_only_test", profile=profile, duration_s=duration_s,
+                    imu_rate_hz=10.0, sigma_pseudorange_m=3.0, sigma_range_rate_mps=0.1)
+
+
+def test_nees_in_chi2_band_over_seeds():
+    """Constant speed on a straight; the filter's model is the truth's up to a tiny
+    acceleration noise (0.01 m/s²/√s), the clock is simulated with the filter's
+    oscillator: the average NEES (4 states) at one time over the seeds is χ²-consistent."""
+    track = read_track(STRAIGHT)
+    sc = _scenario(constant_speed(15.0))
+    cfg = navigator_config_for(sc, filter="gnss-only", along_accel_sigma_mps2=0.01)
+    nees = []
+    for seed in SEEDS:
+        out = run_simulated(track, sc, config=cfg, seed=seed)
+        k = int(np.argmin(np.abs(out.errors.time_s - NEES_TIME_S)))
+        assert out.errors.nees_dof == 4
+        nees.append(out.errors.nees[k])
+    low, high = chi2_band(4, len(nees))
+    assert low <= np.mean(nees) <= high
+
+
+def _within_sigmas(out) -> None:
+    est, err = out.result.estimates, out.errors
+    assert np.all(np.abs(err.along_track_m) <= MAX_SIGMAS * est["sigma_s_m"])
+    assert np.all(np.abs(err.speed_mps) <= MAX_SIGMAS * est["sigma_speed_mps"])
+
+
+def test_station_stop_is_tracked():
+    """Brake to v = 0, stand 30 s, leave (raised-cosine accelerations up to 1.5 m/s²):
+    with the default acceleration noise every error stays within its σ bound, and the
+    speed at the stop is zero within that bound."""
+    track = read_track(STRAIGHT)
+    sc = _scenario(station_stop_profile(cruise_speed_mps=15.0, accel_time_s=20.0,
+                                        brake_time_s=20.0, cruise_before_stop_s=30.0,
+                                        dwell_s=30.0, start_dwell_s=5.0))
+    out = run_simulated(track, sc, config=navigator_config_for(sc, filter="gnss-only"),
+                        seed=3)
+    truth_v = np.interp(out.errors.time_s, out.truth.time_s, out.truth.v)
+    assert np.any(truth_v == 0.0) and out.result.left_track is None
+    _within_sigmas(out)
+
+
+def _reversal_run(track: Track, duration_s: float, speed_mps: float, seed: int):
+    """Hand-made truth (the profiles are for v >= 0): s = s0 + (V T/π) sin(π t/T),
+    v = V cos(π t/T): forwards, a stop at T/2, then backwards; GNSS simulated on it."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s + 0.5)
+    s0 = 200.0
+    s = s0 + speed_mps * duration_s / math.pi * np.sin(math.pi * t / duration_s)
+    v = speed_mps * np.cos(math.pi * t / duration_s)
+    point = track.at(s)
+    v_e = v[:, None] * np.einsum("kij,kj->ki", C_n_e(point.lat, point.lon), point.u_n)
+    nav = read_rinex_nav(default_nav_path())
+    sim = simulate_gnss(DEFAULT_START_GPS_TIME_S + t, point.r_e, v_e, nav,
+                        GnssSimConfig(systems="G", sigma_pr_m=3.0, sigma_rr_mps=0.1),
+                        rng=rng)
+    config = _config()
+    data = SensorData(DEFAULT_START_GPS_TIME_S, obs=sim.obs, nav=nav)
+    filt = GnssOnlyFilter(track, config)
+    P0 = filt.initial_covariance(sigma_s_m=3.0, sigma_v_mps=0.2)
+    clock = sim.clock
+    x_true0 = np.array([s[0], v[0], clock["clock_bias_m"].iloc[0],
+                        clock["clock_drift_mps"].iloc[0]])
+    x0 = x_true0 + np.linalg.cholesky(P0) @ rng.standard_normal(4)
+    result = navigate(track, data, config, initial=InitialState(0.0, x0, P0))
+    return result, t, s, v
+
+
+def test_reversal_is_tracked():
+    track = read_track(STRAIGHT)
+    result, t, s, v = _reversal_run(track, 120.0, 8.0, seed=5)
+    est = result.estimates
+    s_true = np.interp(est["time_s"], t, s)
+    v_true = np.interp(est["time_s"], t, v)
+    assert v_true.min() < -7.0 and result.left_track is None     # it did reverse
+    assert np.all(np.abs(est["s_m"] - s_true) <= MAX_SIGMAS * est["sigma_s_m"])
+    assert np.all(np.abs(est["speed_mps"] - v_true) <= MAX_SIGMAS * est["sigma_speed_mps"])
+
+
+def test_run_stops_when_the_vehicle_leaves_the_track_end():
+    """The truth runs on a 600 m straight; the filter's track is its first 300 m. The run
+    stops after the truth passes 300 m (s beyond the end by 3σ and moving on), not before
+    the truth is past the end, and not long after."""
+    origin = Origin(45.0, 7.0, 250.0)
+    long_track = Track([Section(600.0, 90.0, 0.3)], origin)
+    short = Track([Section(300.0, 90.0, 0.3)], origin)
+    sc = _scenario(constant_speed(10.0), duration_s=50.0)
+    out_long = run_simulated(long_track, sc, config=navigator_config_for(
+        sc, filter="gnss-only"), seed=1)
+    assert out_long.result.left_track is None
+    trip_data = out_long.trip.sensor_data()
+    filt = GnssOnlyFilter(short, _config())
+    P0 = filt.initial_covariance(sigma_s_m=1.0, sigma_v_mps=0.1)
+    x0 = out_long.result.x[0]
+    result = navigate(short, trip_data, _config(), initial=InitialState(
+        float(out_long.result.time_s[0]), x0, P0))
+    left = result.left_track
+    assert left is not None and left["end"] == "end"
+    truth_s_at_stop = np.interp(left["time_s"], out_long.truth.time_s, out_long.truth.s)
+    assert truth_s_at_stop > short.length_m
+    assert left["s_m"] > short.length_m + END_MARGIN_SIGMA * left["sigma_s_m"]
+    travel_after_end_m = 10.0 * 10.0   # 10 s at 10 m/s: the σ of s is ~1 m
+    assert truth_s_at_stop < short.length_m + travel_after_end_m
+    assert result.estimates["time_s"].iloc[-1] <= left["time_s"]

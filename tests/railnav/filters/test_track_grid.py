@@ -1,0 +1,58 @@
+"""The grid of track parameters (railnav/filters/track_grid.py).
+
+References: `Track.at` at the node itself; and the reduced model evaluated with the track
+parameters taken exactly at ``s`` (δ = 0) — the grid's ``s_ref`` is up to half a node
+spacing away and the model's second-order expansion must absorb it.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from railnav.simulation.profiles import constant_speed
+from railnav.simulation.scenarios import TRACKS_DIR
+from railnav.filters.track_grid import GRID_STEP_M, TrackParameterGrid
+from railnav.simulation.truth import ideal_imu, simulate_truth
+from strapdown.reduced import build_reduced_model, track_parameters
+from trackmodel.io import read_track
+
+#: Neglected third-order term of the tangent: |d³u/ds³| δ³/6 ≲ 1e-7·0.25³/6 ≈ 3e-10, times
+#: gravity: 3e-9 m/s² (module docstring); the pseudo-observation must agree to 1e-8 m/s².
+ATOL_PSEUDO_OBS_MPS2 = 1e-8
+
+
+@pytest.fixture(scope="module")
+def curvy():
+    return read_track(TRACKS_DIR / "curvy.csv")
+
+
+def test_nearest_node_and_its_parameters(curvy, rng):
+    grid = TrackParameterGrid(curvy, window_m=300.0)
+    s = np.sort(rng.uniform(0.0, curvy.length_m, 400))
+    for chunk in np.split(s, 40):        # windows re-open as the queries move on
+        params, idx = grid.parameters(chunk)
+        node_s = params[:, 0]
+        assert np.all(np.abs(node_s - chunk) <= GRID_STEP_M / 2 + 1e-9)
+        np.testing.assert_array_equal(params, track_parameters(curvy.at(node_s),
+                                                               earth=curvy.earth))
+    params, _ = grid.parameters(np.array([curvy.length_m - 1e-3, curvy.length_m]))
+    assert params[-1, 0] == curvy.length_m
+
+
+def test_grid_reference_reproduces_the_exact_reference(curvy):
+    """Along 500 m of curvy.csv with a clothoid, an arc and a vertical curve."""
+    truth = simulate_truth(curvy, constant_speed(25.0), duration_s=20.0, rate_hz=100.0,
+                           start_s=3900.0)
+    imu = ideal_imu(curvy, truth)
+    model = build_reduced_model(curvy.earth)
+    x = truth.reduced_state()
+    exact = track_parameters(curvy.at(truth.s), earth=curvy.earth)
+    grid_params, _ = TrackParameterGrid(curvy).parameters(truth.s)
+    assert np.max(np.abs(grid_params[:, 0] - truth.s)) > 0.2    # really off the node
+    kinds = set(curvy.at(truth.s).section.tolist())
+    assert len(kinds) >= 2
+    h_exact = np.array([np.asarray(model.h_c(x[k], imu.u[k], exact[k])).ravel()
+                        for k in range(0, truth.s.size, 7)])
+    h_grid = np.array([np.asarray(model.h_c(x[k], imu.u[k], grid_params[k])).ravel()
+                       for k in range(0, truth.s.size, 7)])
+    np.testing.assert_allclose(h_grid, h_exact, rtol=0, atol=ATOL_PSEUDO_OBS_MPS2)
