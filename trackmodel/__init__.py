@@ -18,7 +18,8 @@ from trackmodel.earth import WGS84, Ellipsoid, sphere
 from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.io import read_track, write_track
 from trackmodel.sections import Section
-from trackmodel.track import Origin, Track, TrackPoint
+from trackmodel.origin import Origin
+from trackmodel.track import Track, TrackPoint
 
 __all__ = ["Ellipsoid", "WGS84", "sphere", "InputError", "TrackError", "TrackFileError",
            "Section", "Origin", "Track", "TrackPoint", "read_track", "write_track"]

@@ -44,8 +44,9 @@ from trackmodel.horizontal import fit_horizontal
 from trackmodel.mercator import MercatorPlane
 from trackmodel.polyline import Polyline, clean_polyline, find_reversal, local_enu, split_legs
 from trackmodel.profile import Profile, fit_vertical, flat_profile
+from trackmodel.origin import Origin
 from trackmodel.sections import Section
-from trackmodel.track import Origin, Track
+from trackmodel.track import Track
 
 log = logging.getLogger(__name__)
 

@@ -30,8 +30,9 @@ import numpy as np
 
 from trackmodel.earth import ecef_to_geodetic, enu_to_ecef
 from trackmodel.errors import TrackError
+from trackmodel.origin import Origin
 from trackmodel.sections import Section
-from trackmodel.track import Origin, Track
+from trackmodel.track import Track
 
 __all__ = ["offset_track", "PIECE_M", "MAX_CURVATURE_OFFSET"]
 

@@ -24,7 +24,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.earth import WGS84, Ellipsoid, ecef_to_enu, geodetic_to_ecef
-from trackmodel.errors import TrackFileError, finite_column
+from trackmodel.errors import TrackError, TrackFileError, finite_column
 
 __all__ = ["Polyline", "read_polyline", "clean_polyline", "find_reversal", "split_legs",
            "MIN_SPACING_M", "MAX_TURN_DEG", "MIN_LEG_M"]
@@ -62,7 +62,6 @@ class Polyline:
     h: Array | None = None
 
     def __post_init__(self) -> None:
-        from trackmodel.errors import TrackError
         n = len(self.lat)
         if len(self.lon) != n or (self.h is not None and len(self.h) != n):
             raise TrackError("lat, lon and h must have the same length")

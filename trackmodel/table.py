@@ -26,6 +26,7 @@ from collections.abc import Mapping, Sequence
 import pandas as pd
 
 from trackmodel.errors import TrackError, TrackFileError
+from trackmodel.origin import Origin
 from trackmodel.sections import MAX_ELEVATION_DEG, Section
 
 __all__ = ["ORIGIN_COLUMNS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "ALL_COLUMNS",
@@ -69,8 +70,7 @@ def _check_columns(columns: Sequence[str], path) -> None:
         raise TrackFileError("required column missing", path=path, column=missing[0])
 
 
-def _origin(values: dict[str, float | None], path):
-    from trackmodel.track import Origin
+def _origin(values: dict[str, float | None], path) -> Origin:
     for name in ORIGIN_COLUMNS:
         if values[name] is None:
             raise TrackFileError("the origin is missing: row 1 needs lat_deg, lon_deg, h_m",
@@ -119,7 +119,7 @@ def sections_from_rows(columns: Sequence[str], rows: Sequence[Mapping[str, Cell]
     Returns
     -------
     sections : tuple of Section
-    origin : trackmodel.track.Origin
+    origin : trackmodel.origin.Origin
 
     Raises
     ------
@@ -151,7 +151,7 @@ def sections_from_frame(frame: pd.DataFrame):
     return sections_from_rows([str(c) for c in frame.columns], rows)
 
 
-def sections_to_frame(sections: Sequence[Section], origin) -> pd.DataFrame:
+def sections_to_frame(sections: Sequence[Section], origin: Origin) -> pd.DataFrame:
     """The table as a DataFrame with the file's columns (None for empty cells).
 
     Optional columns appear only when a section uses them.

@@ -20,8 +20,11 @@ from trackmodel.earth import WGS84, Ellipsoid, geodetic_to_ecef
 from trackmodel.errors import TrackError
 from trackmodel.integrated import ChebyshevSections, integrate_section
 from trackmodel.loxodrome import loxodrome_position
+from trackmodel.origin import Origin
 from trackmodel.sections import Section, SectionArrays, tangent_frame
+from trackmodel.table import sections_from_frame
 
+# Origin is defined in trackmodel.origin (the table parser needs it without the track).
 __all__ = ["Origin", "Track", "TrackPoint", "S_TOLERANCE_M"]
 
 Array = npt.NDArray[np.float64]
@@ -29,47 +32,6 @@ Array = npt.NDArray[np.float64]
 #: Queries this far outside [0, length_m] are clamped to the ends (rounding of a caller's
 #: sum of section lengths); farther is an error.
 S_TOLERANCE_M = 1e-6
-#: Latitudes of the origin are limited to |φ| < 89.9° (longitude is undefined at a pole).
-MAX_ORIGIN_LAT_DEG = 89.9
-
-
-@dataclass(frozen=True)
-class Origin:
-    """Start point of a track, in the file's units.
-
-    Parameters
-    ----------
-    lat_deg, lon_deg : float
-        Geodetic latitude (|φ| < 89.9°) and longitude, degrees.
-    h_m : float
-        Ellipsoidal height, m.
-    """
-
-    lat_deg: float
-    lon_deg: float
-    h_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("lat_deg", "lon_deg", "h_m"):
-            if not math.isfinite(float(getattr(self, name))):
-                raise TrackError(f"origin {name} must be finite, got {getattr(self, name)!r}")
-        if not abs(self.lat_deg) < MAX_ORIGIN_LAT_DEG:
-            raise TrackError(f"origin must satisfy -89.9 < lat_deg < 89.9, got {self.lat_deg!r}")
-
-    @property
-    def lat(self) -> float:
-        """Latitude, rad."""
-        return math.radians(self.lat_deg)
-
-    @property
-    def lon(self) -> float:
-        """Longitude, rad."""
-        return math.radians(self.lon_deg)
-
-    @property
-    def h(self) -> float:
-        """Height, m."""
-        return float(self.h_m)
 
 
 @dataclass(frozen=True)
@@ -189,7 +151,6 @@ class Track:
         TrackFileError
             Located by row and column for a bad value or a missing column.
         """
-        from trackmodel.table import sections_from_frame
         sections, origin = sections_from_frame(frame)
         return cls(sections, origin, earth)
 
