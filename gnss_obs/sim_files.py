@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -16,9 +15,7 @@ import pandas as pd
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import ObsHeader
 from gnss_obs.rinex_write import write_rinex_nav, write_rinex_obs
-
-if TYPE_CHECKING:  # pragma: no cover
-    from gnss_obs.simulate import GnssSimulation
+from gnss_obs.sim_result import GnssSimulation
 
 __all__ = ["simulation_header", "write_simulation"]
 
@@ -53,7 +50,7 @@ def simulation_header(table: pd.DataFrame, *, signals: dict[str, str], r0_e: np.
                      glonass_slots=dict(sorted(glonass_slots.items())))
 
 
-def write_simulation(out_dir: str | os.PathLike, simulation: "GnssSimulation", nav: RinexNav, *,
+def write_simulation(out_dir: str | os.PathLike, simulation: GnssSimulation, nav: RinexNav, *,
                      obs_name: str = "gnss_obs.rnx",
                      nav_name: str = "gnss_nav.rnx") -> tuple[Path, Path]:
     """Write a simulation's observations and the navigation data it used (RINEX 3.04).

@@ -41,7 +41,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS, carrier_frequency_hz
+from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS, WEEK_S, carrier_frequency_hz
 from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angles,
                                   troposphere_delay_m)
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
@@ -49,8 +49,9 @@ from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
-from gnss_obs.sim_files import simulation_header, write_simulation
 from gnss_obs.sim_events import Outage, SatelliteFault, apply_faults, visible_after_outages
+from gnss_obs.sim_files import simulation_header, write_simulation
+from gnss_obs.sim_result import GnssSimulation
 from trackmodel.earth import ecef_to_geodetic
 
 __all__ = ["GnssSimConfig", "GnssSimulation", "SatelliteFault", "Outage", "simulate_gnss",
@@ -64,7 +65,7 @@ Array = npt.NDArray[np.float64]
 #: Simulated signal per system: (RINEX signal, band).
 SIM_SIGNALS = {"G": ("1C", 1), "E": ("1C", 1), "C": ("2I", 2), "R": ("1C", 1), "J": ("1C", 1)}
 #: 2020-11-29 12:00:00 GPST, inside the shipped navigation file (records 09:00-15:00).
-DEFAULT_START_GPS_TIME_S = 2134 * 604_800 + 43_200.0
+DEFAULT_START_GPS_TIME_S = 2134 * WEEK_S + 43_200.0
 #: The 2017 paper's GNSS noise (SEEDS.md: variances 15 m² and 0.5 (m/s)² at 1 Hz).
 PAPER_SIGMA_PR_M = math.sqrt(15.0)
 PAPER_SIGMA_RR_MPS = math.sqrt(0.5)
@@ -146,27 +147,6 @@ class GnssSimConfig:
         if not (-90.0 <= self.elevation_mask_deg < 90.0):
             raise GnssError("elevation_mask_deg must be in [-90, 90)")
         oscillator_from_name(self.oscillator)
-
-
-@dataclass(frozen=True, eq=False)
-class GnssSimulation:
-    """Output of `simulate_gnss`.
-
-    Attributes
-    ----------
-    obs : RinexObs
-        Header and observation table as `read_rinex_obs` returns them.
-    clock : pandas.DataFrame
-        Receiver clock truth: ``gps_time_s, clock_bias_m, clock_drift_mps``.
-    satellites : pandas.DataFrame
-        Per observation: ``gps_time_s, sv, elevation_deg, azimuth_deg, iono_m, tropo_m,
-        multipath_m, fault_m, noise_pr_m, noise_rr_mps``, and the noise-free
-        ``pseudorange_free_m`` and ``range_rate_free_mps`` (before rounding).
-    """
-
-    obs: RinexObs
-    clock: pd.DataFrame
-    satellites: pd.DataFrame
 
 
 def _check_trajectory(t: Array, r_e: Array, v_e: Array) -> None:
