@@ -26,8 +26,11 @@ _EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precis
 
 Array = npt.NDArray[np.float64]
 
+#: Columns of imu.csv holding ``f_b`` (m/s², b) and ``ω_ib_b`` (rad/s, b).
+_ACCEL_COLUMNS = ("ax_mps2", "ay_mps2", "az_mps2")
+_GYRO_COLUMNS = ("wx_radps", "wy_radps", "wz_radps")
 #: Column names of imu.csv, in order.
-IMU_COLUMNS = ("time_s", "ax_mps2", "ay_mps2", "az_mps2", "wx_radps", "wy_radps", "wz_radps")
+IMU_COLUMNS = ("time_s",) + _ACCEL_COLUMNS + _GYRO_COLUMNS
 #: Relative spread of the sample intervals accepted as "uniform".
 RATE_TOLERANCE = 1e-6
 
@@ -99,5 +102,6 @@ def read_imu_csv(path: str | os.PathLike) -> Imu:
         row = int(np.argmax(np.abs(step - np.median(step)))) + 2
         raise ImuInputError("time_s must increase with a uniform step", path=path, row=row,
                             column="time_s")
-    cols = frame[list(IMU_COLUMNS)].to_numpy(dtype=float)
-    return Imu(time_s=cols[:, 0], f_b=cols[:, 1:4], omega_ib_b=cols[:, 4:7])
+    return Imu(time_s=frame["time_s"].to_numpy(dtype=float),
+               f_b=frame[list(_ACCEL_COLUMNS)].to_numpy(dtype=float),
+               omega_ib_b=frame[list(_GYRO_COLUMNS)].to_numpy(dtype=float))

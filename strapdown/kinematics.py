@@ -12,6 +12,9 @@ Also the optional sensor-bias augmentation: accelerometer and gyro biases as sta
 first-order Gauss–Markov dynamics ``ḃ = −b/τ`` (``τ = inf``: random constant); the
 model subtracts them from the measured inputs. Written for CasADi symbols (builders);
 the functions also work on NumPy arrays through `strapdown.backend`.
+
+Vectors are addressed by name through the one layout object, `ekf.layout.StateLayout`
+(`INPUT_LAYOUT`, `BIAS_LAYOUT`, and the models' state layouts), never by literal index.
 """
 from __future__ import annotations
 
@@ -21,6 +24,7 @@ from typing import Any
 
 import casadi as ca
 
+from ekf.layout import StateLayout
 from strapdown.backend import ops_for
 from strapdown.errors import StrapdownError
 from strapdown.euler import C_b_n, euler_rates
@@ -28,48 +32,24 @@ from strapdown.frames import omega_en_n, omega_ie_n
 from strapdown.gravity import g_n
 from trackmodel.earth import WGS84, Ellipsoid
 
-__all__ = ["INPUT_NAMES", "BIAS_STATE_NAMES", "SensorBiasStates", "StateLayout",
-           "navigation_acceleration", "attitude_rates", "corrected_inputs", "ModelSymbols",
-           "model_symbols"]
+__all__ = ["INPUT_LAYOUT", "INPUT_NAMES", "BIAS_BLOCKS", "BIAS_LAYOUT", "BIAS_STATE_NAMES",
+           "ATTITUDE_NAMES", "SensorBiasStates", "navigation_acceleration", "attitude_rates",
+           "corrected_inputs", "ModelSymbols", "model_symbols"]
 
 #: The IMU input vector ``u`` of every model: specific force (m/s², b) then angular rate of
 #: ``b`` w.r.t. inertial space (rad/s, b), instantaneous values at the sample time.
-INPUT_NAMES = ("f_x", "f_y", "f_z", "omega_x", "omega_y", "omega_z")
-#: Names of the optional bias states: accelerometer (m/s², b) then gyro (rad/s, b).
-BIAS_STATE_NAMES = ("b_ax", "b_ay", "b_az", "b_gx", "b_gy", "b_gz")
-
-
-@dataclass(frozen=True)
-class StateLayout:
-    """Names and positions of a state vector's components (the one layout object).
-
-    Parameters
-    ----------
-    names : tuple of str
-        Component names in order.
-    """
-
-    names: tuple[str, ...]
-
-    def __post_init__(self) -> None:
-        if len(set(self.names)) != len(self.names):
-            raise StrapdownError(f"duplicate state names in {self.names}")
-
-    @property
-    def size(self) -> int:
-        """Number of components."""
-        return len(self.names)
-
-    def index(self, name: str) -> int:
-        """Position of component `name`."""
-        try:
-            return self.names.index(name)
-        except ValueError:
-            raise StrapdownError(f"no state {name!r}; states are {self.names}") from None
-
-    def indices(self, *names: str) -> list[int]:
-        """Positions of several components, in the order given."""
-        return [self.index(n) for n in names]
+INPUT_LAYOUT = StateLayout.from_blocks([("f_b", ("f_x", "f_y", "f_z")),
+                                        ("omega_ib_b", ("omega_x", "omega_y", "omega_z"))])
+INPUT_NAMES = INPUT_LAYOUT.names
+#: The optional bias states, as blocks appended to a model's state layout: accelerometer
+#: (m/s², b) then gyro (rad/s, b).
+BIAS_BLOCKS = (("accel_bias", ("b_ax", "b_ay", "b_az")), ("gyro_bias", ("b_gx", "b_gy", "b_gz")))
+#: The bias vector ``[b_a, b_g]`` on its own.
+BIAS_LAYOUT = StateLayout.from_blocks(BIAS_BLOCKS)
+BIAS_STATE_NAMES = BIAS_LAYOUT.names
+#: Names of the attitude states (Euler angles of ``b`` relative to ``n``, rad) that both
+#: models start with, block ``"attitude"``.
+ATTITUDE_NAMES = ("yaw", "pitch", "roll")
 
 
 @dataclass(frozen=True)
@@ -101,9 +81,9 @@ def corrected_inputs(u: Any, bias: Any | None,
     Parameters
     ----------
     u : casadi 6x1
-        ``[f_b, ω_ib_b]`` as measured.
+        ``[f_b, ω_ib_b]`` as measured (`INPUT_LAYOUT`).
     bias : casadi 6x1 or None
-        Bias states ``[b_a, b_g]`` (when `biases` is given).
+        Bias states ``[b_a, b_g]`` (`BIAS_LAYOUT`; when `biases` is given).
     biases : SensorBiasStates or None
 
     Returns
@@ -113,10 +93,10 @@ def corrected_inputs(u: Any, bias: Any | None,
     bias_dot : casadi 6x1 or None
         Time derivative of the bias states.
     """
-    f_b, omega_ib_b = u[0:3], u[3:6]
+    f_b, omega_ib_b = u[INPUT_LAYOUT.slice("f_b")], u[INPUT_LAYOUT.slice("omega_ib_b")]
     if biases is None:
         return f_b, omega_ib_b, None
-    b_a, b_g = bias[0:3], bias[3:6]
+    b_a, b_g = bias[BIAS_LAYOUT.slice("accel_bias")], bias[BIAS_LAYOUT.slice("gyro_bias")]
     rate_a = 0.0 if math.isinf(biases.accel_tau_s) else 1.0 / biases.accel_tau_s
     rate_g = 0.0 if math.isinf(biases.gyro_tau_s) else 1.0 / biases.gyro_tau_s
     return f_b - b_a, omega_ib_b - b_g, ca.vertcat(-rate_a * b_a, -rate_g * b_g)
@@ -128,8 +108,8 @@ class ModelSymbols:
 
     Attributes
     ----------
-    layout : StateLayout
-        Navigation states, then the bias states when modelled.
+    layout : ekf.StateLayout
+        Navigation states, then the bias blocks `BIAS_BLOCKS` when modelled.
     x, u : casadi.SX
         State (n_x) and IMU input (6) symbols.
     f_b, omega_ib_b : casadi.SX
@@ -146,14 +126,25 @@ class ModelSymbols:
     bias_dot: Any
 
 
-def model_symbols(state_names: tuple[str, ...],
-                  biases: SensorBiasStates | None) -> ModelSymbols:
-    """State/input symbols for navigation states `state_names` (+ biases if given)."""
-    n_nav = len(state_names)
-    layout = StateLayout(state_names + (BIAS_STATE_NAMES if biases is not None else ()))
+def model_symbols(navigation: StateLayout, biases: SensorBiasStates | None) -> ModelSymbols:
+    """State/input symbols for the navigation states of `navigation` (+ biases if given).
+
+    Parameters
+    ----------
+    navigation : ekf.StateLayout
+        The model's navigation states.
+    biases : SensorBiasStates or None
+        When given, the bias blocks `BIAS_BLOCKS` are appended to the layout.
+
+    Returns
+    -------
+    ModelSymbols
+    """
+    layout = navigation.extended(BIAS_BLOCKS) if biases is not None else navigation
     x = ca.SX.sym("x", layout.size)
-    u = ca.SX.sym("u", len(INPUT_NAMES))
-    bias = x[n_nav:n_nav + len(BIAS_STATE_NAMES)] if biases is not None else None
+    u = ca.SX.sym("u", INPUT_LAYOUT.size)
+    bias = ca.vertcat(*(x[layout.slice(name)] for name, _ in BIAS_BLOCKS)) \
+        if biases is not None else None
     f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
     return ModelSymbols(layout, x, u, f_b, omega_ib_b, bias_dot)
 

@@ -24,16 +24,26 @@ from dataclasses import dataclass
 
 import casadi as ca
 
-from strapdown.frames import radii_of_curvature
+from ekf.layout import StateLayout
 from strapdown.euler import C_b_n
-from strapdown.kinematics import (SensorBiasStates, StateLayout, attitude_rates,
+from strapdown.frames import radii_of_curvature
+from strapdown.kinematics import (ATTITUDE_NAMES, SensorBiasStates, attitude_rates,
                                   model_symbols, navigation_acceleration)
 from trackmodel.earth import WGS84, Ellipsoid
 
-__all__ = ["FULL_STATE_NAMES", "FullModel", "build_full_model"]
+__all__ = ["FULL_STATE_LAYOUT", "FULL_STATE_NAMES", "VELOCITY_NAMES", "POSITION_NAMES",
+           "FullModel", "build_full_model"]
 
+#: Velocity components, m/s, ENU (block ``"velocity"``).
+VELOCITY_NAMES = ("v_E", "v_N", "v_U")
+#: Geodetic position: latitude and longitude (rad), height (m) (block ``"position"``).
+POSITION_NAMES = ("lat", "lon", "h")
+#: The 9 navigation states of the full model, by block.
+FULL_STATE_LAYOUT = StateLayout.from_blocks([("attitude", ATTITUDE_NAMES),
+                                             ("velocity", VELOCITY_NAMES),
+                                             ("position", POSITION_NAMES)])
 #: Names of the 9 navigation states of the full model.
-FULL_STATE_NAMES = ("yaw", "pitch", "roll", "v_E", "v_N", "v_U", "lat", "lon", "h")
+FULL_STATE_NAMES = FULL_STATE_LAYOUT.names
 
 
 @dataclass(frozen=True)
@@ -42,8 +52,8 @@ class FullModel:
 
     Attributes
     ----------
-    layout : StateLayout
-        State names (9, or 15 with sensor biases).
+    layout : ekf.StateLayout
+        `FULL_STATE_LAYOUT` (9 states), extended by the bias blocks (15) with sensor biases.
     f : casadi.Function
         ``f(x, u) -> xdot``; x (n_x,), u (6,), xdot (n_x,) in state units per second.
     F_x : casadi.Function
@@ -78,15 +88,17 @@ def build_full_model(earth: Ellipsoid = WGS84,
     -------
     FullModel
     """
-    sym = model_symbols(FULL_STATE_NAMES, biases)
+    sym = model_symbols(FULL_STATE_LAYOUT, biases)
     x, u, f_b, omega_ib_b, bias_dot = sym.x, sym.u, sym.f_b, sym.omega_ib_b, sym.bias_dot
-    yaw, pitch, roll = x[0], x[1], x[2]
-    v_n, lat, h = x[3:6], x[6], x[8]
+    layout = sym.layout
+    yaw, pitch, roll = (x[layout.index(name)] for name in ATTITUDE_NAMES)
+    v_E, v_N, v_U = (x[layout.index(name)] for name in VELOCITY_NAMES)
+    v_n, lat, h = x[layout.slice("velocity")], x[layout.index("lat")], x[layout.index("h")]
 
     C = C_b_n(yaw, pitch, roll)
     a_n, omega_in_n = navigation_acceleration(C, f_b, v_n, lat, h, earth=earth)
     R_M, R_N = radii_of_curvature(lat, earth=earth)
-    pos_dot = ca.vertcat(v_n[1] / (R_M + h), v_n[0] / ((R_N + h) * ca.cos(lat)), v_n[2])
+    pos_dot = ca.vertcat(v_N / (R_M + h), v_E / ((R_N + h) * ca.cos(lat)), v_U)
     parts = [attitude_rates(yaw, pitch, roll, omega_ib_b, omega_in_n), a_n, pos_dot]
     if bias_dot is not None:
         parts.append(bias_dot)

@@ -51,23 +51,32 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from ekf.layout import StateLayout
 from strapdown.backend import ops_for
 from strapdown.euler import C_b_n
 from strapdown.frames import radii_of_curvature
-from strapdown.kinematics import (SensorBiasStates, StateLayout, attitude_rates,
+from strapdown.kinematics import (ATTITUDE_NAMES, SensorBiasStates, attitude_rates,
                                   model_symbols, navigation_acceleration)
 from trackmodel.earth import WGS84, Ellipsoid
 
-__all__ = ["REDUCED_STATE_NAMES", "TRACK_PARAMETER_NAMES", "PSEUDO_OBSERVATION_NAMES",
-           "ReducedModel", "build_reduced_model", "track_parameters", "cross_track_basis"]
+__all__ = ["REDUCED_STATE_LAYOUT", "REDUCED_STATE_NAMES", "TRACK_PARAMETER_LAYOUT",
+           "TRACK_PARAMETER_NAMES", "PSEUDO_OBSERVATION_NAMES", "ReducedModel",
+           "build_reduced_model", "track_parameters", "cross_track_basis"]
 
+#: The 5 navigation states of the reduced model, by block.
+REDUCED_STATE_LAYOUT = StateLayout.from_blocks([("attitude", ATTITUDE_NAMES), ("s", 1),
+                                                ("v", 1)])
 #: Names of the 5 navigation states of the reduced model.
-REDUCED_STATE_NAMES = ("yaw", "pitch", "roll", "s", "v")
+REDUCED_STATE_NAMES = REDUCED_STATE_LAYOUT.names
+#: The per-step track parameter vector ``p``: scalars, then the tangent ``u_n`` and its
+#: first and second derivatives along ``s`` as ENU blocks (module docstring).
+TRACK_PARAMETER_LAYOUT = StateLayout.from_blocks([
+    ("s_ref", 1), ("lat_ref", 1), ("lon_ref", 1), ("h_ref", 1),
+    ("dlat_ds", 1), ("dlon_ds", 1), ("dh_ds", 1),
+    ("u_n", ("u_E", "u_N", "u_U")), ("du_ds_n", ("du_E_ds", "du_N_ds", "du_U_ds")),
+    ("d2u_ds2_n", ("d2u_E_ds2", "d2u_N_ds2", "d2u_U_ds2"))])
 #: Names of the per-step track parameter vector ``p``.
-TRACK_PARAMETER_NAMES = (
-    "s_ref", "lat_ref", "lon_ref", "h_ref", "dlat_ds", "dlon_ds", "dh_ds",
-    "u_E", "u_N", "u_U", "du_E_ds", "du_N_ds", "du_U_ds",
-    "d2u_E_ds2", "d2u_N_ds2", "d2u_U_ds2")
+TRACK_PARAMETER_NAMES = TRACK_PARAMETER_LAYOUT.names
 #: Components of the accelerometer pseudo-observation ``h_c`` (m/s²).
 PSEUDO_OBSERVATION_NAMES = ("lateral", "normal")
 
@@ -78,8 +87,9 @@ class ReducedModel:
 
     Attributes
     ----------
-    layout : StateLayout
-        State names (5, or 11 with sensor biases).
+    layout : ekf.StateLayout
+        `REDUCED_STATE_LAYOUT` (5 states), extended by the bias blocks (11) with sensor
+        biases.
     f : casadi.Function
         ``f(x, u, p) -> xdot``: x (n_x,), u (6,), p (16,); xdot (n_x,), state units / s.
     F_x : casadi.Function
@@ -145,16 +155,20 @@ def build_reduced_model(earth: Ellipsoid = WGS84,
     -------
     ReducedModel
     """
-    sym = model_symbols(REDUCED_STATE_NAMES, biases)
+    sym = model_symbols(REDUCED_STATE_LAYOUT, biases)
     x, u, f_b, omega_ib_b, bias_dot = sym.x, sym.u, sym.f_b, sym.omega_ib_b, sym.bias_dot
-    p = ca.SX.sym("p", len(TRACK_PARAMETER_NAMES))
-    yaw, pitch, roll, s, v = (x[i] for i in range(5))
+    yaw, pitch, roll, s, v = (x[sym.layout.index(name)] for name in REDUCED_STATE_NAMES)
+    P = TRACK_PARAMETER_LAYOUT
+    p = ca.SX.sym("p", P.size)
 
-    delta = s - p[0]
-    lat = p[1] + p[4] * delta
-    h = p[3] + delta * (p[6] + 0.5 * p[12] * delta)
-    u_n = p[7:10] + delta * (p[10:13] + 0.5 * p[13:16] * delta)
-    du_ds_n = p[10:13] + p[13:16] * delta
+    def par(name: str) -> Any:
+        return p[P.slice(name)]
+
+    delta = s - par("s_ref")
+    lat = par("lat_ref") + par("dlat_ds") * delta
+    h = par("h_ref") + delta * (par("dh_ds") + 0.5 * par("du_U_ds") * delta)
+    u_n = par("u_n") + delta * (par("du_ds_n") + 0.5 * par("d2u_ds2_n") * delta)
+    du_ds_n = par("du_ds_n") + par("d2u_ds2_n") * delta
 
     C = C_b_n(yaw, pitch, roll)
     a_n, omega_in_n = navigation_acceleration(C, f_b, v * u_n, lat, h, earth=earth)
@@ -197,14 +211,21 @@ def track_parameters(point: Any, *, earth: Ellipsoid = WGS84) -> np.ndarray:
         Rows in the order of `TRACK_PARAMETER_NAMES`; ``dlat_ds`` = u_N/(R_M + h),
         ``dlon_ds`` = u_E/((R_N + h) cos lat) (rad/m), ``dh_ds`` = u_U.
     """
+    P = TRACK_PARAMETER_LAYOUT
     s = np.atleast_1d(np.asarray(point.s, dtype=float))
     lat = np.atleast_1d(np.asarray(point.lat, dtype=float))
     lon = np.atleast_1d(np.asarray(point.lon, dtype=float))
     h = np.atleast_1d(np.asarray(point.h, dtype=float))
     u_n = np.atleast_2d(np.asarray(point.u_n, dtype=float))
+    u_E, u_N, u_U = u_n.T
     R_M, R_N = radii_of_curvature(lat, earth=earth)
-    dlat_ds = u_n[:, 1] / (R_M + h)
-    dlon_ds = u_n[:, 0] / ((R_N + h) * np.cos(lat))
-    scalars = np.stack([s, lat, lon, h, dlat_ds, dlon_ds, u_n[:, 2]], axis=-1)
-    return np.concatenate([scalars, u_n, np.atleast_2d(point.du_ds_n),
-                           np.atleast_2d(point.d2u_ds2_n)], axis=-1)
+    out = np.empty((s.size, P.size))
+    scalars = {"s_ref": s, "lat_ref": lat, "lon_ref": lon, "h_ref": h,
+               "dlat_ds": u_N / (R_M + h), "dlon_ds": u_E / ((R_N + h) * np.cos(lat)),
+               "dh_ds": u_U}
+    for name, value in scalars.items():
+        out[:, P.index(name)] = value
+    for name, value in (("u_n", u_n), ("du_ds_n", point.du_ds_n),
+                        ("d2u_ds2_n", point.d2u_ds2_n)):
+        out[:, P.slice(name)] = np.atleast_2d(value)
+    return out

@@ -1,26 +1,35 @@
-"""State layout and bias-state configuration; the shared acceleration equation against
-the ECEF form of Newton's law (independent: inertial acceleration rotated to ENU)."""
+"""State layout (ekf's `StateLayout`, as the models build it) and bias-state configuration;
+the shared acceleration equation against the ECEF form of Newton's law (independent:
+inertial acceleration rotated to ENU)."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from ekf.errors import ModelError
+from ekf.layout import StateLayout
 from strapdown.errors import StrapdownError
 from strapdown.euler import C_b_n
 from strapdown.gravity import g_n
-from strapdown.kinematics import SensorBiasStates, StateLayout, navigation_acceleration
+from strapdown.kinematics import (BIAS_STATE_NAMES, SensorBiasStates, model_symbols,
+                                  navigation_acceleration)
+from strapdown.reduced import REDUCED_STATE_LAYOUT, REDUCED_STATE_NAMES
 from trackmodel.earth import WGS84, C_n_e, radii
 
 ATOL_ACCEL_MPS2 = 1e-12
 
 
 def test_layout_indices_and_errors():
-    layout = StateLayout(("a", "b", "c"))
-    assert layout.size == 3 and layout.indices("c", "a") == [2, 0]
-    with pytest.raises(StrapdownError, match="no state"):
+    """Reference: the documented state order, navigation states then the 6 bias states."""
+    assert model_symbols(REDUCED_STATE_LAYOUT, None).layout == REDUCED_STATE_LAYOUT
+    layout = model_symbols(REDUCED_STATE_LAYOUT, SensorBiasStates()).layout
+    assert layout.size == 11 and [layout.index(n) for n in ("v", "yaw")] == [4, 0]
+    assert layout.names == REDUCED_STATE_NAMES + BIAS_STATE_NAMES
+    assert layout.slice("gyro_bias") == slice(8, 11)
+    with pytest.raises(ModelError, match="no block"):
         layout.index("d")
-    with pytest.raises(StrapdownError, match="duplicate"):
-        StateLayout(("a", "a"))
+    with pytest.raises(ModelError, match="twice|repeat"):
+        model_symbols(StateLayout.from_blocks([("b_ax", 1)]), SensorBiasStates())
 
 
 @pytest.mark.parametrize("kwargs", [dict(accel_tau_s=0.0), dict(gyro_tau_s=-1.0),
