@@ -28,7 +28,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_navigator  # noqa: E402  (the 2017 trip and its start live there)
 
-from railnav.navigation.navigator import make_filter, navigate  # noqa: E402
+from railnav.filters.protocol import make_filter
+from railnav.navigation.navigator import navigate  # noqa: E402
 from railnav.jobs.run import truth_start  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
 from railnav.navigation.bank import convert_state, navigate_tracks  # noqa: E402

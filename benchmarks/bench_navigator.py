@@ -35,7 +35,8 @@ sys.path.insert(0, str(HERE))
 import bench_ekf_engine  # noqa: E402  (the NumPy reference loop lives there)
 
 from railnav.navigation.initialization import initial_from_truth  # noqa: E402
-from railnav.navigation.navigator import make_filter, navigate  # noqa: E402
+from railnav.filters.protocol import make_filter
+from railnav.navigation.navigator import navigate  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
 from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402

@@ -4,6 +4,12 @@
 measurement model, gating, output rate, initial uncertainty); `SensorData` carries the
 recorded or simulated measurements with the one time reference that links them
 (`start_gps_time_s`: the GPS time of ``time_s = 0``).
+
+This module owns the defaults of a run, each written once here and imported wherever a
+signature or a command-line flag needs it: `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`,
+`DEFAULT_SYSTEMS` (and `NavigatorConfig`'s field defaults). The defaults of a simulated
+trip (speed profile, GNSS σ, start time) are its scenario's
+(`railnav.simulation.scenarios`).
 """
 from __future__ import annotations
 
@@ -19,17 +25,34 @@ from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from railnav.errors import ConfigError
 from railnav.filters.fault_detection import FaultDetectionConfig
+from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
 
-__all__ = ["NavigatorConfig", "SensorData", "FILTER_KINDS", "Outage"]
+__all__ = ["NavigatorConfig", "SensorData", "FILTER_KINDS", "DEFAULT_FILTER",
+           "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS", "check_gnss_pair"]
 
-#: The filters `railnav.navigate` can run.
-FILTER_KINDS = ("constrained", "unconstrained", "gnss-only")
+#: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
+DEFAULT_FILTER = "constrained"
+#: The IMU grade a simulated trip has and a filter assumes when none is named
+#: (`strapdown.imu_errors.IMU_GRADES`).
+DEFAULT_IMU_GRADE = "tactical"
+#: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
+DEFAULT_SYSTEMS = "G"
 
-#: A GNSS outage: (start, duration), seconds from ``time_s = 0``.
-Outage = tuple[float, float]
+
+def check_gnss_pair(obs, nav) -> None:
+    """GNSS observations and navigation data (files or read) go together.
+
+    Raises
+    ------
+    ConfigError
+        When one is given without the other.
+    """
+    if (obs is None) != (nav is None):
+        raise ConfigError("GNSS observations and navigation data go together: give both "
+                          "--obs and --nav")
 
 
 @dataclass(frozen=True)
@@ -38,9 +61,10 @@ class NavigatorConfig:
 
     Parameters
     ----------
-    filter : {"constrained", "unconstrained", "gnss-only"}
-        The track-constrained INS/GNSS filter, the unconstrained 9-state INS/GNSS
-        baseline, or the track-constrained GNSS-only filter (no IMU).
+    filter : str
+        A filter kind of `railnav.filters.protocol.FILTERS`: ``constrained`` (the
+        track-constrained INS/GNSS filter), ``unconstrained`` (the 9-state INS/GNSS
+        baseline) or ``gnss-only`` (track-constrained, no IMU).
     imu_errors : str or ImuErrors
         IMU grade the filter assumes (`strapdown.imu_errors.IMU_GRADES`).
     estimate_imu_biases : bool or None
@@ -88,11 +112,11 @@ class NavigatorConfig:
         its χ² gate).
     """
 
-    filter: str = "constrained"
-    imu_errors: str | ImuErrors = "tactical"
+    filter: str = DEFAULT_FILTER
+    imu_errors: str | ImuErrors = DEFAULT_IMU_GRADE
     estimate_imu_biases: bool | None = None
     oscillator: str = "tcxo"
-    measurement: MeasurementConfig = field(default_factory=lambda: MeasurementConfig(systems="G"))
+    measurement: MeasurementConfig = field(default_factory=lambda: MeasurementConfig(systems=DEFAULT_SYSTEMS))
     elevation_mask_deg: float = 10.0
     use_doppler: bool = True
     gate_probability: float | None = 0.9999
@@ -108,9 +132,7 @@ class NavigatorConfig:
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
 
     def __post_init__(self) -> None:
-        if self.filter not in FILTER_KINDS:
-            raise ConfigError(f"filter must be one of {', '.join(FILTER_KINDS)}, "
-                              f"got {self.filter!r}")
+        filter_kind(self.filter)
         try:
             imu_grade(self.imu_errors)
             oscillator_from_name(self.oscillator)
@@ -180,7 +202,6 @@ class SensorData:
     def __post_init__(self) -> None:
         if not np.isfinite(self.start_gps_time_s):
             raise ConfigError(f"start_gps_time_s must be finite, got {self.start_gps_time_s!r}")
-        if (self.obs is None) != (self.nav is None):
-            raise ConfigError("GNSS observations and navigation data go together")
+        check_gnss_pair(self.obs, self.nav)
         if self.imu is None and self.obs is None:
             raise ConfigError("no sensor data: give an IMU, GNSS observations, or both")

@@ -16,7 +16,8 @@ from pathlib import Path
 from railnav.commands.support import (nonnegative_float, outage_window, positive_float,
                                       positive_int, progress_bar)
 from railnav.errors import ConfigError
-from railnav.config import FILTER_KINDS
+from railnav.config import DEFAULT_FILTER
+from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.simulation.scenarios import SCENARIOS, get_scenario
 from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
 from strapdown.imu_errors import IMU_GRADES
@@ -74,8 +75,8 @@ def register(subparsers) -> None:
     p.add_argument("--outage", type=outage_window, action="append", default=None,
                    metavar="START:DURATION",
                    help="GNSS outage, s from the start (repeatable; replaces the scenario's)")
-    p.add_argument("--filter", choices=FILTER_KINDS, default="constrained",
-                   help="which filter (default: constrained)")
+    p.add_argument("--filter", choices=FILTER_KINDS, default=DEFAULT_FILTER,
+                   help=f"which filter (default: {DEFAULT_FILTER})")
     p.add_argument("--systems", default=None,
                    help="GNSS systems to use, e.g. G or GE (default: the simulated ones for "
                         "railnav simulate's files, else G)")
@@ -166,9 +167,10 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     from railnav.navigation.bank import TrackBankConfig
     from railnav.jobs.tracks import (run_files_tracks, run_simulated_tracks, track_names,
                                     write_track_run)
-    if args.filter != "constrained":
-        raise ConfigError(f"several tracks run the constrained filter, not --filter "
-                          f"{args.filter}")
+    if not filter_kind(args.filter).banks:
+        raise ConfigError(f"several tracks run a filter that can run in a bank "
+                          f"({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}), "
+                          f"not --filter {args.filter}")
     names = track_names(args.tracks)
     tracks = [read_track(path) for path in args.tracks]
     bank = TrackBankConfig(crossing_rate_per_s=args.crossing_rate_per_s)

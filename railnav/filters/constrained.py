@@ -52,7 +52,6 @@ class ConstrainedFilter:
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
     """
 
-    needs_imu = True
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config

@@ -94,7 +94,6 @@ class GnssOnlyFilter:
         Rows down-weighted by the Huber weight so far.
     """
 
-    needs_imu = False
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *,
                  huber_k: float | None = None) -> None:

@@ -79,7 +79,6 @@ class UnconstrainedFilter:
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
     """
 
-    needs_imu = True
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config

@@ -10,6 +10,7 @@
 """
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import os
@@ -27,7 +28,7 @@ from railnav.navigation.initialization import initial_from_truth
 from railnav.config import NavigatorConfig, SensorData
 from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
 from railnav.navigation.result import NavigationResult
-from railnav.navigation.navigator import make_filter, navigate
+from railnav.navigation.navigator import navigate
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from gnss_obs.measurements import MeasurementConfig
 from railnav.simulation.trip import (SimulatedTrip, navigator_config_for, navigator_config_from_simulation,
@@ -98,11 +99,9 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
     """
     config = config or navigator_config_for(scenario, systems=systems)
     trip = simulate_trip(scenario, track=track, seed=seed, systems=systems, faults=faults)
-    filt = make_filter(trip.track, config, None)
-    initial = truth_start(filt, trip, config)
-    result = navigate(trip.track, trip.sensor_data(), config, outages=(), initial=initial,
+    result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
+                      initial=functools.partial(truth_start, trip=trip, config=config),
                       progress=progress)
-    result = replace(result, outages=scenario.outages)
     errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
     summary = run_summary(result, trip.track, errors, window, scenario.outages,
                        {"scenario": scenario.name, "seed": int(seed), "systems": systems})
@@ -116,7 +115,8 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
 
     Parameters
     ----------
-    filt : filter object (`railnav.navigation.navigator.make_filter`)
+    filt : railnav.filters.protocol.Filter
+        The run's filter object.
     trip : SimulatedTrip
     config : NavigatorConfig
     x_true : ndarray, shape (n,), optional

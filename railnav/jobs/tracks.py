@@ -22,7 +22,6 @@ import numpy as np
 from railnav.errors import ConfigError
 from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
-from railnav.navigation.navigator import make_filter
 from railnav.jobs.run import (CSV_FLOAT_FORMAT, RunOutcome, read_sensor_files, run_summary,
                           truth_start, write_run)
 from railnav.simulation.scenarios import Scenario
@@ -97,15 +96,18 @@ def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int =
     config = config or navigator_config_for(scenario, systems=systems)
     trip = simulate_trip(scenario, track=tracks[true_track], seed=seed, systems=systems,
                          faults=faults)
-    filters = [make_filter(track, config, None) for track in tracks]
-    truth_filter = filters[true_track]
-    x_true = truth_filter.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
-    P0 = truth_start(truth_filter, trip, config).P0
-    initial = [truth_start(f, trip, config,
-                           x_true=convert_state(truth_filter, f, x_true, P0)[0])
-               for f in filters]
-    result = navigate_tracks(tracks, trip.sensor_data(), config, names=names, initial=initial,
-                             bank=bank, progress=progress)
+
+    def initial(filters):
+        truth_filter = filters[true_track]
+        x_true = truth_filter.truth_states(trip.truth,
+                                           *trip.clock_truth(trip.truth.time_s))[0][0]
+        P0 = truth_start(truth_filter, trip, config).P0
+        return [truth_start(f, trip, config, x_true=convert_state(truth_filter, f, x_true, P0)[0])
+                for f in filters]
+
+    result = navigate_tracks(tracks, trip.sensor_data(), config, names=names,
+                             outages=scenario.outages, initial=initial, bank=bank,
+                             progress=progress)
     combined = result.combined()
     errors = error_series(combined, trip.truth, trip.track, clock_truth=trip.clock_truth)
     extra = {"scenario": scenario.name, "seed": int(seed), "systems": systems,

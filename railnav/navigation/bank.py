@@ -2,8 +2,8 @@ r"""Parallel-track identification: one constrained filter per candidate track, i
 
 The hypotheses are "the train is on track j" (the tracks of a double line, the routes
 after a switch). `navigate_tracks` runs one constrained INS/GNSS filter per candidate
-track over the same data, chunk by chunk in lockstep (`railnav.navigation.navigator.input_chunks`:
-every chunk ends at a GNSS epoch or after `railnav.navigation.navigator.MAX_CHUNK_S`), and after each
+track over the same data, chunk by chunk in lockstep (`railnav.navigation.loop.ChunkLoop`:
+every chunk ends at a GNSS epoch or after `railnav.navigation.loop.MAX_CHUNK_S`), and after each
 chunk (a *cycle*):
 
 1. **Evidence.** Each filter's fault screen (`railnav.filters.fault_detection.RowScreen.last`)
@@ -43,7 +43,7 @@ chunk (a *cycle*):
    The filter on an unlikely track is thus kept near the likely one (it would otherwise
    drift on its wrong geometry), ready if the train does cross.
 
-A filter whose vehicle leaves its track (`railnav.navigation.navigator.beyond_track`) stops; its
+A filter whose vehicle leaves its track (`railnav.navigation.loop.beyond_track`) stops; its
 hypothesis gets probability 0 from then on.
 
 Identifiability: the per-epoch evidence between two tracks ``d`` apart is about
@@ -72,8 +72,10 @@ from ekf.series import Epoch
 from ekf.update import LOG_2PI
 from railnav.errors import ConfigError, RailnavError
 from railnav.config import NavigatorConfig, SensorData
-from railnav.navigation.navigator import (EPOCH_TIME_TOL_S, InitialState, filter_engine, input_chunks,
-                               make_filter, max_chunk_samples, trip_samples)
+from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.navigation.initialization import InitialState, initial_from_gnss
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
+from railnav.navigation.navigator import trip_samples
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.bank_result import TrackBankResult
 from trackmodel.earth import C_n_e
@@ -240,7 +242,7 @@ def common_log_likelihoods(screens: Sequence) -> Array:
 def navigate_tracks(tracks: Sequence, data: SensorData,
                     config: NavigatorConfig = NavigatorConfig(), *,
                     names: Sequence[str] | None = None, outages=(),
-                    initial: Sequence[InitialState] | None = None,
+                    initial: Sequence[InitialState] | Callable | None = None,
                     bank: TrackBankConfig = TrackBankConfig(),
                     progress: Progress | None = None) -> TrackBankResult:
     """Identify the track among candidates while navigating on each (module docstring).
@@ -256,7 +258,7 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
     names : sequence of str, optional
         One per track (default ``track0, track1, …``).
     outages : sequence of (start_s, duration_s)
-    initial : sequence of InitialState, optional
+    initial : sequence of InitialState, or callable(filter objects) -> that, optional
         One per track at the same time; default: the first GNSS fix projected onto each.
     bank : TrackBankConfig
     progress : callable(done, total), optional
@@ -270,13 +272,15 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
     names = tuple(names) if names is not None else tuple(f"track{j}" for j in range(len(tracks)))
     if len(tracks) < 2 or len(names) != len(tracks) or len(set(names)) != len(names):
         raise ConfigError("a track bank needs at least two tracks with distinct names")
-    if config.filter != "constrained":
-        raise ConfigError(f"parallel-track identification runs the constrained filter, not "
-                          f"{config.filter!r}")
+    if not filter_kind(config.filter).banks:
+        raise ConfigError(f"parallel-track identification runs a filter that can run in a "
+                          f"bank ({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}"
+                          f"), not {config.filter!r}")
     trip = trip_samples(data, config, outages=outages)
     filters = [make_filter(track, config, trip.gnss) for track in tracks]
-    if initial is None:
-        from railnav.navigation.initialization import initial_from_gnss
+    if callable(initial):
+        initial = initial(filters)
+    elif initial is None:
         initial = [initial_from_gnss(f, data, config, trip.gnss) for f in filters]
     if len(initial) != len(tracks) or len({round(i.time_s, 9) for i in initial}) != 1:
         raise ConfigError("give one initial state per track, all at the same time")
@@ -284,10 +288,10 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
     lockstep = _Lockstep(filters, config, t, u, trip.epoch_times, epoch_idx, initial)
     record = _run_bank(lockstep, bank, progress)
     results = []
-    for f, parts, left in zip(filters, lockstep.parts, lockstep.left):
+    for f, parts, loop in zip(filters, lockstep.parts, lockstep.loops):
         raw = concatenate_results(parts)
-        left_track = dict(left[0], gps_time_s=left[0]["time_s"] + data.start_gps_time_s) \
-            if left else None
+        left_track = None if loop.left is None else dict(
+            loop.left, gps_time_s=loop.left["time_s"] + data.start_gps_time_s)
         results.append(NavigationResult.assemble(
             f, config, raw, start_gps_time_s=data.start_gps_time_s, outages=outages,
             epoch_indices=epoch_idx, epoch_times=trip.epoch_times,
@@ -298,21 +302,20 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
 
 
 class _Lockstep:
-    """One engine and one chunk stream per filter over the same samples."""
+    """One chunk loop (`railnav.navigation.loop.ChunkLoop`) per filter over the same
+    samples, advanced together."""
 
     def __init__(self, filters, config, t, u, epoch_times, epoch_idx, initial) -> None:
         dt = float(np.median(np.diff(t)))
         at_sample = np.searchsorted(t, epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
         self.filters = filters
-        self.engines = [filter_engine(f, config, sample_interval_s=dt) for f in filters]
-        self.left: list[list[dict]] = [[] for _ in filters]
+        self.loops = [ChunkLoop(f, config, sample_interval_s=dt) for f in filters]
+        self.engines = [loop.engine for loop in self.loops]
         self.parts: list[list] = [[] for _ in filters]
         self.total = (t.size - 1) * len(filters)
-        self.streams = [
-            engine.stream(input_chunks(f, engine, t, u, at_sample,
-                                       max_len=max_chunk_samples(dt), left=left),
-                          _epochs(f, t, at_sample, epoch_idx, left), x0=init.x0, P0=init.P0)
-            for f, engine, left, init in zip(filters, self.engines, self.left, initial)]
+        self.streams = [loop.stream(loop.chunks(t, u, at_sample),
+                                    loop.epochs(t[at_sample], epoch_idx), init)
+                        for loop, init in zip(self.loops, initial)]
         self.alive = [True] * len(filters)
         self.steps = 0
         self.convert = Correspondence(filters)
@@ -335,13 +338,6 @@ class _Lockstep:
             self.steps += int(part.nis_c_count)
             new.append(len(self.filters[j].screen.epochs) - before)
         return new if any(self.alive) else None
-
-
-def _epochs(filt_obj, t: Array, at_sample, epoch_idx, left: list) -> Iterator[Epoch]:
-    for k, i in zip(at_sample, epoch_idx):
-        if left:
-            return
-        yield Epoch(float(t[k]), lambda x, P, i=int(i): filt_obj.observations(i, x, P))
 
 
 def _run_bank(lock: _Lockstep, bank: TrackBankConfig, progress: Progress | None) -> dict:

@@ -21,7 +21,7 @@ import numpy.typing as npt
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.errors import RailnavError
 
-__all__ = ["GnssFix", "first_fix", "initial_from_gnss", "initial_from_truth",
+__all__ = ["InitialState", "GnssFix", "first_fix", "initial_from_gnss", "initial_from_truth",
            "MAX_INITIAL_EPOCHS"]
 
 log = logging.getLogger(__name__)
@@ -30,6 +30,24 @@ Array = npt.NDArray[np.float64]
 
 #: Epochs searched for a first fix.
 MAX_INITIAL_EPOCHS = 60
+
+
+@dataclass(frozen=True)
+class InitialState:
+    """A filter's starting point.
+
+    Attributes
+    ----------
+    time_s : float
+        Time of the prior, s from the trip start.
+    x0 : ndarray, shape (n,)
+    P0 : ndarray, shape (n, n)
+        In the filter's `ekf.StateLayout`.
+    """
+
+    time_s: float
+    x0: Array
+    P0: Array
 
 
 @dataclass(frozen=True)
@@ -95,8 +113,7 @@ def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
 
 
 def initial_from_gnss(filt_obj, data, config, gnss):
-    """The filter's `railnav.navigation.navigator.InitialState` at the first GNSS fix."""
-    from railnav.navigation.navigator import InitialState
+    """The filter's `InitialState` at the first GNSS fix."""
     if gnss is None:
         raise RailnavError("no GNSS data to start from: give GNSS observations or an "
                            "initial state")
@@ -126,9 +143,8 @@ def initial_from_truth(x_true: npt.ArrayLike, P0: npt.ArrayLike, *, time_s: floa
 
     Returns
     -------
-    railnav.navigation.navigator.InitialState
+    InitialState
     """
-    from railnav.navigation.navigator import InitialState
     P0 = np.asarray(P0, dtype=float)
     error = np.linalg.cholesky(P0) @ rng.standard_normal(P0.shape[0])
     if drawn is not None:

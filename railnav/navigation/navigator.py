@@ -2,114 +2,55 @@
 
 `navigate` is the one entry point behind ``railnav run`` and the notebooks. It
 
-1. cuts the GNSS observations into epochs (`railnav.filters.gnss_epochs`), without the outage
-   windows;
+1. cuts the GNSS observations into epochs (`railnav.filters.gnss_epochs`), without the
+   outage windows (the one place where a run skips GNSS data);
 2. builds the sample grid: the IMU samples (a sample is inserted, its input interpolated,
-   where a GNSS epoch falls between two), or for the GNSS-only filter a grid at the
+   where a GNSS epoch falls between two), or for a filter that needs no IMU a grid at the
    output rate plus the epochs;
-3. starts from the given `InitialState` or from the first GNSS fix
-   (`railnav.navigation.initialization`);
-4. streams the samples through `ekf.CdFilter` in chunks that end at GNSS epochs, so that
-   each chunk's track linearization starts from the latest posterior, and each epoch's
-   rows are built at the prior of that epoch (a callable `ekf.Epoch`);
-5. stops early, with a warning, when a track-based filter's vehicle leaves the track
-   (`beyond_track`: ``s`` beyond an end and the speed pointing away from the track, each by
-   more than `END_MARGIN_SIGMA` σ; the vehicle drove off the part of the line the track
-   describes, e.g. a survey's first leg); the result says where
-   (`NavigationResult.left_track`);
-6. assembles a `railnav.navigation.result.NavigationResult` (estimates, innovations, statistics).
+3. builds the filter object once (`railnav.filters.protocol.make_filter`) and starts it from
+   the given `InitialState` (or one computed from the filter object) or from the first
+   GNSS fix (`railnav.navigation.initialization`);
+4. runs it through the chunk loop (`railnav.navigation.loop.ChunkLoop`), which stops early,
+   with a warning, when a track-based filter's vehicle leaves the track; the result says
+   where (`NavigationResult.left_track`);
+5. assembles a `railnav.navigation.result.NavigationResult` (estimates, innovations,
+   statistics).
 
 Time: ``time_s`` is seconds from the trip start, whose GPS time is
 ``SensorData.start_gps_time_s``.
-
-Filter objects (`make_filter`; `railnav.filters.constrained.ConstrainedFilter` is the
-reference implementation) provide:
-
-* ``layout`` (`ekf.StateLayout`), ``process`` (`ekf.CdModel`), ``q_c`` (its noise
-  densities), ``needs_imu``, and ``rows`` with ``rows_sv``/``rows_kind`` lists (one array
-  per processed epoch: the satellite and kind of each GNSS row, for ``innovations.csv``);
-* ``inputs(t, u, x_prev, P_prev, t_prev) -> (u, p, r_c)``: the engine inputs, per-step
-  parameters and continuous-measurement noise densities (None: none) of the samples ``t``
-  that follow the state ``x_prev`` (covariance ``P_prev``) at ``t_prev``;
-* ``observations(index, x, P) -> list of ekf.Observation``: the rows of GNSS epoch
-  ``index`` at the prior ``(x, P)``;
-* ``estimates(x, P_packed) -> dict of columns`` (`railnav.navigation.result`);
-* ``initial_covariance(*, sigma_s_m, sigma_v_mps)``, ``initial_from_fix(fix)`` and
-  ``truth_states(truth, clock_bias_m, clock_drift_mps) -> (x_true, known)``.
 """
 from __future__ import annotations
 
-import functools
 import logging
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
-from ekf.cd_filter import CdFilter, FilterConfig
-from ekf.gating import Gate
 from ekf.history import concatenate_results
-from ekf.series import Epoch, InputSeries
+from railnav.config import NavigatorConfig, SensorData
 from railnav.errors import RailnavError
 from railnav.filters.gnss_epochs import GnssEpochs
-from railnav.config import NavigatorConfig, SensorData
+from railnav.filters.protocol import Filter, filter_kind, make_filter
+from railnav.navigation.initialization import InitialState, initial_from_gnss
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.navigation.result import NavigationResult
 
-__all__ = ["navigate", "InitialState", "make_filter", "TripSamples", "trip_samples",
-           "EPOCH_TIME_TOL_S", "MAX_CHUNK_S", "END_MARGIN_SIGMA", "beyond_track",
-           "filter_engine", "input_chunks", "max_chunk_samples"]
+__all__ = ["navigate", "TripSamples", "trip_samples", "Start"]
 
 log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
-
-#: A GNSS epoch within this of a sample time is taken at that sample, s.
-EPOCH_TIME_TOL_S = 1e-6
-#: Longest chunk between track re-linearizations when no GNSS epoch comes (outages), s.
-MAX_CHUNK_S = 1.0
-#: A run stops when ``s`` is beyond a track end, and ``v`` points away from it, each by more
-#: than this many of its σ (3σ: a vehicle standing at an end is flagged with probability
-#: below 1e-3 per epoch even if the two errors were fully correlated).
-END_MARGIN_SIGMA = 3.0
-
-
-@dataclass(frozen=True)
-class InitialState:
-    """A filter's starting point.
-
-    Attributes
-    ----------
-    time_s : float
-        Time of the prior, s from the trip start.
-    x0 : ndarray, shape (n,)
-    P0 : ndarray, shape (n, n)
-        In the filter's `ekf.StateLayout`.
-    """
-
-    time_s: float
-    x0: Array
-    P0: Array
-
-
-def make_filter(track, config: NavigatorConfig, gnss: GnssEpochs | None):
-    """The filter object of ``config.filter`` (constrained / unconstrained / gnss-only)."""
-    if config.filter == "constrained":
-        from railnav.filters.constrained import ConstrainedFilter
-        return ConstrainedFilter(track, config, gnss)
-    if config.filter == "unconstrained":
-        from railnav.filters.unconstrained import UnconstrainedFilter
-        return UnconstrainedFilter(track, config, gnss)
-    if config.filter == "gnss-only":
-        from railnav.filters.gnss_only import GnssOnlyFilter
-        return GnssOnlyFilter(track, config, gnss)
-    raise RailnavError(f"unknown filter {config.filter!r}")
+#: Where a run starts: a state, or a function of the run's filter object that gives one
+#: (e.g. the truth plus a draw from the filter's own initial covariance).
+Start = InitialState | Callable[[Filter], InitialState]
 
 
 def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(), *,
-             outages=(), initial: InitialState | None = None,
+             outages=(), initial: Start | None = None,
              progress: Progress | None = None) -> NavigationResult:
     """Run a filter over a trip.
 
@@ -121,9 +62,10 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
     data : SensorData
         IMU and/or GNSS data with their common time reference.
     config : NavigatorConfig
-    outages : sequence of (start_s, duration_s)
-        GNSS outage windows imposed on the data (s from the trip start).
-    initial : InitialState, optional
+    outages : sequence of gnss_obs.Outage
+        GNSS outages (s from the trip start): the GNSS data inside a total outage are not
+        used.
+    initial : InitialState or callable(filter object) -> InitialState, optional
         Start here instead of at the first GNSS fix.
     progress : callable(done, total), optional
         Called with the number of filter steps done.
@@ -141,22 +83,26 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
     """
     started = time.perf_counter()
     trip = trip_samples(data, config, outages=outages)
-    filt_obj = make_filter(track, config, trip.gnss)
+    filt = make_filter(track, config, trip.gnss)
     if initial is None:
-        from railnav.navigation.initialization import initial_from_gnss
-        initial = initial_from_gnss(filt_obj, data, config, trip.gnss)
-    samples_t, samples_u, epoch_idx = trip.from_time(initial.time_s)
-    epoch_times = trip.epoch_times
-    result, left = _run(filt_obj, config, samples_t, samples_u, epoch_times, epoch_idx,
-                        initial, progress)
+        initial = initial_from_gnss(filt, data, config, trip.gnss)
+    elif callable(initial):
+        initial = initial(filt)
+    t, u, epoch_idx = trip.from_time(initial.time_s)
+    loop = ChunkLoop(filt, config, sample_interval_s=float(np.median(np.diff(t))))
+    at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
+    parts = list(loop.stream(loop.chunks(t, u, at_sample),
+                             loop.epochs(t[at_sample], epoch_idx), initial,
+                             progress=progress, total=t.size - 1))
+    left = loop.left
     if left is not None:
         left["gps_time_s"] = left["time_s"] + data.start_gps_time_s
         log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s (length %.2f m); "
                     "the data after it were not used", left["time_s"], left["s_m"],
                     left["end"], left["track_length_m"])
     return NavigationResult.assemble(
-        filt_obj, config, result, start_gps_time_s=data.start_gps_time_s, outages=outages,
-        epoch_indices=epoch_idx, epoch_times=epoch_times,
+        filt, config, concatenate_results(parts), start_gps_time_s=data.start_gps_time_s,
+        outages=outages, epoch_indices=epoch_idx, epoch_times=trip.epoch_times,
         runtime_s=time.perf_counter() - started, left_track=left)
 
 
@@ -211,147 +157,11 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> Tr
     return TripSamples(samples_t, samples_u, gnss, epoch_times)
 
 
-def _run(filt_obj, config: NavigatorConfig, t: Array, u: Array, epoch_times: Array,
-         epoch_idx: npt.NDArray[np.intp], initial: InitialState, progress: Progress | None):
-    """Stream the samples through the EKF; one result for the whole trip, and where the
-    filter left the track (`beyond_track`) if it did (the run stops there)."""
-    dt = float(np.median(np.diff(t)))
-    engine = filter_engine(filt_obj, config, sample_interval_s=dt)
-    at_sample = np.searchsorted(t, epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
-    left: list[dict] = []
-    chunks = input_chunks(filt_obj, engine, t, u, at_sample, max_len=max_chunk_samples(dt),
-                          left=left)
-
-    def epochs() -> Iterator[Epoch]:
-        for k, i in zip(at_sample, epoch_idx):
-            if left:
-                return
-            yield Epoch(float(t[k]), functools.partial(_observations, filt_obj, int(i)))
-
-    parts = list(engine.stream(chunks, epochs(), x0=initial.x0, P0=initial.P0,
-                               progress=progress, total=t.size - 1))
-    return concatenate_results(parts), (left[0] if left else None)
-
-
-def filter_engine(filt_obj, config: NavigatorConfig, *, sample_interval_s: float) -> CdFilter:
-    """The EKF engine of a run: the filter object's process model, the configured gate,
-    estimates stored at ``config.output_rate_hz`` with their full covariance.
-
-    Parameters
-    ----------
-    filt_obj : filter object (`make_filter`)
-    config : NavigatorConfig
-    sample_interval_s : float
-        Typical interval of the filter's samples, s (sets the storage decimation).
-    """
-    store_every = max(1, int(round(1.0 / (config.output_rate_hz * sample_interval_s))))
-    gate = None if config.gate_probability is None else Gate(config.gate_probability,
-                                                             scope="rows")
-    return CdFilter(filt_obj.process, FilterConfig(gate=gate, store_every=store_every,
-                                                   full_covariance=True,
-                                                   time_tol_s=EPOCH_TIME_TOL_S))
-
-
-def max_chunk_samples(sample_interval_s: float) -> int:
-    """Samples in the longest chunk between re-linearizations (`MAX_CHUNK_S`)."""
-    return max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
-
-
-def input_chunks(filt_obj, engine: CdFilter, t: Array, u: Array,
-                 at_sample: npt.NDArray[np.intp], *, max_len: int,
-                 left: list[dict]) -> Iterator[InputSeries]:
-    """The engine's input chunks of samples ``t``: each ends at a GNSS epoch sample or after
-    `max_len` samples, and its track linearization starts from the engine's latest state.
-
-    Consumed by `ekf.CdFilter.stream` (lazily: each chunk's inputs are computed after the
-    previous chunk was filtered). Several calls may feed one stream with consecutive
-    sample blocks (`railnav.navigation.streaming`).
-
-    Parameters
-    ----------
-    filt_obj : filter object (`make_filter`)
-    engine : ekf.CdFilter
-        The engine that filters the chunks.
-    t : ndarray, shape (M,)
-        Sample times, s from the trip start (after the engine's last sample, if any).
-    u : ndarray, shape (M, n_u)
-        Raw inputs of the samples (IMU ``[f_b, ω_ib_b]``).
-    at_sample : ndarray of int
-        Indices into `t` of the GNSS epoch samples, increasing.
-    max_len : int
-        Longest chunk, samples (`max_chunk_samples`).
-    left : list
-        Receives the `beyond_track` record when the vehicle leaves the track; the chunks
-        stop there.
-    """
-    start = 0
-    bounds = iter(at_sample)
-    next_epoch = next(bounds, None)
-    while start < t.size:
-        if np.isfinite(engine.t):
-            left.extend(beyond_track(filt_obj, engine.x, engine.P, engine.t))
-            if left:
-                return
-        stop = min(start + max_len, t.size)
-        while next_epoch is not None and next_epoch < start:
-            next_epoch = next(bounds, None)
-        if next_epoch is not None and next_epoch < stop:
-            stop = next_epoch + 1
-        t_prev = engine.t if np.isfinite(engine.t) else t[0]
-        u_c, p_c, r_c = filt_obj.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
-                                        t_prev)
-        yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt_obj.q_c, r_c=r_c)
-        start = stop
-
-
-def beyond_track(filt_obj, x: Array, P: Array, time_s: float) -> list[dict]:
-    """Whether a track-based filter's vehicle has left the track at one of its ends.
-
-    It has when ``s`` is beyond the end by more than `END_MARGIN_SIGMA` σ_s and ``v``
-    points away from the track by more than `END_MARGIN_SIGMA` σ_v (a vehicle standing
-    at an end, or coming back, is on the track).
-
-    Parameters
-    ----------
-    filt_obj : filter object
-        With ``layout`` and ``track``; filters without ``s`` and ``v`` states never leave.
-    x : ndarray, shape (n,)
-    P : ndarray, shape (n, n)
-        State and covariance at `time_s`.
-    time_s : float
-        s from the trip start.
-
-    Returns
-    -------
-    list of dict
-        Empty while on the track; else one record ``{"time_s", "s_m", "sigma_s_m",
-        "end": "start"|"end", "track_length_m"}``.
-    """
-    names = filt_obj.layout.names
-    if "s" not in names or "v" not in names:
-        return []
-    i, j = filt_obj.layout.index("s"), filt_obj.layout.index("v")
-    s, sigma = float(x[i]), float(np.sqrt(P[i, i]))
-    v_margin = END_MARGIN_SIGMA * float(np.sqrt(P[j, j]))
-    length = float(filt_obj.track.length_m)
-    margin = END_MARGIN_SIGMA * sigma
-    past_end = s > length + margin and x[j] > v_margin
-    before_start = s < -margin and x[j] < -v_margin
-    if not (past_end or before_start):
-        return []
-    return [{"time_s": float(time_s), "s_m": s, "sigma_s_m": sigma,
-             "end": "end" if past_end else "start", "track_length_m": length}]
-
-
-def _observations(filt_obj, index: int, x: Array, P: Array):
-    return filt_obj.observations(index, x, P)
-
-
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
     """Sample times (s) and inputs of the filter before epochs are inserted."""
-    if config.filter == "gnss-only":
+    if not filter_kind(config.filter).needs_imu:
         if data.obs is None:
-            raise RailnavError("the gnss-only filter needs GNSS observations")
+            raise RailnavError(f"the {config.filter} filter needs GNSS observations")
         t_obs = np.unique(data.obs.table["gps_time_s"].to_numpy()) - data.start_gps_time_s
         t_obs = t_obs[t_obs >= 0]
         if t_obs.size < 2:

@@ -3,7 +3,7 @@
 `stream_simulated` is `railnav.jobs.run.run_simulated` for trips too long to hold (a 10-hour
 trip at 100 Hz is 3.6 M IMU samples): the trip is simulated segment by segment
 (`railnav.simulation.trip_stream`), one `ekf.CdFilter` engine consumes the segments' chunks as they
-come (`railnav.navigation.navigator.input_chunks`: the same chunking and track re-linearization as
+come (`railnav.navigation.loop.ChunkLoop`: the same chunking and track re-linearization as
 `railnav.navigate`), and each segment's stored estimates are compared with its truth
 (`railnav.evaluation.metrics.error_series`), added to running statistics
 (`railnav.evaluation.running_stats.RunningSummary`) and appended to the output files, then dropped.
@@ -48,8 +48,8 @@ from railnav.filters.gnss_epochs import in_outage
 from railnav.navigation.initialization import initial_from_truth
 from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
-from railnav.navigation.navigator import (EPOCH_TIME_TOL_S, filter_engine, input_chunks, make_filter,
-                               max_chunk_samples)
+from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.evaluation.running_stats import RunningCounts, RunningSummary
 from railnav.jobs.run import CSV_FLOAT_FORMAT
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
@@ -57,7 +57,7 @@ from railnav.simulation.trip import DEFAULT_SYSTEMS, navigator_config_for
 from railnav.simulation.trip_stream import TripSegment, epoch_step, trip_segments
 from trackmodel.files import atomic_write, atomic_write_text
 
-__all__ = ["StreamOutcome", "stream_simulated", "STREAMING_FILTERS", "DEFAULT_SEGMENT_S",
+__all__ = ["StreamOutcome", "stream_simulated", "DEFAULT_SEGMENT_S",
            "DEFAULT_ESTIMATES_RATE_HZ"]
 
 log = logging.getLogger(__name__)
@@ -65,8 +65,6 @@ log = logging.getLogger(__name__)
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
 
-#: Filters that can stream (they run on the IMU samples).
-STREAMING_FILTERS = ("constrained", "unconstrained")
 #: Segment length, s: 30 000 IMU samples at 100 Hz (~10 MB of truth and IMU at a time).
 DEFAULT_SEGMENT_S = 300.0
 #: Rate of the written estimates and errors, Hz (the statistics use every stored sample).
@@ -168,8 +166,9 @@ def stream_simulated(track, scenario: Scenario, *, config: NavigatorConfig | Non
     """
     started = time.perf_counter()
     config = config or navigator_config_for(scenario, systems=systems)
-    if config.filter not in STREAMING_FILTERS:
-        raise ConfigError(f"streaming runs the {' and '.join(STREAMING_FILTERS)} filters, not "
+    if not filter_kind(config.filter).streams:
+        streaming = " and ".join(k for k in FILTER_KINDS if filter_kind(k).streams)
+        raise ConfigError(f"streaming runs the {streaming} filters, not "
                           f"{config.filter!r}")
     if not (math.isfinite(estimates_rate_hz) and 0 < estimates_rate_hz):
         raise ConfigError(f"estimates_rate_hz must be finite and > 0, got {estimates_rate_hz!r}")
@@ -202,9 +201,7 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
     registry = _EpochRegistry(scenario.gnss_rate_hz)
     filt_obj = make_filter(track, config, registry)
     initial = _initial_state(filt_obj, config, scenario, first, seed)
-    dt = 1.0 / scenario.imu_rate_hz
-    engine = filter_engine(filt_obj, config, sample_interval_s=dt)
-    left: list[dict] = []
+    loop = ChunkLoop(filt_obj, config, sample_interval_s=1.0 / scenario.imu_rate_hz)
     current: dict = {}
 
     def chunks() -> Iterator:
@@ -213,12 +210,11 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
             registry.register(segment.gnss)
             times = segment.gnss.time_s if segment.gnss is not None else np.zeros(0)
             at_sample = np.searchsorted(segment.imu.time_s, times - EPOCH_TIME_TOL_S)
-            yield from input_chunks(filt_obj, engine, segment.imu.time_s, segment.imu.u,
-                                    at_sample, max_len=max_chunk_samples(dt), left=left)
-            if left:
+            yield from loop.chunks(segment.imu.time_s, segment.imu.u, at_sample)
+            if loop.left is not None:
                 return
 
-    epochs = _nominal_epochs(scenario, track, registry, filt_obj, left)
+    epochs = _nominal_epochs(scenario, track, registry, loop)
     stats = RunningSummary(window=window, outages=scenario.outages)
     counts = RunningCounts()
     pending: list[FilterResult] = []
@@ -230,8 +226,7 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
         if progress is not None:
             progress(done, total_steps)
 
-    for part in engine.stream(chunks(), epochs, x0=initial.x0, P0=initial.P0,
-                              progress=steps_done, total=total):
+    for part in loop.stream(chunks(), epochs, initial, progress=steps_done, total=total):
         segment = current["segment"]
         if owner is not None and segment is not owner:
             _flush(pending, owner, segment, filt_obj, track, scenario, stats, counts, writer)
@@ -240,10 +235,11 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
         pending.append(part)
     if pending:
         _flush(pending, owner, None, filt_obj, track, scenario, stats, counts, writer)
-    if left:
-        log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s", left[0]["time_s"],
-                    left[0]["s_m"], left[0]["end"])
-    return stats, counts, (left[0] if left else None)
+    left = loop.left
+    if left is not None:
+        log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s", left["time_s"],
+                    left["s_m"], left["end"])
+    return stats, counts, left
 
 
 def _initial_state(filt_obj, config: NavigatorConfig, scenario: Scenario,
@@ -279,18 +275,15 @@ def _last_sample(scenario: Scenario, track) -> int:
     return lo
 
 
-def _nominal_epochs(scenario: Scenario, track, registry: _EpochRegistry, filt_obj,
-                    left: list) -> Iterator[Epoch]:
+def _nominal_epochs(scenario: Scenario, track, registry: _EpochRegistry,
+                    loop: ChunkLoop) -> Iterator[Epoch]:
     """Epochs at every GNSS epoch sample of the trip outside the outages."""
     step = epoch_step(scenario)
-    last = _last_sample(scenario, track)
-    for k in range(0, last + 1, step):
-        if left:
-            return
-        t = k / scenario.imu_rate_hz
-        if in_outage(t, scenario.outages):
-            continue
-        yield Epoch(t, functools.partial(registry.observations, filt_obj, k // step))
+    k = np.arange(0, _last_sample(scenario, track) + 1, step)
+    t = k / scenario.imu_rate_hz
+    keep = ~in_outage(t, scenario.outages)
+    return loop.epochs(t[keep], k[keep] // step,
+                       observe=functools.partial(registry.observations, loop.filt))
 
 
 def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegment | None,

@@ -14,9 +14,8 @@ from typing import Any, Callable
 from gnss_obs.errors import GnssError
 from gnss_obs.measurements import MeasurementConfig
 from railnav.errors import ConfigError
-from railnav.config import FILTER_KINDS
+from railnav.filters.protocol import FILTER_KINDS, FILTERS
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
-from railnav.navigation.streaming import STREAMING_FILTERS
 from strapdown.imu_errors import IMU_GRADES
 
 __all__ = ["StudyConfig", "check_field", "MODES", "DEFAULT_CHUNK_RUNS", "FIELD_CHECKS"]
@@ -63,7 +62,7 @@ class StudyConfig:
     speeds_mps : tuple of float
         Top speeds, m/s.
     filters : tuple of str
-        `railnav.config.FILTER_KINDS` (streaming: the inertial ones).
+        `railnav.filters.protocol.FILTERS` (streaming: those that stream).
     sigma_pseudorange_m, sigma_range_rate_mps : tuple of float
         GNSS noise 1σ, m and m/s (simulated and assumed).
     outage_sets : tuple of tuple of (start_s, duration_s)
@@ -163,7 +162,8 @@ def _check_grade(value, values) -> None:
 
 
 def _check_filter(value, values) -> None:
-    allowed = STREAMING_FILTERS if values.get("mode") == "streaming" else FILTER_KINDS
+    allowed = (tuple(k for k in FILTER_KINDS if FILTERS[k].streams)
+               if values.get("mode") == "streaming" else FILTER_KINDS)
     if value not in allowed:
         raise ConfigError(f"filter must be one of {', '.join(allowed)} in "
                           f"{values.get('mode')} mode, got {value!r}")

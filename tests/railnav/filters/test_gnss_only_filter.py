@@ -21,7 +21,9 @@ from railnav.filters.constrained_model import ISB_RANDOM_WALK_M2PS
 from railnav.filters.gnss_only import GnssOnlyFilter, correlation_inflation
 from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.config import NavigatorConfig, SensorData
-from railnav.navigation.navigator import END_MARGIN_SIGMA, InitialState, navigate
+from railnav.navigation.initialization import InitialState
+from railnav.navigation.loop import END_MARGIN_SIGMA
+from railnav.navigation.navigator import navigate
 from railnav.simulation.profiles import constant_speed, station_stop_profile
 from railnav.filters.robust_rows import huber_inflate, huber_variance_scale
 from railnav.jobs.run import run_simulated

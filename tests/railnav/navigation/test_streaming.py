@@ -23,7 +23,8 @@ from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import in_outage
 from railnav.config import SensorData
 from railnav.evaluation.metrics import ERROR_QUANTITIES, ErrorSeries, error_series, summarize
-from railnav.navigation.navigator import make_filter, navigate
+from railnav.filters.protocol import make_filter
+from railnav.navigation.navigator import navigate
 from railnav.simulation.profiles import constant_speed
 from railnav.evaluation.running_stats import RunningSummary
 from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario

@@ -20,7 +20,7 @@ from scipy.linalg import expm
 from scipy.special import logsumexp
 
 from railnav.errors import ConfigError
-from railnav.navigation.navigator import make_filter
+from railnav.filters.protocol import make_filter
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.navigation.bank import Correspondence, TrackBankConfig, convert_state
 from railnav.jobs.tracks import correct_share, run_simulated_tracks, track_names

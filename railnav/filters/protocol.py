@@ -1,0 +1,153 @@
+"""What a filter object is (`Filter`), and the one registry of filter kinds (`FILTERS`).
+
+A *filter object* holds one filter's models and turns a trip's samples and GNSS epochs
+into what the engine (`ekf.CdFilter`) consumes; the chunk loop that drives it is
+`railnav.navigation.loop`. Every filter kind railnav runs is one `FilterKind` entry in
+`FILTERS`: the command line's ``--filter`` choices, `railnav.config.NavigatorConfig`'s
+check, streaming and the multi-track bank all read this table. Adding a filter kind means
+adding one module with a class that satisfies `Filter`, and one entry here.
+
+Time: ``t`` and ``time_s`` are seconds from the trip start.
+"""
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+import numpy.typing as npt
+
+from railnav.errors import ConfigError
+
+__all__ = ["Filter", "FilterKind", "FILTERS", "FILTER_KINDS", "filter_kind", "make_filter"]
+
+Array = npt.NDArray[np.float64]
+
+
+@runtime_checkable
+class Filter(Protocol):
+    """The interface of a filter object (`railnav.filters.constrained.ConstrainedFilter`
+    is the reference implementation).
+
+    Attributes
+    ----------
+    layout : ekf.StateLayout
+        Names and positions of the state.
+    process : ekf.CdModel
+        The continuous process model the engine propagates.
+    q_c : ndarray
+        Its white-noise spectral densities.
+    track : trackmodel.Track
+        The track of the run (the unconstrained filter uses it for its initial attitude and
+        the outputs only).
+    """
+
+    layout: Any
+    process: Any
+    q_c: Array
+    track: Any
+
+    def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+               t_prev: float) -> tuple[Array, Array, Array | None]:
+        """The engine inputs ``(u, p, r_c)`` of the samples ``t`` that follow the state
+        ``x_prev`` (covariance ``P_prev``) at ``t_prev``: inputs, per-step parameters and
+        continuous-measurement noise densities (None: no continuous measurement)."""
+
+    def observations(self, index: int, x: Array, P: Array) -> Any:
+        """The GNSS rows (list of `ekf.Observation`, or `ekf.EpochRows`) of epoch `index`
+        at the prior ``(x, P)``."""
+
+    def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
+        """Output columns (`railnav.navigation.result.ESTIMATE_COLUMNS` order) of stored
+        states and packed covariances."""
+
+    def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
+        """The initial covariance, given the σ of ``s`` (m) and ``v`` (m/s)."""
+
+    def initial_from_fix(self, fix: Any) -> tuple[Array, Array]:
+        """``(x0, P0)`` from a GNSS fix (`railnav.navigation.initialization.GnssFix`)."""
+
+    def truth_states(self, truth: Any, clock_bias_m: Array,
+                     clock_drift_mps: Array) -> tuple[Array, npt.NDArray[np.bool_]]:
+        """The true states of a simulated trip in this layout, and which components the
+        simulation knows (`railnav.navigation.initialization.initial_from_truth`)."""
+
+
+@dataclass(frozen=True)
+class FilterKind:
+    """One kind of filter railnav can run.
+
+    Attributes
+    ----------
+    name : str
+        The ``--filter`` / `NavigatorConfig.filter` value.
+    module, class_name : str
+        Where the `Filter` class lives (imported when the first filter of the kind is
+        built, so that choosing among kinds imports no model).
+    needs_imu : bool
+        The filter propagates IMU samples (else it runs on a time grid of its own).
+    streams : bool
+        It can run in streaming mode (`railnav.navigation.streaming`).
+    banks : bool
+        It can run in a multi-track bank (`railnav.navigation.bank`): it screens each
+        epoch's rows and keeps their innovations (``screen.last``).
+    summary : str
+        One line for help texts.
+    """
+
+    name: str
+    module: str
+    class_name: str
+    needs_imu: bool
+    streams: bool
+    banks: bool
+    summary: str
+
+
+#: Every filter kind, by name, in the order the help lists them.
+FILTERS: dict[str, FilterKind] = {k.name: k for k in (
+    FilterKind("constrained", "railnav.filters.constrained", "ConstrainedFilter",
+               needs_imu=True, streams=True, banks=True,
+               summary="track-constrained tightly coupled INS/GNSS (the 2017 paper's)"),
+    FilterKind("unconstrained", "railnav.filters.unconstrained", "UnconstrainedFilter",
+               needs_imu=True, streams=True, banks=False,
+               summary="unconstrained 9-state tightly coupled INS/GNSS (baseline)"),
+    FilterKind("gnss-only", "railnav.filters.gnss_only", "GnssOnlyFilter",
+               needs_imu=False, streams=False, banks=False,
+               summary="GNSS-only on the track: [s, v, clock], no IMU"),
+)}
+
+#: The names of `FILTERS`.
+FILTER_KINDS: tuple[str, ...] = tuple(FILTERS)
+
+
+def filter_kind(name: str) -> FilterKind:
+    """The registry entry of filter `name`.
+
+    Raises
+    ------
+    ConfigError
+        For a name that is not in `FILTERS`.
+    """
+    try:
+        return FILTERS[name]
+    except (KeyError, TypeError):
+        raise ConfigError(f"filter must be one of {', '.join(FILTER_KINDS)}, got "
+                          f"{name!r}") from None
+
+
+def make_filter(track, config, gnss) -> Filter:
+    """Build the filter object of ``config.filter``.
+
+    Parameters
+    ----------
+    track : trackmodel.Track
+    config : railnav.config.NavigatorConfig
+    gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+        The trip's GNSS epochs (anything with ``prepare(index, r_guess_e)``); None when
+        the filter will not see GNSS rows (or to build it only for its layout).
+    """
+    kind = filter_kind(config.filter)
+    cls = getattr(importlib.import_module(kind.module), kind.class_name)
+    return cls(track, config, gnss)

@@ -1,0 +1,179 @@
+"""The one chunk loop: a filter object driven through `ekf.CdFilter` chunk by chunk.
+
+In-memory runs (`railnav.navigation.navigator`), streamed runs
+(`railnav.navigation.streaming`) and multi-track banks (`railnav.navigation.bank`) all run
+a filter through a `ChunkLoop`:
+
+* the samples are cut into chunks that end at GNSS epoch samples or after `MAX_CHUNK_S`,
+  and each chunk's inputs (track linearization, per-step parameters) are computed from
+  the engine's latest posterior (`ChunkLoop.chunks`, consumed lazily by the engine);
+* each GNSS epoch's rows are built at the prior of that epoch (`ChunkLoop.epochs`);
+* the loop stops, and says where (`ChunkLoop.left`), when a track-based filter's vehicle
+  leaves the track at one of its ends (`beyond_track`).
+
+Time: ``t`` is seconds from the trip start.
+"""
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Iterable, Iterator
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.cd_filter import CdFilter, FilterConfig
+from ekf.gating import Gate
+from ekf.series import Epoch, InputSeries
+from railnav.navigation.initialization import InitialState
+
+__all__ = ["ChunkLoop", "beyond_track", "filter_engine", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
+           "END_MARGIN_SIGMA"]
+
+Array = npt.NDArray[np.float64]
+Progress = Callable[[int, int], None]
+
+#: A GNSS epoch within this of a sample time is taken at that sample, s.
+EPOCH_TIME_TOL_S = 1e-6
+#: Longest chunk between track re-linearizations when no GNSS epoch comes (outages), s.
+MAX_CHUNK_S = 1.0
+#: A run stops when ``s`` is beyond a track end, and ``v`` points away from it, each by more
+#: than this many of its σ (3σ: a vehicle standing at an end is flagged with probability
+#: below 1e-3 per epoch even if the two errors were fully correlated).
+END_MARGIN_SIGMA = 3.0
+
+
+class ChunkLoop:
+    """One filter object, its engine, and the chunks and epochs that feed it.
+
+    Parameters
+    ----------
+    filt : railnav.filters.protocol.Filter
+    config : railnav.config.NavigatorConfig
+        Gate and output rate of the engine (`filter_engine`).
+    sample_interval_s : float
+        Typical interval of the samples, s (chunk length and storage decimation).
+
+    Attributes
+    ----------
+    engine : ekf.CdFilter
+    left : dict or None
+        Where the vehicle left the track (`beyond_track`'s record) once it has; the
+        chunks and epochs stop there.
+    """
+
+    def __init__(self, filt, config, *, sample_interval_s: float) -> None:
+        self.filt = filt
+        self.engine = filter_engine(filt, config, sample_interval_s=sample_interval_s)
+        self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
+        self.left: dict | None = None
+
+    def chunks(self, t: Array, u: Array, at_sample: npt.NDArray[np.intp]
+               ) -> Iterator[InputSeries]:
+        """The engine's input chunks of samples ``t`` (module docstring).
+
+        Several calls may feed one stream with consecutive sample blocks (streaming).
+
+        Parameters
+        ----------
+        t : ndarray, shape (M,)
+            Sample times, s from the trip start (after the engine's last sample, if any).
+        u : ndarray, shape (M, n_u)
+            Raw inputs of the samples (IMU ``[f_b, ω_ib_b]``).
+        at_sample : ndarray of int
+            Indices into `t` of the GNSS epoch samples, increasing.
+        """
+        engine, filt = self.engine, self.filt
+        start = 0
+        bounds = iter(at_sample)
+        next_epoch = next(bounds, None)
+        while start < t.size and self.left is None:
+            if np.isfinite(engine.t):
+                self.left = beyond_track(filt, engine.x, engine.P, engine.t)
+                if self.left is not None:
+                    return
+            stop = min(start + self.max_len, t.size)
+            while next_epoch is not None and next_epoch < start:
+                next_epoch = next(bounds, None)
+            if next_epoch is not None and next_epoch < stop:
+                stop = next_epoch + 1
+            t_prev = engine.t if np.isfinite(engine.t) else t[0]
+            u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
+                                        t_prev)
+            yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt.q_c, r_c=r_c)
+            start = stop
+
+    def epochs(self, times: Iterable[float], indices: Iterable[int], *,
+               observe: Callable | None = None) -> Iterator[Epoch]:
+        """The GNSS epochs at `times` (s), whose rows are ``observe(index, x, P)`` at
+        their prior (default: the filter's ``observations``); they stop where the vehicle
+        left the track."""
+        observe = self.filt.observations if observe is None else observe
+        for time_s, index in zip(times, indices):
+            if self.left is not None:
+                return
+            yield Epoch(float(time_s), functools.partial(observe, int(index)))
+
+    def stream(self, chunks: Iterable[InputSeries], epochs: Iterable[Epoch],
+               initial: InitialState, *, progress: Progress | None = None,
+               total: int | None = None):
+        """`ekf.CdFilter.stream` from `initial`: the results chunk by chunk."""
+        return self.engine.stream(chunks, epochs, x0=initial.x0, P0=initial.P0,
+                                  progress=progress, total=total)
+
+
+def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
+    """The EKF engine of a run: the filter object's process model, the configured gate,
+    estimates stored at ``config.output_rate_hz`` with their full covariance.
+
+    Parameters
+    ----------
+    filt : railnav.filters.protocol.Filter
+    config : railnav.config.NavigatorConfig
+    sample_interval_s : float
+        Typical interval of the filter's samples, s (sets the storage decimation).
+    """
+    store_every = max(1, int(round(1.0 / (config.output_rate_hz * sample_interval_s))))
+    gate = None if config.gate_probability is None else Gate(config.gate_probability,
+                                                             scope="rows")
+    return CdFilter(filt.process, FilterConfig(gate=gate, store_every=store_every,
+                                               full_covariance=True,
+                                               time_tol_s=EPOCH_TIME_TOL_S))
+
+
+def beyond_track(filt, x: Array, P: Array, time_s: float) -> dict | None:
+    """Where a track-based filter's vehicle has left the track at one of its ends.
+
+    It has when ``s`` is beyond the end by more than `END_MARGIN_SIGMA` σ_s and ``v``
+    points away from the track by more than `END_MARGIN_SIGMA` σ_v (a vehicle standing
+    at an end, or coming back, is on the track).
+
+    Parameters
+    ----------
+    filt : railnav.filters.protocol.Filter
+        Filters without ``s`` and ``v`` states never leave.
+    x : ndarray, shape (n,)
+    P : ndarray, shape (n, n)
+        State and covariance at `time_s`.
+    time_s : float
+        s from the trip start.
+
+    Returns
+    -------
+    dict or None
+        None while on the track; else ``{"time_s", "s_m", "sigma_s_m",
+        "end": "start"|"end", "track_length_m"}``.
+    """
+    names = filt.layout.names
+    if "s" not in names or "v" not in names:
+        return None
+    i, j = filt.layout.index("s"), filt.layout.index("v")
+    s, sigma = float(x[i]), float(np.sqrt(P[i, i]))
+    v_margin = END_MARGIN_SIGMA * float(np.sqrt(P[j, j]))
+    length = float(filt.track.length_m)
+    margin = END_MARGIN_SIGMA * sigma
+    past_end = s > length + margin and x[j] > v_margin
+    before_start = s < -margin and x[j] < -v_margin
+    if not (past_end or before_start):
+        return None
+    return {"time_s": float(time_s), "s_m": s, "sigma_s_m": sigma,
+            "end": "end" if past_end else "start", "track_length_m": length}
