@@ -1,6 +1,6 @@
 """Speed of the estimation engine on a run of the paper's shape.
 
-The 7-state toy of :mod:`ekf.examples` (state [yaw, pitch, roll, s, v, clock bias, clock
+The 7-state toy of ``tests/support/ekf_examples.py`` (state [yaw, pitch, roll, s, v, clock bias, clock
 drift], 6-D IMU input, 2-D continuous pseudo-measurement at every step), 100 000 steps
 at 100 Hz (1000 s), 1000 discrete updates of 10 pseudorange-like + 10 Doppler-like rows.
 Timed in one process, same data:
@@ -8,7 +8,7 @@ Timed in one process, same data:
 * ``compiled``   — the engine's default: generated C loop, one ctypes call per span;
 * ``casadi``     — CasADi virtual machine, ``mapaccum`` blocks;
 * ``casadi-jit`` — the same blocks JIT-compiled by CasADi (``compiler="shell"``);
-* ``numpy``      — the plain NumPy loop of the same algorithm (ekf/reference.py) with
+* ``numpy``      — the plain NumPy loop of the same algorithm (tests/support/ekf_reference.py) with
   the same discrete updates (NumPy measurement rows + ekf.update.kalman_update); timed
   on a fraction of the run and scaled (it is slow).
 
@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -31,11 +32,16 @@ import numpy as np
 
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.compiled import CompileOptions
-from ekf.examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
 from ekf.model import MeasurementModel
-from ekf.reference import reference_step
 from ekf.series import Epoch, InputSeries
 from ekf.update import Observation, kalman_update
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))  # the example model and the NumPy loop are test support
+from tests.support.ekf_examples import (attitude_speed_clock_numpy,  # noqa: E402
+                                        attitude_speed_clock_toy)
+from tests.support.ekf_reference import reference_step  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "ekf_engine.json"
 DT = 0.01  # s, 100 Hz IMU

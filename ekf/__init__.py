@@ -15,11 +15,13 @@ Typical use::
 
 Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step`` (the
 symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it),
-``reference`` (the same step in NumPy), ``update`` / ``gating`` (discrete updates),
-``series`` / ``cd_filter`` / ``history`` (the driver), ``smoother``, ``consistency``,
-``linear`` / ``correlated`` / ``bank`` (linear KF, a linear step with measurement noise
-correlated with the process noise, multiple-model banks), ``outliers`` (the fault
-hypothesis of a row, the common-offset test), ``examples``.
+``update`` / ``gating`` (discrete updates), ``series`` / ``cd_filter`` / ``history`` (the
+driver), ``smoother``, ``consistency``, ``linear`` / ``correlated`` / ``bank`` (linear KF,
+a linear step with measurement noise correlated with the process noise, multiple-model
+banks), ``outliers`` (the fault hypothesis of a row, the common-offset test). The same
+step in plain NumPy and a small example model, which the tests and the benchmark check
+the engine against, are test support, not part of the package:
+``tests/support/ekf_reference.py`` and ``tests/support/ekf_examples.py``.
 
 Two properties to know when building a model on it:
 

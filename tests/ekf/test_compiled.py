@@ -7,10 +7,10 @@ import pytest
 
 from ekf.compiled import CompiledLoop, CompileOptions
 from ekf.errors import FilterError
-from ekf.examples import attitude_speed_clock_toy
 from ekf.packing import pack_sym
 from ekf.propagate import Propagator
 from ekf.step import StepData, build_step
+from tests.support.ekf_examples import attitude_speed_clock_toy
 
 
 def test_cache_hit_and_backends_agree(tmp_path):

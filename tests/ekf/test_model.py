@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from ekf.errors import ModelError
-from ekf.examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
 from ekf.layout import StateLayout
 from ekf.model import CdModel
+from tests.support.ekf_examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
 
 STEP = 1e-6  # central-difference step (rad, m/s, rad/s, m/s²): error O(step²)
 ATOL_FD = 1e-8

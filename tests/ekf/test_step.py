@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from ekf.examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import Propagator
-from ekf.reference import reference_step
 from ekf.step import StepData, StepOptions
+from tests.support.ekf_examples import attitude_speed_clock_numpy, attitude_speed_clock_toy
+from tests.support.ekf_reference import reference_step
 
 
 #: Relative agreement of two implementations of the same floating-point algorithm
@@ -38,7 +38,7 @@ def _toy_data(rng, n_steps: int) -> dict:
 @pytest.mark.parametrize("backend", ["compiled", "casadi"])
 @pytest.mark.parametrize("hold,transition", [("linear", "rk4"), ("zoh", "taylor2")])
 def test_step_matches_numpy_reference_on_toy(rng, backend, hold, transition):
-    """Reference: ekf/reference.py with the toy's hand-written NumPy Jacobians."""
+    """Reference: tests/support/ekf_reference.py with the toy's hand-written NumPy Jacobians."""
     n_steps = 200
     opts = StepOptions(input_hold=hold, transition=transition)
     prop = Propagator(attitude_speed_clock_toy(), opts, backend=backend)

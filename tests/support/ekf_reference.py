@@ -1,7 +1,8 @@
 """A pure-NumPy implementation of the same per-step algorithm as :mod:`ekf.step`.
 
 It exists for two uses: the tests check the CasADi/compiled path against it, and the
-benchmark times it as "a plain NumPy EKF loop" of the same dimensions. The model is
+benchmark times it as "a plain NumPy EKF loop" of the same dimensions; so it lives with
+the tests' support code, not in the shipped `ekf` package. The model is
 given as plain NumPy callables (:class:`NumpyModel`), so nothing here touches CasADi.
 The equations are those of :mod:`ekf.step` (read its docstring); the RK4 transition is
 the exact Jacobian of the RK4 map, by the chain rule through the four stages.

@@ -1,4 +1,4 @@
-"""Example models: small, documented, used by the benchmark, the tests and the docs.
+"""Example models of the ekf tests and benchmark: small and documented (not shipped in `ekf`).
 
 :func:`attitude_speed_clock_toy` has the *shape* of a track-constrained navigator —
 state ``[yaw, pitch, roll, s, v, clock_bias, clock_drift]`` (rad, rad, rad, m, m/s, m,
@@ -27,7 +27,7 @@ import numpy as np
 
 from ekf.layout import StateLayout
 from ekf.model import CdModel
-from ekf.reference import NumpyModel
+from tests.support.ekf_reference import NumpyModel
 
 __all__ = ["G_TOY", "TOY_LAYOUT", "attitude_speed_clock_toy", "attitude_speed_clock_numpy"]
 
