@@ -51,8 +51,8 @@ def check_gnss_pair(obs, nav) -> None:
         When one is given without the other.
     """
     if (obs is None) != (nav is None):
-        raise ConfigError("GNSS observations and navigation data go together: give both "
-                          "--obs and --nav")
+        raise ConfigError("--obs and --nav go together: GNSS observations need their "
+                          "navigation data")
 
 
 @dataclass(frozen=True)

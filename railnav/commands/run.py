@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import argparse
 import logging
-from dataclasses import replace
 from pathlib import Path
 
-from railnav.commands.support import (nonnegative_float, outage_window, positive_float,
-                                      positive_int, progress_bar)
+from railnav.commands.support import (nonnegative_float, nonnegative_int, outage_window,
+                                      positive_float, positive_int, progress_bar)
 from railnav.errors import ConfigError
-from railnav.config import DEFAULT_FILTER
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, check_gnss_pair
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.simulation.scenarios import SCENARIOS, get_scenario
 from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
@@ -31,6 +30,12 @@ log = logging.getLogger(__name__)
 DEFAULT_OUT = "railnav-run"
 #: Scenario simulated on a track whose file name is not a scenario's name.
 DEFAULT_SCENARIO = "curvy"
+#: Random seed of a simulated trip when --seed is not given.
+DEFAULT_SEED = 0
+#: Flags that shape a simulated trip (attribute -> flag); with sensor files there is none.
+SIMULATION_FLAGS = {"scenario": "--scenario", "speed_mps": "--speed-mps",
+                    "duration_s": "--duration-s", "seed": "--seed",
+                    "true_track": "--true-track"}
 
 
 def time_window(text: str) -> tuple[float, float]:
@@ -67,7 +72,9 @@ def register(subparsers) -> None:
                    help="scenario to simulate (default: the track's name if it is a "
                         f"scenario, else {DEFAULT_SCENARIO})")
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
-                   help="IMU grade simulated and assumed (default: the scenario's)")
+                   help="the IMU grade the filter assumes (simulated trip: also the grade "
+                        "simulated; default the scenario's). A recorded IMU file needs it "
+                        "(files written by railnav simulate: default the simulated grade)")
     p.add_argument("--speed-mps", type=positive_float, default=None,
                    help="top speed of the simulated trip, m/s")
     p.add_argument("--duration-s", type=positive_float, default=None,
@@ -82,12 +89,13 @@ def register(subparsers) -> None:
                         "railnav simulate's files, else G)")
     p.add_argument("--window", type=time_window, default=None, metavar="START:END",
                    help="also summarize the errors over this window, s")
-    p.add_argument("--seed", type=int, default=0, help="random seed of the simulation")
-    p.add_argument("--true-track", type=positive_int, default=1, metavar="N",
+    p.add_argument("--seed", type=nonnegative_int, default=None,
+                   help=f"random seed of the simulation (default {DEFAULT_SEED})")
+    p.add_argument("--true-track", type=positive_int, default=None, metavar="N",
                    help="several tracks, simulated trip: the track it runs on, 1 = the first "
                         "given (default 1; the filters are not told)")
     p.add_argument("--crossing-rate-per-s", type=nonnegative_float,
-                   default=DEFAULT_CROSSING_RATE_PER_S, metavar="RATE",
+                   default=None, metavar="RATE",
                    help="several tracks: rate of changing tracks, 1/s (default "
                         f"{DEFAULT_CROSSING_RATE_PER_S:g}; 0: no crossovers)")
     p.add_argument("--baro", metavar="BARO.csv", default=None,
@@ -104,20 +112,11 @@ def register(subparsers) -> None:
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
     from railnav.jobs.run import run_files, run_simulated, write_run
-    if args.true_track > len(args.tracks):
-        raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
-                          "given")
-    if (args.obs is None) != (args.nav is None):
-        raise ConfigError("--obs and --nav go together")
-    if args.seed < 0:
-        raise ConfigError(f"--seed must be >= 0, got {args.seed}")
-    _measurement(args.systems)   # validates --systems before any work
+    _check_flags(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
     if len(args.tracks) > 1:
-        if args.baro is not None:
-            raise ConfigError("--baro works with one track")
         return _several_tracks(args, out)
     baro = None
     if args.baro is not None:
@@ -130,14 +129,14 @@ def handler(args: argparse.Namespace) -> int:
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
-                                outages=tuple(args.outage or ()), window=args.window,
-                                progress=progress)
+                                imu_grade=args.imu_grade, outages=tuple(args.outage or ()),
+                                window=args.window, progress=progress)
         else:
             scenario = _scenario(args)
             from railnav.simulation.trip import navigator_config_for
-            systems = args.systems or "G"
+            systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
-            outcome = run_simulated(track, scenario, config=config, seed=args.seed,
+            outcome = run_simulated(track, scenario, config=config, seed=_seed(args),
                                     systems=systems, window=args.window, progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
     write_run(outcome, out, plots=not args.no_plots)
@@ -167,26 +166,25 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     from railnav.navigation.bank import TrackBankConfig
     from railnav.jobs.tracks import (run_files_tracks, run_simulated_tracks, track_names,
                                     write_track_run)
-    if not filter_kind(args.filter).banks:
-        raise ConfigError(f"several tracks run a filter that can run in a bank "
-                          f"({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}), "
-                          f"not --filter {args.filter}")
     names = track_names(args.tracks)
     tracks = [read_track(path) for path in args.tracks]
-    bank = TrackBankConfig(crossing_rate_per_s=args.crossing_rate_per_s)
+    bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(
+        crossing_rate_per_s=args.crossing_rate_per_s)
     with progress_bar("filters", enabled=not args.quiet) as progress:
         if args.imu is not None or args.obs is not None:
             run = run_files_tracks(tracks, names, imu_path=args.imu, obs_path=args.obs,
                                    nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
-                                   systems=args.systems, outages=tuple(args.outage or ()),
-                                   bank=bank, window=args.window, progress=progress)
+                                   systems=args.systems, imu_grade=args.imu_grade,
+                                   outages=tuple(args.outage or ()), bank=bank,
+                                   window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for
             scenario = _scenario(args)
-            systems = args.systems or "G"
-            run = run_simulated_tracks(tracks, names, scenario, true_track=args.true_track - 1,
+            systems = args.systems or DEFAULT_SYSTEMS
+            run = run_simulated_tracks(tracks, names, scenario,
+                                       true_track=(args.true_track or 1) - 1,
                                        config=navigator_config_for(scenario, systems=systems),
-                                       seed=args.seed, systems=systems, bank=bank,
+                                       seed=_seed(args), systems=systems, bank=bank,
                                        window=args.window, progress=progress)
     write_track_run(run, out, plots=not args.no_plots)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
@@ -198,9 +196,45 @@ def _measurement(systems: str | None):
     from gnss_obs.errors import GnssError
     from gnss_obs.measurements import MeasurementConfig
     try:
-        return MeasurementConfig(systems=systems or "G")
+        return MeasurementConfig(systems=systems or DEFAULT_SYSTEMS)
     except GnssError as exc:
         raise ConfigError(f"--systems: {exc}") from None
+
+
+def _check_flags(args: argparse.Namespace) -> None:
+    """The one place where ``run``'s flags are checked against each other and against the
+    inputs given: a flag that cannot apply is an error that says why, never ignored
+    (single values are checked by their argparse types)."""
+    check_gnss_pair(args.obs, args.nav)
+    _measurement(args.systems)   # validates --systems before any work
+    files = args.imu is not None or args.obs is not None
+    kind = filter_kind(args.filter)
+    given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
+    if files and given:
+        raise ConfigError(f"{', '.join(given)}: shape a simulated trip; with sensor files "
+                          "(--imu/--obs) there is none to shape")
+    if not files and args.start_gps_time_s is not None:
+        raise ConfigError("--start-gps-time-s: only with sensor files (a simulated trip "
+                          "starts at its scenario's time)")
+    if not kind.needs_imu and (args.imu_grade is not None or args.imu is not None):
+        flag = "--imu-grade" if args.imu_grade is not None else "--imu"
+        raise ConfigError(f"{flag}: the {args.filter} filter uses no IMU")
+    several = len(args.tracks) > 1
+    if args.true_track is not None and args.true_track > len(args.tracks):
+        raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
+                          "given")
+    if several and args.baro is not None:
+        raise ConfigError("--baro works with one track")
+    if not several and args.crossing_rate_per_s is not None:
+        raise ConfigError("--crossing-rate-per-s: only with several tracks")
+    if several and not kind.banks:
+        banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
+        raise ConfigError(f"several tracks run the {banked} filter, not --filter "
+                          f"{args.filter}")
+
+
+def _seed(args: argparse.Namespace) -> int:
+    return DEFAULT_SEED if args.seed is None else args.seed
 
 
 def _scenario(args):
@@ -208,13 +242,9 @@ def _scenario(args):
     if name is None:
         stem = Path(args.tracks[0]).stem
         name = stem if stem in SCENARIOS else DEFAULT_SCENARIO
-    scenario = get_scenario(name).with_overrides(speed_mps=args.speed_mps,
-                                                 duration_s=args.duration_s)
-    if args.imu_grade is not None:
-        scenario = replace(scenario, imu_errors=args.imu_grade)
-    if args.outage is not None:
-        scenario = replace(scenario, outages=tuple(args.outage))
-    return scenario
+    return get_scenario(name).with_overrides(
+        speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
+        outages=args.outage)
 
 
 def _report(outcome, out: Path) -> str:

@@ -7,13 +7,13 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-from dataclasses import replace
 from pathlib import Path
 
 from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
 from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
-from railnav.simulation.trip import DEFAULT_SYSTEMS, simulate_trip
+from railnav.config import DEFAULT_SYSTEMS
+from railnav.simulation.trip import simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.io import read_track
@@ -57,12 +57,9 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
-    scenario = get_scenario(args.scenario).with_overrides(speed_mps=args.speed_mps,
-                                                          duration_s=args.duration_s)
-    if args.imu_grade is not None:
-        scenario = replace(scenario, imu_errors=args.imu_grade)
-    if args.outage is not None:
-        scenario = replace(scenario, outages=tuple(args.outage))
+    scenario = get_scenario(args.scenario).with_overrides(
+        speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
+        outages=args.outage)
     track = read_track(args.track)
     with progress_bar("simulate", enabled=not args.quiet) as progress:
         trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,

@@ -25,7 +25,9 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from railnav.errors import ConfigError
 from railnav.navigation.initialization import initial_from_truth
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import (DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData,
+                            check_gnss_pair)
+from railnav.filters.protocol import filter_kind
 from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.navigator import navigate
@@ -34,6 +36,7 @@ from gnss_obs.measurements import MeasurementConfig
 from railnav.simulation.trip import (SimulatedTrip, navigator_config_for, navigator_config_from_simulation,
                           simulate_trip)
 from strapdown.imu import read_imu_csv
+from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
 __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT",
@@ -74,7 +77,7 @@ class RunOutcome:
 
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
-                  seed: int = 0, systems: str = "G", window: tuple[float, float] | None = None,
+                  seed: int = 0, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
                   faults: tuple = (),
                   progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Simulate `scenario` on `track` and filter it.
@@ -137,7 +140,8 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
               start_gps_time_s: float | None = None, config: NavigatorConfig | None = None,
-              filter: str = "constrained", systems: str | None = None, outages=(),
+              filter: str = DEFAULT_FILTER, systems: str | None = None,
+              imu_grade: str | None = None, outages=(),
               window: tuple[float, float] | None = None,
               progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Filter sensor files on a track.
@@ -156,11 +160,15 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
         Default: for files written by ``railnav simulate`` (a ``scenario.json`` beside the
         IMU or observation file) the simulation's sensor models
         (`railnav.simulation.trip.navigator_config_from_simulation`); otherwise `NavigatorConfig`'s
-        defaults (GNSS σ from elevation and C/N0). `filter` and `systems` apply to the
-        default only.
+        defaults (GNSS σ from elevation and C/N0). `filter`, `systems` and `imu_grade`
+        apply to the default only.
     filter : str
     systems : str, optional
-        GNSS systems to use (default: the simulated ones, else ``"G"``).
+        GNSS systems to use (default: the simulated ones, else `railnav.config.DEFAULT_SYSTEMS`).
+    imu_grade : str, optional
+        The IMU grade the filter assumes (`strapdown.imu_errors.IMU_GRADES`); default: the
+        simulated grade for files written by ``railnav simulate``. A recorded IMU file
+        (no ``scenario.json`` beside it) needs one for the inertial filters.
     outages : sequence of (start_s, duration_s)
         Windows whose GNSS data are ignored (s from the trip start).
     window : (start_s, end_s), optional
@@ -168,7 +176,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      start_gps_time_s=start_gps_time_s, config=config,
-                                     filter=filter, systems=systems)
+                                     filter=filter, systems=systems, imu_grade=imu_grade)
     result = navigate(track, data, config, outages=outages, progress=progress)
     summary = run_summary(result, track, None, window, tuple(outages), {})
     return RunOutcome(result, track, summary, data=data)
@@ -176,15 +184,22 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
 
 def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,
                       start_gps_time_s: float | None = None,
-                      config: NavigatorConfig | None = None, filter: str = "constrained",
-                      systems: str | None = None) -> tuple[SensorData, NavigatorConfig]:
+                      config: NavigatorConfig | None = None, filter: str = DEFAULT_FILTER,
+                      systems: str | None = None, imu_grade: str | None = None
+                      ) -> tuple[SensorData, NavigatorConfig]:
     """The sensor data of `run_files` and the navigator configuration it uses (see there
-    for the parameters and the defaults)."""
-    if config is None:
-        config = _default_file_config(imu_path, obs_path, filter, systems)
-    if (obs_path is None) != (nav_path is None):
-        raise ConfigError("--obs and --nav go together")
+    for the parameters and the defaults).
+
+    Raises
+    ------
+    ConfigError
+        Observations without navigation data (or the reverse); a recorded IMU file
+        without the grade the filter should assume.
+    """
+    check_gnss_pair(obs_path, nav_path)
     imu = read_imu_csv(imu_path) if imu_path is not None else None
+    if config is None:
+        config = _default_file_config(imu_path, obs_path, filter, systems, imu_grade)
     obs = read_rinex_obs(obs_path) if obs_path is not None else None
     nav = read_rinex_nav(nav_path) if nav_path is not None else None
     if start_gps_time_s is None:
@@ -206,16 +221,22 @@ def _simulation_meta(*paths) -> dict | None:
     return None
 
 
-def _default_file_config(imu_path, obs_path, filter: str, systems: str | None
-                         ) -> NavigatorConfig:
+def _default_file_config(imu_path, obs_path, filter: str, systems: str | None,
+                         imu_grade: str | None) -> NavigatorConfig:
     meta = _simulation_meta(imu_path, obs_path)
     if meta is not None:
         extra = {} if systems is None else {"measurement": replace(
             navigator_config_from_simulation(meta).measurement, systems=systems)}
+        if imu_grade is not None:
+            extra["imu_errors"] = imu_grade
         log.info("sensor models from the simulation's scenario.json")
         return navigator_config_from_simulation(meta, filter=filter, **extra)
-    return NavigatorConfig(filter=filter,
-                           measurement=MeasurementConfig(systems=systems or "G"))
+    if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
+        raise ConfigError(f"{imu_path}: a recorded IMU file needs the grade the filter "
+                          f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))})")
+    grade = {} if imu_grade is None else {"imu_errors": imu_grade}
+    return NavigatorConfig(filter=filter, **grade,
+                           measurement=MeasurementConfig(systems=systems or DEFAULT_SYSTEMS))
 
 
 def _start_time(imu_path, obs) -> float:

@@ -19,6 +19,7 @@ from typing import Callable
 
 import numpy as np
 
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
@@ -67,7 +68,7 @@ def track_names(paths) -> tuple[str, ...]:
 
 def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int = 0,
                          config: NavigatorConfig | None = None, seed: int = 0,
-                         systems: str = "G", bank: TrackBankConfig = TrackBankConfig(),
+                         systems: str = DEFAULT_SYSTEMS, bank: TrackBankConfig = TrackBankConfig(),
                          window: tuple[float, float] | None = None, faults: tuple = (),
                          progress: Callable[[int, int], None] | None = None
                          ) -> TrackRunOutcome:
@@ -121,17 +122,18 @@ def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int =
 def run_files_tracks(tracks, names, *, imu_path=None, obs_path=None, nav_path=None,
                      start_gps_time_s: float | None = None,
                      config: NavigatorConfig | None = None, systems: str | None = None,
-                     outages=(), bank: TrackBankConfig = TrackBankConfig(),
+                     imu_grade: str | None = None, outages=(), bank: TrackBankConfig = TrackBankConfig(),
                      window: tuple[float, float] | None = None,
                      progress: Callable[[int, int], None] | None = None) -> TrackRunOutcome:
     """Identify the track of recorded (or simulated) sensor files among `tracks`.
 
-    Parameters are those of `railnav.jobs.run.run_files` (the filter is the constrained one),
+    Parameters are those of `railnav.jobs.run.run_files` (the filter is the default one),
     plus the candidate `tracks`, their `names` and the `bank` configuration.
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      start_gps_time_s=start_gps_time_s, config=config,
-                                     filter="constrained", systems=systems)
+                                     filter=DEFAULT_FILTER, systems=systems,
+                                     imu_grade=imu_grade)
     result = navigate_tracks(tracks, data, config, names=names, outages=outages, bank=bank,
                              progress=progress)
     combined = result.combined()

@@ -53,7 +53,8 @@ from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.evaluation.running_stats import RunningCounts, RunningSummary
 from railnav.jobs.run import CSV_FLOAT_FORMAT
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
-from railnav.simulation.trip import DEFAULT_SYSTEMS, navigator_config_for
+from railnav.config import DEFAULT_SYSTEMS
+from railnav.simulation.trip import navigator_config_for
 from railnav.simulation.trip_stream import TripSegment, epoch_step, trip_segments
 from trackmodel.files import atomic_write, atomic_write_text
 

@@ -35,6 +35,7 @@ from typing import Callable
 import numpy as np
 from scipy.stats import chi2
 
+from railnav.config import DEFAULT_SYSTEMS
 from railnav.reproduce.common import PaperFigure, Quantity, ReproductionResult
 from railnav.jobs.run import run_simulated
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
@@ -147,7 +148,7 @@ def reproduce_paper2017(*, runs: int = 20, seed: int = 1, filters: tuple[str, ..
                   "accel_noise_mps2_rthz": scenario.imu.accel_noise_density_mps2_rthz,
                   "sigma_pseudorange_m": scenario.sigma_pseudorange_m,
                   "sigma_range_rate_mps": scenario.sigma_range_rate_mps,
-                  "outages": [list(o) for o in scenario.outages], "gnss_systems": "G",
+                  "outages": [list(o) for o in scenario.outages], "gnss_systems": DEFAULT_SYSTEMS,
                   "initial_attitude_sigma_rad": INITIAL_ATTITUDE_SIGMA_RAD,
                   "initial_s_sigma_m": scenario.initial_s_sigma_m,
                   "initial_v_sigma_mps": scenario.initial_v_sigma_mps},

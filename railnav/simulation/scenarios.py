@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from gnss_obs.gpstime import calendar_to_gps_time_s
+from gnss_obs.simulate import PAPER_SIGMA_PR_M, PAPER_SIGMA_RR_MPS
+from railnav.config import DEFAULT_IMU_GRADE
 from railnav.errors import ConfigError
 from railnav.simulation.profiles import SpeedProfile, constant_speed, station_stop_profile
 from railnav.simulation.truth import Truth, ideal_imu, simulate_truth
@@ -80,15 +82,15 @@ class Scenario:
     profile: SpeedProfile
     duration_s: float
     imu_rate_hz: float = 100.0
-    imu_errors: str | ImuErrors = "tactical"
+    imu_errors: str | ImuErrors = DEFAULT_IMU_GRADE
     default_track: str | None = None
     start_s: float = 0.0
     initial_attitude_sigma_rad: float = 1e-3
     initial_s_sigma_m: float = 5.0
     initial_v_sigma_mps: float = 0.1
     gnss_rate_hz: float = 1.0
-    sigma_pseudorange_m: float = math.sqrt(15.0)
-    sigma_range_rate_mps: float = math.sqrt(0.5)
+    sigma_pseudorange_m: float = PAPER_SIGMA_PR_M
+    sigma_range_rate_mps: float = PAPER_SIGMA_RR_MPS
     outages: tuple[tuple[float, float], ...] = ()
     start_gps_time_s: float = DEFAULT_START_GPS_TIME_S
     clock: str = "tcxo"
@@ -120,13 +122,22 @@ class Scenario:
         return imu_grade(self.imu_errors)
 
     def with_overrides(self, *, speed_mps: float | None = None,
-                       duration_s: float | None = None) -> "Scenario":
-        """Override the profile's top speed (scaling all speeds) and/or the duration."""
+                       duration_s: float | None = None,
+                       imu_errors: str | ImuErrors | None = None,
+                       outages: tuple | None = None) -> "Scenario":
+        """The scenario with what is given replaced (None: kept): the profile's top speed
+        (m/s, scaling all speeds), the duration (s), the IMU grade, the outages (s from the
+        trip start). The one place where ``railnav simulate`` and ``railnav run`` apply
+        their flags to a scenario."""
         out = self
         if speed_mps is not None:
             out = replace(out, profile=out.profile.scaled_to(speed_mps))
         if duration_s is not None:
             out = replace(out, duration_s=duration_s)
+        if imu_errors is not None:
+            out = replace(out, imu_errors=imu_errors)
+        if outages is not None:
+            out = replace(out, outages=tuple(outages))
         return out
 
 
@@ -142,7 +153,7 @@ SCENARIOS: dict[str, Scenario] = {
     "paper2017": Scenario(
         name="paper2017", profile=constant_speed(20.0), duration_s=1000.0,
         imu_rate_hz=100.0, imu_errors="paper2017", default_track="paper2017.csv",
-        sigma_pseudorange_m=math.sqrt(15.0), sigma_range_rate_mps=math.sqrt(0.5),
+        sigma_pseudorange_m=PAPER_SIGMA_PR_M, sigma_range_rate_mps=PAPER_SIGMA_RR_MPS,
         outages=((100.0, 50.0), (500.0, 50.0))),
     "curvy": Scenario(
         name="curvy", duration_s=1000.0, imu_errors="tactical", default_track="curvy.csv",

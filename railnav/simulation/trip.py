@@ -21,7 +21,7 @@ from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
 from gnss_obs.sim_events import Outage, SatelliteFault
 from gnss_obs.simulate import GnssSimConfig, GnssSimulation, default_nav_path, simulate_gnss
 from railnav.errors import ConfigError
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig, SensorData
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario, SimulationResult, simulate_scenario
 from strapdown.imu_errors import ImuErrors
 
@@ -30,8 +30,6 @@ __all__ = ["SimulatedTrip", "simulate_trip", "navigator_config_for", "gnss_sim_c
 
 Array = npt.NDArray[np.float64]
 
-#: GNSS systems simulated and used by default (the 2017 paper uses one system).
-DEFAULT_SYSTEMS = "G"
 
 
 @dataclass(frozen=True, eq=False)

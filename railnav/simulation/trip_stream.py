@@ -29,6 +29,7 @@ from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from gnss_obs.sim_events import Outage
 from gnss_obs.simulate import simulate_gnss
+from railnav.config import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import GnssEpochs
 from railnav.config import NavigatorConfig
@@ -172,7 +173,7 @@ def epoch_step(scenario: Scenario) -> int:
 
 
 def trip_segments(scenario: Scenario, track, *, seed: int, config: NavigatorConfig,
-                  nav: RinexNav | None, systems: str = "G",
+                  nav: RinexNav | None, systems: str = DEFAULT_SYSTEMS,
                   segment_s: float = 300.0) -> Iterator[TripSegment]:
     """Simulate `scenario` on `track` segment by segment (module docstring).
 

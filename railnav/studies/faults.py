@@ -31,6 +31,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from gnss_obs.sim_events import SatelliteFault
+from railnav.config import DEFAULT_SYSTEMS
 from railnav.jobs.run import RunOutcome, run_simulated
 
 __all__ = ["clock_jump_faults", "fault_case", "FaultCaseResult", "faulty_rows",
@@ -149,7 +150,7 @@ class FaultCaseResult:
 
 
 def fault_case(track, scenario, faults, *, name: str = "fault", seed: int = 0, config=None,
-               clean: RunOutcome | None = None, systems: str = "G") -> FaultCaseResult:
+               clean: RunOutcome | None = None, systems: str = DEFAULT_SYSTEMS) -> FaultCaseResult:
     """Run a scenario with and without `faults` and measure the fault handling.
 
     Parameters

@@ -37,6 +37,7 @@ import re
 from pathlib import Path
 from typing import Any, Callable
 
+from railnav.config import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.simulation.scenarios import get_scenario
 from railnav.navigation.streaming import DEFAULT_SEGMENT_S
@@ -138,7 +139,7 @@ def _study_fields(study: dict, locate: "_Locator") -> dict[str, Any]:
     return {"name": get("name", _string, "study"), "seed": get("seed", _int, 0),
             "replicates": get("replicates", _int, 1), "scenario": scenario_name,
             "duration_s": get("duration_s", _number, scenario.duration_s),
-            "systems": get("systems", _string, "G"), "mode": get("mode", _string, "memory"),
+            "systems": get("systems", _string, DEFAULT_SYSTEMS), "mode": get("mode", _string, "memory"),
             "chunk_runs": get("chunk_runs", _int, DEFAULT_CHUNK_RUNS),
             "common_random_numbers": get("common_random_numbers", _bool, True)}
 

@@ -128,3 +128,35 @@ def test_several_tracks_from_simulated_files(tmp_path):
     # a minute of 1 Hz GPS at the simulator's 3.9 m sigma: the evidence is ~2 nats per epoch
     assert summary["track_probabilities"]["double_b"] > 0.99
     assert "true_track" not in summary
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["run", PAPER, "--imu", "imu.csv", "--scenario", "curvy"], "--scenario"),
+    (["run", PAPER, "--imu", "imu.csv", "--speed-mps", "10", "--duration-s", "5"],
+     "--speed-mps, --duration-s"),
+    (["run", PAPER, "--obs", "o.rnx", "--nav", "n.rnx", "--seed", "3"], "--seed"),
+    (["run", PAPER, "--start-gps-time-s", "1e9"], "--start-gps-time-s"),
+    (["run", PAPER, "--filter", "gnss-only", "--imu-grade", "mems"], "--imu-grade"),
+    (["run", PAPER, "--crossing-rate-per-s", "1e-3"], "several tracks"),
+])
+def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
+    """Issue 12 (honest CLI): a flag that cannot apply to the inputs given is a one-line
+    error naming it, before any file is read or written (the files named do not exist)."""
+    code = main(["-q", *argv, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert err.startswith("error: ") and message in err and "\n" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_recorded_imu_needs_the_grade_the_filter_assumes(tmp_path, capsys):
+    """Issue 12: a recorded IMU file (no scenario.json beside it) runs only with
+    --imu-grade: the grade is what the filter assumes, and there is no truth to take it
+    from."""
+    imu = tmp_path / "imu.csv"
+    imu.write_text("time_s,ax_mps2,ay_mps2,az_mps2,wx_radps,wy_radps,wz_radps\n"
+                   "0,0,0,9.8,0,0,0\n0.01,0,0,9.8,0,0,0\n")
+    code = main(["-q", "run", PAPER, "--imu", str(imu), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and str(imu) in err and "--imu-grade" in err and "\n" not in err
+    assert not (tmp_path / "o").exists()
