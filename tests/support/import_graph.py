@@ -13,7 +13,9 @@ Run from the repository root::
     python -m tests.support.import_graph            # trackmodel strapdown gnss_obs ekf
     python -m tests.support.import_graph ekf        # one package
 
-It prints each circle and exits 1 if there is one, 0 otherwise.
+It prints each circle and exits 1 if there is one, 0 otherwise. The test suite checks
+the same property, and the dependency rules between packages, for the whole repository
+in ``tests/test_import_graph.py``.
 """
 from __future__ import annotations
 
@@ -22,16 +24,11 @@ import sys
 from collections.abc import Iterable
 from pathlib import Path
 
-__all__ = ["LIBRARY_PACKAGES", "ALLOWED_DEPENDENCIES", "REPO", "import_graph", "circles",
-           "package_dependencies", "main"]
+__all__ = ["LIBRARY_PACKAGES", "REPO", "import_graph", "circles", "main"]
 
 REPO = Path(__file__).resolve().parents[2]
 #: The library packages (ARCHITECTURE.md), lowest first.
 LIBRARY_PACKAGES = ("trackmodel", "ekf", "strapdown", "gnss_obs")
-#: The packages of the project each library package may import (ARCHITECTURE.md, and
-#: strapdown -> ekf for the one state layout, `ekf.layout.StateLayout`).
-ALLOWED_DEPENDENCIES = {"trackmodel": set(), "ekf": set(), "strapdown": {"trackmodel", "ekf"},
-                        "gnss_obs": {"trackmodel"}}
 
 
 def _modules(packages: Iterable[str], root: Path) -> dict[str, Path]:
@@ -75,9 +72,8 @@ def import_graph(packages: Iterable[str] = LIBRARY_PACKAGES, *,
     Returns
     -------
     dict of str to set of str
-        Edges to every importable module under ``root`` (also of other packages, so that
-        `package_dependencies` sees them); module names are dotted, a package is its
-        ``__init__``.
+        Edges to every importable module under ``root`` (also of other packages); module
+        names are dotted, a package is its ``__init__``.
     """
     modules = _modules(packages, root)
     graph = {}
@@ -131,16 +127,6 @@ def circles(graph: dict[str, set[str]]) -> list[list[str]]:
         if v not in index:
             visit(v)
     return sorted(found)
-
-
-def package_dependencies(graph: dict[str, set[str]]) -> dict[str, set[str]]:
-    """Top-level package -> the other top-level packages its modules import."""
-    out: dict[str, set[str]] = {}
-    for module, targets in graph.items():
-        top = module.split(".")[0]
-        out.setdefault(top, set()).update(t.split(".")[0] for t in targets)
-        out[top].discard(top)
-    return out
 
 
 def main(argv: list[str] | None = None) -> int:
