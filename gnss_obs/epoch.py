@@ -30,8 +30,12 @@ import numpy.typing as npt
 import pandas as pd
 
 from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS
-from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angles,
-                                  troposphere_delay_m)
+from gnss_obs.corrections import (
+    ionosphere_scale,
+    klobuchar_delay_s,
+    look_angles,
+    troposphere_delay_m,
+)
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic

@@ -27,8 +27,15 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.constants import (GM_BDS, GM_GAL, GM_GPS, OMEGA_E_BDS, OMEGA_E_GAL, OMEGA_E_GPS,
-                                relativistic_constant)
+from gnss_obs.constants import (
+    GM_BDS,
+    GM_GAL,
+    GM_GPS,
+    OMEGA_E_BDS,
+    OMEGA_E_GAL,
+    OMEGA_E_GPS,
+    relativistic_constant,
+)
 
 __all__ = ["SatelliteStates", "KEPLER_SYSTEMS", "is_beidou_geo", "kepler_states",
            "eccentric_anomaly"]

@@ -38,11 +38,23 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from gnss_obs._fixedwidth import (calendar_fields, char_table, parse_floats, parse_ints,
-                                  read_text_bytes, split_lines)
+from gnss_obs._fixedwidth import (
+    calendar_fields,
+    char_table,
+    parse_floats,
+    parse_ints,
+    read_text_bytes,
+    split_lines,
+)
 from gnss_obs._nav_header import NavHeader, parse_nav_header
-from gnss_obs._nav_layout import (INT_FIELDS, KEPLER_FIELDS, KM_FIELDS, LAYOUTS, TIME_SCALE,
-                                  continuation_lines)
+from gnss_obs._nav_layout import (
+    INT_FIELDS,
+    KEPLER_FIELDS,
+    KM_FIELDS,
+    LAYOUTS,
+    TIME_SCALE,
+    continuation_lines,
+)
 from gnss_obs._rinex_header import split_header
 from gnss_obs.constants import BDT_MINUS_GPST_S, BDT_WEEK0_GPS_WEEK, WEEK_S
 from gnss_obs.errors import GnssInputError

@@ -44,10 +44,15 @@ import numpy.typing as npt
 import pandas as pd
 
 from gnss_obs import _rinex2_obs
-from gnss_obs._fixedwidth import (calendar_fields, char_table, parse_ints, read_text_bytes,
-                                  split_lines)
-from gnss_obs._obs_records import EpochWalk, flag_and_count, tidy_observations
+from gnss_obs._fixedwidth import (
+    calendar_fields,
+    char_table,
+    parse_ints,
+    read_text_bytes,
+    split_lines,
+)
 from gnss_obs._obs_header import parse_obs_header
+from gnss_obs._obs_records import EpochWalk, flag_and_count, tidy_observations
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
 

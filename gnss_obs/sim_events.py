@@ -1,7 +1,10 @@
-"""Scripted events of the GNSS simulator: satellite faults and (partial) outages.
+"""Scripted events of a trip's GNSS: satellite faults and (partial) outages.
 
-Times are seconds from the first epoch of the simulation (as ``railnav simulate
---outage START:DURATION`` gives them).
+`Outage` is the one outage type of the project: the simulator drops the satellites it
+hides, and a filter skips the GNSS data of a total outage (`in_outages`). Times are seconds
+from a stated origin: the trip start (as ``railnav run/simulate --outage START:DURATION``
+give them); the simulator is told that origin (`gnss_obs.simulate.GnssSimConfig.
+time_origin_gps_time_s`), whatever GPS time its first epoch has.
 """
 from __future__ import annotations
 
@@ -13,7 +16,7 @@ import numpy.typing as npt
 
 from gnss_obs.errors import GnssError
 
-__all__ = ["SatelliteFault", "Outage", "apply_faults", "visible_after_outages"]
+__all__ = ["SatelliteFault", "Outage", "apply_faults", "visible_after_outages", "in_outages"]
 
 Array = npt.NDArray[np.float64]
 
@@ -63,7 +66,7 @@ class Outage:
     Parameters
     ----------
     start_s, duration_s : float
-        Window, s from the first epoch.
+        Window, s from the time origin (the trip start).
     max_satellites : int
         Satellites kept (the highest ones); 0 = total outage.
     elevation_mask_deg : float, optional
@@ -82,16 +85,61 @@ class Outage:
         if self.max_satellites < 0:
             raise GnssError("outage: max_satellites must be >= 0")
 
-    def active(self, t_rel: Array) -> npt.NDArray[np.bool_]:
-        """True where `t_rel` (s from the first epoch) is inside the window."""
+    @property
+    def total(self) -> bool:
+        """No satellite is kept inside the window (a filter sees no GNSS data there)."""
+        return self.max_satellites == 0 and self.elevation_mask_deg is None
+
+    def __iter__(self):
+        """An outage unpacks as its window ``(start_s, duration_s)`` (JSON, tables)."""
+        return iter((self.start_s, self.duration_s))
+
+    def active(self, t_rel: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """True where `t_rel` (s from the time origin) is inside the window."""
+        t_rel = np.asarray(t_rel, dtype=float)
         return (t_rel >= self.start_s) & (t_rel < self.start_s + self.duration_s)
+
+    @classmethod
+    def of(cls, value) -> "Outage":
+        """An `Outage` from an outage or a ``(start_s, duration_s)`` pair (a total one)."""
+        if isinstance(value, cls):
+            return value
+        try:
+            start_s, duration_s = (float(x) for x in value)
+        except (TypeError, ValueError):
+            raise GnssError(f"outage: need (start_s, duration_s), got {value!r}") from None
+        return cls(start_s, duration_s)
+
+
+def in_outages(t: npt.ArrayLike, outages) -> npt.NDArray[np.bool_]:
+    """True where times `t` (s from the time origin) fall inside a *total* outage: where a
+    filter has no GNSS data (partial outages leave it some).
+
+    Parameters
+    ----------
+    t : array_like
+        Times, s.
+    outages : sequence of Outage or (start_s, duration_s)
+
+    Returns
+    -------
+    ndarray of bool, shape of `t`
+    """
+    t = np.asarray(t, dtype=float)
+    inside = np.zeros(t.shape, dtype=bool)
+    for outage in map(Outage.of, outages):
+        if outage.total:
+            inside |= outage.active(t)
+    return inside
 
 
 def apply_faults(t: Array, epoch: np.ndarray, sv: np.ndarray,
-                 faults: tuple[SatelliteFault, ...]) -> tuple[Array, Array]:
-    """Pseudorange (m) and range-rate (m/s) errors of the faults, per observation row."""
+                 faults: tuple[SatelliteFault, ...], *, origin_s: float
+                 ) -> tuple[Array, Array]:
+    """Pseudorange (m) and range-rate (m/s) errors of the faults, per observation row
+    (`t` and `origin_s` in one time scale, e.g. GPS s)."""
     pr, rr = np.zeros(sv.size), np.zeros(sv.size)
-    t_rel = t[epoch] - t[0]
+    t_rel = t[epoch] - origin_s
     for f in faults:
         on = (sv == f.sv) & (t_rel >= f.start_s) & (t_rel < f.start_s + f.duration_s)
         pr[on] += f.step_m + f.ramp_mps * (t_rel[on] - f.start_s)
@@ -101,11 +149,12 @@ def apply_faults(t: Array, epoch: np.ndarray, sv: np.ndarray,
 
 
 def visible_after_outages(t: Array, epoch: np.ndarray, elevation: Array,
-                          outages: tuple[Outage, ...], *, mask_rad: float
+                          outages: tuple[Outage, ...], *, mask_rad: float, origin_s: float
                           ) -> npt.NDArray[np.bool_]:
-    """Observation rows that survive the elevation mask and the outages."""
+    """Observation rows that survive the elevation mask and the outages (`t` and
+    `origin_s` in one time scale)."""
     keep = elevation >= mask_rad
-    t_rel = t[epoch] - t[0]
+    t_rel = t[epoch] - origin_s
     for o in outages:
         inside = o.active(t_rel)
         if o.elevation_mask_deg is not None:

@@ -40,16 +40,31 @@ from pathlib import Path
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from railnav_data import GNSS, shipped_path
 
-from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS, WEEK_S, carrier_frequency_hz
-from gnss_obs.corrections import (ionosphere_scale, klobuchar_delay_s, look_angles,
-                                  troposphere_delay_m)
+from gnss_obs.constants import (
+    OMEGA_E_GPS,
+    SPEED_OF_LIGHT_MPS,
+    WEEK_S,
+    carrier_frequency_hz,
+)
+from gnss_obs.corrections import (
+    ionosphere_scale,
+    klobuchar_delay_s,
+    look_angles,
+    troposphere_delay_m,
+)
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
-from gnss_obs.sim_events import Outage, SatelliteFault, apply_faults, visible_after_outages
+from gnss_obs.sim_events import (
+    Outage,
+    SatelliteFault,
+    apply_faults,
+    visible_after_outages,
+)
 from gnss_obs.sim_files import simulation_header, write_simulation
 from gnss_obs.sim_result import GnssSimulation
 from trackmodel.earth import ecef_to_geodetic
@@ -64,8 +79,10 @@ Array = npt.NDArray[np.float64]
 
 #: Simulated signal per system: (RINEX signal, band).
 SIM_SIGNALS = {"G": ("1C", 1), "E": ("1C", 1), "C": ("2I", 2), "R": ("1C", 1), "J": ("1C", 1)}
-#: 2020-11-29 12:00:00 GPST, inside the shipped navigation file (records 09:00-15:00).
-DEFAULT_START_GPS_TIME_S = 2134 * WEEK_S + 43_200.0
+#: Start of a simulated trip when none is given: 2020-11-29 12:40:00 GPST, inside the
+#: shipped navigation file (records 09:00-15:00; the shared urban drive's hour). The one
+#: default start time of the project (`railnav.simulation.scenarios` uses it).
+DEFAULT_START_GPS_TIME_S = 2134 * WEEK_S + 45_600.0
 #: The 2017 paper's GNSS noise (SEEDS.md: variances 15 m² and 0.5 (m/s)² at 1 Hz).
 PAPER_SIGMA_PR_M = math.sqrt(15.0)
 PAPER_SIGMA_RR_MPS = math.sqrt(0.5)
@@ -75,12 +92,18 @@ _LIGHT_TIME_TOL_S = 1e-13
 _NOMINAL_FLIGHT_S = 0.075
 
 
-def default_nav_path() -> Path:
-    """The shipped broadcast navigation file (``data/gnss/broadcast_nav.rnx``, 2020-11-29).
+def _time_origin(cfg: "GnssSimConfig", gps_time_s: Array) -> float:
+    """GPS time (s) from which the faults' and outages' times count."""
+    if cfg.time_origin_gps_time_s is None:
+        return float(gps_time_s[0])
+    return float(cfg.time_origin_gps_time_s)
 
-    Found relative to the source tree (editable install); raises `GnssError` otherwise.
+
+def default_nav_path() -> Path:
+    """The shipped broadcast navigation file (``data/gnss/broadcast_nav.rnx``, 2020-11-29),
+    found in the installed data (`railnav_data`); raises `GnssError` if it is missing.
     """
-    path = Path(__file__).resolve().parents[1] / "data" / "gnss" / "broadcast_nav.rnx"
+    path = shipped_path(GNSS, "broadcast_nav.rnx")
     if not path.is_file():
         raise GnssError(f"default navigation file not found at {path}; pass a RinexNav")
     return path
@@ -115,6 +138,9 @@ class GnssSimConfig:
         C/N0 written to the file, linear in sin(elevation) between these.
     faults : tuple of SatelliteFault
     outages : tuple of Outage
+    time_origin_gps_time_s : float or None
+        GPS time (s) from which the faults' and outages' times count: the trip start;
+        None: the first epoch simulated.
     """
 
     systems: str = "GE"
@@ -133,6 +159,7 @@ class GnssSimConfig:
     cn0_horizon_dbhz: float = 36.0
     faults: tuple[SatelliteFault, ...] = ()
     outages: tuple[Outage, ...] = ()
+    time_origin_gps_time_s: float | None = None
 
     def __post_init__(self) -> None:
         if not self.systems or set(self.systems) - set(SIM_SIGNALS):
@@ -262,7 +289,8 @@ def simulate_gnss(gps_time_s: npt.ArrayLike, r_e: npt.ArrayLike, v_e: npt.ArrayL
     epoch, sv, sel = epoch[ok], sv[ok], sel[ok].reset_index(drop=True)
     geo = _geometry(sel, t, epoch, r_e, v_e, bias)
     keep = visible_after_outages(t, epoch, geo["elevation"], cfg.outages,
-                                 mask_rad=np.deg2rad(cfg.elevation_mask_deg))
+                                 mask_rad=np.deg2rad(cfg.elevation_mask_deg),
+                                 origin_s=_time_origin(cfg, t))
     if not keep.any():
         raise GnssError("no satellite is observed at any epoch (the outages cover the whole "
                         "trip or the elevation mask hides every satellite); simulate "
@@ -326,7 +354,7 @@ def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
     noise_pr = cfg.sigma_pr_m * scale * rng.standard_normal(sv.size)
     noise_rr = cfg.sigma_rr_mps * scale * rng.standard_normal(sv.size)
     multipath = _multipath(sv, epoch, t, geo["elevation"], cfg, rng)
-    fault_pr, fault_rr = apply_faults(t, epoch, sv, cfg.faults)
+    fault_pr, fault_rr = apply_faults(t, epoch, sv, cfg.faults, origin_s=_time_origin(cfg, t))
     pr = pr_free + multipath + fault_pr + noise_pr
     rr = rr_free + fault_rr + noise_rr
     sin_el = np.clip(np.sin(geo["elevation"]), 0.0, 1.0)

@@ -27,8 +27,14 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from gnss_obs._fixedwidth import (calendar_fields, char_table, field_text, parse_floats,
-                                  read_text_bytes, split_lines)
+from gnss_obs._fixedwidth import (
+    calendar_fields,
+    char_table,
+    field_text,
+    parse_floats,
+    read_text_bytes,
+    split_lines,
+)
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.gpstime import TIME_SYSTEMS, calendar_to_gps_time_s, to_gps_time_s
 

@@ -30,15 +30,35 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.epoch import (MAX_RECEIVER_HEIGHT_M, MIN_RECEIVER_RADIUS_M, EpochData,
-                            PreparedEpoch, prepare_epoch, split_epochs, transmit_states)
-from gnss_obs.errors import GnssError
-from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
-from gnss_obs.observables import predict_pseudorange, predict_range_rate, system_bias_matrix
-from gnss_obs.raim import (FdeResult, WlsStep, fault_detection_exclusion, protection_levels,
-                           wls_step)
-from gnss_obs.spp_result import EpochFix, SppResult, assemble_result
 from gnss_obs.dop import dilution_of_precision
+from gnss_obs.epoch import (
+    MAX_RECEIVER_HEIGHT_M,
+    MIN_RECEIVER_RADIUS_M,
+    EpochData,
+    PreparedEpoch,
+    prepare_epoch,
+    split_epochs,
+    transmit_states,
+)
+from gnss_obs.errors import GnssError
+from gnss_obs.measurements import (
+    MeasurementConfig,
+    glonass_channels,
+    select_measurements,
+)
+from gnss_obs.observables import (
+    predict_pseudorange,
+    predict_range_rate,
+    system_bias_matrix,
+)
+from gnss_obs.raim import (
+    FdeResult,
+    WlsStep,
+    fault_detection_exclusion,
+    protection_levels,
+    wls_step,
+)
+from gnss_obs.spp_result import EpochFix, SppResult, assemble_result
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["SppConfig", "SppResult", "solve_spp"]

@@ -15,7 +15,6 @@ import sys
 from collections.abc import Sequence
 
 import railnav.commands
-
 from ekf.errors import FilterDivergedError, FilterError
 from gnss_obs.errors import GnssError
 from railnav.errors import RailnavError

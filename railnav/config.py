@@ -130,11 +130,12 @@ class NavigatorConfig:
     along_accel_sigma_mps2: float = 1.0
     pseudorange_correlation_s: float = 20.0
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
+    _imu: ImuErrors = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)
         try:
-            imu_grade(self.imu_errors)
+            object.__setattr__(self, "_imu", imu_grade(self.imu_errors))   # resolved once
             oscillator_from_name(self.oscillator)
         except (StrapdownError, GnssError) as exc:
             raise ConfigError(str(exc)) from None
@@ -164,8 +165,8 @@ class NavigatorConfig:
 
     @property
     def imu(self) -> ImuErrors:
-        """The IMU error parameters the filter assumes."""
-        return imu_grade(self.imu_errors)
+        """The IMU error parameters the filter assumes (the grade resolved once)."""
+        return self._imu
 
     @property
     def biases_estimated(self) -> bool:

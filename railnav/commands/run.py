@@ -12,13 +12,19 @@ import argparse
 import logging
 from pathlib import Path
 
-from railnav.commands.support import (nonnegative_float, nonnegative_int, outage_window,
-                                      positive_float, positive_int, progress_bar)
-from railnav.errors import ConfigError
+from railnav.commands.support import (
+    nonnegative_float,
+    nonnegative_int,
+    outage_window,
+    positive_float,
+    positive_int,
+    progress_bar,
+)
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, check_gnss_pair
+from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
-from railnav.simulation.scenarios import SCENARIOS, get_scenario
 from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
+from railnav.simulation.scenarios import SCENARIOS, get_scenario
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.io import read_track
 
@@ -132,7 +138,9 @@ def handler(args: argparse.Namespace) -> int:
                                 imu_grade=args.imu_grade, outages=tuple(args.outage or ()),
                                 window=args.window, progress=progress)
         else:
-            scenario = _scenario(args)
+            scenario = get_scenario(_scenario_name(args)).with_overrides(
+                speed_mps=args.speed_mps, duration_s=args.duration_s,
+                imu_errors=args.imu_grade, outages=args.outage)
             from railnav.simulation.trip import navigator_config_for
             systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
@@ -163,9 +171,13 @@ def _write_baro(check, out: Path) -> None:
 
 def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     """``railnav run A.csv B.csv ...``: identify the track among candidates."""
+    from railnav.jobs.tracks import (
+        run_files_tracks,
+        run_simulated_tracks,
+        track_names,
+        write_track_run,
+    )
     from railnav.navigation.bank import TrackBankConfig
-    from railnav.jobs.tracks import (run_files_tracks, run_simulated_tracks, track_names,
-                                    write_track_run)
     names = track_names(args.tracks)
     tracks = [read_track(path) for path in args.tracks]
     bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(
@@ -179,7 +191,9 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
                                    window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for
-            scenario = _scenario(args)
+            scenario = get_scenario(_scenario_name(args)).with_overrides(
+                speed_mps=args.speed_mps, duration_s=args.duration_s,
+                imu_errors=args.imu_grade, outages=args.outage)
             systems = args.systems or DEFAULT_SYSTEMS
             run = run_simulated_tracks(tracks, names, scenario,
                                        true_track=(args.true_track or 1) - 1,
@@ -237,14 +251,13 @@ def _seed(args: argparse.Namespace) -> int:
     return DEFAULT_SEED if args.seed is None else args.seed
 
 
-def _scenario(args):
-    name = args.scenario
-    if name is None:
-        stem = Path(args.tracks[0]).stem
-        name = stem if stem in SCENARIOS else DEFAULT_SCENARIO
-    return get_scenario(name).with_overrides(
-        speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
-        outages=args.outage)
+def _scenario_name(args) -> str:
+    """--scenario, else the first track's file name if it is a scenario's, else
+    `DEFAULT_SCENARIO`."""
+    if args.scenario is not None:
+        return args.scenario
+    stem = Path(args.tracks[0]).stem
+    return stem if stem in SCENARIOS else DEFAULT_SCENARIO
 
 
 def _report(outcome, out: Path) -> str:

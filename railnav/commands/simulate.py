@@ -11,8 +11,8 @@ from pathlib import Path
 
 from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
-from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
 from railnav.config import DEFAULT_SYSTEMS
+from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
 from railnav.simulation.trip import simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text

@@ -19,7 +19,12 @@ from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.commands.support import progress_bar
 from railnav.errors import ConfigError
-from railnav.evaluation.spp_accuracy import accuracy_summary, plot_spp, read_reference_trajectory, spp_errors
+from railnav.evaluation.spp_accuracy import (
+    accuracy_summary,
+    plot_spp,
+    read_reference_trajectory,
+    spp_errors,
+)
 from trackmodel.files import atomic_write_csv
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]

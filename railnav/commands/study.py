@@ -39,8 +39,8 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav study``; returns the exit status."""
-    from railnav.studies.study import run_study
     from railnav.studies.file import load_study_config
+    from railnav.studies.study import run_study
     config = load_study_config(args.config)
     with progress_bar("runs", enabled=not args.quiet) as progress:
         result = run_study(config, args.out, scheduler=args.scheduler, workers=args.workers,

@@ -6,6 +6,8 @@ import contextlib
 import sys
 from collections.abc import Callable, Iterator
 
+from gnss_obs.sim_events import Outage
+
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
            "nonnegative_int", "outage_window"]
 
@@ -82,8 +84,8 @@ def nonnegative_int(text: str) -> int:
     return _integer(text, 0)
 
 
-def outage_window(text: str) -> tuple[float, float]:
-    """argparse type for ``START:DURATION`` (seconds from the start of the run)."""
+def outage_window(text: str) -> Outage:
+    """argparse type for ``START:DURATION`` (seconds from the trip start): a total outage."""
     try:
         start_s, duration_s = (float(x) for x in text.split(":"))
     except ValueError:
@@ -92,4 +94,4 @@ def outage_window(text: str) -> tuple[float, float]:
     if not (start_s >= 0 and duration_s > 0) or not all(
             abs(x) < float("inf") for x in (start_s, duration_s)):
         raise argparse.ArgumentTypeError(f"{text!r}: need START >= 0 and DURATION > 0 seconds")
-    return start_s, duration_s
+    return Outage(start_s, duration_s)

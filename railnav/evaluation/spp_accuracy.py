@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from gnss_obs.constants import WEEK_S
 from railnav.errors import ConfigError
 from trackmodel.earth import C_n_e, ecef_to_enu, geodetic_to_ecef
 from trackmodel.errors import finite_column
@@ -33,7 +34,6 @@ __all__ = ["read_reference_trajectory", "spp_errors", "SppAccuracy", "accuracy_s
 #: Largest time step (s) on either side of an epoch for a central-difference speed.
 MAX_DIFF_GAP_S = 1.5
 _MATCH_DECIMALS = 3  # epochs are matched on gps_time_s rounded to 1 ms
-_WEEK_S = 604_800.0
 _PROJECT_COLUMNS = ("gps_time_s", "lat_deg", "lon_deg", "h_m")
 _WEEK_COLUMNS = ("week", "sow", "lat_deg", "lon_deg", "h_m")
 
@@ -44,7 +44,7 @@ def _week_layout(path) -> pd.DataFrame:
         raise ConfigError("expected columns GPS week, seconds of week, latitude (deg), "
                           "longitude (deg), height (m)", path=path)
     df = df.iloc[:, :len(_WEEK_COLUMNS)].set_axis(list(_WEEK_COLUMNS), axis=1)
-    out = pd.DataFrame({"gps_time_s": df["week"] * _WEEK_S + df["sow"]})
+    out = pd.DataFrame({"gps_time_s": df["week"] * float(WEEK_S) + df["sow"]})
     for c in _PROJECT_COLUMNS[1:]:
         out[c] = df[c]
     return out

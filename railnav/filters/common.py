@@ -4,9 +4,10 @@
   guess, and the per-row record (satellite, kind) for ``innovations.csv``; its subclass
   `GnssRowBuilder` builds them at the prior's point on the track (the unconstrained
   filter's, `railnav.filters.geodetic_rows.GeodeticRowBuilder`, at its geodetic position);
-* `track_estimates`: the estimate columns of ``estimates.csv`` from states on the track,
-  `common_columns` those of the states every filter writes as they are (attitude, clock,
-  biases);
+* the columns of ``estimates.csv`` (after ``time_s, gps_time_s``): `ESTIMATE_COLUMNS`
+  first, in that order, then the attitude, clock and biases (`common_columns`), then the
+  ``sigma_*`` of each, all assembled by `estimate_columns` (the one place);
+  `track_estimates` gives them for states on the track;
 * `states_from_values` (true states for NEES) and `clock_from_fix` (clock states at a
   first GNSS fix), for every filter;
 * `start_on_track`: a first GNSS fix projected on the track (``s``, ``v``, clock, their σ).
@@ -20,11 +21,17 @@ import numpy.typing as npt
 
 from ekf.layout import StateLayout
 from ekf.update import Observation
-from railnav.filters.gnss_rows import (GnssRows, build_gnss_rows, pseudorange_parameters,
-                               range_rate_parameters, track_rows)
+from railnav.filters.gnss_rows import (
+    GnssRows,
+    build_gnss_rows,
+    pseudorange_parameters,
+    range_rate_parameters,
+    track_rows,
+)
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["EpochRowBuilder", "GnssRowBuilder", "track_estimates", "ROW_KINDS",
+           "ESTIMATE_COLUMNS", "estimate_columns",
            "state_columns", "scalar_point", "REFERENCE_REUSE_M", "common_columns",
            "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M",
            "MIN_FIX_SIGMA_V_MPS"]
@@ -192,13 +199,44 @@ def track_estimates(track, layout: StateLayout, x: Array, var: Array) -> dict[st
     cols = {"s_m": s, "lat_deg": np.degrees(point.lat), "lon_deg": np.degrees(point.lon),
             "h_m": point.h, "speed_mps": v, "v_east_mps": v * u[:, 0],
             "v_north_mps": v * u[:, 1], "v_up_mps": v * u[:, 2]}
+    return estimate_columns(layout, x, var, position=cols, position_sigma={
+        "sigma_s_m": sig_s, "sigma_east_m": sig_s * np.abs(u[:, 0]),
+        "sigma_north_m": sig_s * np.abs(u[:, 1]), "sigma_up_m": sig_s * np.abs(u[:, 2]),
+        "sigma_speed_mps": sig_v})
+
+
+#: The first columns of ``estimates.csv`` after ``time_s, gps_time_s``, every filter's, in
+#: this order: distance along the track (m), geodetic position (deg, deg, m), signed speed
+#: along the track (m/s) and ENU velocity (m/s).
+ESTIMATE_COLUMNS = ("s_m", "lat_deg", "lon_deg", "h_m", "speed_mps", "v_east_mps",
+                    "v_north_mps", "v_up_mps")
+
+
+def estimate_columns(layout: StateLayout, x: Array, var: Array, *,
+                     position: dict[str, Array], position_sigma: dict[str, Array]
+                     ) -> dict[str, Array]:
+    """A filter's ``estimates.csv`` columns: `ESTIMATE_COLUMNS` (`position`), the states
+    written as they are (`common_columns`), then the σ of the position (`position_sigma`:
+    ``sigma_s_m``, ``sigma_east_m``, ...) and of the others.
+
+    Parameters
+    ----------
+    layout : ekf.StateLayout
+    x, var : ndarray, shape (K, n)
+        Stored states and the diagonal of their covariance.
+    position : dict of str to ndarray (K,)
+        Exactly the `ESTIMATE_COLUMNS`.
+    position_sigma : dict of str to ndarray (K,)
+
+    Raises
+    ------
+    ValueError
+        If `position` is not the `ESTIMATE_COLUMNS` in order (a filter's bug).
+    """
+    if tuple(position) != ESTIMATE_COLUMNS:
+        raise ValueError(f"estimate columns {tuple(position)} are not {ESTIMATE_COLUMNS}")
     common, common_sigma = common_columns(layout, x, var)
-    cols.update(common)
-    cols.update({"sigma_s_m": sig_s, "sigma_east_m": sig_s * np.abs(u[:, 0]),
-                 "sigma_north_m": sig_s * np.abs(u[:, 1]), "sigma_up_m": sig_s * np.abs(u[:, 2]),
-                 "sigma_speed_mps": sig_v})
-    cols.update(common_sigma)
-    return cols
+    return {**position, **common, **position_sigma, **common_sigma}
 
 
 def common_columns(layout: StateLayout, x: Array, var: Array

@@ -22,13 +22,18 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows
 from ekf.update import Observation
+from gnss_obs.oscillator import oscillator_from_name
+from railnav.config import NavigatorConfig
+from railnav.filters.common import (
+    GnssRowBuilder,
+    start_on_track,
+    states_from_values,
+    track_estimates,
+)
 from railnav.filters.constrained_model import build_constrained_model, isb_state_name
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.geometry_noise import statistical_parameters
-from railnav.filters.common import (GnssRowBuilder, start_on_track,
-                                   states_from_values, track_estimates)
-from railnav.filters.ins_clock_model import initial_variances, model_for_config
-from railnav.config import NavigatorConfig
+from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
 from trackmodel.track import Track
@@ -55,7 +60,11 @@ class ConstrainedFilter:
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config
-        self.model, self.q_c = model_for_config(build_constrained_model, track.earth, config)
+        self.model = build_constrained_model(track.earth, estimate_biases=config.biases_estimated,
+                     isb_systems=tuple(config.measurement.systems[1:]))
+        # the noise densities of the IMU grade and oscillator the filter assumes
+        self.q_c = self.model.process_noise_density(config.imu,
+                                                    oscillator_from_name(config.oscillator))
         self.layout, self.process = self.model.layout, self.model.process
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
@@ -177,7 +186,7 @@ class ConstrainedFilter:
 
     # -- outputs ---------------------------------------------------------------------------
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
-        """Estimate columns (`railnav.navigation.result.ESTIMATE_COLUMNS`) of stored states."""
+        """Estimate columns (`railnav.filters.common.estimate_columns`) of stored states."""
         P = unpack_sym(P_packed)
         var = np.diagonal(P, axis1=1, axis2=2)
         return track_estimates(self.track, self.layout, x, var)

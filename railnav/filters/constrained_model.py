@@ -22,10 +22,20 @@ from __future__ import annotations
 import functools
 import math
 
-from railnav.filters.ins_clock_model import (CLOCK_STATE_NAMES, ISB_RANDOM_WALK_M2PS, InsClockModel,
-                                     assemble_ins_clock_model, isb_state_name, model_name)
+from railnav.filters.ins_clock_model import (
+    CLOCK_STATE_NAMES,
+    ISB_RANDOM_WALK_M2PS,
+    InsClockModel,
+    assemble_ins_clock_model,
+    isb_state_name,
+    model_name,
+)
 from strapdown.kinematics import SensorBiasStates
-from strapdown.reduced import REDUCED_STATE_NAMES, TRACK_PARAMETER_NAMES, build_reduced_model
+from strapdown.reduced import (
+    REDUCED_STATE_NAMES,
+    TRACK_PARAMETER_NAMES,
+    build_reduced_model,
+)
 from trackmodel.earth import Ellipsoid
 
 __all__ = ["ConstrainedModel", "build_constrained_model", "CLOCK_STATE_NAMES",

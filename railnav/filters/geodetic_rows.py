@@ -33,7 +33,10 @@ from ekf.layout import StateLayout
 from ekf.update import Observation
 from railnav.filters.common import EpochRowBuilder
 from railnav.filters.gnss_rows import GnssRows, compose_gnss_rows
-from railnav.filters.unconstrained_model import POSITION_STATE_NAMES, VELOCITY_STATE_NAMES
+from railnav.filters.unconstrained_model import (
+    POSITION_STATE_NAMES,
+    VELOCITY_STATE_NAMES,
+)
 from strapdown.frames import radii_of_curvature
 from trackmodel.earth import Ellipsoid, geodetic_to_ecef
 

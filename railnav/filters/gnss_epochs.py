@@ -15,37 +15,27 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.epoch import (EpochData, PreparedEpoch, prepare_epoch, split_epochs,
-                            transmit_states_batch)
-from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
+from gnss_obs.epoch import (
+    EpochData,
+    PreparedEpoch,
+    prepare_epoch,
+    split_epochs,
+    transmit_states_batch,
+)
+from gnss_obs.measurements import (
+    MeasurementConfig,
+    glonass_channels,
+    select_measurements,
+)
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
+from gnss_obs.sim_events import in_outages
 
-__all__ = ["GnssEpochs", "in_outage"]
+__all__ = ["GnssEpochs"]
 
 log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
-
-
-def in_outage(t: npt.ArrayLike, outages) -> npt.NDArray[np.bool_]:
-    """True where time ``t`` (s from the trip start) falls inside an outage window.
-
-    Parameters
-    ----------
-    t : array_like
-        Times, s.
-    outages : sequence of (start_s, duration_s)
-
-    Returns
-    -------
-    ndarray of bool, shape of `t`
-    """
-    t = np.asarray(t, dtype=float)
-    inside = np.zeros(t.shape, dtype=bool)
-    for start, duration in outages:
-        inside |= (t >= start) & (t < start + duration)
-    return inside
 
 
 @dataclass(frozen=True, eq=False)
@@ -88,13 +78,13 @@ class GnssEpochs:
             GPS time of the trip start (``time_s = 0``), s.
         end_s : float
             Last usable time from the trip start, s.
-        outages : sequence of (start_s, duration_s)
+        outages : sequence of gnss_obs.Outage (or (start_s, duration_s) pairs)
             Windows whose epochs are dropped.
         elevation_mask_deg : float
         """
         table = obs.table
         t_rel = table["gps_time_s"].to_numpy() - start_gps_time_s
-        keep = (t_rel >= -1e-9) & (t_rel <= end_s + 1e-9) & ~in_outage(t_rel, outages)
+        keep = (t_rel >= -1e-9) & (t_rel <= end_s + 1e-9) & ~in_outages(t_rel, outages)
         table = table[keep]
         channels = glonass_channels(obs.header.glonass_slots, nav.records) \
             if "R" in config.systems else None

@@ -31,10 +31,10 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
-from railnav.filters.constrained_model import isb_state_name
-from railnav.filters.common import GnssRowBuilder, start_on_track, track_estimates
-from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.config import NavigatorConfig
+from railnav.filters.common import GnssRowBuilder, start_on_track, track_estimates
+from railnav.filters.constrained_model import isb_state_name
+from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.filters.robust_rows import huber_inflate
 from trackmodel.track import Track
 

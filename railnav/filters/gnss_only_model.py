@@ -40,7 +40,11 @@ import numpy.typing as npt
 from ekf.layout import StateLayout
 from ekf.model import CdModel
 from gnss_obs.oscillator import Oscillator
-from railnav.filters.constrained_model import CLOCK_STATE_NAMES, ISB_RANDOM_WALK_M2PS, isb_state_name
+from railnav.filters.constrained_model import (
+    CLOCK_STATE_NAMES,
+    ISB_RANDOM_WALK_M2PS,
+    isb_state_name,
+)
 
 __all__ = ["GnssOnlyModel", "build_gnss_only_model", "KINEMATIC_STATE_NAMES"]
 

@@ -47,7 +47,7 @@ from trackmodel.earth import Ellipsoid
 
 __all__ = ["InsClockModel", "assemble_ins_clock_model", "CLOCK_STATE_NAMES",
            "ISB_RANDOM_WALK_M2PS", "isb_state_name", "bias_random_walk_density",
-           "IMU_NOISE_NAMES", "model_name", "initial_variances", "model_for_config"]
+           "IMU_NOISE_NAMES", "model_name", "initial_variances"]
 
 Array = npt.NDArray[np.float64]
 #: A function of the INS part of the state, the input and the per-step parameters.
@@ -210,32 +210,6 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     return InsClockModel(process=process, layout=layout, earth=earth,
                          estimate_biases=estimate_biases, isb_systems=tuple(isb_systems),
                          noise_names=noise_names)
-
-
-def model_for_config(build: Callable[..., InsClockModel], earth: Ellipsoid, config
-                     ) -> tuple[InsClockModel, Array]:
-    """An inertial filter's model for a configuration, and the noise densities it assumes.
-
-    Parameters
-    ----------
-    build : callable(earth, *, estimate_biases, isb_systems) -> InsClockModel
-        The model builder (`railnav.filters.constrained_model.build_constrained_model`, ...).
-    earth : Ellipsoid
-    config : railnav.NavigatorConfig
-        Biases estimated or not, GNSS systems (one ISB state per system after the first),
-        IMU grade and oscillator assumed.
-
-    Returns
-    -------
-    model : InsClockModel
-    q_c : ndarray, shape (n_w,)
-        `InsClockModel.process_noise_density` of the config's IMU and oscillator.
-    """
-    from gnss_obs.oscillator import oscillator_from_name
-    model = build(earth, estimate_biases=config.biases_estimated,
-                  isb_systems=tuple(config.measurement.systems[1:]))
-    return model, model.process_noise_density(config.imu,
-                                              oscillator_from_name(config.oscillator))
 
 
 def initial_variances(config, layout: StateLayout) -> dict[str, float]:

@@ -59,7 +59,7 @@ class Filter(Protocol):
         at the prior ``(x, P)``."""
 
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
-        """Output columns (`railnav.navigation.result.ESTIMATE_COLUMNS` order) of stored
+        """Output columns (`railnav.filters.common.ESTIMATE_COLUMNS` first, `estimate_columns`) of stored
         states and packed covariances."""
 
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

@@ -29,13 +29,25 @@ import numpy.typing as npt
 
 from ekf.packing import unpack_sym
 from ekf.update import Observation
-from railnav.filters.common import (MIN_FIX_SIGMA_S_M, MIN_FIX_SIGMA_V_MPS, clock_from_fix,
-                                   common_columns, states_from_values)
-from railnav.filters.geodetic_rows import GeodeticRowBuilder
-from railnav.filters.ins_clock_model import initial_variances, isb_state_name, model_for_config
+from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
-from railnav.filters.unconstrained_model import (POSITION_STATE_NAMES, VELOCITY_STATE_NAMES,
-                                         build_unconstrained_model)
+from railnav.filters.common import (
+    MIN_FIX_SIGMA_S_M,
+    MIN_FIX_SIGMA_V_MPS,
+    clock_from_fix,
+    estimate_columns,
+    states_from_values,
+)
+from railnav.filters.geodetic_rows import GeodeticRowBuilder
+from railnav.filters.ins_clock_model import (
+    initial_variances,
+    isb_state_name,
+)
+from railnav.filters.unconstrained_model import (
+    POSITION_STATE_NAMES,
+    VELOCITY_STATE_NAMES,
+    build_unconstrained_model,
+)
 from trackmodel.earth import C_n_e, ecef_to_geodetic, radii
 from trackmodel.track import Track
 
@@ -82,7 +94,11 @@ class UnconstrainedFilter:
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
         self.track, self.config = track, config
-        self.model, self.q_c = model_for_config(build_unconstrained_model, track.earth, config)
+        self.model = build_unconstrained_model(track.earth, estimate_biases=config.biases_estimated,
+                     isb_systems=tuple(config.measurement.systems[1:]))
+        # the noise densities of the IMU grade and oscillator the filter assumes
+        self.q_c = self.model.process_noise_density(config.imu,
+                                                    oscillator_from_name(config.oscillator))
         self.layout, self.process = self.model.layout, self.model.process
         self.isb_names = tuple(isb_state_name(s) for s in self.model.isb_systems)
         self.rows = GeodeticRowBuilder(self.layout, gnss, config, self.isb_names,
@@ -190,16 +206,11 @@ class UnconstrainedFilter:
         cols = {"s_m": s, "lat_deg": np.degrees(lat), "lon_deg": np.degrees(lon), "h_m": h,
                 "speed_mps": np.einsum("ki,ki->k", v_n, u), "v_east_mps": v_n[:, 0],
                 "v_north_mps": v_n[:, 1], "v_up_mps": v_n[:, 2]}
-        common, common_sigma = common_columns(self.layout, x, var)
-        cols.update(common)
-        cols.update({"sigma_s_m": _sigma_along(P_enu, u),
-                     "sigma_cross_track_m": _sigma_along(P_enu, across),
-                     "sigma_east_m": np.sqrt(P_enu[:, 0, 0]),
-                     "sigma_north_m": np.sqrt(P_enu[:, 1, 1]),
-                     "sigma_up_m": np.sqrt(P_enu[:, 2, 2]),
-                     "sigma_speed_mps": _sigma_along(P_vel, u)})
-        cols.update(common_sigma)
-        return cols
+        return estimate_columns(self.layout, x, var, position=cols, position_sigma={
+            "sigma_s_m": _sigma_along(P_enu, u),
+            "sigma_cross_track_m": _sigma_along(P_enu, across),
+            "sigma_east_m": np.sqrt(P_enu[:, 0, 0]), "sigma_north_m": np.sqrt(P_enu[:, 1, 1]),
+            "sigma_up_m": np.sqrt(P_enu[:, 2, 2]), "sigma_speed_mps": _sigma_along(P_vel, u)})
 
 
 def _sigma_along(P: Array, d: Array) -> Array:

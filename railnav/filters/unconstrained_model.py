@@ -19,7 +19,11 @@ from __future__ import annotations
 import functools
 import math
 
-from railnav.filters.ins_clock_model import InsClockModel, assemble_ins_clock_model, model_name
+from railnav.filters.ins_clock_model import (
+    InsClockModel,
+    assemble_ins_clock_model,
+    model_name,
+)
 from strapdown.kinematics import SensorBiasStates
 from strapdown.mechanization import FULL_STATE_NAMES, build_full_model
 from trackmodel.earth import Ellipsoid

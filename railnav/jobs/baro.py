@@ -19,8 +19,8 @@ import os
 import numpy as np
 import pandas as pd
 
-from railnav.evaluation.baro import BaroCheck, BaroConfig, baro_track_check
 from railnav.errors import ConfigError
+from railnav.evaluation.baro import BaroCheck, BaroConfig, baro_track_check
 from trackmodel.errors import finite_column
 
 __all__ = ["read_baro_csv", "check_run_baro", "baro_summary", "BARO_TIME_COLUMNS"]

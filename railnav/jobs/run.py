@@ -21,20 +21,29 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
+from railnav.config import (
+    DEFAULT_FILTER,
+    DEFAULT_SYSTEMS,
+    NavigatorConfig,
+    SensorData,
+    check_gnss_pair,
+)
 from railnav.errors import ConfigError
-from railnav.navigation.initialization import initial_from_truth
-from railnav.config import (DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData,
-                            check_gnss_pair)
-from railnav.filters.protocol import filter_kind
 from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
-from railnav.navigation.result import NavigationResult
+from railnav.filters.protocol import filter_kind
+from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
+from railnav.navigation.result import CSV_FLOAT_FORMAT, NavigationResult
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
-from gnss_obs.measurements import MeasurementConfig
-from railnav.simulation.trip import (SimulatedTrip, navigator_config_for, navigator_config_from_simulation,
-                          simulate_trip)
+from railnav.simulation.trip import (
+    SimulatedTrip,
+    navigator_config_for,
+    navigator_config_from_simulation,
+    simulate_trip,
+)
 from strapdown.imu import read_imu_csv
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
@@ -44,8 +53,6 @@ __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_F
 
 log = logging.getLogger(__name__)
 
-#: CSV float format of the outputs: 12 significant digits (µm at 10⁶ m, 1e-10° in degrees).
-CSV_FLOAT_FORMAT = "%.12g"
 
 
 @dataclass(frozen=True, eq=False)
@@ -270,7 +277,11 @@ def run_summary(result: NavigationResult, track, errors, window, outages, extra:
 
 def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = True) -> list[Path]:
     """Write a run's files into `out_dir` (created); returns the paths written."""
-    from railnav.evaluation.plots import plot_errors, plot_estimates, plot_track_estimate
+    from railnav.evaluation.plots import (
+        plot_errors,
+        plot_estimates,
+        plot_track_estimate,
+    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []

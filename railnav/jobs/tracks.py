@@ -19,15 +19,20 @@ from typing import Callable
 
 import numpy as np
 
-from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.errors import ConfigError
-from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
-from railnav.jobs.run import (CSV_FLOAT_FORMAT, RunOutcome, read_sensor_files, run_summary,
-                          truth_start, write_run)
-from railnav.simulation.scenarios import Scenario
+from railnav.jobs.run import (
+    RunOutcome,
+    read_sensor_files,
+    run_summary,
+    truth_start,
+    write_run,
+)
 from railnav.navigation.bank import TrackBankConfig, convert_state, navigate_tracks
 from railnav.navigation.bank_result import TrackBankResult
+from railnav.navigation.result import CSV_FLOAT_FORMAT
+from railnav.simulation.scenarios import Scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from trackmodel.files import atomic_write_csv
 

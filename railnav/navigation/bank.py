@@ -59,7 +59,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -68,16 +68,15 @@ import scipy.linalg as sla
 
 from ekf.bank import imm_starts, switching_update, uniform_switching
 from ekf.history import concatenate_results
-from ekf.series import Epoch
 from ekf.update import LOG_2PI
-from railnav.errors import ConfigError, RailnavError
 from railnav.config import NavigatorConfig, SensorData
+from railnav.errors import ConfigError, RailnavError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.navigation.bank_result import TrackBankResult
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.navigation.navigator import trip_samples
 from railnav.navigation.result import NavigationResult
-from railnav.navigation.bank_result import TrackBankResult
 from trackmodel.earth import C_n_e
 
 __all__ = ["TrackBankConfig", "navigate_tracks", "convert_state", "Correspondence",

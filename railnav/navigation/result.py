@@ -1,9 +1,10 @@
 """What a navigation run produces: estimates, innovations and filter statistics.
 
-`NavigationResult.estimates` is the ``estimates.csv`` table: ``time_s`` (from the trip
-start), ``gps_time_s`` and the filter's columns (`railnav.filters.common.track_estimates`
-for the track-based filters: ``s_m, lat_deg, lon_deg, h_m, speed_mps, yaw_deg, ...``,
-clock, and ``sigma_*`` of each). `NavigationResult.innovations` is ``innovations.csv``: one
+`NavigationResult.estimates` is the ``estimates.csv`` table (`estimates_frame`, the one
+place that builds it): ``time_s`` (from the trip start), ``gps_time_s`` and the filter's
+columns (`railnav.filters.common.ESTIMATE_COLUMNS`: ``s_m, lat_deg, lon_deg, h_m,
+speed_mps, v_east_mps, ...``, then ``yaw_deg, ...``, clock, biases, and ``sigma_*`` of
+each; `railnav.filters.common.estimate_columns`). `NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
 innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
 m or m/s by kind). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
@@ -23,9 +24,32 @@ import pandas as pd
 from ekf.history import FilterResult
 from ekf.layout import StateLayout
 
-__all__ = ["NavigationResult"]
+__all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT"]
+
+#: CSV float format of the output tables: 12 significant digits (µm at 10⁶ m, 1e-10° in
+#: degrees).
+CSV_FLOAT_FORMAT = "%.12g"
 
 Array = npt.NDArray[np.float64]
+
+
+def estimates_frame(filt_obj, t: npt.NDArray[np.float64], x: npt.NDArray[np.float64],
+                    P_packed: npt.NDArray[np.float64], *,
+                    start_gps_time_s: float) -> pd.DataFrame:
+    """The ``estimates.csv`` rows of stored states (module docstring).
+
+    Parameters
+    ----------
+    filt_obj : railnav.filters.protocol.Filter
+    t : ndarray, shape (K,)
+        s from the trip start.
+    x : ndarray, shape (K, n)
+    P_packed : ndarray, shape (K, n(n+1)/2)
+    start_gps_time_s : float
+        GPS time of ``t = 0``, s.
+    """
+    head = {"time_s": t, "gps_time_s": t + start_gps_time_s}
+    return pd.DataFrame({**head, **filt_obj.estimates(x, P_packed)})
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,8 +116,8 @@ class NavigationResult:
                  left_track: dict | None = None) -> "NavigationResult":
         """Build the result of a finished run (called by `railnav.navigate`)."""
         P = result.P if result.P is not None else np.zeros((result.t.size, 0))
-        head = {"time_s": result.t, "gps_time_s": result.t + start_gps_time_s}
-        estimates = pd.DataFrame({**head, **filt_obj.estimates(result.x, P)})
+        estimates = estimates_frame(filt_obj, result.t, result.x, P,
+                                    start_gps_time_s=start_gps_time_s)
         innovations = _innovations(result, filt_obj, start_gps_time_s)
         n_c = result.innov_c.shape[1] if result.innov_c.ndim == 2 else 0
         nis_c = result.nis_c_sum / result.nis_c_count if result.nis_c_count else float("nan")

@@ -42,18 +42,17 @@ from ekf.layout import StateLayout
 from ekf.series import Epoch
 from gnss_obs.ephemeris_reissue import reissue_ephemerides
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
+from gnss_obs.sim_events import in_outages
 from gnss_obs.simulate import default_nav_path
+from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.errors import ConfigError
-from railnav.filters.gnss_epochs import in_outage
-from railnav.navigation.initialization import initial_from_truth
-from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
-from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
-from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.evaluation.running_stats import RunningCounts, RunningSummary
-from railnav.jobs.run import CSV_FLOAT_FORMAT
+from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.navigation.initialization import initial_from_truth
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
+from railnav.navigation.result import CSV_FLOAT_FORMAT, estimates_frame
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
-from railnav.config import DEFAULT_SYSTEMS
 from railnav.simulation.trip import navigator_config_for
 from railnav.simulation.trip_stream import TripSegment, epoch_step, trip_segments
 from trackmodel.files import atomic_write, atomic_write_text
@@ -282,7 +281,7 @@ def _nominal_epochs(scenario: Scenario, track, registry: _EpochRegistry,
     step = epoch_step(scenario)
     k = np.arange(0, _last_sample(scenario, track) + 1, step)
     t = k / scenario.imu_rate_hz
-    keep = ~in_outage(t, scenario.outages)
+    keep = ~in_outages(t, scenario.outages)
     return loop.epochs(t[keep], k[keep] // step,
                        observe=functools.partial(registry.observations, loop.filt))
 
@@ -297,8 +296,8 @@ def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegme
     _forget_epoch_records(filt_obj)
     if result.t.size == 0:
         return
-    head = {"time_s": result.t, "gps_time_s": result.t + scenario.start_gps_time_s}
-    estimates = pd.DataFrame({**head, **filt_obj.estimates(result.x, result.P)})
+    estimates = estimates_frame(filt_obj, result.t, result.x, result.P,
+                                start_gps_time_s=scenario.start_gps_time_s)
     block = _Block(estimates, filt_obj, result.x, result.P, result.layout)
     errors = error_series(block, segment.truth_window, track,
                           clock_truth=functools.partial(segment.clock_truth,

@@ -41,7 +41,11 @@ from dataclasses import asdict, replace
 import numpy as np
 import numpy.typing as npt
 
-from railnav.reproduce.anomaly_filter import AdaptiveConfig, AdaptiveRun, run_adaptive_filter
+from railnav.reproduce.anomaly_filter import (
+    AdaptiveConfig,
+    AdaptiveRun,
+    run_adaptive_filter,
+)
 from railnav.reproduce.anomaly_models import HORIZONTAL, VERTICAL, AnomalyParams
 from railnav.reproduce.anomaly_sim import AnomalyData, GnssFault, simulate_anomaly
 from railnav.reproduce.common import PaperFigure, Quantity, ReproductionResult

@@ -38,10 +38,17 @@ from ekf.gating import Gate
 from ekf.layout import StateLayout
 from ekf.linear import predict_linear
 from ekf.update import kalman_update
-from railnav.reproduce.anomaly_models import (HORIZONTAL, VERTICAL, AnomalyParams, HorizontalChannel,
-                                    VerticalChannel, horizontal_channel, vertical_channel)
-from railnav.reproduce.anomaly_sim import AnomalyData
 from railnav.errors import ConfigError
+from railnav.reproduce.anomaly_models import (
+    HORIZONTAL,
+    VERTICAL,
+    AnomalyParams,
+    HorizontalChannel,
+    VerticalChannel,
+    horizontal_channel,
+    vertical_channel,
+)
+from railnav.reproduce.anomaly_sim import AnomalyData
 
 __all__ = ["AdaptiveConfig", "AdaptiveRun", "run_adaptive_filter", "H_MEASUREMENTS",
            "V_MEASUREMENTS"]

@@ -23,8 +23,8 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import lfilter
 
-from railnav.reproduce.anomaly_models import HORIZONTAL, VERTICAL, AnomalyParams
 from railnav.errors import ConfigError
+from railnav.reproduce.anomaly_models import HORIZONTAL, VERTICAL, AnomalyParams
 from strapdown.imu_errors import STANDARD_GRAVITY_MPS2
 
 __all__ = ["GnssFault", "AnomalyData", "simulate_anomaly"]

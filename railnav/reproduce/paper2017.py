@@ -36,8 +36,8 @@ import numpy as np
 from scipy.stats import chi2
 
 from railnav.config import DEFAULT_SYSTEMS
-from railnav.reproduce.common import PaperFigure, Quantity, ReproductionResult
 from railnav.jobs.run import run_simulated
+from railnav.reproduce.common import PaperFigure, Quantity, ReproductionResult
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from trackmodel.io import read_track

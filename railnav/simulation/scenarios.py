@@ -16,21 +16,29 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+from railnav_data import TRACKS, shipped_path
 
-from gnss_obs.gpstime import calendar_to_gps_time_s
-from gnss_obs.simulate import PAPER_SIGMA_PR_M, PAPER_SIGMA_RR_MPS
+from gnss_obs.errors import GnssError
+from gnss_obs.sim_events import Outage
+from gnss_obs.simulate import (
+    DEFAULT_START_GPS_TIME_S,
+    PAPER_SIGMA_PR_M,
+    PAPER_SIGMA_RR_MPS,
+)
 from railnav.config import DEFAULT_IMU_GRADE
 from railnav.errors import ConfigError
-from railnav.simulation.profiles import SpeedProfile, constant_speed, station_stop_profile
+from railnav.simulation.profiles import (
+    SpeedProfile,
+    constant_speed,
+    station_stop_profile,
+)
 from railnav.simulation.truth import Truth, ideal_imu, simulate_truth
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, apply_imu_errors, imu_grade
-from railnav_data import TRACKS, shipped_path
 
 __all__ = ["Scenario", "SimulationResult", "SCENARIOS", "get_scenario", "simulate_scenario",
            "TRACKS_DIR", "DEFAULT_START_GPS_TIME_S", "scenario_to_dict", "RNG_STREAMS"]
@@ -40,7 +48,6 @@ log = logging.getLogger(__name__)
 #: Example tracks shipped with the repository.
 TRACKS_DIR = shipped_path(TRACKS)
 #: 2020-11-29 12:40:00 GPST: inside the validity of the shipped broadcast navigation file.
-DEFAULT_START_GPS_TIME_S = float(calendar_to_gps_time_s(2020, 11, 29, 12, 40, 0))
 #: Indices of the independent random streams spawned from the seed.
 RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2}
 
@@ -70,7 +77,7 @@ class Scenario:
         GNSS epoch rate, Hz.
     sigma_pseudorange_m, sigma_range_rate_mps : float
         1σ GNSS measurement noise: m, m/s.
-    outages : tuple of (start_s, duration_s)
+    outages : tuple of gnss_obs.Outage (or (start_s, duration_s) pairs, converted)
         GNSS outages, seconds from the trip start.
     start_gps_time_s : float
         GPS time of the trip start, s since 1980-01-06.
@@ -91,7 +98,7 @@ class Scenario:
     gnss_rate_hz: float = 1.0
     sigma_pseudorange_m: float = PAPER_SIGMA_PR_M
     sigma_range_rate_mps: float = PAPER_SIGMA_RR_MPS
-    outages: tuple[tuple[float, float], ...] = ()
+    outages: tuple[Outage, ...] = ()
     start_gps_time_s: float = DEFAULT_START_GPS_TIME_S
     clock: str = "tcxo"
 
@@ -107,9 +114,14 @@ class Scenario:
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be finite and >= 0, got {value!r}")
-        outages = tuple((float(a), float(b)) for a, b in self.outages)
+        try:
+            outages = tuple(Outage.of(o) for o in self.outages)
+        except (GnssError, TypeError) as exc:
+            raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got "
+                              f"{self.outages!r} ({exc})") from None
         if any(not (a >= 0 and b > 0 and math.isfinite(a + b)) for a, b in outages):
-            raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got {outages}")
+            raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got "
+                              f"{[tuple(o) for o in outages]}")
         object.__setattr__(self, "outages", outages)
         try:
             imu_grade(self.imu_errors)

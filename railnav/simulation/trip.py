@@ -18,15 +18,25 @@ import numpy.typing as npt
 
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
-from gnss_obs.sim_events import Outage, SatelliteFault
-from gnss_obs.simulate import GnssSimConfig, GnssSimulation, default_nav_path, simulate_gnss
+from gnss_obs.sim_events import SatelliteFault
+from gnss_obs.simulate import (
+    GnssSimConfig,
+    GnssSimulation,
+    default_nav_path,
+    simulate_gnss,
+)
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
 from railnav.errors import ConfigError
-from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig, SensorData
-from railnav.simulation.scenarios import RNG_STREAMS, Scenario, SimulationResult, simulate_scenario
+from railnav.simulation.scenarios import (
+    RNG_STREAMS,
+    Scenario,
+    SimulationResult,
+    simulate_scenario,
+)
 from strapdown.imu_errors import ImuErrors
 
 __all__ = ["SimulatedTrip", "simulate_trip", "navigator_config_for", "gnss_sim_config_for",
-           "navigator_config_from_simulation", "DEFAULT_SYSTEMS"]
+           "navigator_config_from_simulation"]
 
 Array = npt.NDArray[np.float64]
 
@@ -86,11 +96,11 @@ def gnss_sim_config_for(scenario: Scenario, *, systems: str = DEFAULT_SYSTEMS,
     """The GNSS simulator settings of a scenario (its σ, clock and outages)."""
     return GnssSimConfig(systems=systems, sigma_pr_m=scenario.sigma_pseudorange_m,
                          sigma_rr_mps=scenario.sigma_range_rate_mps, oscillator=scenario.clock,
-                         outages=tuple(Outage(a, b) for a, b in scenario.outages),
-                         faults=tuple(faults))
+                         outages=scenario.outages, faults=tuple(faults),
+                         time_origin_gps_time_s=scenario.start_gps_time_s)
 
 
-def navigator_config_for(scenario: Scenario, *, filter: str = "constrained",
+def navigator_config_for(scenario: Scenario, *, filter: str = DEFAULT_FILTER,
                          systems: str = DEFAULT_SYSTEMS, **overrides) -> NavigatorConfig:
     """A navigator that assumes what the scenario simulates (IMU grade, clock, GNSS σ).
 
@@ -106,7 +116,7 @@ def navigator_config_for(scenario: Scenario, *, filter: str = "constrained",
                  scenario.initial_v_sigma_mps)), **overrides)
 
 
-def navigator_config_from_simulation(meta: dict, *, filter: str = "constrained",
+def navigator_config_from_simulation(meta: dict, *, filter: str = DEFAULT_FILTER,
                                      **overrides) -> NavigatorConfig:
     """`navigator_config_for` from the ``scenario.json`` that ``railnav simulate`` writes.
 

@@ -27,12 +27,10 @@ from scipy.signal import lfilter
 
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
-from gnss_obs.sim_events import Outage
 from gnss_obs.simulate import simulate_gnss
-from railnav.config import DEFAULT_SYSTEMS
+from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import GnssEpochs
-from railnav.config import NavigatorConfig
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import gnss_sim_config_for
 from railnav.simulation.truth import Truth, ideal_imu, iter_truth
@@ -240,9 +238,7 @@ def _segment_gnss(scenario: Scenario, truth: Truth, step: int, nav: RinexNav,
         bias0, drift0 = head["bias_m"], head["drift_mps"]
     if t.size == 0:
         return None, None, _EMPTY_CLOCK, head
-    outages = tuple(_shifted(o, t[0]) for o in scenario.outages)
     sim_config = replace(gnss_sim_config_for(scenario, systems=systems),
-                         outages=tuple(o for o in outages if o is not None),
                          clock_bias0_m=bias0, clock_drift0_mps=drift0)
     start = scenario.start_gps_time_s
     sim = simulate_gnss(start + t, r_e, v_e, nav, sim_config, rng=rng)
@@ -259,11 +255,3 @@ def _segment_gnss(scenario: Scenario, truth: Truth, step: int, nav: RinexNav,
                 "bias_m": float(bias[-1]), "drift_mps": float(drift[-1])}
     return gnss, obs, clock, new_head
 
-
-def _shifted(outage: tuple[float, float], t_first: float) -> Outage | None:
-    """A trip outage as the simulator's window from the call's first epoch (None: before)."""
-    start, duration = outage
-    end = start + duration
-    if end <= t_first:
-        return None
-    return Outage(max(start - t_first, 0.0), end - max(start, t_first))

@@ -94,7 +94,8 @@ def _quiet_dask() -> None:
 
 def _dask(specs: Sequence[RunSpec], scheduler, workers: int) -> Iterator[dict]:
     try:
-        from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+        from dask.distributed import Client, LocalCluster
+        from dask.distributed import as_completed as dask_completed
     except ImportError:
         raise ConfigError("a Dask scheduler needs dask.distributed: "
                           "pip install 'railnav[cluster]'") from None

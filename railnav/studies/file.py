@@ -39,9 +39,14 @@ from typing import Any, Callable
 
 from railnav.config import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
-from railnav.simulation.scenarios import get_scenario
 from railnav.navigation.streaming import DEFAULT_SEGMENT_S
-from railnav.studies.config import DEFAULT_CHUNK_RUNS, FIELD_CHECKS, StudyConfig, check_field
+from railnav.simulation.scenarios import get_scenario
+from railnav.studies.config import (
+    DEFAULT_CHUNK_RUNS,
+    FIELD_CHECKS,
+    StudyConfig,
+    check_field,
+)
 
 try:                                    # Python >= 3.11
     import tomllib

@@ -19,8 +19,12 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from railnav.evaluation.outage_plots import (DEFAULT_BAND, OUTAGE_COLUMNS, TIME_DECIMALS,
-                                  plot_errors_at_durations)
+from railnav.evaluation.outage_plots import (
+    DEFAULT_BAND,
+    OUTAGE_COLUMNS,
+    TIME_DECIMALS,
+    plot_errors_at_durations,
+)
 from trackmodel.files import atomic_write
 
 __all__ = ["outage_end_table", "plot_study", "LABEL_COLUMNS", "FIGURE_QUANTITIES",

@@ -16,10 +16,10 @@ from railnav.simulation.truth import TRUTH_COLUMNS
 from strapdown.euler import C_b_n
 from strapdown.gravity import g_n
 from strapdown.imu import IMU_COLUMNS
-from trackmodel.sections import Section
-from trackmodel.track import Track
 from trackmodel.earth import WGS84, C_n_e, geodetic_to_ecef, sphere
 from trackmodel.io import write_track
+from trackmodel.sections import Section
+from trackmodel.track import Track
 
 # Acceptance thresholds of the issue (95th percentile of |difference|): well under the
 # Coriolis acceleration 2Ωv ≈ 3e-3 m/s² at 20 m/s.

@@ -8,7 +8,11 @@ import pandas as pd
 import pytest
 
 from railnav.cli import main
-from railnav.evaluation.spp_accuracy import accuracy_summary, read_reference_trajectory, spp_errors
+from railnav.evaluation.spp_accuracy import (
+    accuracy_summary,
+    read_reference_trajectory,
+    spp_errors,
+)
 
 DATA = Path(__file__).resolve().parents[3] / "data" / "gnss"
 OBS = DATA / "rover_obs_1240.rnx"

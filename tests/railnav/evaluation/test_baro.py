@@ -14,8 +14,8 @@ import pytest
 from scipy.stats import binom
 
 from gnss_obs.spp import SppConfig, solve_spp
-from railnav.evaluation.baro import BaroConfig, baro_track_check, simulate_baro
 from railnav.errors import ConfigError
+from railnav.evaluation.baro import BaroConfig, baro_track_check, simulate_baro
 from railnav.jobs.run import run_simulated
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for

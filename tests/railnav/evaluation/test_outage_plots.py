@@ -14,8 +14,13 @@ import pytest
 from matplotlib.figure import Figure
 
 from railnav.errors import RailnavError
-from railnav.evaluation.outage_plots import (errors_at_durations, growth_bands, outage_errors,
-                                  plot_errors_at_durations, plot_outage_growth)
+from railnav.evaluation.outage_plots import (
+    errors_at_durations,
+    growth_bands,
+    outage_errors,
+    plot_errors_at_durations,
+    plot_outage_growth,
+)
 
 #: Output step of the synthetic runs, s (10 Hz, as `railnav.NavigatorConfig`).
 STEP_S = 0.1

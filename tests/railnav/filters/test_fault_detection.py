@@ -22,9 +22,9 @@ from ekf.update import Observation
 from gnss_obs.sim_events import SatelliteFault
 from railnav.errors import ConfigError
 from railnav.filters.fault_detection import FaultDetectionConfig, RowScreen
-from railnav.studies.faults import clock_jump_faults, fault_case
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
+from railnav.studies.faults import clock_jump_faults, fault_case
 from trackmodel.io import read_track
 
 #: Same closed form computed another way: relative agreement.

@@ -15,7 +15,11 @@ import pytest
 
 from gnss_obs.epoch import PreparedEpoch
 from gnss_obs.observables import predict_pseudorange, predict_range_rate
-from railnav.filters.geodetic_rows import C_n_e_sx, build_geodetic_rows, geodetic_to_ecef_sx
+from railnav.filters.geodetic_rows import (
+    C_n_e_sx,
+    build_geodetic_rows,
+    geodetic_to_ecef_sx,
+)
 from railnav.filters.gnss_rows import pseudorange_parameters, range_rate_parameters
 from railnav.filters.unconstrained_model import build_unconstrained_model
 from trackmodel.earth import WGS84, C_n_e, geodetic_to_ecef, sphere

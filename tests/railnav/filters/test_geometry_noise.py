@@ -14,12 +14,17 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from railnav.filters.geometry_noise import (MAX_OFFSET_M, STATISTICAL_MIN_SIGMA_M, _XI, _quadrature,
-                                    statistical_parameters)
-from strapdown.reduced import cross_track_basis
+from railnav.filters.geometry_noise import (
+    _XI,
+    MAX_OFFSET_M,
+    STATISTICAL_MIN_SIGMA_M,
+    _quadrature,
+    statistical_parameters,
+)
+from railnav.filters.track_grid import TrackParameterGrid
 from railnav.jobs.run import run_simulated
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
-from railnav.filters.track_grid import TrackParameterGrid
+from strapdown.reduced import cross_track_basis
 from trackmodel.io import read_track
 from trackmodel.sections import Section
 from trackmodel.track import Track

@@ -11,8 +11,12 @@ import pytest
 
 from ekf.layout import StateLayout
 from gnss_obs.epoch import PreparedEpoch
-from railnav.filters.gnss_rows import (build_gnss_rows, pseudorange_parameters, range_rate_parameters,
-                               track_rows)
+from railnav.filters.gnss_rows import (
+    build_gnss_rows,
+    pseudorange_parameters,
+    range_rate_parameters,
+    track_rows,
+)
 from trackmodel.earth import C_n_e
 from trackmodel.sections import Section
 from trackmodel.track import Track

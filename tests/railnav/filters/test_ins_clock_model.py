@@ -16,12 +16,12 @@ import pytest
 
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.oscillator import oscillator_from_name
+from railnav.config import NavigatorConfig
 from railnav.filters.constrained_model import build_constrained_model
 from railnav.filters.ins_clock_model import ISB_RANDOM_WALK_M2PS
-from railnav.config import NavigatorConfig
 from railnav.filters.protocol import make_filter
-from railnav.simulation.scenarios import TRACKS_DIR
 from railnav.filters.unconstrained_model import build_unconstrained_model
+from railnav.simulation.scenarios import TRACKS_DIR
 from strapdown.imu_errors import IMU_GRADES
 from strapdown.mechanization import build_full_model
 from trackmodel.earth import WGS84

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from railnav.filters.track_grid import GRID_STEP_M, TrackParameterGrid
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import TRACKS_DIR
-from railnav.filters.track_grid import GRID_STEP_M, TrackParameterGrid
 from railnav.simulation.truth import ideal_imu, simulate_truth
 from strapdown.reduced import build_reduced_model, track_parameters
 from trackmodel.io import read_track

@@ -17,10 +17,10 @@ from scipy.stats import chi2
 
 from ekf.packing import pack_sym
 from railnav.cli import main
-from railnav.navigation.initialization import GnssFix
 from railnav.evaluation.metrics import error_series
 from railnav.filters.protocol import make_filter
 from railnav.jobs.run import run_simulated
+from railnav.navigation.initialization import GnssFix
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario, simulate_scenario
 from railnav.simulation.trip import navigator_config_for
 from trackmodel.earth import C_n_e, enu_to_ecef, geodetic_to_ecef, radii

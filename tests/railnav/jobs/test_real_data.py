@@ -15,7 +15,11 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.cli import main
-from railnav.evaluation.spp_accuracy import accuracy_summary, read_reference_trajectory, spp_errors
+from railnav.evaluation.spp_accuracy import (
+    accuracy_summary,
+    read_reference_trajectory,
+    spp_errors,
+)
 
 DATA = Path(__file__).resolve().parents[3] / "data"
 GNSS_DATA, TRACKS = DATA / "gnss", DATA / "tracks"

@@ -14,9 +14,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from railnav.navigation.initialization import initial_from_truth
 from railnav.filters.protocol import make_filter
 from railnav.jobs.run import truth_start
+from railnav.navigation.initialization import initial_from_truth
 from railnav.simulation.scenarios import get_scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from strapdown.imu import Imu

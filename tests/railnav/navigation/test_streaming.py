@@ -18,17 +18,22 @@ import pytest
 
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
+from gnss_obs.sim_events import in_outages as in_outage
 from gnss_obs.simulate import default_nav_path
-from railnav.errors import ConfigError
-from railnav.filters.gnss_epochs import in_outage
 from railnav.config import SensorData
-from railnav.evaluation.metrics import ERROR_QUANTITIES, ErrorSeries, error_series, summarize
+from railnav.errors import ConfigError
+from railnav.evaluation.metrics import (
+    ERROR_QUANTITIES,
+    ErrorSeries,
+    error_series,
+    summarize,
+)
+from railnav.evaluation.running_stats import RunningSummary
 from railnav.filters.protocol import make_filter
 from railnav.navigation.navigator import navigate
-from railnav.simulation.profiles import constant_speed
-from railnav.evaluation.running_stats import RunningSummary
-from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario
 from railnav.navigation.streaming import _initial_state, stream_simulated
+from railnav.simulation.profiles import constant_speed
+from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from railnav.simulation.trip_stream import ImuErrorStream, concat_truth, trip_segments
 from railnav.simulation.truth import ideal_imu, simulate_truth

@@ -21,9 +21,9 @@ from scipy.special import logsumexp
 
 from railnav.errors import ConfigError
 from railnav.filters.protocol import make_filter
-from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
-from railnav.navigation.bank import Correspondence, TrackBankConfig, convert_state
 from railnav.jobs.tracks import correct_share, run_simulated_tracks, track_names
+from railnav.navigation.bank import Correspondence, TrackBankConfig, convert_state
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from trackmodel.earth import C_n_e
 from trackmodel.io import read_track

@@ -7,9 +7,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from railnav.reproduce.anomaly_models import (HORIZONTAL, VERTICAL, AnomalyParams, horizontal_channel,
-                                    vertical_channel)
 from railnav.errors import ConfigError
+from railnav.reproduce.anomaly_models import (
+    HORIZONTAL,
+    VERTICAL,
+    AnomalyParams,
+    horizontal_channel,
+    vertical_channel,
+)
 
 #: Agreement of algebraically equal expressions in double precision.
 RTOL = 1e-12

@@ -9,9 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from railnav.errors import ConfigError
 from railnav.reproduce.anomaly_models import HORIZONTAL, VERTICAL, AnomalyParams
 from railnav.reproduce.anomaly_sim import GnssFault, simulate_anomaly
-from railnav.errors import ConfigError
 
 #: Sampling tolerance in standard errors of the statistic (two-sided ~1e-4 false failure).
 Z_SIGMA = 4.0

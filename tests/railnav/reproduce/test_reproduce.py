@@ -10,8 +10,14 @@ import numpy as np
 import pytest
 
 from railnav.errors import ConfigError
-from railnav.reproduce.common import (EXPERIMENTS, PaperFigure, Quantity, ReproductionResult,
-                               run_experiment, write_result_json)
+from railnav.reproduce.common import (
+    EXPERIMENTS,
+    PaperFigure,
+    Quantity,
+    ReproductionResult,
+    run_experiment,
+    write_result_json,
+)
 
 EXACT = 1e-12
 

@@ -6,8 +6,12 @@ import numpy as np
 import pytest
 
 from railnav.errors import ConfigError
-from railnav.simulation.profiles import (ProfileSegment, SpeedProfile, constant_speed,
-                              station_stop_profile)
+from railnav.simulation.profiles import (
+    ProfileSegment,
+    SpeedProfile,
+    constant_speed,
+    station_stop_profile,
+)
 
 STEP_S = 1e-4
 # Central differences of O(10 km) distances at 1e-4 s: rounding 1e-12 m / 1e-4 s = 1e-8 m/s,

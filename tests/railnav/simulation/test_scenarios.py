@@ -10,9 +10,15 @@ import numpy as np
 import pytest
 
 from railnav.errors import ConfigError
-from railnav.simulation.scenarios import (DEFAULT_START_GPS_TIME_S, SCENARIOS, Scenario, get_scenario,
-                               scenario_to_dict, simulate_scenario)
 from railnav.simulation.profiles import constant_speed
+from railnav.simulation.scenarios import (
+    DEFAULT_START_GPS_TIME_S,
+    SCENARIOS,
+    Scenario,
+    get_scenario,
+    scenario_to_dict,
+    simulate_scenario,
+)
 from trackmodel.earth import sphere
 from trackmodel.io import write_track
 from trackmodel.sections import Section

@@ -20,10 +20,10 @@ from dataclasses import replace
 import pandas as pd
 import pytest
 
-from railnav.studies.study import run_study
 from railnav.studies.file import load_study_config
 from railnav.studies.runs import expand_grid, run_one
 from railnav.studies.store import PartStore
+from railnav.studies.study import run_study
 from tests.conftest import DATA, REPO
 
 TINY = DATA / "studies" / "tiny.toml"

@@ -18,14 +18,19 @@ import numpy as np
 import pytest
 
 from railnav.jobs.run import run_simulated
-from railnav.simulation.scenarios import get_scenario
 from railnav.navigation.streaming import stream_simulated
-from railnav.studies.file import load_study_config
-from railnav.studies.runs import (RunSpec, derive_seed, expand_grid, metric_columns,
-                                run_one)
+from railnav.simulation.scenarios import get_scenario
 from railnav.simulation.trip import navigator_config_for
-from trackmodel.io import read_track
+from railnav.studies.file import load_study_config
+from railnav.studies.runs import (
+    RunSpec,
+    derive_seed,
+    expand_grid,
+    metric_columns,
+    run_one,
+)
 from tests.conftest import DATA, REPO
+from trackmodel.io import read_track
 
 TINY = DATA / "studies" / "tiny.toml"
 
