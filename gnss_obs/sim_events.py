@@ -59,7 +59,7 @@ class SatelliteFault:
             raise GnssError(f"fault {self.sv}: step_m and ramp_mps must be finite")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Outage:
     """A window with fewer satellites.
 
@@ -93,6 +93,23 @@ class Outage:
     def __iter__(self):
         """An outage unpacks as its window ``(start_s, duration_s)`` (JSON, tables)."""
         return iter((self.start_s, self.duration_s))
+
+    def _key(self) -> tuple:
+        if self.total:
+            return (self.start_s, self.duration_s)
+        return (self.start_s, self.duration_s, self.max_satellites, self.elevation_mask_deg)
+
+    def __eq__(self, other) -> bool:
+        """Outages are equal by their fields; a total outage also equals its
+        ``(start_s, duration_s)`` pair (the form configs and JSON carry)."""
+        if isinstance(other, Outage):
+            return self._key() == other._key()
+        if isinstance(other, (tuple, list)) and len(other) == 2:
+            return self.total and self._key() == tuple(other)
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self._key())
 
     def active(self, t_rel: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """True where `t_rel` (s from the time origin) is inside the window."""

@@ -12,6 +12,7 @@ from gnss_obs.epoch import prepare_epoch, split_epochs
 from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
 from gnss_obs.observables import predict_pseudorange, predict_range_rate
 from gnss_obs.rinex_obs import read_rinex_obs
+from gnss_obs.sim_events import in_outages
 from gnss_obs.simulate import (DEFAULT_START_GPS_TIME_S, GnssSimConfig, Outage,
                                SatelliteFault, simulate_gnss, write_simulation)
 from trackmodel.earth import C_n_e, geodetic_to_ecef
@@ -152,3 +153,31 @@ def test_config_validation():
         Outage(-1.0, 5.0)
     with pytest.raises(GnssError):
         SatelliteFault("G01", 0.0, 0.0)
+
+
+def test_outage_is_one_window_type():
+    """Issue 12: one outage type. A total outage unpacks as, and equals, its
+    (start_s, duration_s) pair; a partial one does not; times count from the origin."""
+    total, partial = Outage(100.0, 50.0), Outage(100.0, 50.0, max_satellites=4)
+    assert tuple(total) == (100.0, 50.0) and total == (100.0, 50.0)
+    assert hash(total) == hash((100.0, 50.0))
+    assert partial != (100.0, 50.0) and partial != total and total.total
+    assert not partial.total
+    assert Outage.of([5, 2]) == Outage(5.0, 2.0)
+    np.testing.assert_array_equal(in_outages([99.9, 100.0, 149.9, 150.0], [total, partial]),
+                                  [False, True, True, False])
+
+
+def test_outage_times_count_from_the_stated_origin(nav, rng):
+    """Issue 12: an outage is in seconds from the trip start, whatever the first simulated
+    epoch (a streamed segment starts mid-trip). Reference: the epochs inside
+    [origin + 5, origin + 8) are the ones without observations, for a call that starts at
+    the origin and one that starts 4 s later."""
+    t, r_e, v_e = _trajectory(20)
+    cfg = GnssSimConfig(systems="G", outages=(Outage(5.0, 3.0),),
+                        time_origin_gps_time_s=float(t[0]))
+    for first in (0, 4):
+        sim = simulate_gnss(t[first:], r_e[first:], v_e[first:], nav, cfg, rng=rng)
+        seen = np.unique(sim.obs.table["gps_time_s"].to_numpy()) - t[0]
+        expected = [s for s in np.arange(first, 20.0) if not 5.0 <= s < 8.0]
+        np.testing.assert_allclose(seen, expected, atol=1e-6)
