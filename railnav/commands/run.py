@@ -20,7 +20,7 @@ from railnav.commands.support import (
     positive_int,
     progress_bar,
 )
-from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, check_gnss_pair
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
@@ -219,7 +219,6 @@ def _check_flags(args: argparse.Namespace) -> None:
     """The one place where ``run``'s flags are checked against each other and against the
     inputs given: a flag that cannot apply is an error that says why, never ignored
     (single values are checked by their argparse types)."""
-    check_gnss_pair(args.obs, args.nav)
     _measurement(args.systems)   # validates --systems before any work
     files = args.imu is not None or args.obs is not None
     kind = filter_kind(args.filter)
