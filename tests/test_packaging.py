@@ -16,7 +16,7 @@ if sys.version_info >= (3, 11):
 else:                                   # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-from railnav_data import GNSS, STUDIES, TRACKS, shipped_path
+from railnav_data import GNSS, NETWORKS, STUDIES, TRACKS, shipped_path
 
 REPO = Path(__file__).resolve().parents[1]
 CODE = ("trackmodel", "strapdown", "gnss_obs", "ekf", "railnav")
@@ -38,8 +38,9 @@ def test_data_maps_to_railnav_data_and_every_shipped_file_is_included():
     assert config["package-dir"] == {"railnav_data": "data"}
     patterns = config["package-data"]["railnav_data"]
     shipped = [p.relative_to(REPO / "data").as_posix()
-               for folder in (TRACKS, STUDIES, GNSS) for p in (REPO / "data" / folder).iterdir()
-               if p.is_file() and p.suffix != ".py"]
+               for folder in (TRACKS, STUDIES, GNSS, NETWORKS)
+               for p in (REPO / "data" / folder).rglob("*")
+               if p.is_file() and p.suffix != ".py" and "__pycache__" not in p.parts]
     assert len(shipped) > 15
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, pat) for pat in patterns)]
     assert missing == []

@@ -4,7 +4,10 @@ Owns: the Earth model (`trackmodel.earth`: WGS-84 and sphere, radii, geodetic <-
 <-> ENU), and the track as a function of the along-track distance ``s`` (m): section
 tables of straights (the 2017 paper's loxodrome with exponential height), circular arcs
 and clothoid transitions; queries ``s -> (φ, λ, h, r_e, u_n, du/ds)``; projection of
-points onto the track; fitting of surveyed polylines; the track file format.
+points onto the track; fitting of surveyed polylines; the track file format; track
+networks of netelements joined by switches (`trackmodel.network`: successors, routes,
+distances, projection onto candidates, kinks; `trackmodel.network_io`: GeoJSON/RINF import
+and the network folder format).
 
 Conventions (ARCHITECTURE.md): ``s`` in metres from the track start; azimuth ``A``
 clockwise from north, elevation ``ϑ`` positive uphill, both radians inside;

@@ -1,0 +1,248 @@
+"""Track network files: GeoJSON netelements + netrelations in, fitted networks in and out.
+
+* `read_network_geojson` reads the layout of ERA RINF topology exports and of tp-lib's test
+  data (the shipped Brussels network): a FeatureCollection of ``LineString`` netelements
+  (``properties.id``; WGS-84 lon/lat, optional height) and ``Point`` netrelations
+  (``properties``: ``netelementA``, ``netelementB``, ``positionOnA``/``positionOnB`` = 0 for
+  an element's first coordinate, 1 for its last, ``navigability`` = ``both``, ``AB``, ``BA``
+  or ``none``). It returns plain data (`NetworkSource`) with located one-line errors.
+* `build_network` fits each netelement's polyline with `trackmodel.fit.fit_track` and
+  joins them (`trackmodel.network.Network`).
+* `write_network` / `read_network`: a fitted network as a folder, ``connections.csv``
+  (``a, a_end, b, b_end, navigability``) plus one track file per netelement in
+  ``elements/`` (`trackmodel.io`), listed in ``elements.csv`` (``element, file``).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import os
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from trackmodel.errors import TrackError, TrackFileError
+from trackmodel.files import atomic_write_csv
+from trackmodel.fit import fit_track
+from trackmodel.io import read_track, write_track
+from trackmodel.network import END, NAVIGABILITY, START, Connection, Network
+
+__all__ = ["NetworkSource", "read_network_geojson", "build_network", "write_network",
+           "read_network", "NETWORK_MIN_RADIUS_M"]
+
+Array = npt.NDArray[np.float64]
+
+log = logging.getLogger(__name__)
+
+#: Smallest radius of a fitted netelement, m: below any railway's (tram loops ~15-20 m;
+#: main lines >= 150 m), above what a digitizing glitch fits.
+NETWORK_MIN_RADIUS_M = 15.0
+
+
+@dataclass(frozen=True)
+class NetworkSource:
+    """A network as read from a file, before fitting.
+
+    Attributes
+    ----------
+    polylines : dict of str to (lat, lon)
+        Each netelement's points in its order, rad, shape (N,) each.
+    connections : tuple of Connection
+    """
+
+    polylines: dict[str, tuple[Array, Array]]
+    connections: tuple[Connection, ...]
+
+
+def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
+    """Netelements and netrelations from a GeoJSON file (module docstring).
+
+    Raises
+    ------
+    TrackFileError
+        Not JSON, not a FeatureCollection, a feature without the fields of its kind, a
+        coordinate out of range, a relation naming an unknown netelement, no netelement.
+    """
+    try:
+        data = json.loads(Path(path).read_bytes().decode("utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise TrackFileError(f"not a readable GeoJSON file ({exc})", path=path) from None
+    if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
+        raise TrackFileError("expected a GeoJSON FeatureCollection", path=path)
+    polylines, relations = {}, []
+    for k, feature in enumerate(data.get("features") or []):
+        kind = (feature.get("geometry") or {}).get("type") if isinstance(feature, dict) else None
+        if kind == "LineString":
+            name, lat_lon = _netelement(feature, k, path)
+            if name in polylines:
+                raise TrackFileError(f"feature {k}: netelement {name!r} given twice", path=path)
+            polylines[name] = lat_lon
+        elif kind == "Point" and "netelementA" in (feature.get("properties") or {}):
+            relations.append((k, feature["properties"]))
+    if not polylines:
+        raise TrackFileError("no LineString netelement in the file", path=path)
+    connections = [_relation(k, props, polylines, path) for k, props in relations]
+    return NetworkSource(polylines, _merged(connections, path))
+
+
+#: Navigability as the set of passages it allows, and back.
+_ALLOWS = {"both": frozenset("ab"), "AB": frozenset("a"), "BA": frozenset("b"),
+           "none": frozenset()}
+_NAMED = {v: k for k, v in _ALLOWS.items()}
+
+
+def _merged(connections: list[Connection], path) -> tuple[Connection, ...]:
+    """One connection per pair of ends. A pair given twice keeps what both allow (the more
+    restrictive navigability) with one warning naming it: the shipped Brussels file gives
+    ``88_L_262``-``88_L_11886`` (the two branches of a switch, a 180° kink) as ``both``
+    and as ``none``."""
+    out: dict[tuple, Connection] = {}
+    for c in connections:
+        forward = (c.a, c.a_end) <= (c.b, c.b_end)
+        key = ((c.a, c.a_end), (c.b, c.b_end)) if forward else ((c.b, c.b_end), (c.a, c.a_end))
+        allows = _ALLOWS[c.navigability] if forward else frozenset(
+            {"a": "b", "b": "a"}[x] for x in _ALLOWS[c.navigability])
+        if key in out:
+            before = _ALLOWS[out[key].navigability]
+            if before != allows:
+                log.warning("%s: netrelation %s-%s given twice (%s, %s): kept what both allow",
+                            path, c.a, c.b, _NAMED[before], _NAMED[allows])
+            allows = before & allows
+        (a, a_end), (b, b_end) = key
+        out[key] = Connection(a, a_end, b, b_end, _NAMED[allows])
+    return tuple(out.values())
+
+
+def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array]]:
+    name = (feature.get("properties") or {}).get("id")
+    if not isinstance(name, str) or not name:
+        raise TrackFileError(f"feature {k}: a netelement needs a string properties.id",
+                             path=path)
+    try:
+        xy = np.array(feature["geometry"]["coordinates"], dtype=float)[:, :2]
+    except (KeyError, TypeError, ValueError, IndexError):
+        raise TrackFileError(f"feature {k} ({name}): coordinates are not [lon, lat] pairs",
+                             path=path) from None
+    if xy.shape[0] < 2 or not np.all(np.isfinite(xy)):
+        raise TrackFileError(f"feature {k} ({name}): need >= 2 finite points", path=path)
+    if np.any(np.abs(xy[:, 0]) > 180) or np.any(np.abs(xy[:, 1]) > 90):
+        raise TrackFileError(f"feature {k} ({name}): lon must be in [-180, 180] and lat in "
+                             "[-90, 90] degrees", path=path)
+    return name, (np.radians(xy[:, 1]), np.radians(xy[:, 0]))
+
+
+def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
+    try:
+        a, b = str(props["netelementA"]), str(props["netelementB"])
+        a_end, b_end = int(props["positionOnA"]), int(props["positionOnB"])
+        navigability = str(props.get("navigability", "both"))
+    except (KeyError, TypeError, ValueError):
+        raise TrackFileError(f"feature {k}: a netrelation needs netelementA/B and "
+                             "positionOnA/B", path=path) from None
+    for name in (a, b):
+        if name not in polylines:
+            raise TrackFileError(f"feature {k}: netrelation names netelement {name!r}, which "
+                                 "the file does not have", path=path)
+    if a_end not in (START, END) or b_end not in (START, END):
+        raise TrackFileError(f"feature {k}: positionOnA/B must be 0 or 1", path=path)
+    if navigability not in NAVIGABILITY:
+        raise TrackFileError(f"feature {k}: navigability must be one of "
+                             f"{', '.join(NAVIGABILITY)}, got {navigability!r}", path=path)
+    return Connection(a, a_end, b, b_end, navigability)
+
+
+def build_network(source: NetworkSource, *, tol_m: float = 0.5,
+                  min_radius_m: float = NETWORK_MIN_RADIUS_M,
+                  progress: Callable[[int, int], None] | None = None) -> Network:
+    """Fit every netelement (`trackmodel.fit.fit_track`) and join them.
+
+    Parameters
+    ----------
+    source : NetworkSource
+    tol_m : float
+        Largest horizontal deviation of a netelement's points from its track, m.
+    min_radius_m : float
+        Smallest radius of a fitted curve, m.
+    progress : callable(done, total), optional
+        Called after each netelement.
+
+    Raises
+    ------
+    TrackError
+        A netelement that cannot be fitted (the message names it).
+    """
+    elements = {}
+    total = len(source.polylines)
+    for i, (name, (lat, lon)) in enumerate(source.polylines.items()):
+        try:
+            elements[name] = fit_track(lat, lon, tol_m=tol_m, min_radius_m=min_radius_m).track
+        except TrackError as exc:
+            raise TrackError(f"netelement {name}: {exc}") from None
+        if progress is not None:
+            progress(i + 1, total)
+    return Network(elements, source.connections)
+
+
+def _file_name(element: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]", "_", element) + ".csv"
+
+
+def write_network(network: Network, folder: str | os.PathLike) -> None:
+    """Write a fitted network as a folder (module docstring); the folder is created."""
+    out = Path(folder)
+    (out / "elements").mkdir(parents=True, exist_ok=True)
+    files = {name: _file_name(name) for name in network.elements}
+    if len(set(files.values())) != len(files):
+        raise TrackError("two netelement ids map to one file name")
+    for name, track in network.elements.items():
+        write_track(track, out / "elements" / files[name], comments=[f"netelement {name}"])
+    atomic_write_csv(out / "elements.csv", pd.DataFrame(
+        {"element": list(files), "file": [f"elements/{f}" for f in files.values()]}))
+    atomic_write_csv(out / "connections.csv", pd.DataFrame(
+        [{"a": c.a, "a_end": c.a_end, "b": c.b, "b_end": c.b_end,
+          "navigability": c.navigability} for c in network.connections],
+        columns=["a", "a_end", "b", "b_end", "navigability"]))
+
+
+def read_network(folder: str | os.PathLike) -> Network:
+    """A network written by `write_network`.
+
+    Raises
+    ------
+    TrackFileError
+        A missing or malformed file (located).
+    """
+    root = Path(folder)
+    index = _csv(root / "elements.csv", ("element", "file"))
+    elements = {str(row.element): read_track(root / str(row.file))
+                for row in index.itertuples()}
+    table = _csv(root / "connections.csv", ("a", "a_end", "b", "b_end", "navigability"))
+    connections = []
+    for i, row in enumerate(table.itertuples(), start=1):
+        try:
+            a_end, b_end = int(row.a_end), int(row.b_end)
+        except (TypeError, ValueError):
+            raise TrackFileError("a_end and b_end must be 0 or 1", path=root / "connections.csv",
+                                 row=i) from None
+        connections.append(Connection(str(row.a), a_end, str(row.b), b_end,
+                                      str(row.navigability)))
+    try:
+        return Network(elements, connections)
+    except TrackError as exc:
+        raise TrackFileError(str(exc), path=root / "connections.csv") from None
+
+
+def _csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise TrackFileError(f"cannot read ({exc})", path=path) from None
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise TrackFileError(f"missing column(s) {', '.join(missing)}", path=path)
+    return frame
