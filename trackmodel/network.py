@@ -33,10 +33,11 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.errors import TrackError
+from trackmodel.sections import Section
 from trackmodel.track import Track
 
 __all__ = ["Network", "Connection", "NetPosition", "Route", "START", "END", "NAVIGABILITY",
-           "CONTINUOUS_KINK_RAD"]
+           "CONTINUOUS_KINK_RAD", "reversed_track", "chain_tracks"]
 
 Array = npt.NDArray[np.float64]
 
@@ -212,6 +213,16 @@ class Network:
         out = pd.concat(rows, ignore_index=True)[columns]
         return out.sort_values(["point", "distance_m"], ignore_index=True)
 
+    def route_track(self, legs: Sequence[tuple[str, int]]) -> Track:
+        """One `Track` along a route's legs (`chain_tracks` of the legs, each element
+        reversed where it is travelled ``-1``): the line a train on that route runs on,
+        with ``s`` from the start of the first leg."""
+        for (a, _), (b, db) in zip(legs[:-1], legs[1:]):
+            if (b, db) not in self.graph.successors((a, _)):
+                raise TrackError(f"route: no passage from {a} to {b}")
+        return chain_tracks([self._track(e) if d == 1 else reversed_track(self._track(e))
+                             for e, d in legs])
+
     def kinks(self) -> pd.DataFrame:
         """Every navigable connection with its kink (deg), gap (m) and whether the tangent
         is continuous there (`CONTINUOUS_KINK_RAD`)."""
@@ -237,6 +248,48 @@ class Network:
     def _behind(self, element: str, direction: int, s_m: float) -> float:
         """Distance from the end a train travelling `direction` enters by to `s_m`, m."""
         return float(s_m if direction == 1 else self.length_m(element) - s_m)
+
+
+def reversed_track(track: Track) -> Track:
+    """The same line travelled the other way: ``s' = L - s``, sections in reverse order
+    with curvature and elevation negated (and swapped end for start), from the old end.
+
+    Exact in the track model: the azimuth of the reversed line is ``A + π`` and its
+    ``dA/ds'`` is ``-dA/ds``; the loxodrome's exponential height law runs back into itself.
+    """
+    table, length = track.table, float(track.length_m)
+    end = track.at(np.array([length]))
+    sections = []
+    for k in range(len(track.sections) - 1, -1, -1):
+        k0, k1 = float(table.curvature0[k]), float(table.curvature1[k])
+        e0, e1 = float(table.elevation0[k]), float(table.elevation1[k])
+        sections.append(Section(float(table.length[k]), None, math.degrees(-e1), -k1,
+                                None if k0 == k1 else -k0,
+                                None if e0 == e1 else math.degrees(-e0)))
+    first = sections[0]
+    sections[0] = Section(first.length_m, math.degrees(float(end.azimuth[0]) + math.pi) % 360.0,
+                          first.elevation_deg, first.curvature_1pm, first.curvature_end_1pm,
+                          first.elevation_end_deg)
+    return Track.from_sections(sections, lat=float(end.lat[0]), lon=float(end.lon[0]),
+                               h=float(end.h[0]), earth=track.earth)
+
+
+def chain_tracks(tracks: Sequence[Track]) -> Track:
+    """Tracks joined end to start into one: each after the first starts where the previous
+    ends (the joint's gap is dropped) with its own start azimuth and elevation (a kink is
+    kept)."""
+    if not tracks:
+        raise TrackError("nothing to chain")
+    sections = []
+    for track in tracks:
+        start = track.at(np.array([0.0]))
+        head = track.sections[0]
+        sections.append(Section(head.length_m, math.degrees(float(start.azimuth[0])),
+                                math.degrees(float(start.elevation[0])), head.curvature_1pm,
+                                head.curvature_end_1pm, head.elevation_end_deg))
+        sections.extend(track.sections[1:])
+    first = tracks[0].origin
+    return Track(tuple(sections), first, tracks[0].earth)
 
 
 def _check_connection(c: Connection, elements: Mapping[str, Track]) -> None:

@@ -15,9 +15,21 @@ import numpy as np
 import pytest
 
 from trackmodel.errors import TrackError, TrackFileError
-from trackmodel.network import END, START, Connection, NetPosition, Network
-from trackmodel.network_io import (build_network, read_network, read_network_geojson,
-                                   write_network)
+from trackmodel.io import read_track
+from trackmodel.network import (
+    END,
+    START,
+    Connection,
+    NetPosition,
+    Network,
+    reversed_track,
+)
+from trackmodel.network_io import (
+    build_network,
+    read_network,
+    read_network_geojson,
+    write_network,
+)
 from trackmodel.sections import Section
 from trackmodel.track import Track
 
@@ -216,3 +228,32 @@ def test_shipped_network_reads_and_routes(real_switch):
     end = NetPosition("88_L_2014", 20.0)
     expected = 10.0 + net.length_m("88_L_2014") - 20.0
     assert net.distance_m(start, end) == pytest.approx(expected, abs=ATOL_M)
+
+
+TRACKS = Path(__file__).resolve().parents[2] / "data" / "tracks"
+
+
+@pytest.mark.parametrize("name", ["curvy.csv", "paper2017.csv", "barcelona_drive.csv"])
+def test_reversed_track_runs_back_over_the_same_points(name):
+    """Reference: the original track at L - s (arcs, clothoids, vertical curves, the
+    paper's loxodrome with its exponential height law, a fitted real survey)."""
+    track = read_track(TRACKS / name)
+    back = reversed_track(track)
+    assert back.length_m == pytest.approx(track.length_m, abs=1e-9)
+    s = np.linspace(0.0, track.length_m, 257)
+    there, here = track.at(track.length_m - s), back.at(s)
+    assert np.max(np.linalg.norm(there.r_e - here.r_e, axis=1)) < ATOL_M
+    turn = np.angle(np.exp(1j * (here.azimuth - there.azimuth - math.pi)))
+    assert np.max(np.abs(turn)) < 1e-6
+
+
+def test_route_track_chains_the_legs(switch):
+    legs = (("X", 1), ("T", 1), ("S", 1), ("Y", -1))
+    line = switch.route_track(legs)
+    assert line.length_m == pytest.approx(2600.0, abs=ATOL_M)
+    on_y = switch.elements["Y"].at(200.0)            # 100 m into Y, entered at its end
+    assert np.linalg.norm(line.at(2400.0).r_e - on_y.r_e) < ATOL_M
+    on_s = switch.elements["S"].at(250.0)
+    assert np.linalg.norm(line.at(2050.0).r_e - on_s.r_e) < ATOL_M
+    with pytest.raises(TrackError, match="no passage from S to D"):
+        switch.route_track((("S", 1), ("D", 1)))
