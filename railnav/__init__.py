@@ -22,6 +22,9 @@ command                                function(s)
 ``railnav spp``                        `gnss_obs.solve_spp`, `spp_errors`,
                                        `accuracy_summary`
 ``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
+(no command yet)                       `run_simulated_network`, `run_files_network`,
+                                       `route_candidates` (track networks:
+                                       `trackmodel.network`)
 =====================================  ===========================================
 
 The names are imported on first use (PEP 562), so ``import railnav`` stays cheap.
@@ -46,6 +49,8 @@ _EXPORTS = {
     "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
     "baro_track_check": "evaluation.baro",
+    "route_candidates": "jobs.network", "run_simulated_network": "jobs.network",
+    "run_files_network": "jobs.network",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -178,6 +178,33 @@ class Network:
             out.append(Route(legs, _path_length(graph, path)))
         return sorted(out, key=lambda r: r.length_m)[:max_routes]
 
+    def routes_ahead(self, start: NetPosition, *, horizon_m: float, max_routes: int = 32
+                     ) -> list[Route]:
+        """Every way a train at `start` may go for `horizon_m` metres: the routes through
+        each switch ahead, each cut at the horizon or ending at a buffer stop (`length_m`:
+        the distance from `start` to that end). The hypotheses of a train whose next
+        switch ways are unknown.
+
+        Raises
+        ------
+        TrackError
+            More than `max_routes` routes within the horizon (shorten it).
+        """
+        self._check(start.element)
+        first = (start.element, start.direction)
+        done, todo = [], [((first,), self._ahead(start.element, start.direction, start.s_m))]
+        while todo:
+            legs, reach = todo.pop()
+            nxt = [] if reach >= horizon_m else self.successors(*legs[-1])
+            nxt = [n for n in nxt if n not in legs]          # no loop back onto itself
+            if not nxt:
+                done.append(Route(legs, float(reach)))
+            todo.extend((legs + (n,), reach + self.length_m(n[0])) for n in nxt)
+            if len(done) + len(todo) > max_routes:
+                raise TrackError(f"more than {max_routes} routes within {horizon_m:g} m of "
+                                 f"{start.element}: shorten the horizon")
+        return sorted(done, key=lambda r: r.legs)
+
     def project(self, lat: npt.ArrayLike, lon: npt.ArrayLike, *, radius_m: float
                 ) -> pd.DataFrame:
         """Candidate netelements within `radius_m` of each point (horizontal distance).

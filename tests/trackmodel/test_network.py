@@ -257,3 +257,16 @@ def test_route_track_chains_the_legs(switch):
     assert np.linalg.norm(line.at(2050.0).r_e - on_s.r_e) < ATOL_M
     with pytest.raises(TrackError, match="no passage from S to D"):
         switch.route_track((("S", 1), ("D", 1)))
+
+
+def test_routes_ahead_branch_at_each_switch(switch):
+    routes = switch.routes_ahead(NetPosition("X", 300.0), horizon_m=10_000.0)
+    assert [r.legs for r in routes] == [
+        (("X", 1), ("T", 1), ("D", 1)),
+        (("X", 1), ("T", 1), ("S", 1), ("Y", -1))]
+    assert [r.length_m for r in routes] == pytest.approx([500 + 1000 + 500,
+                                                          500 + 1000 + 500 + 300])
+    short = switch.routes_ahead(NetPosition("X", 300.0), horizon_m=400.0)
+    assert [r.legs for r in short] == [(("X", 1),)]        # the horizon ends on X
+    with pytest.raises(TrackError, match="more than 1 routes"):
+        switch.routes_ahead(NetPosition("X", 300.0), horizon_m=10_000.0, max_routes=1)
