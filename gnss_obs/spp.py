@@ -17,9 +17,11 @@ notebooks. Per epoch:
 
 Inter-system offsets (GPS-Galileo time offset, GLONASS time, BeiDou time, receiver
 inter-system hardware delays) are estimated per epoch as one bias per non-reference
-system; the header's ``TIME SYSTEM CORR`` values are not applied. Epochs with fewer
-satellites than unknowns give a row of NaN with ``fix_ok`` False; their count goes to one
-warning and to `SppResult.n_no_fix`.
+system; the header's ``TIME SYSTEM CORR`` values are not applied. Every epoch of the
+observation file has a row: epochs with fewer usable satellites than unknowns — one, none
+of the configured systems, or none with an ephemeris — give a row of NaN with ``fix_ok``
+False (issue 16: one-satellite epochs used to vanish); their count goes to one warning and
+to `SppResult.n_no_fix`.
 """
 from __future__ import annotations
 
@@ -299,6 +301,15 @@ def _initial_guess(approx_e: Array | None) -> Array:
     return np.zeros(3)
 
 
+def _every_epoch(epochs: list[EpochData], table) -> list[EpochData]:
+    """`epochs` plus an empty `EpochData` for each observation epoch without usable data."""
+    times = np.unique(table["gps_time_s"].to_numpy())
+    have = {e.gps_time_s for e in epochs}
+    empty = [EpochData(float(t), {"sv": np.array([], dtype=object)}, {}) for t in times
+             if float(t) not in have]
+    return sorted(epochs + empty, key=lambda e: e.gps_time_s) if empty else epochs
+
+
 def solve_spp(obs, nav, config: SppConfig | None = None, *,
               progress: Callable[[int, int], None] | None = None) -> SppResult:
     """Single-point positioning of every epoch of an observation file.
@@ -340,13 +351,13 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
         else:
             klob = (np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float))
     ctx = _Context(cfg, klob)
-    epochs = split_epochs(meas, nav.records, mc)
+    epochs = _every_epoch(split_epochs(meas, nav.records, mc), obs.table)
     fixes: list[EpochFix | None] = []
     last: EpochFix | None = None
     start = _initial_guess(obs.header.approx_position_e)
     for i, epoch in enumerate(epochs):
         recent = last is not None and epoch.gps_time_s - last.gps_time_s <= cfg.max_gap_s
-        fix = _solve_epoch(epoch, ctx, last.r_e if recent else start)
+        fix = _solve_epoch(epoch, ctx, last.r_e if recent else start) if len(epoch) else None
         fixes.append(fix)
         last = fix if fix is not None else last
         if progress is not None:

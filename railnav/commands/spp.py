@@ -33,6 +33,9 @@ log = logging.getLogger(__name__)
 
 #: CSV float format: 12 significant digits (0.1 mm in ECEF-sized numbers, 1e-10 deg).
 FLOAT_FORMAT = "%.12g"
+#: ``gps_time_s`` is written with 6 decimals (1 µs): 12 significant digits of a GPS time
+#: (~1.3e9 s) would be 10 ms, coarser than receivers' sub-ms epoch offsets (issue 16).
+TIME_FORMAT = "{:.6f}"
 
 
 def register(subparsers) -> None:
@@ -80,7 +83,8 @@ def handler(args: argparse.Namespace) -> int:
         result = solve_spp(obs, nav, config, progress=progress)
     frame = result.to_frame()
     errors = spp_errors(frame, reference) if reference is not None else None
-    atomic_write_csv(out / "spp.csv", frame, float_format=FLOAT_FORMAT)
+    atomic_write_csv(out / "spp.csv", frame.assign(gps_time_s=frame["gps_time_s"].map(
+        TIME_FORMAT.format)), float_format=FLOAT_FORMAT)
     plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
     for line in _summary(frame, config):
         print(line)
