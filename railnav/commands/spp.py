@@ -1,7 +1,10 @@
-"""``railnav spp --obs OBS --nav NAV [--systems GE] [--ref CSV] [--out DIR]``.
+"""``railnav spp --obs OBS --nav NAV [--systems GE] [--ref CSV] [--base BASE.rnx
+[--base-position LAT,LON,H] [--max-age-s S]] [--smooth-window-s S] [--sp3 SP3 ...]
+[--out DIR]``.
 
-Thin layer over `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the RINEX files, builds
-an `SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
+Thin layer over `gnss_obs.dgps.augment` (carrier smoothing, base corrections, precise
+orbits) and `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the files, builds an
+`SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
 ``DIR/spp.png``, prints a summary and, with ``--ref``, the accuracy against the reference
 (`railnav.evaluation.spp_accuracy`).
 """
@@ -13,11 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
+from gnss_obs.dgps import DgpsConfig, augment
 from gnss_obs.measurements import IONOSPHERE_MODELS, MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
+from gnss_obs.smoothing import SmoothingConfig
+from gnss_obs.sp3 import read_sp3
 from gnss_obs.spp import SppConfig, solve_spp
-from railnav.commands.support import progress_bar
+from railnav.commands.support import (
+    lat_lon_h,
+    nonnegative_float,
+    positive_float,
+    progress_bar,
+)
 from railnav.errors import ConfigError
 from railnav.evaluation.spp_accuracy import (
     accuracy_summary,
@@ -57,8 +68,39 @@ def register(subparsers) -> None:
                    help="flag faulty epochs but do not exclude satellites")
     p.add_argument("--ref", metavar="CSV",
                    help="reference trajectory: print RMS/95 %% errors against it")
+    add_augmentation_arguments(p)
     p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
     p.set_defaults(func=handler)
+
+
+def add_augmentation_arguments(p) -> None:
+    """``--base``, ``--base-position``, ``--max-age-s``, ``--smooth-window-s``, ``--sp3``
+    (shared by ``spp`` and ``run``)."""
+    p.add_argument("--base", metavar="BASE.rnx",
+                   help="base-station RINEX observations: code-differential (DGNSS) "
+                        "corrections per satellite and epoch")
+    p.add_argument("--base-position", type=lat_lon_h, metavar="LAT,LON,H",
+                   help="base antenna latitude, longitude (degrees) and ellipsoidal height "
+                        "(m); default: the base header's APPROX POSITION XYZ")
+    p.add_argument("--max-age-s", type=nonnegative_float, default=DgpsConfig.max_age_s,
+                   help="oldest base correction applied, s (default 30)")
+    p.add_argument("--smooth-window-s", type=positive_float, metavar="S",
+                   help="carrier-smooth the code (Hatch filter, cycle slips from LLI, "
+                        "geometry-free, Melbourne-Wuebbena, Doppler) over up to S seconds")
+    p.add_argument("--sp3", nargs="+", default=[], metavar="SP3",
+                   help="precise orbit/clock files instead of the broadcast ephemeris")
+
+
+def read_augmentation(args: argparse.Namespace, obs, nav, measurement: MeasurementConfig):
+    """`gnss_obs.dgps.augment` from the parsed ``--base ... --sp3`` arguments."""
+    if args.base_position is not None and not args.base:
+        raise ConfigError("--base-position needs --base")
+    return augment(
+        obs, nav, measurement, base_obs=read_rinex_obs(args.base) if args.base else None,
+        base_lat_lon_h=args.base_position, dgps=DgpsConfig(max_age_s=args.max_age_s),
+        smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
+                   if args.smooth_window_s else None),
+        sp3=[read_sp3(p) for p in args.sp3])
 
 
 def _config(args: argparse.Namespace) -> SppConfig:
@@ -77,16 +119,19 @@ def handler(args: argparse.Namespace) -> int:
     obs = read_rinex_obs(args.obs)
     nav = read_rinex_nav(args.nav)
     reference = read_reference_trajectory(args.ref) if args.ref else None
+    aug = read_augmentation(args, obs, nav, config.measurement)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     with progress_bar("spp", enabled=not args.quiet) as progress:
-        result = solve_spp(obs, nav, config, progress=progress)
+        result = solve_spp(aug.obs, nav, config, corrections=aug.corrections,
+                           max_correction_age_s=aug.max_age_s, precise=aug.precise,
+                           progress=progress)
     frame = result.to_frame()
     errors = spp_errors(frame, reference) if reference is not None else None
     atomic_write_csv(out / "spp.csv", frame.assign(gps_time_s=frame["gps_time_s"].map(
         TIME_FORMAT.format)), float_format=FLOAT_FORMAT)
     plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
-    for line in _summary(frame, config):
+    for line in _summary(frame, config, args):
         print(line)
     if errors is not None:
         for line in accuracy_summary(errors).lines():
@@ -94,9 +139,13 @@ def handler(args: argparse.Namespace) -> int:
     return 0
 
 
-def _summary(frame, config: SppConfig) -> list[str]:
+def _summary(frame, config: SppConfig, args: argparse.Namespace) -> list[str]:
     fixed = frame[frame["fix_ok"]]
-    return [f"systems              {config.measurement.systems} "
+    mode = ("DGNSS (base " + Path(args.base).name + ")" if args.base else "single point")
+    mode += f", code smoothed over {args.smooth_window_s:g} s" if args.smooth_window_s else ""
+    mode += ", precise orbits (SP3)" if args.sp3 else ", broadcast orbits"
+    return [f"mode                 {mode}",
+            f"systems              {config.measurement.systems} "
             f"(ionosphere: {config.measurement.ionosphere})",
             f"epochs               {len(frame)} ({len(fixed)} with a fix, "
             f"{int(frame['velocity_ok'].sum())} with a velocity)",

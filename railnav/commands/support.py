@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterator
 from gnss_obs.sim_events import Outage
 
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
-           "nonnegative_int", "outage_window"]
+           "nonnegative_int", "outage_window", "lat_lon_h"]
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
@@ -95,3 +95,17 @@ def outage_window(text: str) -> Outage:
             abs(x) < float("inf") for x in (start_s, duration_s)):
         raise argparse.ArgumentTypeError(f"{text!r}: need START >= 0 and DURATION > 0 seconds")
     return Outage(start_s, duration_s)
+
+
+def lat_lon_h(text: str) -> tuple[float, float, float]:
+    """argparse type for ``LAT,LON,H``: latitude and longitude in degrees, height in m."""
+    try:
+        lat_deg, lon_deg, h_m = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not LAT,LON,H (degrees, degrees, metres)") from None
+    if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 360.0
+            and abs(h_m) < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: need -90 <= LAT <= 90, "
+                                         "-180 <= LON <= 360 and a finite H")
+    return lat_deg, lon_deg, h_m

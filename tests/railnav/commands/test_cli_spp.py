@@ -136,3 +136,55 @@ def test_issue16_one_satellite_epoch_is_a_row_without_fix(tmp_path, system, used
     assert len(frame) == 5
     assert frame["fix_ok"].tolist() == [True, True, False, True, True]
     assert frame["n_sat_used"].iloc[2] == 0 and frame["n_sat_tracked"].iloc[2] == used
+
+
+BASE = DATA / "base_obs_1240.rnx"
+SP3 = DATA / "COD21340_1100_1430.sp3"
+
+
+def test_issue16_spp_with_base_smoothing_and_sp3(tmp_path, capsys):
+    """``--base --smooth-window-s --sp3``: the printed accuracy is the library's for the
+    same augmentation, and below RTKLIB DGPS's 4.14 m on this window (issue 16)."""
+    from gnss_obs.dgps import augment
+    from gnss_obs.measurements import MeasurementConfig
+    from gnss_obs.rinex_nav import read_rinex_nav
+    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.smoothing import SmoothingConfig
+    from gnss_obs.sp3 import read_sp3
+    from gnss_obs.spp import SppConfig, solve_spp
+
+    assert main(["-q", "spp", "--obs", str(OBS), "--nav", str(NAV), "--systems", "G",
+                 "--base", str(BASE), "--smooth-window-s", "100", "--sp3", str(SP3),
+                 "--ref", str(REF), "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "DGNSS (base base_obs_1240.rnx), code smoothed over 100 s, precise orbits" in out
+    mc = MeasurementConfig(systems="G")
+    nav = read_rinex_nav(NAV)
+    aug = augment(read_rinex_obs(OBS), nav, mc, base_obs=read_rinex_obs(BASE),
+                  smoothing=SmoothingConfig(window_s=100.0), sp3=[read_sp3(SP3)])
+    frame = solve_spp(aug.obs, nav, SppConfig(measurement=mc), corrections=aug.corrections,
+                      precise=aug.precise).to_frame()
+    acc = accuracy_summary(spp_errors(frame, read_reference_trajectory(REF)))
+    line = next(s for s in out.splitlines() if s.startswith("horizontal RMS"))
+    assert abs(float(line.split()[2]) - acc.horizontal_rms_m) < PRINT_DECIMALS_M
+    assert acc.horizontal_rms_m < 4.14
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--base-position", "41.5,2.4,80"], "--base-position needs --base"),
+    (["--base", "BASE", "--base-position", "41.5,2.4"], None),
+    (["--base", "NOFILE"], "NOFILE"),
+])
+def test_issue16_bad_augmentation_input(tmp_path, capsys, extra, message):
+    extra = [str(BASE) if x == "BASE" else str(tmp_path / x) if x == "NOFILE" else x
+             for x in extra]
+    args = ["spp", "--obs", str(OBS), "--nav", str(NAV), "--out", str(tmp_path)] + extra
+    if message is None:           # argparse rejects the value: usage error, exit 2
+        with pytest.raises(SystemExit) as exc:
+            main(args)
+        assert exc.value.code == 2
+        assert "LAT,LON,H" in capsys.readouterr().err
+        return
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ") and message in err[0]
