@@ -13,8 +13,8 @@ N epochs while the carrier carries the range change. The smoothing restarts (n =
 * a gap longer than `SmoothingConfig.max_gap_s`, or a missing carrier;
 * the **geometry-free** combination ``L1 λ1 - L2 λ2`` (m) jumping by more than
   ``gf_jump_m`` between epochs (ionosphere and phase multipath change by mm-cm per
-  second; a slip of one cycle on either frequency moves it by ≥ 0.19 m... minus the
-  rare combinations that cancel, which the next test catches);
+  second; a one-cycle slip on GPS L1 moves it by 0.19 m, on L2 by 0.24 m; slips on both
+  frequencies that nearly cancel are left to the next test);
 * the **Melbourne-Wübbena** combination (wide-lane phase minus narrow-lane code, in
   wide-lane cycles) leaving its running mean by more than ``mw_jump_cycles``;
 * single frequency: the carrier step ``ΔL`` disagreeing with the Doppler ``-D̄ Δt``

@@ -16,18 +16,14 @@ from pathlib import Path
 
 import numpy as np
 
-from gnss_obs.dgps import DgpsConfig, augment
 from gnss_obs.measurements import IONOSPHERE_MODELS, MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
-from gnss_obs.smoothing import SmoothingConfig
-from gnss_obs.sp3 import read_sp3
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.commands.support import (
-    lat_lon_h,
-    nonnegative_float,
-    positive_float,
+    add_augmentation_arguments,
     progress_bar,
+    read_augmentation,
 )
 from railnav.errors import ConfigError
 from railnav.evaluation.spp_accuracy import (
@@ -71,36 +67,6 @@ def register(subparsers) -> None:
     add_augmentation_arguments(p)
     p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
     p.set_defaults(func=handler)
-
-
-def add_augmentation_arguments(p) -> None:
-    """``--base``, ``--base-position``, ``--max-age-s``, ``--smooth-window-s``, ``--sp3``
-    (shared by ``spp`` and ``run``)."""
-    p.add_argument("--base", metavar="BASE.rnx",
-                   help="base-station RINEX observations: code-differential (DGNSS) "
-                        "corrections per satellite and epoch")
-    p.add_argument("--base-position", type=lat_lon_h, metavar="LAT,LON,H",
-                   help="base antenna latitude, longitude (degrees) and ellipsoidal height "
-                        "(m); default: the base header's APPROX POSITION XYZ")
-    p.add_argument("--max-age-s", type=nonnegative_float, default=DgpsConfig.max_age_s,
-                   help="oldest base correction applied, s (default 30)")
-    p.add_argument("--smooth-window-s", type=positive_float, metavar="S",
-                   help="carrier-smooth the code (Hatch filter, cycle slips from LLI, "
-                        "geometry-free, Melbourne-Wuebbena, Doppler) over up to S seconds")
-    p.add_argument("--sp3", nargs="+", default=[], metavar="SP3",
-                   help="precise orbit/clock files instead of the broadcast ephemeris")
-
-
-def read_augmentation(args: argparse.Namespace, obs, nav, measurement: MeasurementConfig):
-    """`gnss_obs.dgps.augment` from the parsed ``--base ... --sp3`` arguments."""
-    if args.base_position is not None and not args.base:
-        raise ConfigError("--base-position needs --base")
-    return augment(
-        obs, nav, measurement, base_obs=read_rinex_obs(args.base) if args.base else None,
-        base_lat_lon_h=args.base_position, dgps=DgpsConfig(max_age_s=args.max_age_s),
-        smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
-                   if args.smooth_window_s else None),
-        sp3=[read_sp3(p) for p in args.sp3])
 
 
 def _config(args: argparse.Namespace) -> SppConfig:
