@@ -32,6 +32,10 @@ epochs and models           `EpochData`, `PreparedEpoch`, `split_epochs`,
                             `prepare_epoch`, `transmit_states_batch` (``epoch``);
                             `build_measurement_model` (``observables``);
                             `reissue_ephemerides` (``ephemeris_reissue``)
+differential, smoothing,    `augment`, `Augmentation`, `DgpsConfig`, `base_corrections`,
+precise orbits              `apply_corrections`, `base_position_e` (``dgps``);
+                            `smooth_observations`, `SmoothingConfig`, `hatch_filter`
+                            (``smoothing``); `PreciseOrbits` (``precise``)
 receiver clock              `Oscillator`, `oscillator_from_name` (``oscillator``)
 simulation                  `simulate_gnss`, `GnssSimConfig`, `default_nav_path`
                             (``simulate``); `GnssSimulation` (``sim_result``);
@@ -65,6 +69,10 @@ _EXPORTS = {
     "prepare_epoch": "epoch", "transmit_states_batch": "epoch",
     "build_measurement_model": "observables",
     "reissue_ephemerides": "ephemeris_reissue",
+    "augment": "dgps", "Augmentation": "dgps", "DgpsConfig": "dgps",
+    "base_corrections": "dgps", "apply_corrections": "dgps", "base_position_e": "dgps",
+    "smooth_observations": "smoothing", "SmoothingConfig": "smoothing",
+    "hatch_filter": "smoothing", "PreciseOrbits": "precise",
     "Oscillator": "oscillator", "oscillator_from_name": "oscillator",
     "simulate_gnss": "simulate", "GnssSimConfig": "simulate",
     "default_nav_path": "simulate", "GnssSimulation": "sim_result",

@@ -8,12 +8,16 @@ the ones the text states. A field that does not convert is reported as a
 `GnssInputError` naming the file, the 1-based line number and the field.
 
 Also reads a file's bytes, expanding Hatanaka-compressed (``.crx``) and gzip/Unix
-compressed RINEX through the ``hatanaka`` package.
+compressed RINEX through the ``hatanaka`` package, and ``.zip`` (one member) and ``.bz2``
+archives through the standard library (their content may itself be Hatanaka/gzip).
 """
 from __future__ import annotations
 
+import bz2
 import gzip
+import io
 import os
+import zipfile
 
 import numpy as np
 import numpy.typing as npt
@@ -30,6 +34,8 @@ _GZIP_MAGIC = b"\x1f\x8b"
 _COMPRESS_MAGIC = b"\x1f\x9d"
 _CRINEX_LABEL = b"COMPACT RINEX FORMAT"
 _CRINEX_HEAD_BYTES = 200
+_BZIP2_MAGIC = b"BZh"
+_ZIP_MAGIC = b"PK\x03\x04"
 
 
 def read_text_bytes(path: str | os.PathLike) -> bytes:
@@ -38,23 +44,49 @@ def read_text_bytes(path: str | os.PathLike) -> bytes:
     Parameters
     ----------
     path : str or os.PathLike
-        Plain, gzip (``.gz``), Unix-compressed (``.Z``) or Hatanaka (``.crx``/``.??d``) file.
+        Plain, gzip (``.gz``), Unix-compressed (``.Z``), Hatanaka (``.crx``/``.??d``),
+        bzip2 (``.bz2``) or zip (``.zip``, exactly one file inside) file; recognised by
+        their leading bytes, not by the name.
 
     Raises
     ------
     GnssInputError
-        When the file cannot be opened or decompressed.
+        When the file cannot be opened or decompressed, or a zip archive does not hold
+        exactly one file.
     """
     try:
         with open(path, "rb") as fh:
             data = fh.read()
     except OSError as exc:
         raise GnssInputError(f"cannot read: {exc.strerror or exc}", path=path) from None
+    data = _unarchive(path, data)
     is_crinex = _CRINEX_LABEL in data[:_CRINEX_HEAD_BYTES]
     if data[:2] in (_GZIP_MAGIC, _COMPRESS_MAGIC) or is_crinex:
         data = _decompress(path, data)
     if b"\r" in data:
         data = data.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return data
+
+
+def _unarchive(path, data: bytes) -> bytes:
+    """Expand bzip2 and single-member zip data with the standard library (else unchanged)."""
+    if data[:3] == _BZIP2_MAGIC:
+        try:
+            return bz2.decompress(data)
+        except (OSError, ValueError, EOFError) as exc:
+            raise GnssInputError(f"corrupt bzip2 data: {exc}", path=path) from None
+    if data[:4] == _ZIP_MAGIC:
+        try:
+            with zipfile.ZipFile(io.BytesIO(data)) as archive:
+                members = [m for m in archive.infolist() if not m.is_dir()]
+                if len(members) != 1:
+                    names = ", ".join(m.filename for m in members) or "none"
+                    raise GnssInputError(f"zip archive holds {len(members)} files ({names}): "
+                                         "expected exactly one RINEX/SP3 file", path=path)
+                return archive.read(members[0])
+        except (zipfile.BadZipFile, OSError, NotImplementedError) as exc:
+            raise GnssInputError(f"corrupt or unsupported zip archive: {exc}",
+                                 path=path) from None
     return data
 
 

@@ -5,7 +5,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gnss_obs._rinex_header import HeaderLine, float_field, int_field
+from gnss_obs._rinex_header import (
+    HeaderLine,
+    float_field,
+    int_field,
+    leap_seconds_field,
+    lenient_floats,
+)
 
 __all__ = ["NavHeader", "parse_nav_header", "IONO_KEYS"]
 
@@ -62,8 +68,18 @@ def _coefficients(h: HeaderLine, columns, n: int, path, key: str) -> np.ndarray:
                      for a, b in columns[:n]])
 
 
-def parse_nav_header(records: list[HeaderLine], version: float, path) -> NavHeader:
-    """Interpret the header records of a RINEX 2 or 3 navigation file."""
+_DELTA_UTC_COLUMNS = ((3, 22), (22, 41), (41, 50), (50, 59))
+
+
+def parse_nav_header(records: list[HeaderLine], version: float, path,
+                     notes: list[str] | None = None, *, system: str = "M") -> NavHeader:
+    """Interpret the header records of a RINEX 2, 3 or 4 navigation file.
+
+    Lines read leniently (`gnss_obs._rinex_header.lenient_floats`) are noted in `notes`.
+    `system` is the system of a RINEX 2 file: a Galileo file's ``ION ALPHA`` holds the three
+    NeQuick-G coefficients ai0-ai2 (RINEX 2.12), read into ``iono_gal``.
+    """
+    notes = [] if notes is None else notes
     values: dict = {"version": version, "time_corrections": {}}
     for h in records:
         c = h.content
@@ -72,9 +88,14 @@ def parse_nav_header(records: list[HeaderLine], version: float, path) -> NavHead
             if key in IONO_KEYS:
                 n = _N_COEFF.get(key, _KLOBUCHAR_COEFFS)
                 values[IONO_KEYS[key]] = _coefficients(h, _IONO_V3_COLUMNS, n, path, key)
+        elif h.label == "ION ALPHA" and system == "E":
+            values["iono_gal"] = np.array(lenient_floats(
+                h, _IONO_V2_COLUMNS[:_N_COEFF["GAL"]], path=path, notes=notes, column=h.label,
+                d_exponent=True))
         elif h.label in ("ION ALPHA", "ION BETA"):
             attr = "iono_gps_alpha" if h.label == "ION ALPHA" else "iono_gps_beta"
-            values[attr] = _coefficients(h, _IONO_V2_COLUMNS, _KLOBUCHAR_COEFFS, path, h.label)
+            values[attr] = np.array(lenient_floats(h, _IONO_V2_COLUMNS, path=path, notes=notes,
+                                                   column=h.label, d_exponent=True))
         elif h.label == "TIME SYSTEM CORR":
             values["time_corrections"][c[:4].strip()] = (
                 float_field(h, 5, 22, path=path, column="a0", d_exponent=True),
@@ -82,11 +103,9 @@ def parse_nav_header(records: list[HeaderLine], version: float, path) -> NavHead
                 float(int_field(h, 38, 45, path=path, column="reference time")),
                 int_field(h, 45, 50, path=path, column="reference week"))
         elif h.label == "DELTA-UTC: A0,A1,T,W":
-            values["time_corrections"]["GPUT"] = (
-                float_field(h, 3, 22, path=path, column="A0", d_exponent=True),
-                float_field(h, 22, 41, path=path, column="A1", d_exponent=True),
-                float(int_field(h, 41, 50, path=path, column="T")),
-                int_field(h, 50, 59, path=path, column="W"))
+            a0, a1, t, w = lenient_floats(h, _DELTA_UTC_COLUMNS, path=path, notes=notes,
+                                          column="DELTA-UTC", d_exponent=True)
+            values["time_corrections"]["GPUT"] = (a0, a1, float(int(t)), int(w))
         elif h.label == "LEAP SECONDS":
-            values["leap_seconds"] = int_field(h, 0, 6, path=path, column="leap seconds")
+            values["leap_seconds"] = leap_seconds_field(h, path=path)
     return NavHeader(**values)

@@ -6,7 +6,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gnss_obs._rinex2_obs import map_v2_types
-from gnss_obs._rinex_header import HeaderLine, float_field, int_field, split_header
+from gnss_obs._rinex_header import (
+    HeaderLine,
+    float_field,
+    int_field,
+    leap_seconds_field,
+    lenient_floats,
+    split_header,
+)
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
 
@@ -34,6 +41,7 @@ class ParsedObsHeader:
     values: dict = field(default_factory=dict)
     scale: dict[str, dict[str, float]] = field(default_factory=dict)
     first_obs_labels: tuple | None = None
+    notes: list[str] = field(default_factory=list)
 
     @property
     def obs_types(self) -> dict[str, list[str]]:
@@ -97,12 +105,12 @@ def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
     elif h.label == "ANT # / TYPE":
         head.values["antenna"] = c[20:40].strip()
     elif h.label == "APPROX POSITION XYZ":
-        head.values["approx_position_e"] = np.array([float_field(h, a, b, path=path, column="XYZ")
-                                           for a, b in _XYZ_COLUMNS])
+        head.values["approx_position_e"] = np.array(lenient_floats(
+            h, _XYZ_COLUMNS, path=path, column="XYZ", notes=head.notes))
     elif h.label == "INTERVAL":
         head.values["interval_s"] = float_field(h, 0, 10, path=path, column="interval")
     elif h.label == "LEAP SECONDS":
-        head.values["leap_seconds"] = int_field(h, 0, 6, path=path, column="leap seconds")
+        head.values["leap_seconds"] = leap_seconds_field(h, path=path)
     elif h.label == "SIGNAL STRENGTH UNIT":
         head.values["signal_strength_unit"] = c[:20].strip()
     elif h.label == "TIME OF FIRST OBS":
@@ -110,21 +118,67 @@ def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
                   for k in range(5)]
         second = float_field(h, 30, 43, path=path, column="time of first obs")
         head.first_obs_labels = (*labels, second)
-        system = c[48:51].strip()
+        system = _time_system(h, head.notes, path)
         if system:
-            if system not in ("GPS", "GAL", "BDT", "GLO", "QZS", "IRN", "UTC"):
-                raise GnssInputError(f"unknown time system {system!r}", path=path,
-                                     line=h.line, column="time system")
             head.values["time_system"] = system
     elif h.label == "GLONASS SLOT / FRQ #":
+        head.values.setdefault("glonass_slots", {}).update(_glonass_slots(h, head.notes, path))
+    elif h.label == "SYS / SCALE FACTOR":
+        _scale_factor(h, head, path)
+
+
+#: Time-system identifier of TIME OF FIRST OBS: columns 49-51 (A3 after 5X).
+_TIME_SYSTEM_COLUMNS = (48, 51)
+_SECOND_END = 44  # one past the seconds field (F13.7 in columns 31-43, 44 when one late)
+_TIME_SYSTEMS = ("GPS", "GAL", "BDT", "GLO", "QZS", "IRN", "UTC")
+
+
+def _time_system(h: HeaderLine, notes: list[str], path) -> str:
+    """The time system of TIME OF FIRST OBS ('' when blank).
+
+    Tolerated: the identifier out of its columns (georinex's ``minimal.10o`` has ``GPS`` in
+    columns 50-52) when it is the last word of columns 45-60 (noted).
+    """
+    system = h.content[slice(*_TIME_SYSTEM_COLUMNS)].strip()
+    if not system or system in _TIME_SYSTEMS:
+        return system
+    shifted = h.content[_SECOND_END:].split()
+    if shifted and shifted[-1] in _TIME_SYSTEMS:
+        notes.append(f"line {h.line}: TIME OF FIRST OBS time system {shifted[0]!r} out of "
+                     "columns 49-51")
+        return shifted[0]
+    raise GnssInputError(f"unknown time system {system!r}", path=path, line=h.line,
+                         column="time system")
+
+
+def _glonass_slots(h: HeaderLine, notes: list[str], path) -> dict[str, int]:
+    """``GLONASS SLOT / FRQ #``: satellite -> channel (A1,I2,1X,I2 per entry from column 5).
+
+    Entries out of their columns are read as blank-separated ``Rnn k`` pairs (noted).
+    """
+    c = h.content
+    slots: dict[str, int] = {}
+    try:
         for k in range(_GLONASS_SLOTS_PER_LINE):
             entry = c[4 + 7 * k:11 + 7 * k]
             if entry[:3].strip():
                 sv = entry[0] + entry[1:3].replace(" ", "0")
-                head.values.setdefault("glonass_slots", {})[sv] = int_field(h, 8 + 7 * k, 10 + 7 * k, path=path,
-                                                   column="GLONASS frequency number")
-    elif h.label == "SYS / SCALE FACTOR":
-        _scale_factor(h, head, path)
+                if sv[0] != "R" or not sv[1:].isdigit():
+                    raise GnssInputError(f"{entry[:3]!r} is not a GLONASS satellite", path=path,
+                                         line=h.line, column="GLONASS slot")
+                slots[sv] = int_field(h, 8 + 7 * k, 10 + 7 * k, path=path,
+                                      column="GLONASS frequency number")
+        return slots
+    except GnssInputError as exc:
+        tokens = c[3:].split()
+        pairs = list(zip(tokens[::2], tokens[1::2]))
+        ok = len(tokens) % 2 == 0 and all(
+            len(sv) == 3 and sv[0] == "R" and sv[1:].isdigit()
+            and k.lstrip("-").isdigit() for sv, k in pairs)
+        if not ok:
+            raise exc from None
+    notes.append(f"line {h.line}: GLONASS SLOT / FRQ # entries out of their columns")
+    return {sv: int(k) for sv, k in pairs}
 
 
 def _obs_types_v3(records: list[HeaderLine], i: int, head: ParsedObsHeader, path) -> int:

@@ -10,15 +10,19 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+import logging
+
+from gnss_obs.constants import BDT_MINUS_GPST_S
 from gnss_obs.errors import GnssInputError
 
-__all__ = ["HeaderLine", "RinexStart", "split_header", "float_field", "int_field"]
+__all__ = ["HeaderLine", "RinexStart", "split_header", "float_field", "int_field",
+           "leap_seconds_field", "lenient_floats", "warn_lenient"]
 
 _LABEL_COLUMN = 60
 _VERSION_LABEL = "RINEX VERSION / TYPE"
 _END_LABEL = "END OF HEADER"
 #: Supported major versions.
-_MAJOR_VERSIONS = (2, 3)
+_MAJOR_VERSIONS = (2, 3, 4)
 
 
 @dataclass(frozen=True)
@@ -85,7 +89,8 @@ def split_header(lines: list[bytes], path: str | os.PathLike, *,
         raise GnssInputError(f"bad RINEX version {first[:9].strip()!r}",
                              path=path, line=1, column="version") from None
     if int(version) not in _MAJOR_VERSIONS:
-        raise GnssInputError(f"unsupported RINEX version {version:.2f} (reads 2.xx and 3.xx)",
+        raise GnssInputError(f"unsupported RINEX version {version:.2f} (reads 2.xx, 3.xx and "
+                             "4.xx)",
                              path=path, line=1, column="version")
     file_type = first[20:21]
     if file_type not in expected_types:
@@ -123,3 +128,69 @@ def int_field(h: HeaderLine, start: int, stop: int, *, path, column: str) -> int
     except ValueError:
         raise GnssInputError(f"{text.strip()!r} is not an integer", path=path, line=h.line,
                              column=column) from None
+
+
+#: ``LEAP SECONDS``: current leap seconds (I6, columns 1-6) and the time-system identifier
+#: (A3, columns 25-27; ``GPS``, ``BDS`` or blank = GPS) of RINEX 3.04 Tables A2 and A5.
+_LEAP_COLUMNS = (0, 6)
+_LEAP_SYSTEM_COLUMNS = (24, 27)
+
+
+def leap_seconds_field(h: HeaderLine, *, path) -> int:
+    """GPST - UTC (s) from a ``LEAP SECONDS`` header line.
+
+    RINEX 3.04 (Tables A2 and A5) lets the line give BeiDou's leap seconds (BDT - UTC)
+    when columns 25-27 say ``BDS``; since ``BDT = GPST - 14 s`` these are 14 s fewer than
+    GPST - UTC (4 against 18 in 2020), so ``BDS`` values are returned + 14 s.
+
+    Raises
+    ------
+    GnssInputError
+        A non-integer count or an identifier other than ``GPS``, ``BDS`` or blank.
+    """
+    value = int_field(h, *_LEAP_COLUMNS, path=path, column="leap seconds")
+    system = h.content[slice(*_LEAP_SYSTEM_COLUMNS)].strip()
+    if system in ("", "GPS"):
+        return value
+    if system == "BDS":
+        return value - int(BDT_MINUS_GPST_S)  # BDT - GPST = -14 s
+    raise GnssInputError(f"leap seconds of time system {system!r}: expected GPS, BDS or blank",
+                         path=path, line=h.line, column="leap seconds time system")
+
+
+def lenient_floats(h: HeaderLine, spans, *, path, column: str, notes: list[str],
+                   d_exponent: bool = False) -> list[float]:
+    """Real numbers from fixed columns, or, if they do not convert, from whitespace tokens.
+
+    Some writers put a header field one column off (georinex's ``demo.10o`` APPROX
+    POSITION XYZ, ``demo.10n`` DELTA-UTC). When the fixed columns do not convert but the
+    line's first 60 columns hold exactly ``len(spans)`` numbers separated by blanks, the
+    meaning is unambiguous: those are read, and a note naming the line is appended to
+    `notes` (the reader logs them once per file, `warn_lenient`), as RTKLIB tolerates them.
+
+    Raises
+    ------
+    GnssInputError
+        Neither the columns nor the tokens give the expected numbers.
+    """
+    try:
+        return [float_field(h, a, b, path=path, column=column, d_exponent=d_exponent)
+                for a, b in spans]
+    except GnssInputError as exc:
+        text = h.content.replace("D", "E").replace("d", "e") if d_exponent else h.content
+        tokens = text.split()
+        if len(tokens) != len(spans):
+            raise exc from None
+        try:
+            values = [float(t) for t in tokens]
+        except ValueError:
+            raise exc from None
+    notes.append(f"line {h.line}: {h.label} fields out of their columns, read by blanks")
+    return values
+
+
+def warn_lenient(log: logging.Logger, path, notes: list[str]) -> None:
+    """One warning per file listing the lines that were read leniently (none: silent)."""
+    if notes:
+        log.warning("%s: read leniently (RINEX column layout not followed): %s", path,
+                    "; ".join(notes))

@@ -17,7 +17,7 @@ import math
 __all__ = [
     "SPEED_OF_LIGHT_MPS", "WEEK_S", "DAY_S", "GM_GPS", "OMEGA_E_GPS", "GM_GAL", "OMEGA_E_GAL",
     "GM_BDS", "OMEGA_E_BDS", "GM_GLO", "OMEGA_E_GLO", "A_GLO_M", "J2_GLO", "BDT_MINUS_GPST_S",
-    "GLONASS_UTC_OFFSET_S", "relativistic_constant", "carrier_frequency_hz", "wavelength_m",
+    "relativistic_constant", "carrier_frequency_hz", "wavelength_m",
     "SYSTEMS", "FREQUENCY_HZ", "BDT_WEEK0_GPS_WEEK",
 ]
 
@@ -46,8 +46,6 @@ J2_GLO = 1.08262575e-3
 BDT_MINUS_GPST_S = -14.0
 #: BeiDou week 0 began 2006-01-01 00:00:00 BDT, in GPS week 1356 (BDS-SIS-ICD §5.1.2.2).
 BDT_WEEK0_GPS_WEEK = 1356
-#: GLONASS system time is UTC(SU) + 3 h.
-GLONASS_UTC_OFFSET_S = 3 * 3600.0
 
 #: RINEX system letters: GPS, GLONASS, Galileo, BeiDou, QZSS, NavIC/IRNSS, SBAS.
 SYSTEMS = ("G", "R", "E", "C", "J", "I", "S")

@@ -218,19 +218,30 @@ def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementCon
     return sigma_pr, config.sigma_rr_mps * factor
 
 
-def transmit_states(epoch: EpochData, config: MeasurementConfig):
-    """Satellite states at the transmission instants (ECEF of transmission) and clocks (m)."""
+def _states(eph, meas, t, precise):
+    if precise is None:
+        return satellite_states(eph, t)
+    return precise.states(meas["sv"], t)
+
+
+def transmit_states(epoch: EpochData, config: MeasurementConfig, *, precise=None):
+    """Satellite states at the transmission instants (ECEF of transmission) and clocks (m).
+
+    With `precise` (a `gnss_obs.precise.PreciseOrbits`), orbits and clocks come from it
+    instead of the broadcast ephemeris; the broadcast group delays still apply.
+    """
     meas, eph = epoch.meas, epoch.eph
     t_nominal = epoch.gps_time_s - meas["pseudorange_m"] / SPEED_OF_LIGHT_MPS
     # δt_sv varies by ~1e-11 s/s: evaluated at t_nominal (ms away) it is exact to 1e-14 s.
-    t_tx = t_nominal - satellite_states(eph, t_nominal).clock_s
-    states = satellite_states(eph, t_tx)
+    t_tx = t_nominal - _states(eph, meas, t_nominal, precise).clock_s
+    states = _states(eph, meas, t_tx, precise)
     clock_m = SPEED_OF_LIGHT_MPS * (states.clock_s - _signal_group_delay_s(eph, meas, config))
     return states, clock_m
 
 
-def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig) -> list:
-    """`transmit_states` of many epochs in one vectorized evaluation.
+def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
+                          precise=None) -> list:
+    """`transmit_states` of many epochs in one vectorized evaluation (`precise` as there).
 
     The transmission-time states do not depend on the receiver guess, so a filter can
     compute them for a whole file at once and pass each epoch's to `prepare_epoch`.
@@ -246,7 +257,7 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig) ->
     meas = {k: np.concatenate([e.meas[k] for e in epochs]) for k in epochs[0].meas}
     eph = {k: np.concatenate([e.eph[k] for e in epochs]) for k in epochs[0].eph}
     times = np.repeat([e.gps_time_s for e in epochs], sizes)
-    states, clock_m = transmit_states(EpochData(times, meas, eph), config)
+    states, clock_m = transmit_states(EpochData(times, meas, eph), config, precise=precise)
     bounds = np.concatenate([[0], np.cumsum(sizes)])
     return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
              clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]

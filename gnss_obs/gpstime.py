@@ -8,7 +8,11 @@ at the boundary, by `to_gps_time_s`:
   residual GGTO is nanoseconds and is a model term, not a calendar offset);
 * BeiDou time: ``BDT = GPST - 14 s``;
 * UTC: ``GPST = UTC + leap seconds`` (18 s since 2017-01-01);
-* GLONASS time: ``GLONASST = UTC + 3 h``.
+* ``GLO`` (RINEX time-system name of GLONASS): **UTC**. GLONASS system time is kept on
+  UTC(SU) + 3 h, but RINEX defines the ``GLO`` time tags as UTC (RINEX 3.04 §3.2 and
+  Table A1 footnote; RINEX 2.11 §8.2 "GLONASS is basically running on UTC") and RTKLIB
+  reads them so (``rinex.c`` ``decode_obsh``: ``"GLO"`` -> ``TSYS_UTC``). So ``GLO`` labels convert
+  exactly like ``UTC`` labels: no 3 h shift (issue 16, defect 1).
 
 Calendar fields are converted with integer day arithmetic (no datetime objects in loops),
 so whole RINEX files convert in one vectorized call.
@@ -18,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.constants import BDT_MINUS_GPST_S, DAY_S, GLONASS_UTC_OFFSET_S, WEEK_S
+from gnss_obs.constants import BDT_MINUS_GPST_S, DAY_S, WEEK_S
 
 __all__ = ["GPS_EPOCH", "calendar_to_gps_time_s", "gps_time_s_to_calendar",
            "week_sow_to_gps_time_s", "gps_time_s_to_week_sow", "to_gps_time_s",
@@ -143,7 +147,8 @@ def to_gps_time_s(labels_s: npt.ArrayLike, system: str, *,
     system : {"GPS", "GAL", "QZS", "IRN", "BDT", "UTC", "GLO"}
         RINEX 3 time-system name of the labels.
     leap_seconds : float, optional
-        GPST - UTC, s, for ``UTC`` and ``GLO``. Taken from `leap_seconds_at` when omitted.
+        GPST - UTC, s, for ``UTC`` and ``GLO`` (both UTC labels in RINEX). Taken from
+        `leap_seconds_at` when omitted.
 
     Returns
     -------
@@ -155,10 +160,9 @@ def to_gps_time_s(labels_s: npt.ArrayLike, system: str, *,
         return t.copy()
     if system == "BDT":
         return t - BDT_MINUS_GPST_S
-    if system in ("UTC", "GLO"):
-        utc = t - (GLONASS_UTC_OFFSET_S if system == "GLO" else 0.0)
-        leap = leap_seconds_at(utc) if leap_seconds is None else leap_seconds
-        return utc + leap
+    if system in ("UTC", "GLO"):  # RINEX "GLO" labels are UTC (module docstring)
+        leap = leap_seconds_at(t) if leap_seconds is None else leap_seconds
+        return t + leap
     raise ValueError(f"unknown time system {system!r}; expected one of {TIME_SYSTEMS}")
 
 
@@ -175,6 +179,5 @@ def from_gps_time_s(t: npt.ArrayLike, system: str, *,
             leap = leap_seconds_at(t - leap_seconds_at(t))
         else:
             leap = leap_seconds
-        utc = t - leap
-        return utc + (GLONASS_UTC_OFFSET_S if system == "GLO" else 0.0)
+        return t - leap
     raise ValueError(f"unknown time system {system!r}; expected one of {TIME_SYSTEMS}")

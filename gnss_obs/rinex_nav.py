@@ -1,4 +1,11 @@
-"""RINEX navigation files (3.0x mixed, 2.1x GPS/GLONASS/SBAS) -> one table per system.
+"""RINEX navigation files (4.0x and 3.0x mixed, 2.1x) -> one table per system.
+
+Versions: RINEX 3.0x (any mix of systems); RINEX 4.0x, its legacy-message records (GPS/
+QZSS/NavIC LNAV, Galileo INAV/FNAV, BeiDou D1/D2, GLONASS FDMA, SBAS) and the GPS/Galileo
+ION records (`gnss_obs._rinex4_nav`; CNAV-type, STO and EOP records are skipped with one
+warning); RINEX 2.1x files of type ``N`` (GPS), ``G`` (GLONASS), ``H`` (SBAS) and the
+RINEX 2.12 / teqc / RTKLIB types ``E`` or ``L`` (Galileo) and ``J`` or ``Q`` (QZSS), whose
+records have the RINEX 2 columns and the RINEX 3 field order of their system.
 
 `read_rinex_nav` returns a `RinexNav`: the `NavHeader` (ionosphere coefficients, time
 system corrections, leap seconds) and ``records``, a DataFrame per system letter, one row
@@ -33,7 +40,7 @@ from __future__ import annotations
 
 import logging
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -55,7 +62,8 @@ from gnss_obs._nav_layout import (
     TIME_SCALE,
     continuation_lines,
 )
-from gnss_obs._rinex_header import split_header
+from gnss_obs._rinex4_nav import record_starts_v4
+from gnss_obs._rinex_header import split_header, warn_lenient
 from gnss_obs.constants import BDT_MINUS_GPST_S, BDT_WEEK0_GPS_WEEK, WEEK_S
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
@@ -65,8 +73,10 @@ __all__ = ["NavHeader", "RinexNav", "read_rinex_nav", "KEPLER_FIELDS"]
 log = logging.getLogger(__name__)
 
 _KM = 1000.0
-#: RINEX 2 navigation file type -> system letter.
-_V2_FILE_SYSTEM = {"N": "G", "G": "R", "H": "S"}
+#: RINEX 2 navigation file type -> system letter (E/L Galileo and J/Q QZSS: RINEX 2.12).
+_V2_FILE_SYSTEM = {"N": "G", "G": "R", "H": "S", "E": "E", "L": "E", "J": "J", "Q": "J"}
+_RINEX4 = 4
+_V2_NAMES = {"G": "GPS", "R": "GLONASS", "S": "SBAS", "E": "Galileo", "J": "QZSS"}
 _FNAV_BIT = 1 << 1
 _V2_CENTURY_PIVOT = 80
 
@@ -101,7 +111,7 @@ class RinexNav:
 
 
 def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
-    """Read a RINEX 3.0x (any mix of systems) or 2.1x navigation file.
+    """Read a RINEX 4.0x, 3.0x or 2.1x navigation file (versions in the module docstring).
 
     Parameters
     ----------
@@ -121,11 +131,27 @@ def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
         that is not a navigation file.
     """
     lines = split_lines(read_text_bytes(path))
-    start = split_header(lines, path, expected_types="NGH")
-    header = parse_nav_header(start.header, start.version, path)
-    body = lines[start.body_start:]
+    start = split_header(lines, path, expected_types="".join(_V2_FILE_SYSTEM))
+    if start.version >= 3 and start.file_type != "N":
+        raise GnssInputError(f"wrong file type {start.file_type!r} for RINEX "
+                             f"{start.version:.2f} navigation: expected 'N'", path=path, line=1,
+                             column="file type")
     v2_system = _V2_FILE_SYSTEM[start.file_type] if start.version < 3 else None
-    groups = _record_starts(body, start.body_start + 1, start.version, v2_system, path)
+    notes: list[str] = []
+    header = parse_nav_header(start.header, start.version, path, notes,
+                              system=v2_system or "M")
+    warn_lenient(log, path, notes)
+    body = lines[start.body_start:]
+    if int(start.version) == _RINEX4:
+        groups, skipped, iono = record_starts_v4(body, start.body_start + 1, start.version,
+                                                 path)
+        header = replace(header, **{k: v for k, v in iono.items()
+                                    if getattr(header, k) is None})
+        if skipped:
+            log.warning("%s: RINEX 4 records not read (no RINEX 3 layout): %s", path,
+                        ", ".join(f"{n} {k}" for k, n in sorted(skipped.items())))
+    else:
+        groups = _record_starts(body, start.body_start + 1, start.version, v2_system, path)
     cols = _V3 if v2_system is None else _V2
     records = {s: _system_frame(s, body, idx, start.body_start + 1, start.version, cols,
                                 header.leap_seconds, path)
@@ -146,6 +172,11 @@ def _record_starts(body: list[bytes], first_line: int, version: float, v2_system
             i += 1
             continue
         system = v2_system or line[:1].decode("ascii", errors="replace")
+        if v2_system is not None and not line[:indent].strip():
+            raise GnssInputError(f"expected the first line of a record (satellite number in "
+                                 f"columns 1-2): records are longer than a RINEX 2 "
+                                 f"{_V2_NAMES[v2_system]} record, is the file type letter "
+                                 "on line 1 right?", path=path, line=first_line + i)
         if line[:1] == b" " and v2_system is None:
             raise GnssInputError("expected the first line of a record (satellite code in "
                                  "columns 1-3)", path=path, line=first_line + i)

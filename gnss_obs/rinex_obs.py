@@ -53,6 +53,7 @@ from gnss_obs._fixedwidth import (
 )
 from gnss_obs._obs_header import parse_obs_header
 from gnss_obs._obs_records import EpochWalk, flag_and_count, tidy_observations
+from gnss_obs._rinex_header import warn_lenient
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
 
@@ -151,6 +152,7 @@ def read_rinex_obs(path: str | os.PathLike, *, systems: str | None = None) -> Ri
     """
     lines = split_lines(read_text_bytes(path))
     head = parse_obs_header(lines, path)
+    warn_lenient(log, path, head.notes)
     body = lines[head.body_start:]
     if int(head.version) == 2:
         walk = _rinex2_obs.walk_epochs(body, head.body_start + 1, head.obs_types, path)

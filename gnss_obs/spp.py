@@ -17,9 +17,11 @@ notebooks. Per epoch:
 
 Inter-system offsets (GPS-Galileo time offset, GLONASS time, BeiDou time, receiver
 inter-system hardware delays) are estimated per epoch as one bias per non-reference
-system; the header's ``TIME SYSTEM CORR`` values are not applied. Epochs with fewer
-satellites than unknowns give a row of NaN with ``fix_ok`` False; their count goes to one
-warning and to `SppResult.n_no_fix`.
+system; the header's ``TIME SYSTEM CORR`` values are not applied. Every epoch of the
+observation file has a row: epochs with fewer usable satellites than unknowns — one, none
+of the configured systems, or none with an ephemeris — give a row of NaN with ``fix_ok``
+False (issue 16: one-satellite epochs used to vanish); their count goes to one warning and
+to `SppResult.n_no_fix`.
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
+from gnss_obs.dgps import apply_corrections
 from gnss_obs.dop import dilution_of_precision
 from gnss_obs.epoch import (
     MAX_RECEIVER_HEIGHT_M,
@@ -141,6 +144,7 @@ class SppConfig:
 class _Context:
     config: SppConfig
     klobuchar: tuple[np.ndarray, np.ndarray] | None
+    precise: object = None
 
 
 def _candidates(prep: PreparedEpoch, cfg: SppConfig) -> npt.NDArray[np.bool_]:
@@ -252,7 +256,7 @@ def _sky(epoch: EpochData, tx, ctx: _Context, r_e: Array, clocks: dict[str, floa
 
 def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | None:
     cfg = ctx.config
-    tx = transmit_states(epoch, cfg.measurement)
+    tx = transmit_states(epoch, cfg.measurement, precise=ctx.precise)
     pos = _position(epoch, tx, ctx, guess)
     if pos is None:
         return None
@@ -299,18 +303,38 @@ def _initial_guess(approx_e: Array | None) -> Array:
     return np.zeros(3)
 
 
+def _every_epoch(epochs: list[EpochData], table) -> list[EpochData]:
+    """`epochs` plus an empty `EpochData` for each observation epoch without usable data."""
+    times = np.unique(table["gps_time_s"].to_numpy())
+    have = {e.gps_time_s for e in epochs}
+    empty = [EpochData(float(t), {"sv": np.array([], dtype=object)}, {}) for t in times
+             if float(t) not in have]
+    return sorted(epochs + empty, key=lambda e: e.gps_time_s) if empty else epochs
+
+
 def solve_spp(obs, nav, config: SppConfig | None = None, *,
+              corrections=None, max_correction_age_s: float = 30.0, precise=None,
               progress: Callable[[int, int], None] | None = None) -> SppResult:
-    """Single-point positioning of every epoch of an observation file.
+    """Single-point (or code-differential) positioning of every epoch of an observation file.
 
     Parameters
     ----------
     obs : RinexObs
-        Observations (`read_rinex_obs`); epochs are tagged in GPS time.
+        Observations (`read_rinex_obs`, or `gnss_obs.smoothing.smooth_observations` of
+        it for carrier-smoothed code); epochs are tagged in GPS time.
     nav : RinexNav
         Broadcast navigation (`read_rinex_nav`), with the Klobuchar coefficients in its
         header when ``ionosphere="klobuchar"``.
     config : SppConfig, optional
+    corrections : pandas.DataFrame, optional
+        Base-station pseudorange corrections (`gnss_obs.dgps.base_corrections`, computed
+        with the same measurement config and orbits): code-differential positioning
+        (DGNSS); measurements without a correction younger than `max_correction_age_s`
+        are not used.
+    max_correction_age_s : float
+        Oldest correction applied, s.
+    precise : gnss_obs.precise.PreciseOrbits, optional
+        Precise orbits and clocks (SP3) instead of the broadcast ones.
     progress : callable(done, total), optional
         Called after each epoch.
 
@@ -329,8 +353,11 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
     mc = cfg.measurement
     channels = glonass_channels(obs.header.glonass_slots, nav.records)
     meas = select_measurements(obs.table, mc, glonass_channels=channels)
+    if corrections is not None:
+        meas = apply_corrections(meas, corrections, max_age_s=max_correction_age_s)
     if len(meas) == 0:
-        raise GnssError(f"no measurements of systems {mc.systems!r} in the observation file")
+        raise GnssError(f"no measurements of systems {mc.systems!r} in the observation file"
+                        + (" with a base correction" if corrections is not None else ""))
     klob = None
     if mc.ionosphere == "klobuchar":
         alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
@@ -339,14 +366,14 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
                         "correction")
         else:
             klob = (np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float))
-    ctx = _Context(cfg, klob)
-    epochs = split_epochs(meas, nav.records, mc)
+    ctx = _Context(cfg, klob, precise)
+    epochs = _every_epoch(split_epochs(meas, nav.records, mc), obs.table)
     fixes: list[EpochFix | None] = []
     last: EpochFix | None = None
     start = _initial_guess(obs.header.approx_position_e)
     for i, epoch in enumerate(epochs):
         recent = last is not None and epoch.gps_time_s - last.gps_time_s <= cfg.max_gap_s
-        fix = _solve_epoch(epoch, ctx, last.r_e if recent else start)
+        fix = _solve_epoch(epoch, ctx, last.r_e if recent else start) if len(epoch) else None
         fixes.append(fix)
         last = fix if fix is not None else last
         if progress is not None:

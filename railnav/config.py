@@ -193,12 +193,16 @@ class SensorData:
         GNSS observations; None for pure dead reckoning on the track.
     nav : gnss_obs.RinexNav or None
         Broadcast navigation data (required with `obs`).
+    augmentation : gnss_obs.Augmentation or None
+        Base-station corrections and precise orbits for the GNSS rows
+        (`gnss_obs.augment`; its carrier-smoothed observations are `obs`).
     """
 
     start_gps_time_s: float
     imu: Imu | None = None
     obs: RinexObs | None = None
     nav: RinexNav | None = None
+    augmentation: object = None
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.start_gps_time_s):

@@ -13,6 +13,8 @@ import logging
 from pathlib import Path
 
 from railnav.commands.support import (
+    add_augmentation_arguments,
+    augmentation_requested,
     nonnegative_float,
     nonnegative_int,
     outage_window,
@@ -109,6 +111,7 @@ def register(subparsers) -> None:
                         "baro_h_m): bias estimated against the track height, GNSS heights "
                         "checked against the calibrated baro (baro.csv, baro_gnss.csv, "
                         "summary.json 'baro'); one track only")
+    add_augmentation_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
@@ -136,7 +139,7 @@ def handler(args: argparse.Namespace) -> int:
                                 nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
                                 imu_grade=args.imu_grade, outages=tuple(args.outage or ()),
-                                window=args.window, progress=progress)
+                                window=args.window, progress=progress, **_augmentation(args))
         else:
             scenario = get_scenario(_scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
@@ -238,12 +241,27 @@ def _check_flags(args: argparse.Namespace) -> None:
                           "given")
     if several and args.baro is not None:
         raise ConfigError("--baro works with one track")
+    if augmentation_requested(args) and (args.obs is None or several):
+        raise ConfigError("--base/--base-position/--smooth-window-s/--sp3: need --obs and one "
+                          "track")
+    if args.base_position is not None and args.base is None:
+        raise ConfigError("--base-position needs --base")
     if not several and args.crossing_rate_per_s is not None:
         raise ConfigError("--crossing-rate-per-s: only with several tracks")
     if several and not kind.banks:
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
         raise ConfigError(f"several tracks run the {banked} filter, not --filter "
                           f"{args.filter}")
+
+
+def _augmentation(args: argparse.Namespace) -> dict:
+    """`run_files` keywords of ``--base ... --sp3``."""
+    from gnss_obs.smoothing import SmoothingConfig
+
+    return {"base_path": args.base, "base_lat_lon_h": args.base_position,
+            "smoothing": (SmoothingConfig(window_s=args.smooth_window_s)
+                          if args.smooth_window_s else None),
+            "sp3_paths": tuple(args.sp3), "max_correction_age_s": args.max_age_s}
 
 
 def _seed(args: argparse.Namespace) -> int:

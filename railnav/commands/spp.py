@@ -1,7 +1,10 @@
-"""``railnav spp --obs OBS --nav NAV [--systems GE] [--ref CSV] [--out DIR]``.
+"""``railnav spp --obs OBS --nav NAV [--systems GE] [--ref CSV] [--base BASE.rnx
+[--base-position LAT,LON,H] [--max-age-s S]] [--smooth-window-s S] [--sp3 SP3 ...]
+[--out DIR]``.
 
-Thin layer over `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the RINEX files, builds
-an `SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
+Thin layer over `gnss_obs.dgps.augment` (carrier smoothing, base corrections, precise
+orbits) and `gnss_obs.spp.solve_spp` (STYLE.md §2.11): reads the files, builds an
+`SppConfig`, writes ``DIR/spp.csv`` (columns of `gnss_obs.spp_result`) and
 ``DIR/spp.png``, prints a summary and, with ``--ref``, the accuracy against the reference
 (`railnav.evaluation.spp_accuracy`).
 """
@@ -17,7 +20,11 @@ from gnss_obs.measurements import IONOSPHERE_MODELS, MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.spp import SppConfig, solve_spp
-from railnav.commands.support import progress_bar
+from railnav.commands.support import (
+    add_augmentation_arguments,
+    progress_bar,
+    read_augmentation,
+)
 from railnav.errors import ConfigError
 from railnav.evaluation.spp_accuracy import (
     accuracy_summary,
@@ -33,6 +40,9 @@ log = logging.getLogger(__name__)
 
 #: CSV float format: 12 significant digits (0.1 mm in ECEF-sized numbers, 1e-10 deg).
 FLOAT_FORMAT = "%.12g"
+#: ``gps_time_s`` is written with 6 decimals (1 µs): 12 significant digits of a GPS time
+#: (~1.3e9 s) would be 10 ms, coarser than receivers' sub-ms epoch offsets (issue 16).
+TIME_FORMAT = "{:.6f}"
 
 
 def register(subparsers) -> None:
@@ -54,6 +64,7 @@ def register(subparsers) -> None:
                    help="flag faulty epochs but do not exclude satellites")
     p.add_argument("--ref", metavar="CSV",
                    help="reference trajectory: print RMS/95 %% errors against it")
+    add_augmentation_arguments(p)
     p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
     p.set_defaults(func=handler)
 
@@ -74,15 +85,19 @@ def handler(args: argparse.Namespace) -> int:
     obs = read_rinex_obs(args.obs)
     nav = read_rinex_nav(args.nav)
     reference = read_reference_trajectory(args.ref) if args.ref else None
+    aug = read_augmentation(args, obs, nav, config.measurement)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     with progress_bar("spp", enabled=not args.quiet) as progress:
-        result = solve_spp(obs, nav, config, progress=progress)
+        result = solve_spp(aug.obs, nav, config, corrections=aug.corrections,
+                           max_correction_age_s=aug.max_age_s, precise=aug.precise,
+                           progress=progress)
     frame = result.to_frame()
     errors = spp_errors(frame, reference) if reference is not None else None
-    atomic_write_csv(out / "spp.csv", frame, float_format=FLOAT_FORMAT)
+    atomic_write_csv(out / "spp.csv", frame.assign(gps_time_s=frame["gps_time_s"].map(
+        TIME_FORMAT.format)), float_format=FLOAT_FORMAT)
     plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
-    for line in _summary(frame, config):
+    for line in _summary(frame, config, args):
         print(line)
     if errors is not None:
         for line in accuracy_summary(errors).lines():
@@ -90,9 +105,13 @@ def handler(args: argparse.Namespace) -> int:
     return 0
 
 
-def _summary(frame, config: SppConfig) -> list[str]:
+def _summary(frame, config: SppConfig, args: argparse.Namespace) -> list[str]:
     fixed = frame[frame["fix_ok"]]
-    return [f"systems              {config.measurement.systems} "
+    mode = ("DGNSS (base " + Path(args.base).name + ")" if args.base else "single point")
+    mode += f", code smoothed over {args.smooth_window_s:g} s" if args.smooth_window_s else ""
+    mode += ", precise orbits (SP3)" if args.sp3 else ", broadcast orbits"
+    return [f"mode                 {mode}",
+            f"systems              {config.measurement.systems} "
             f"(ionosphere: {config.measurement.ionosphere})",
             f"epochs               {len(frame)} ({len(fixed)} with a fix, "
             f"{int(frame['velocity_ok'].sum())} with a velocity)",

@@ -7,9 +7,11 @@ import sys
 from collections.abc import Callable, Iterator
 
 from gnss_obs.sim_events import Outage
+from railnav.errors import ConfigError
 
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
-           "nonnegative_int", "outage_window"]
+           "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
+           "augmentation_requested", "read_augmentation"]
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
@@ -95,3 +97,66 @@ def outage_window(text: str) -> Outage:
             abs(x) < float("inf") for x in (start_s, duration_s)):
         raise argparse.ArgumentTypeError(f"{text!r}: need START >= 0 and DURATION > 0 seconds")
     return Outage(start_s, duration_s)
+
+
+def lat_lon_h(text: str) -> tuple[float, float, float]:
+    """argparse type for ``LAT,LON,H``: latitude and longitude in degrees, height in m."""
+    try:
+        lat_deg, lon_deg, h_m = (float(x) for x in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not LAT,LON,H (degrees, degrees, metres)") from None
+    if not (-90.0 <= lat_deg <= 90.0 and -180.0 <= lon_deg <= 360.0
+            and abs(h_m) < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: need -90 <= LAT <= 90, "
+                                         "-180 <= LON <= 360 and a finite H")
+    return lat_deg, lon_deg, h_m
+
+
+def add_augmentation_arguments(p) -> None:
+    """``--base``, ``--base-position``, ``--max-age-s``, ``--smooth-window-s``, ``--sp3``
+    (shared by ``spp`` and ``run``)."""
+    p.add_argument("--base", metavar="BASE.rnx",
+                   help="base-station RINEX observations: code-differential (DGNSS) "
+                        "corrections per satellite and epoch")
+    p.add_argument("--base-position", type=lat_lon_h, metavar="LAT,LON,H",
+                   help="base antenna latitude, longitude (degrees) and ellipsoidal height "
+                        "(m); default: the base header's APPROX POSITION XYZ")
+    p.add_argument("--max-age-s", type=nonnegative_float, default=None,
+                   help="oldest base correction applied, s (default: gnss_obs.DgpsConfig's, "
+                        "30 s as RTKLIB's maxage)")
+    p.add_argument("--smooth-window-s", type=positive_float, metavar="S",
+                   help="carrier-smooth the code (Hatch filter, cycle slips from LLI, "
+                        "geometry-free, Melbourne-Wuebbena, Doppler) over up to S seconds")
+    p.add_argument("--sp3", nargs="+", default=[], metavar="SP3",
+                   help="precise orbit/clock files instead of the broadcast ephemeris")
+
+
+def augmentation_requested(args: argparse.Namespace) -> bool:
+    """True when any of ``--base``, ``--base-position``, ``--smooth-window-s``, ``--sp3``."""
+    return bool(args.base or args.base_position is not None or args.smooth_window_s
+                or args.sp3)
+
+
+def read_augmentation(args: argparse.Namespace, obs, nav, measurement):
+    """`gnss_obs.dgps.augment` from the parsed ``--base ... --sp3`` arguments.
+
+    Raises
+    ------
+    railnav.errors.ConfigError
+        ``--base-position`` without ``--base``.
+    """
+    from gnss_obs.dgps import DgpsConfig, augment
+    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.smoothing import SmoothingConfig
+    from gnss_obs.sp3 import read_sp3
+
+    if args.base_position is not None and not args.base:
+        raise ConfigError("--base-position needs --base")
+    dgps = DgpsConfig() if args.max_age_s is None else DgpsConfig(max_age_s=args.max_age_s)
+    return augment(
+        obs, nav, measurement, base_obs=read_rinex_obs(args.base) if args.base else None,
+        base_lat_lon_h=args.base_position, dgps=dgps,
+        smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
+                   if args.smooth_window_s else None),
+        sp3=[read_sp3(p) for p in args.sp3])

@@ -4,7 +4,10 @@ Shared by ``railnav spp --ref``, the notebooks and ``benchmarks/bench_spp_real.p
 that every figure is computed one way:
 
 * position errors in the local East-North-Up frame of the reference point, at the epochs
-  both have (matched on ``gps_time_s`` to 1 ms);
+  both have: each solution epoch is matched to the nearest reference epoch within
+  `MATCH_TOLERANCE_S` (receivers such as u-blox tag epochs a few ms off whole seconds,
+  while references sit on whole seconds); the reference is not interpolated, so a match
+  at offset δt adds up to ``speed × δt`` (≤ 0.2 m at 10 m/s) to the error;
 * horizontal RMS and 95th percentile, vertical RMS;
 * speed error: |v| of the solution minus the reference speed from **central differences**
   of the reference positions ``(r[k+1] - r[k-1]) / (t[k+1] - t[k-1])`` (only where both
@@ -29,11 +32,12 @@ from trackmodel.errors import finite_column
 from trackmodel.files import atomic_write
 
 __all__ = ["read_reference_trajectory", "spp_errors", "SppAccuracy", "accuracy_summary",
-           "plot_spp", "MAX_DIFF_GAP_S"]
+           "plot_spp", "MAX_DIFF_GAP_S", "MATCH_TOLERANCE_S", "match_epochs"]
 
 #: Largest time step (s) on either side of an epoch for a central-difference speed.
 MAX_DIFF_GAP_S = 1.5
-_MATCH_DECIMALS = 3  # epochs are matched on gps_time_s rounded to 1 ms
+#: Largest |t_solution - t_reference| for a match, s (module docstring).
+MATCH_TOLERANCE_S = 0.02
 _PROJECT_COLUMNS = ("gps_time_s", "lat_deg", "lon_deg", "h_m")
 _WEEK_COLUMNS = ("week", "sow", "lat_deg", "lon_deg", "h_m")
 
@@ -88,6 +92,22 @@ def _reference_velocity(t: np.ndarray, r_e: np.ndarray) -> np.ndarray:
     return v
 
 
+def match_epochs(t_solution_s: np.ndarray, t_reference_s: np.ndarray, *,
+                 tolerance_s: float = MATCH_TOLERANCE_S) -> tuple[np.ndarray, np.ndarray]:
+    """Indices ``(i_sol, i_ref)`` pairing each solution epoch with the nearest reference
+    epoch when they are at most `tolerance_s` apart (reference sorted by time)."""
+    t_sol = np.asarray(t_solution_s, dtype=float)
+    t_ref = np.asarray(t_reference_s, dtype=float)
+    if t_ref.size == 0 or t_sol.size == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    right = np.clip(np.searchsorted(t_ref, t_sol), 1, max(t_ref.size - 1, 1))
+    left = right - 1
+    nearest = np.where(np.abs(t_ref[np.minimum(right, t_ref.size - 1)] - t_sol)
+                       < np.abs(t_ref[left] - t_sol), np.minimum(right, t_ref.size - 1), left)
+    ok = np.abs(t_ref[nearest] - t_sol) <= tolerance_s
+    return np.flatnonzero(ok), nearest[ok]
+
+
 def spp_errors(solution: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
     """Per-epoch errors of an ``spp.csv`` table against a reference.
 
@@ -104,20 +124,18 @@ def spp_errors(solution: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
     pandas.DataFrame
         ``gps_time_s, east_m, north_m, up_m, horizontal_m, speed_error_mps`` (NaN where the
         solution has no fix or no velocity, or the reference speed is unknown), for the
-        epochs present in both.
+        solution epochs with a reference epoch within `MATCH_TOLERANCE_S`.
     """
     ref = reference.copy()
     lat, lon = np.deg2rad(ref["lat_deg"].to_numpy()), np.deg2rad(ref["lon_deg"].to_numpy())
     r_ref = geodetic_to_ecef(lat, lon, ref["h_m"].to_numpy())
     speed_ref = np.linalg.norm(_reference_velocity(ref["gps_time_s"].to_numpy(), r_ref), axis=1)
-    key_ref = np.round(ref["gps_time_s"].to_numpy(), _MATCH_DECIMALS)
-    key_sol = np.round(solution["gps_time_s"].to_numpy(), _MATCH_DECIMALS)
-    common, i_sol, i_ref = np.intersect1d(key_sol, key_ref, return_indices=True)
+    i_sol, i_ref = match_epochs(solution["gps_time_s"].to_numpy(), ref["gps_time_s"].to_numpy())
     sol = solution.iloc[i_sol]
     r_sol = geodetic_to_ecef(np.deg2rad(sol["lat_deg"].to_numpy()),
                              np.deg2rad(sol["lon_deg"].to_numpy()), sol["h_m"].to_numpy())
     enu = np.einsum("nji,nj->ni", C_n_e(lat[i_ref], lon[i_ref]), r_sol - r_ref[i_ref])
-    speed_error = np.full(common.size, np.nan)
+    speed_error = np.full(i_sol.size, np.nan)
     if {"v_east_mps", "v_north_mps", "v_up_mps"} <= set(sol.columns):
         v = sol[["v_east_mps", "v_north_mps", "v_up_mps"]].to_numpy()
         speed_error = np.linalg.norm(v, axis=1) - speed_ref[i_ref]

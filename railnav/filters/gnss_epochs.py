@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from gnss_obs.dgps import apply_corrections
 from gnss_obs.epoch import (
     EpochData,
     PreparedEpoch,
@@ -67,7 +68,7 @@ class GnssEpochs:
     @classmethod
     def from_files(cls, obs: RinexObs, nav: RinexNav, config: MeasurementConfig, *,
                    start_gps_time_s: float, end_s: float, outages=(),
-                   elevation_mask_deg: float = 10.0) -> "GnssEpochs":
+                   elevation_mask_deg: float = 10.0, augmentation=None) -> "GnssEpochs":
         """Select the epochs of ``[0, end_s]`` outside the outages.
 
         Parameters
@@ -81,6 +82,9 @@ class GnssEpochs:
         outages : sequence of gnss_obs.Outage (or (start_s, duration_s) pairs)
             Windows whose epochs are dropped.
         elevation_mask_deg : float
+        augmentation : gnss_obs.Augmentation, optional
+            Base corrections (code-differential rows: uncorrected satellites are left
+            out) and precise orbits (`gnss_obs.augment`).
         """
         table = obs.table
         t_rel = table["gps_time_s"].to_numpy() - start_gps_time_s
@@ -89,13 +93,19 @@ class GnssEpochs:
         channels = glonass_channels(obs.header.glonass_slots, nav.records) \
             if "R" in config.systems else None
         meas = select_measurements(table, config, glonass_channels=channels)
+        precise = None
+        if augmentation is not None:
+            precise = augmentation.precise
+            if augmentation.corrections is not None:
+                meas = apply_corrections(meas, augmentation.corrections,
+                                         max_age_s=augmentation.max_age_s)
         epochs = split_epochs(meas, nav.records, config) if len(meas) else []
         alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
         klobuchar = None if alpha is None or beta is None else (alpha, beta)
         times = np.array([e.gps_time_s - start_gps_time_s for e in epochs], dtype=float)
         return cls(epochs=epochs, time_s=times, config=config,
                    elevation_mask_rad=float(np.deg2rad(elevation_mask_deg)), klobuchar=klobuchar,
-                   transmit=transmit_states_batch(epochs, config))
+                   transmit=transmit_states_batch(epochs, config, precise=precise))
 
     def __len__(self) -> int:
         return len(self.epochs)

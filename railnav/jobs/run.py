@@ -149,7 +149,9 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
               start_gps_time_s: float | None = None, config: NavigatorConfig | None = None,
               filter: str = DEFAULT_FILTER, systems: str | None = None,
               imu_grade: str | None = None, outages=(),
-              window: tuple[float, float] | None = None,
+              window: tuple[float, float] | None = None, base_path=None,
+              base_lat_lon_h: tuple[float, float, float] | None = None, smoothing=None,
+              sp3_paths=(), max_correction_age_s: float | None = None,
               progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Filter sensor files on a track.
 
@@ -179,14 +181,46 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
     outages : sequence of (start_s, duration_s)
         Windows whose GNSS data are ignored (s from the trip start).
     window : (start_s, end_s), optional
+    base_path : path, optional
+        Base-station RINEX observations: code-differential pseudorange rows
+        (`gnss_obs.augment`).
+    base_lat_lon_h : (lat_deg, lon_deg, h_m), optional
+        Base position (default: its header's APPROX POSITION XYZ).
+    smoothing : gnss_obs.SmoothingConfig, optional
+        Carrier-smooth the code (rover and base).
+    sp3_paths : sequence of path
+        Precise orbit/clock files for the GNSS rows.
+    max_correction_age_s : float, optional
+        Oldest base correction applied (default `gnss_obs.DgpsConfig`'s).
     progress : callable(done, total), optional
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      start_gps_time_s=start_gps_time_s, config=config,
                                      filter=filter, systems=systems, imu_grade=imu_grade)
+    if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
+        data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
+                          smoothing=smoothing, sp3_paths=sp3_paths,
+                          max_correction_age_s=max_correction_age_s)
     result = navigate(track, data, config, outages=outages, progress=progress)
     summary = run_summary(result, track, None, window, tuple(outages), {})
     return RunOutcome(result, track, summary, data=data)
+
+
+def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat_lon_h,
+               smoothing, sp3_paths, max_correction_age_s) -> SensorData:
+    """`data` with carrier-smoothed observations, base corrections and precise orbits."""
+    from gnss_obs.dgps import DgpsConfig, augment
+    from gnss_obs.sp3 import read_sp3
+
+    if data.obs is None:
+        raise ConfigError("base corrections, smoothing and SP3 need GNSS observations (--obs)")
+    dgps = DgpsConfig() if max_correction_age_s is None else DgpsConfig(
+        max_age_s=max_correction_age_s)
+    aug = augment(data.obs, data.nav, config.measurement,
+                  base_obs=read_rinex_obs(base_path) if base_path is not None else None,
+                  base_lat_lon_h=base_lat_lon_h, dgps=dgps, smoothing=smoothing,
+                  sp3=[read_sp3(p) for p in sp3_paths])
+    return replace(data, obs=aug.obs, augmentation=aug)
 
 
 def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,

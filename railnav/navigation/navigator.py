@@ -151,7 +151,8 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> Tr
         gnss = GnssEpochs.from_files(data.obs, data.nav, config.measurement,
                                      start_gps_time_s=data.start_gps_time_s,
                                      end_s=float(samples_t[-1]), outages=outages,
-                                     elevation_mask_deg=config.elevation_mask_deg)
+                                     elevation_mask_deg=config.elevation_mask_deg,
+                                     augmentation=data.augmentation)
     epoch_times = gnss.time_s if gnss is not None else np.zeros(0)
     samples_t, samples_u = _insert_samples(samples_t, samples_u, epoch_times)
     return TripSamples(samples_t, samples_u, gnss, epoch_times)

@@ -45,7 +45,7 @@ def test_time_systems():
     assert leap_seconds_at(calendar_to_gps_time_s(2016, 6, 1)) == 17
     assert to_gps_time_s(t, "BDT") == t + 14.0          # BDT = GPST - 14 s
     assert to_gps_time_s(t, "UTC") == t + 18.0
-    assert to_gps_time_s(t, "GLO") == t - 3 * 3600 + 18.0
+    assert to_gps_time_s(t, "GLO") == t + 18.0          # RINEX "GLO" tags are UTC
     for system in ("GPS", "GAL", "BDT", "UTC", "GLO"):
         assert from_gps_time_s(to_gps_time_s(t, system), system) == pytest.approx(t, abs=1e-9)
     with pytest.raises(ValueError, match="unknown time system"):
@@ -58,3 +58,15 @@ def test_constants_against_icd_values():
     assert wavelength_m("R", 1, glonass_channel=-7) == pytest.approx(299792458 / 1598.0625e6)
     with pytest.raises(KeyError):
         wavelength_m("R", 1)
+
+
+def test_issue16_glo_time_system_is_utc():
+    """RINEX 3.04 §3.2 / Table A1: the ``GLO`` time system of RINEX files is UTC (GLONASS
+    time runs on UTC(SU); the +3 h Moscow offset is not in RINEX time tags), and RTKLIB's
+    rinex.c converts GLO tags with utc2gpst. A RINEX tag 2020-11-29 12:40:00 GLO is therefore
+    12:40:18 GPST (18 leap seconds, IERS Bulletin C), not 09:40:18."""
+    label = calendar_to_gps_time_s(2020, 11, 29, 12, 40, 0.0)
+    expected = calendar_to_gps_time_s(2020, 11, 29, 12, 40, 18.0)
+    assert to_gps_time_s(label, "GLO") == expected
+    assert to_gps_time_s(label, "GLO", leap_seconds=18) == expected
+    assert from_gps_time_s(expected, "GLO") == label

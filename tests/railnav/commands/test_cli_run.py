@@ -138,6 +138,11 @@ def test_several_tracks_from_simulated_files(tmp_path):
     (["run", PAPER, "--start-gps-time-s", "1e9"], "--start-gps-time-s"),
     (["run", PAPER, "--filter", "gnss-only", "--imu-grade", "mems"], "--imu-grade"),
     (["run", PAPER, "--crossing-rate-per-s", "1e-3"], "several tracks"),
+    (["run", PAPER, "--base", "b.rnx"], "--base"),
+    (["run", PAPER, "--obs", "o.rnx", "--nav", "n.rnx", "--base-position", "41,2,80"],
+     "--base-position needs --base"),
+    (["run", DOUBLE_A, DOUBLE_B, "--obs", "o.rnx", "--nav", "n.rnx", "--smooth-window-s",
+      "100"], "one track"),
 ])
 def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
     """Issue 12 (honest CLI): a flag that cannot apply to the inputs given is a one-line
@@ -160,3 +165,35 @@ def test_recorded_imu_needs_the_grade_the_filter_assumes(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and str(imu) in err and "--imu-grade" in err and "\n" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_issue16_gnss_only_with_dgps_and_smoothing(tmp_path):
+    """``railnav run --filter gnss-only --base --smooth-window-s`` on the real drive's shipped
+    window: the pseudorange rows are code-differential, so every (epoch, satellite) row is
+    one the base file tracks on the same signal (GPS L1 C/A code, read from the base file
+    itself), and their innovations differ from the raw run's on the same rows (the
+    corrections are metres). (Accuracy gain: none measured here, see
+    benchmarks/results/dgps.json.)"""
+    from pathlib import Path
+
+    from gnss_obs.rinex_obs import read_rinex_obs
+
+    gnss = Path(__file__).resolve().parents[3] / "data" / "gnss"   # this checkout's data
+    track = str(gnss.parent / "tracks" / "barcelona_drive.csv")
+    common = ["-q", "run", track, "--obs", str(gnss / "rover_obs_1240.rnx"), "--nav",
+              str(gnss / "broadcast_nav.rnx"), "--filter", "gnss-only", "--systems", "G",
+              "--no-plots"]
+    base_table = read_rinex_obs(gnss / "base_obs_1240.rnx").table
+    code = base_table[(base_table["signal"] == "1C") & base_table["pseudorange_m"].notna()]
+    at_base = set(zip(code["gps_time_s"].round(3), code["sv"]))
+    rows = {}
+    for name, extra in (("raw", []), ("dgps", ["--base", str(gnss / "base_obs_1240.rnx"),
+                                               "--smooth-window-s", "100"])):
+        assert main([*common, *extra, "--out", str(tmp_path / name)]) == 0
+        inn = pd.read_csv(tmp_path / name / "innovations.csv")
+        inn = inn[inn["kind"] == "pseudorange"]
+        rows[name] = inn.assign(t=inn["gps_time_s"].round(3)).set_index(["t", "sv"])
+    assert len(rows["dgps"]) and set(rows["dgps"].index) <= at_base
+    both = rows["dgps"].index.intersection(rows["raw"].index)
+    change = (rows["dgps"].loc[both, "innovation"] - rows["raw"].loc[both, "innovation"]).abs()
+    assert len(both) > 100 and change.median() > 0.1
