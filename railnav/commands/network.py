@@ -1,0 +1,182 @@
+"""``railnav network build|info|routes|run``: track networks from the command line.
+
+Thin layer over `trackmodel.network_io` (``build``: GeoJSON netelements + netrelations
+fitted into a network folder; ``info``) and `railnav.jobs.network` (``routes``: the ways a
+train may take from a start; ``run``: which of them it took, on a simulated trip or on
+sensor files, written like ``railnav run A.csv B.csv``).
+"""
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+from pathlib import Path
+
+from railnav.commands.support import nonnegative_int, positive_float, progress_bar
+from railnav.errors import ConfigError
+
+__all__ = ["register", "start_position", "DEFAULT_OUT"]
+
+#: Output directory of ``network run`` when --out is not given.
+DEFAULT_OUT = "railnav-network-run"
+#: Speed of a simulated trip on a network, m/s (constant; the `curvy` scenario's sensors).
+SIM_SPEED_MPS = 20.0
+#: A simulated trip without --duration-s runs this share of the shortest route.
+SIM_ROUTE_SHARE = 0.9
+
+
+def _scenario(network, args):
+    """The `curvy` scenario's sensors at a constant speed, for --duration-s or 90 % of the
+    shortest route ahead (a trip must end on every route it might take)."""
+    from railnav.simulation.profiles import constant_speed
+    from railnav.simulation.scenarios import get_scenario
+    duration = args.duration_s
+    if duration is None:
+        shortest = min(r.length_m for r in network.routes_ahead(args.start,
+                                                                horizon_m=args.horizon_m))
+        duration = SIM_ROUTE_SHARE * shortest / args.speed_mps
+    return replace(get_scenario("curvy"), profile=constant_speed(args.speed_mps),
+                   duration_s=duration, outages=())
+
+
+def start_position(text: str):
+    """argparse type for ``ELEMENT:S_M[:+|-]``: a netelement, the distance along it (m) and
+    the direction of travel (``+``: increasing s, the default; ``-``: decreasing)."""
+    from trackmodel.network import NetPosition
+    parts = text.split(":")
+    try:
+        if len(parts) not in (2, 3) or not parts[0]:
+            raise ValueError
+        direction = {"+": 1, "-": -1}[parts[2] if len(parts) == 3 else "+"]
+        return NetPosition(parts[0], float(parts[1]), direction)
+    except (ValueError, KeyError):
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not ELEMENT:S_M[:+|-] (e.g. 88_L_111:250:-)") from None
+
+
+def register(subparsers) -> None:
+    """Add the ``network`` subcommand and its own subcommands."""
+    p = subparsers.add_parser(
+        "network", help="track networks: build from GeoJSON, inspect, routes, which way",
+        description="Track networks of netelements joined by switches: fit a GeoJSON "
+                    "network (RINF topology layout) into a network folder, list it, list "
+                    "the routes a train may take from a start, and find the route it took.")
+    sub = p.add_subparsers(dest="network_command", metavar="ACTION", required=True)
+    b = sub.add_parser("build", help="fit a GeoJSON network into a network folder",
+                       description="Fit every netelement of a GeoJSON FeatureCollection "
+                                   "(LineString netelements, Point netrelations) and write "
+                                   "a network folder (elements.csv, connections.csv, "
+                                   "elements/*.csv).")
+    b.add_argument("geojson", metavar="NETWORK.geojson")
+    b.add_argument("--tol-m", type=positive_float, default=0.5,
+                   help="largest deviation of a netelement's points from its track, m "
+                        "(default 0.5)")
+    b.add_argument("--out", required=True, metavar="DIR", help="network folder to write")
+    b.set_defaults(func=_build)
+    i = sub.add_parser("info", help="netelements, joints and kinks of a network folder",
+                       description="Print the size of a network and its largest kinks.")
+    i.add_argument("network", metavar="DIR")
+    i.set_defaults(func=_info)
+    r = sub.add_parser("routes", help="the routes a train may take from a start",
+                       description="List every route through the switches ahead of a "
+                                   "start position, up to a horizon.")
+    _add_start(r)
+    r.set_defaults(func=_routes)
+    run = sub.add_parser("run", help="which route did the train take",
+                         description="One constrained filter per route ahead of the start "
+                                     "(a static bank): on a simulated trip along route "
+                                     "--true-route, or on sensor files (--imu, --obs "
+                                     "--nav). Writes what 'railnav run A.csv B.csv' writes.")
+    _add_start(run)
+    run.add_argument("--true-route", type=nonnegative_int, default=0, metavar="N",
+                     help="simulated trip: the route it takes, 0 = the first listed "
+                          "(default 0; the filters are not told)")
+    run.add_argument("--duration-s", type=positive_float, default=None,
+                     help="simulated trip: its duration, s (default: the scenario's)")
+    run.add_argument("--speed-mps", type=positive_float, default=SIM_SPEED_MPS,
+                     help=f"simulated trip: its constant speed, m/s (default "
+                          f"{SIM_SPEED_MPS:g})")
+    run.add_argument("--seed", type=nonnegative_int, default=0,
+                     help="simulated trip: random seed (default 0)")
+    run.add_argument("--imu", metavar="IMU.csv", help="IMU samples (sensor files)")
+    run.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
+    run.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
+    run.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
+    run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                     help=f"output directory (default {DEFAULT_OUT})")
+    run.set_defaults(func=_run)
+
+
+def _add_start(p) -> None:
+    from railnav.jobs.network import DEFAULT_HORIZON_M
+    p.add_argument("network", metavar="DIR", help="network folder (railnav network build)")
+    p.add_argument("--start", type=start_position, required=True,
+                   metavar="ELEMENT:S_M[:+|-]",
+                   help="where the train starts: netelement, distance along it (m), "
+                        "direction (+ increasing s, - decreasing; default +)")
+    p.add_argument("--horizon-m", type=positive_float, default=DEFAULT_HORIZON_M,
+                   help=f"how far ahead to follow the switches, m (default "
+                        f"{DEFAULT_HORIZON_M:g})")
+
+
+def _build(args: argparse.Namespace) -> int:
+    from trackmodel.network_io import build_network, read_network_geojson, write_network
+    source = read_network_geojson(args.geojson)
+    with progress_bar("fitting netelements", enabled=not args.quiet) as progress:
+        network = build_network(source, tol_m=args.tol_m, progress=progress)
+    write_network(network, args.out)
+    print(f"{args.out}/: {len(network.elements)} netelements, "
+          f"{sum(network.length_m(e) for e in network.elements) / 1000:.1f} km, "
+          f"{len(network.connections)} joints")
+    return 0
+
+
+def _info(args: argparse.Namespace) -> int:
+    from trackmodel.network_io import read_network
+    network = read_network(args.network)
+    kinks = network.kinks()
+    print(f"{args.network}: {len(network.elements)} netelements, "
+          f"{sum(network.length_m(e) for e in network.elements) / 1000:.1f} km; "
+          f"{len(network.connections)} joints, {len(kinks)} navigable "
+          f"({int(kinks['continuous'].sum()) if len(kinks) else 0} with a continuous tangent)")
+    for row in kinks.sort_values("kink_deg", ascending=False).head(5).itertuples():
+        print(f"  kink {row.kink_deg:6.2f} deg, gap {row.gap_m:.2f} m: {row.a}[{row.a_end}] "
+              f"- {row.b}[{row.b_end}]")
+    return 0
+
+
+def _routes(args: argparse.Namespace) -> int:
+    from railnav.jobs.network import route_name
+    from trackmodel.network_io import read_network
+    network = read_network(args.network)
+    network.length_m(args.start.element)          # an unknown element: one-line error
+    routes = network.routes_ahead(args.start, horizon_m=args.horizon_m)
+    for k, route in enumerate(routes):
+        print(f"{k}: {route.length_m:8.1f} m  {route_name(route)}")
+    return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    from railnav.jobs.network import run_files_network, run_simulated_network
+    from railnav.jobs.tracks import write_track_run
+    from trackmodel.network_io import read_network
+    network = read_network(args.network)
+    files = args.imu is not None or args.obs is not None
+    if files and (args.duration_s is not None or args.speed_mps != SIM_SPEED_MPS):
+        raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "
+                          "files there is none to shape")
+    out = Path(args.out)
+    with progress_bar("filters", enabled=not args.quiet) as progress:
+        if files:
+            run = run_files_network(network, args.start, horizon_m=args.horizon_m,
+                                    imu_path=args.imu, obs_path=args.obs, nav_path=args.nav,
+                                    progress=progress)
+        else:
+            scenario = _scenario(network, args)
+            run = run_simulated_network(network, args.start, scenario,
+                                        true_route=args.true_route, horizon_m=args.horizon_m,
+                                        seed=args.seed, progress=progress)
+    write_track_run(run, out, plots=not args.no_plots)
+    final = run.outcome.summary["track_probabilities"]
+    best = max(final, key=final.get)
+    print(f"{len(final)} routes -> {out}/; most probable at the end ({final[best]:.4f}): {best}")
+    return 0

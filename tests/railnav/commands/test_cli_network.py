@@ -1,0 +1,60 @@
+"""``railnav network build|info|routes|run`` (issue 13): files written, lines printed,
+one-line errors. References: the network file's own topology (the switch excerpt) and
+the route probabilities of `railnav.jobs.network` on the same simulated trip."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from railnav.cli import main
+from trackmodel.network_io import read_network
+
+NETWORKS = Path(__file__).resolve().parents[3] / "data" / "networks"
+BRUSSELS = str(NETWORKS / "brussels_airport")
+
+
+def test_build_and_info_from_geojson(tmp_path, capsys):
+    out = tmp_path / "net"
+    assert main(["-q", "network", "build", str(NETWORKS / "brussels_switch.geojson"),
+                 "--out", str(out)]) == 0
+    assert "3 netelements" in capsys.readouterr().out
+    net = read_network(out)
+    assert net.successors("88_L_9755", -1) == [("88_L_11801", -1), ("88_L_2014", -1)]
+    assert main(["network", "info", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "3 joints, 2 navigable" in text and "88_L_9755" in text
+
+
+def test_routes_are_listed(capsys):
+    assert main(["network", "routes", BRUSSELS, "--start", "88_L_111:1000:-",
+                 "--horizon-m", "2500"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert len(lines) == 3 and all("-88_L_111>" in line for line in lines)
+
+
+def test_run_identifies_the_route(tmp_path, capsys):
+    """Route 0 (via 88_L_154) diverges ~650 m from the others within the trip."""
+    out = tmp_path / "run"
+    assert main(["-q", "network", "run", BRUSSELS, "--start", "88_L_111:1000:-",
+                 "--horizon-m", "2500", "--true-route", "0", "--no-plots",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    probs = summary["track_probabilities"]
+    assert summary["true_track"] == "-88_L_111>-88_L_154>-88_L_7815"
+    assert probs[summary["true_track"]] > 0.99
+    assert (out / "track_probabilities.csv").is_file()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["network", "routes", BRUSSELS, "--start", "nope:1"], "no netelement 'nope'"),
+    (["network", "info", "missing-folder"], "missing-folder"),
+    (["network", "build", "missing.geojson", "--out", "x"], "missing.geojson"),
+    (["network", "run", BRUSSELS, "--start", "88_L_111:10", "--imu", "i.csv",
+      "--duration-s", "5"], "--duration-s"),
+])
+def test_bad_input_is_one_line_exit_2(tmp_path, capsys, argv, message):
+    assert main(["-q", *argv]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and message in err and "\n" not in err
