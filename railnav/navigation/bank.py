@@ -275,6 +275,9 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
         raise ConfigError(f"parallel-track identification runs a filter that can run in a "
                           f"bank ({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}"
                           f"), not {config.filter!r}")
+    if data.fixes is not None:
+        raise ConfigError("GNSS position fixes work with one track (a track bank runs on "
+                          "GNSS observations)")
     trip = trip_samples(data, config, outages=outages)
     filters = [make_filter(track, config, trip.gnss) for track in tracks]
     if callable(initial):
