@@ -1,0 +1,182 @@
+"""``railnav simulate --fixes-format`` and ``railnav run --fixes/--truth`` in-process: the
+files written, scoring against truth.csv / a trajectory / a fix file, scenario.json's
+outages honoured, real Belgian excerpts (a fix far off the track rejected), one-line
+errors."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from pyubx2 import GET, UBXMessage
+
+from railnav.cli import main
+from railnav.simulation.scenarios import TRACKS_DIR
+from tests.conftest import REPO
+
+PAPER = str(TRACKS_DIR / "paper2017.csv")
+BRUSSELS = REPO / "data" / "tracks" / "brussels"
+EXCERPTS = REPO / "data" / "fixes" / "brussels"
+#: A fix this far from the track is not used (the screen's gate is ~3.7σ of
+#: √(σ_fix² + 1.5²) m across, ≤ 10 m even for a single-point fix).
+FAR_M = 50.0
+#: Within this a single-point fix (σ 2.5 m, + 1.5 m for the track) is ~2σ across: used.
+NEAR_M = 5.0
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """paper2017 for 40 s with a GNSS outage 10-15 s, NMEA fixes at 1 Hz."""
+    sim = tmp_path_factory.mktemp("sim")
+    assert main(["-q", "simulate", PAPER, "--duration-s", "40", "--outage", "10:5",
+                 "--fixes-format", "nmea", "--fixes-quality", "dgps=1", "--no-gnss",
+                 "--seed", "3", "--out", str(sim)]) == 0
+    return sim
+
+
+def test_simulate_writes_nmea_fixes_and_records_them(simulated):
+    meta = json.loads((simulated / "scenario.json").read_text())
+    assert meta["fixes"]["file"] == "fixes.nmea" and meta["fixes"]["format"] == "nmea"
+    lines = (simulated / "fixes.nmea").read_text().splitlines()
+    gga = [line for line in lines if line.startswith("$GPGGA")]
+    # 1 Hz over 0..40 s without the 5 s of the outage: 41 - 5 fixes
+    assert len(gga) == meta["fixes"]["count"] == 36
+    assert all(line.split(",")[6] == "2" for line in gga)      # GGA quality 2: DGPS
+
+
+def test_fix_only_run_finds_truth_and_outages(simulated, tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["-q", "run", PAPER, "--fixes", str(simulated / "fixes.nmea"),
+                 "--out", str(out)]) == 0
+    for name in ("estimates.csv", "innovations.csv", "summary.json", "errors.csv",
+                 "errors.png", "track.png"):
+        assert (out / name).is_file(), name
+    est = pd.read_csv(out / "estimates.csv")
+    assert list(est.columns[:4]) == ["time_s", "gps_time_s", "timestamp", "s_m"]
+    assert est["timestamp"].iloc[0].endswith("Z") and est["time_s"].iloc[0] == 0.0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["filter"] == "gnss-only" and summary["outages"] == [[10.0, 5.0]]
+    assert summary["reference"]["source"] == "truth"
+    assert summary["errors"]["outages"][0]["start_s"] == 10.0
+    inn = pd.read_csv(out / "innovations.csv")
+    assert not ((inn["time_s"] >= 10) & (inn["time_s"] < 15)).any()
+    assert set(inn["kind"]) == {"fix_along", "fix_cross", "fix_up", "fix_speed"}
+    assert "GNSS fixes" in capsys.readouterr().out
+
+
+def test_truth_as_a_reference_trajectory(simulated, tmp_path):
+    """The truth rewritten as gps_time_s, lat, lon, h: the along-track errors equal those
+    against truth.csv where both are given (same positions, same track)."""
+    meta = json.loads((simulated / "scenario.json").read_text())
+    truth = pd.read_csv(simulated / "truth.csv")
+    ref = pd.DataFrame({"gps_time_s": truth["time_s"] + meta["scenario"]["start_gps_time_s"],
+                        "lat_deg": truth["lat_deg"], "lon_deg": truth["lon_deg"],
+                        "h_m": truth["h_m"]})
+    ref.to_csv(tmp_path / "ref.csv", index=False, float_format="%.12f")
+    runs = {}
+    for name, extra in (("truth", []), ("trajectory", ["--truth", str(tmp_path / "ref.csv")])):
+        assert main(["-q", "run", PAPER, "--fixes", str(simulated / "fixes.nmea"),
+                     "--no-plots", *extra, "--out", str(tmp_path / name)]) == 0
+        runs[name] = pd.read_csv(tmp_path / name / "errors.csv")
+    assert json.loads((tmp_path / "trajectory" / "summary.json").read_text())[
+        "reference"]["source"] == "trajectory"
+    ok = runs["trajectory"]["along_track_m"].notna()
+    assert ok.mean() > 0.9
+    np.testing.assert_allclose(runs["trajectory"]["along_track_m"][ok],
+                               runs["truth"]["along_track_m"][ok], atol=1e-4)   # 0.1 mm
+
+
+def test_imu_and_csv_fixes_run_the_constrained_filter(tmp_path):
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", PAPER, "--duration-s", "20", "--fixes-format", "csv",
+                 "--no-gnss", "--out", str(sim)]) == 0
+    out = tmp_path / "run"
+    assert main(["-q", "run", PAPER, "--imu", str(sim / "imu.csv"), "--fixes",
+                 str(sim / "fixes.csv"), "--no-plots", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["filter"] == "constrained" and summary["statistics"]["fix_epochs"] == 21
+    assert "timestamp" in pd.read_csv(out / "estimates.csv", nrows=1).columns
+
+
+def test_belgian_excerpt_scored_against_its_fixed_rows(tmp_path):
+    log = EXCERPTS / "log_28876_L36-B_excerpt.csv"
+    out = tmp_path / "b"
+    assert main(["-q", "run", str(BRUSSELS / "log_28876_L36-B.csv"), "--fixes", str(log),
+                 "--truth", str(log), "--no-plots", "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    raw = pd.read_csv(log)
+    assert summary["reference"]["candidates"] == (raw["position_type"] == "NARROW_INT3").sum()
+    assert summary["errors"]["all"]["along_track_m"]["rms"] is not None
+    est = pd.read_csv(out / "estimates.csv")
+    assert est["timestamp"].iloc[0] == raw["timestamp"].iloc[0] + ".000"[
+        len(raw["timestamp"].iloc[0]) - 19:]      # ISO to the ms, no zone, as the file
+
+
+def test_belgian_fixes_far_off_the_track_are_rejected(tmp_path):
+    """log_29083: the rows far from the track (projection, a second method) are all
+    rejected by the fault screen; the single-point rows within `NEAR_M` mostly used."""
+    from gnss_obs.fixes.read import read_fixes
+    from trackmodel.io import read_track
+    log, track = EXCERPTS / "log_29083_L36-A_excerpt.csv", BRUSSELS / "log_29083_L36-A.csv"
+    out = tmp_path / "d"
+    assert main(["-q", "run", str(track), "--fixes", str(log), "--no-plots",
+                 "--out", str(out)]) == 0
+    fixes = read_fixes(log).table
+    proj = read_track(track).project(np.radians(fixes["lat_deg"]), np.radians(fixes["lon_deg"]))
+    offset = pd.Series(np.hypot(proj.cross_track_m, proj.along_m),
+                       index=fixes["gps_time_s"].round(3))
+    inn = pd.read_csv(out / "innovations.csv")
+    along = inn[inn["kind"] == "fix_along"].set_index(inn["gps_time_s"].round(3)
+                                                      [inn["kind"] == "fix_along"])
+    far = offset[offset > FAR_M].index.intersection(along.index)
+    near = offset[offset < NEAR_M].index.intersection(along.index)
+    assert len(far) > 20 and (along.loc[far, "status"] == "rejected").all()
+    assert len(near) > 20 and (along.loc[near, "status"] == "used").mean() > 0.9
+
+
+def _ubx_without_pvt(path):
+    path.write_bytes(UBXMessage("NAV", "NAV-STATUS", GET, iTOW=1000).serialize())
+    return path
+
+
+@pytest.mark.parametrize("make, extra, message", [
+    (lambda p: (p.write_text("$GPGGA,1*00\n"), p)[1], [], "bad checksum"),
+    (_ubx_without_pvt, [], "no NAV-PVT"),
+    (None, ["--fix-sigma", "single=4"], "--fix-sigma: only with --fixes"),
+    (lambda p: (p.write_text("gps_time_s,lat_deg,lon_deg\n1,50,4\n2,50,4\n"), p)[1],
+     ["--filter", "unconstrained"], "needs --imu"),
+    (lambda p: (p.write_text("gps_time_s,lat_deg,lon_deg\n1,50,4\n2,50,4\n"), p)[1],
+     ["--fix-sigma", "nope=1"], "--fix-sigma"),
+    (None, ["--truth", "x.csv"], "--truth: a simulated run"),
+])
+def test_bad_fix_input_is_one_line_exit_2(tmp_path, capsys, make, extra, message):
+    fixes = [] if make is None else ["--fixes", str(make(tmp_path / "fixes.dat"))]
+    code = main(["-q", "run", PAPER, *fixes, *extra, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2, err
+    assert err.startswith("error: ") and message in err and "\n" not in err
+    if make is not None and not extra:
+        assert str(tmp_path / "fixes.dat") in err
+
+
+def test_fixes_with_two_tracks_is_an_error(tmp_path, capsys):
+    path = tmp_path / "f.csv"
+    path.write_text("gps_time_s,lat_deg,lon_deg\n1,50,4\n")
+    double = [str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")]
+    assert main(["-q", "run", *double, "--fixes", str(path), "--filter", "constrained",
+                 "--imu", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert "one track" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--fixes-quality", "single=1"], "only with --fixes-format"),
+    (["--fixes-format", "nmea", "--fixes-quality", "best=1"], "is not CLASS=WEIGHT"),
+    (["--fixes-format", "csv", "--fixes-rate-hz", "3"], "must divide"),
+])
+def test_bad_simulate_fix_flags_are_one_line_exit_2(tmp_path, capsys, extra, message):
+    code = main(["-q", "simulate", PAPER, "--duration-s", "5", "--no-gnss", *extra,
+                 "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("error: ") and message in err and "\n" not in err
+    assert not (tmp_path / "o").exists()          # nothing half written
