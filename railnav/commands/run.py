@@ -89,6 +89,10 @@ def register(subparsers) -> None:
                         "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
                         "class, rows that agree with the track); default for railnav "
                         "simulate's files: the truth.csv beside scenario.json")
+    p.add_argument("--truth-quality", default=None, metavar="CLASS",
+                   help="--truth is a fix file: the class of its rows that serve as the "
+                        "reference (rtk_fixed, rtk_float, dgps, single, dead_reckoning; "
+                        "default its best)")
     p.add_argument("--start-gps-time-s", type=float, default=None,
                    help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
                         "scenario.json beside the IMU file, else the first GNSS epoch)")
@@ -154,7 +158,8 @@ def handler(args: argparse.Namespace) -> int:
         if _files(args):
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, fixes_path=args.fixes,
-                                truth_path=args.truth, start_gps_time_s=args.start_gps_time_s,
+                                truth_path=args.truth, truth_quality=args.truth_quality,
+                                start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
                                 imu_grade=args.imu_grade, fix_sigmas=_fix_sigmas(args),
                                 fix_model=_fix_model(args),
@@ -285,6 +290,8 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
                           "--truth goes with sensor files")
     if args.truth is not None and several:
         raise ConfigError("--truth works with one track")
+    if args.truth_quality is not None and args.truth is None:
+        raise ConfigError("--truth-quality: only with --truth (a fix file)")
     _fix_sigmas(args)
 
 

@@ -124,6 +124,8 @@ def screen_fix_reference(table: pd.DataFrame, track, *, quality: str | None = No
     track : trackmodel.Track
     quality : str, optional
         The reference class; default the best class of `QUALITY_ORDER` present.
+        (`read_reference` raises ConfigError for a class given with a truth or
+        trajectory file, or not in `QUALITY_ORDER`.)
     max_offset_m, max_jump_m : float
         `REFERENCE_MAX_OFFSET_M`, `REFERENCE_MAX_JUMP_M`.
 
@@ -182,12 +184,18 @@ def read_reference(path: str | os.PathLike, track, *, start_gps_time_s: float,
     """
     from gnss_obs.fixes.read import detect_fix_format
     head = _header(path) if detect_fix_format(path) == "csv" else set()
+    trajectory = bool(head) and ("quality" not in head and {
+        "gps_time_s", "lat_deg", "lon_deg", "h_m"} <= head or any(c.startswith("#") for c in head))
+    if quality is not None and ({"time_s", "s_m", "speed_mps"} <= head or trajectory):
+        raise ConfigError("a reference class (quality) applies to a fix file only, not to a "
+                          "truth or trajectory file", path=path)
+    if quality is not None and quality not in QUALITY_ORDER:
+        raise ConfigError(f"unknown fix class {quality!r} (known: {', '.join(QUALITY_ORDER)})")
     if {"time_s", "s_m", "speed_mps"} <= head:
         truth = truth_from_frame(pd.read_csv(path), track, path=path)
         return Reference(truth, ("yaw", "pitch", "roll", "s", "v"),
                          {"source": "truth", "path": os.fspath(path)})
-    if head and ("quality" not in head and {"gps_time_s", "lat_deg", "lon_deg", "h_m"} <= head
-                 or any(c.startswith("#") for c in head)):
+    if trajectory:
         from railnav.evaluation.spp_accuracy import read_reference_trajectory
         frame = read_reference_trajectory(path)
         truth = _point_truth(frame["gps_time_s"].to_numpy() - start_gps_time_s,

@@ -157,7 +157,8 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
 
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=None,
-              truth_path=None, start_gps_time_s: float | None = None,
+              truth_path=None, truth_quality: str | None = None,
+              start_gps_time_s: float | None = None,
               config: NavigatorConfig | None = None, filter: str | None = None,
               systems: str | None = None, imu_grade: str | None = None, fix_sigmas=None,
               fix_model: FixModelConfig | None = None, outages=None,
@@ -178,6 +179,9 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         A reference to score against (`railnav.evaluation.reference.read_reference`:
         ``truth.csv``, a reference trajectory or a fix file); default: the ``truth.csv``
         beside the ``scenario.json`` of files written by ``railnav simulate``.
+    truth_quality : str, optional
+        A fix file as the reference: the fix class of its rows that serve (default its
+        best class; `railnav.evaluation.reference.screen_fix_reference`).
     start_gps_time_s : float, optional
         GPS time of the IMU's ``time_s = 0``; default: from ``scenario.json`` beside the
         input files (written by ``railnav simulate``), else the first GNSS epoch or fix.
@@ -218,7 +222,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     errors, extra = None, {}
     if truth_path is not None:
         errors, extra["reference"] = score_run(result, track, truth_path,
-                                               start_gps_time_s=data.start_gps_time_s)
+                                               start_gps_time_s=data.start_gps_time_s,
+                                               quality=truth_quality)
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}

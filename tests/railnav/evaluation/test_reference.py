@@ -8,11 +8,13 @@ import pandas as pd
 import pytest
 
 from gnss_obs.fixes.table import FIX_COLUMNS
+from railnav.errors import ConfigError
 from railnav.evaluation.reference import (
     MAX_REFERENCE_GAP_S,
     REFERENCE_MAX_JUMP_M,
     REFERENCE_MAX_OFFSET_M,
     Reference,
+    read_reference,
     reference_errors,
     screen_fix_reference,
     truth_from_frame,
@@ -89,3 +91,12 @@ def test_errors_only_where_the_reference_brackets_the_estimate():
     gap = (t > last + 1e-9) & (t < first - 1e-9)
     assert np.isnan(errors.along_track_m[gap]).all()
     np.testing.assert_allclose(errors.along_track_m[~gap & (t <= 29.9)], 0.0, atol=1e-6)
+
+
+def test_a_reference_class_needs_a_fix_file(tmp_path):
+    truth = simulate_truth(TRACK, constant_speed(SPEED_MPS), duration_s=2.0, rate_hz=10.0)
+    truth.to_frame().to_csv(tmp_path / "truth.csv", index=False)
+    with pytest.raises(ConfigError, match="applies to a fix file only"):
+        read_reference(tmp_path / "truth.csv", TRACK, start_gps_time_s=0.0, quality="single")
+    assert read_reference(tmp_path / "truth.csv", TRACK,
+                          start_gps_time_s=0.0).report["source"] == "truth"
