@@ -58,10 +58,11 @@ def time_window(text: str) -> tuple[float, float]:
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     p = subparsers.add_parser(
-        "run", help="filter a trip on a track (simulated, or from IMU/RINEX files)",
+        "run", help="filter a trip on a track (simulated, or from IMU/RINEX/fix files)",
         description="With only a track, simulate a scenario on it (truth, IMU, GNSS) and "
-                    "filter it; with --imu and/or --obs/--nav, filter those files. Writes "
-                    "estimates.csv, innovations.csv, summary.json (+ errors.csv with a truth) "
+                    "filter it; with --imu, --obs/--nav and/or --fixes, filter those files. "
+                    "Writes estimates.csv, innovations.csv, summary.json (+ errors.csv "
+                    "with a truth) "
                     "and plots to DIR. With several tracks, run one constrained filter per "
                     "candidate track and identify the track the train is on: summary.json "
                     "gets track_probabilities, estimates.csv the columns track and "
@@ -71,31 +72,7 @@ def register(subparsers) -> None:
     p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
-    p.add_argument("--fixes", metavar="FILE",
-                   help="GNSS position fixes (loose coupling): CSV, NMEA 0183, u-blox UBX or "
-                        "GPX, told by content; alone (the gnss-only filter on [s, v]) or "
-                        "with --imu and/or --obs/--nav")
-    p.add_argument("--fix-sigma", action="append", default=None, metavar="QUALITY=H[,V[,S]]",
-                   help="σ of a fix class where the fix file has none: horizontal and "
-                        "vertical m, speed m/s (classes rtk_fixed, rtk_float, dgps, single, "
-                        "dead_reckoning; repeatable)")
-    p.add_argument("--fix-track-sigma-m", type=nonnegative_float, default=None, metavar="M",
-                   help="σ of the antenna's distance from the track centre-line beyond the "
-                        "fix σ, m (default 1.5)")
-    p.add_argument("--no-fix-heights", action="store_true",
-                   help="ignore the fixes' heights (a track without heights)")
-    p.add_argument("--truth", metavar="FILE",
-                   help="score the run against railnav's truth.csv, a reference trajectory "
-                        "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
-                        "class, rows that agree with the track); default for railnav "
-                        "simulate's files: the truth.csv beside scenario.json")
-    p.add_argument("--truth-quality", default=None, metavar="CLASS",
-                   help="--truth is a fix file: the class of its rows that serve as the "
-                        "reference (rtk_fixed, rtk_float, dgps, single, dead_reckoning; "
-                        "default its best)")
-    p.add_argument("--start-gps-time-s", type=float, default=None,
-                   help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
-                        "scenario.json beside the IMU file, else the first GNSS epoch)")
+    _add_file_arguments(p)
     p.add_argument("--scenario", choices=sorted(SCENARIOS), default=None,
                    help="scenario to simulate (default: the track's name if it is a "
                         f"scenario, else {DEFAULT_SCENARIO})")
@@ -136,6 +113,35 @@ def register(subparsers) -> None:
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
     p.set_defaults(func=handler)
+
+
+def _add_file_arguments(p) -> None:
+    """The GNSS fix, scoring and start-time flags of ``run`` (sensor files only)."""
+    p.add_argument("--fixes", metavar="FILE",
+                   help="GNSS position fixes (loose coupling): CSV, NMEA 0183, u-blox UBX or "
+                        "GPX, told by content; alone (the gnss-only filter on [s, v]) or "
+                        "with --imu and/or --obs/--nav")
+    p.add_argument("--fix-sigma", action="append", default=None, metavar="QUALITY=H[,V[,S]]",
+                   help="σ of a fix class where the fix file has none: horizontal and "
+                        "vertical m, speed m/s (classes rtk_fixed, rtk_float, dgps, single, "
+                        "dead_reckoning; repeatable)")
+    p.add_argument("--fix-track-sigma-m", type=nonnegative_float, default=None, metavar="M",
+                   help="σ of the antenna's distance from the track centre-line beyond the "
+                        "fix σ, m (default 1.5)")
+    p.add_argument("--no-fix-heights", action="store_true",
+                   help="ignore the fixes' heights (a track without heights)")
+    p.add_argument("--truth", metavar="FILE",
+                   help="score the run against railnav's truth.csv, a reference trajectory "
+                        "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
+                        "class, rows that agree with the track); default for railnav "
+                        "simulate's files: the truth.csv beside scenario.json")
+    p.add_argument("--truth-quality", default=None, metavar="CLASS",
+                   help="--truth is a fix file: the class of its rows that serve as the "
+                        "reference (rtk_fixed, rtk_float, dgps, single, dead_reckoning; "
+                        "default its best)")
+    p.add_argument("--start-gps-time-s", type=float, default=None,
+                   help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
+                        "scenario.json beside the IMU file, else the first GNSS epoch)")
 
 
 def handler(args: argparse.Namespace) -> int:

@@ -108,15 +108,14 @@ def error_series(result, truth, track, *, clock_truth=None, known_states=None,
     ----------
     result : NavigationResult
     truth : railnav.simulation.truth.Truth
-        Unknown quantities NaN (a reference without attitude, `railnav.evaluation.reference`).
+        Unknown quantities NaN (a reference: `railnav.evaluation.reference`).
     track : trackmodel.Track
         The track of the truth (for the along/cross/vertical frame).
     clock_truth : callable, optional
         ``clock_truth(time_s) -> (bias_m, drift_mps)``; without it the clock states are
         left out of the NEES.
     known_states : tuple of str, optional
-        Only these states (of those the filter's ``truth_states`` knows) count in the
-        NEES; default all.
+        Only these states (of those ``truth_states`` knows) count in the NEES.
     valid : ndarray of bool, shape (K,), optional
         Estimates with a truth (default all); the others get NaN errors.
 

@@ -158,11 +158,10 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
 
 def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=None,
               truth_path=None, truth_quality: str | None = None,
-              start_gps_time_s: float | None = None,
-              config: NavigatorConfig | None = None, filter: str | None = None,
-              systems: str | None = None, imu_grade: str | None = None, fix_sigmas=None,
-              fix_model: FixModelConfig | None = None, outages=None,
-              window: tuple[float, float] | None = None,
+              start_gps_time_s: float | None = None, config: NavigatorConfig | None = None,
+              filter: str | None = None, systems: str | None = None,
+              imu_grade: str | None = None, fix_sigmas=None,
+              fix_model: FixModelConfig | None = None, outages=None, window=None,
               progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
@@ -175,13 +174,11 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         RINEX observation and navigation files (both or neither).
     fixes_path : path, optional
         GNSS position fixes: CSV, NMEA, UBX or GPX (`gnss_obs.fixes.read_fixes`).
-    truth_path : path, optional
+    truth_path, truth_quality : path, str, optional
         A reference to score against (`railnav.evaluation.reference.read_reference`:
-        ``truth.csv``, a reference trajectory or a fix file); default: the ``truth.csv``
-        beside the ``scenario.json`` of files written by ``railnav simulate``.
-    truth_quality : str, optional
-        A fix file as the reference: the fix class of its rows that serve (default its
-        best class; `railnav.evaluation.reference.screen_fix_reference`).
+        ``truth.csv``, a reference trajectory or a fix file, its rows of class
+        `truth_quality`, default its best); default: the ``truth.csv`` beside the
+        ``scenario.json`` of files written by ``railnav simulate``.
     start_gps_time_s : float, optional
         GPS time of the IMU's ``time_s = 0``; default: from ``scenario.json`` beside the
         input files (written by ``railnav simulate``), else the first GNSS epoch or fix.
@@ -199,14 +196,13 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         The IMU grade the filter assumes (`strapdown.imu_errors.IMU_GRADES`); default: the
         simulated grade for files written by ``railnav simulate``. A recorded IMU file
         (no ``scenario.json`` beside it) needs one for the inertial filters.
-    fix_sigmas : dict of str to gnss_obs.fixes.quality.FixSigmas, optional
-        σ of the fix classes the fix file lacks (`gnss_obs.fixes.quality`).
-    fix_model : railnav.filters.fix_epochs.FixModelConfig, optional
+    fix_sigmas, fix_model : dict of str to FixSigmas, FixModelConfig, optional
+        σ of the fix classes the fix file lacks (`gnss_obs.fixes.quality`); the fix
+        rows' assumptions (`railnav.filters.fix_epochs.FixModelConfig`).
     outages : sequence of gnss_obs.Outage or (start_s, duration_s), optional
         Windows whose GNSS data and fixes are ignored (s from the trip start); default:
         the outages of ``scenario.json`` (``railnav simulate``'s files), else none.
-    window : (start_s, end_s), optional
-    progress : callable(done, total), optional
+    window, progress : (start_s, end_s), callable(done, total), optional
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -216,9 +212,15 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     found = simulation_meta(imu_path, obs_path, fixes_path)
     if outages is None:
         outages = scenario_outages(found[0] if found else None)
-    result = navigate(track, data, config, outages=outages, progress=progress)
-    result = with_timestamps(result, data.fixes)
-    truth_path = truth_path or find_truth(imu_path, obs_path, fixes_path)
+    result = with_timestamps(navigate(track, data, config, outages=outages,
+                                      progress=progress), data.fixes)
+    return _file_outcome(result, track, data, truth_path or find_truth(
+        imu_path, obs_path, fixes_path), truth_quality, window, tuple(outages))
+
+
+def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, window,
+                  outages) -> RunOutcome:
+    """A file run's outcome: scored against `truth_path` when there is one."""
     errors, extra = None, {}
     if truth_path is not None:
         errors, extra["reference"] = score_run(result, track, truth_path,
@@ -227,7 +229,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
-    summary = run_summary(result, track, errors, window, tuple(outages), extra)
+    summary = run_summary(result, track, errors, window, outages, extra)
     return RunOutcome(result, track, summary, errors, data=data)
 
 

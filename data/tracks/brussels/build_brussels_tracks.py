@@ -20,9 +20,9 @@ four ``log_*.csv``; see README.md here). For each log the script
    no height: the network has none), written as ``<log name>.csv`` here.
 
 It also writes the excerpts of `EXCERPTS` (rows copied unchanged) into
-``data/fixes/brussels/``. Rebuilding needs no network access; the fit takes seconds. Run from the repository
-root with the repository on the import path (``PYTHONPATH=.`` unless railnav is installed
-from this checkout).
+``data/fixes/brussels/``. Rebuilding needs no network access; the fits take seconds. Run
+from the repository root with the repository on the import path (``PYTHONPATH=.`` unless
+railnav is installed from this checkout).
 """
 from __future__ import annotations
 
