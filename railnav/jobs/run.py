@@ -274,7 +274,10 @@ def _default_file_config(imu_path, obs_path, fixes_path, filter: str, systems: s
         if imu_grade is not None:
             extra["imu_errors"] = imu_grade
         log.info("sensor models from the simulation's scenario.json")
-        return navigator_config_from_simulation(meta, filter=filter, **extra)
+        # the scenario's initial σ of s and v are those of a start drawn about the truth
+        # (run_simulated); a file run starts from its first fix, with that fix's σ
+        return navigator_config_from_simulation(meta, filter=filter, initial_s_sigma_m=None,
+                                                initial_v_sigma_mps=None, **extra)
     if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
         raise ConfigError(f"{imu_path}: a recorded IMU file needs the grade the filter "
                           f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))})")

@@ -180,3 +180,58 @@ def test_bad_simulate_fix_flags_are_one_line_exit_2(tmp_path, capsys, extra, mes
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("error: ") and message in err and "\n" not in err
     assert not (tmp_path / "o").exists()          # nothing half written
+
+
+@pytest.mark.parametrize("imu", [True, False])
+def test_fixes_together_with_pseudoranges(tmp_path, imu):
+    """GNSS observations and fixes of the same epochs: one epoch with both kinds of rows
+    (the pseudorange rows of each epoch and its fix rows share its time), the fixes
+    screened, scored against truth.csv."""
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", PAPER, "--duration-s", "20", "--fixes-format", "csv",
+                 "--fixes-quality", "rtk_float=1", "--out", str(sim)]) == 0
+    out = tmp_path / "run"
+    files = ["--obs", str(sim / "gnss_obs.rnx"), "--nav", str(sim / "gnss_nav.rnx"),
+             "--fixes", str(sim / "fixes.csv")] + (["--imu", str(sim / "imu.csv")] if imu
+                                                    else [])
+    assert main(["-q", "run", PAPER, *files, "--no-plots", "--out", str(out)]) == 0
+    inn = pd.read_csv(out / "innovations.csv")
+    kinds = inn.groupby("epoch")["kind"].agg(set)
+    assert all({"pseudorange", "fix_along"} <= k for k in kinds)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["filter"] == ("constrained" if imu else "gnss-only")
+    assert summary["statistics"]["fix_epochs"] == len(kinds)
+    # rtk_float fixes (σ 0.5 m) dominate the along-track position: errors of that order
+    assert summary["errors"]["all"]["along_track_m"]["rms"] < 3 * 0.5
+
+
+def test_file_run_starts_with_its_first_fixs_sigma(tmp_path):
+    """Regression (issue 17): a run on railnav simulate's files took the scenario's initial
+    σ (0.1 m/s: the spread of run_simulated's draw about the truth) for a start from a
+    single-point fix whose speed error is ~1 m/s (paper2017's σ_rr 0.71 m/s), rejected the
+    Doppler and fixes that disagreed, and ended with NEES ~130. Reference: the σ of the
+    single-point solution at the start (gnss_obs.solve_spp through first_fix), projected
+    on the track's tangent."""
+    from railnav.filters.protocol import make_filter
+    from railnav.jobs.run import read_sensor_files
+    from railnav.navigation.initialization import first_fix, initial_from_gnss
+    from railnav.navigation.navigator import trip_samples
+    from trackmodel.io import read_track
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", PAPER, "--duration-s", "10", "--out", str(sim)]) == 0
+    paths = dict(imu_path=sim / "imu.csv", obs_path=sim / "gnss_obs.rnx",
+                 nav_path=sim / "gnss_nav.rnx")
+    data, config = read_sensor_files(**paths)
+    track = read_track(PAPER)
+    filt = make_filter(track, config, trip_samples(data, config).gnss)
+    start = initial_from_gnss(filt, data, config, filt.rows.gnss)
+    fix = first_fix(data, config)
+    u_n = track.at(0.0).u_n
+    i_v = filt.layout.index("v")
+    assert np.sqrt(start.P0[i_v, i_v]) == pytest.approx(
+        np.sqrt(u_n @ fix.cov_v_enu_m2ps2 @ u_n), rel=1e-9)
+    out = tmp_path / "run"
+    assert main(["-q", "run", PAPER, *[f"--{k[:3]}={v}" for k, v in paths.items()],
+                 "--no-plots", "--out", str(out)]) == 0
+    est, errors = pd.read_csv(out / "estimates.csv"), pd.read_csv(out / "errors.csv")
+    assert (np.abs(errors["along_track_m"]) <= 3 * est["sigma_s_m"]).all()
