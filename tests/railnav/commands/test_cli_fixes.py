@@ -235,3 +235,39 @@ def test_file_run_starts_with_its_first_fixs_sigma(tmp_path):
                  "--no-plots", "--out", str(out)]) == 0
     est, errors = pd.read_csv(out / "estimates.csv"), pd.read_csv(out / "errors.csv")
     assert (np.abs(errors["along_track_m"]) <= 3 * est["sigma_s_m"]).all()
+
+
+def test_ubx_fixes_run_end_to_end_without_a_utc_timestamp(tmp_path):
+    """The Belgian excerpt's fixed rows as NAV-PVT messages built by pyubx2 (iTOW from the
+    timestamps + 18 leap seconds, hAcc 2 cm, carrier fixed, the velocity from the
+    positions' differences, sAcc 0.3 m/s): the run uses every one and writes no
+    `timestamp` column (UBX time is GPS time of week)."""
+    import datetime as dt
+    raw = pd.read_csv(EXCERPTS / "log_28876_L36-B_excerpt.csv")
+    raw = raw[raw["position_type"] == "NARROW_INT3"].reset_index(drop=True)
+    t = pd.to_datetime(raw["timestamp"], format="ISO8601").to_numpy(
+        dtype="datetime64[ns]").astype(np.int64) / 1e9
+    north_m = np.radians(raw["latitude"].to_numpy()) * 6_371_000.0     # velocity from the
+    east_m = np.radians(raw["longitude"].to_numpy()) * 6_371_000.0 * np.cos(  # positions'
+        np.radians(raw["latitude"].to_numpy()))                        # differences
+    vel_n, vel_e = np.gradient(north_m, t), np.gradient(east_m, t)
+    chunks = []
+    for k, row in raw.iterrows():
+        utc = dt.datetime.fromisoformat(row["timestamp"])
+        gps = (utc - dt.datetime(1980, 1, 6)).total_seconds() + 18
+        chunks.append(UBXMessage(
+            "NAV", "NAV-PVT", GET, iTOW=int(round((gps % 604_800) * 1000)), year=utc.year,
+            month=utc.month, day=utc.day, hour=utc.hour, min=utc.minute, second=utc.second,
+            nano=utc.microsecond * 1000, validDate=1, validTime=1, fixType=3, gnssFixOk=1,
+            carrSoln=2, numSV=14, lat=row["latitude"], lon=row["longitude"], height=0,
+            hAcc=20, vAcc=30, velN=int(vel_n[k] * 1000), velE=int(vel_e[k] * 1000),
+            sAcc=300).serialize())
+    (tmp_path / "log.ubx").write_bytes(b"".join(chunks))
+    out = tmp_path / "u"
+    assert main(["-q", "run", str(BRUSSELS / "log_28876_L36-B.csv"), "--fixes",
+                 str(tmp_path / "log.ubx"), "--no-fix-heights", "--no-plots",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["fixes"]["format"] == "ubx" and summary["fixes"]["read"] == len(raw)
+    assert summary["statistics"]["fixes_rejected"] == 0
+    assert "timestamp" not in pd.read_csv(out / "estimates.csv", nrows=1).columns
