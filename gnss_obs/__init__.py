@@ -22,7 +22,8 @@ GPS time                    `WEEK_S` (``constants``); `GPS_EPOCH`,
                             `week_sow_to_gps_time_s`, `gps_time_s_to_week_sow`,
                             `to_gps_time_s`, `from_gps_time_s`,
                             `datetime64_to_gps_time_s`, `gps_time_s_to_datetime64`,
-                            `leap_seconds_at` (``gpstime``)
+                            `leap_seconds_at`, `utc_datetime64_to_gps_time_s`,
+                            `gps_time_s_to_utc_iso` (``gpstime``)
 errors                      `GnssError`, `GnssInputError` (``errors``)
 positioning                 `solve_spp`, `SppConfig`, `SppResult` (``spp``)
 measurement selection       `MeasurementConfig`, `IONOSPHERE_MODELS`,
@@ -41,6 +42,10 @@ simulation                  `simulate_gnss`, `GnssSimConfig`, `default_nav_path`
                             (``simulate``); `GnssSimulation` (``sim_result``);
                             `Outage`, `SatelliteFault` (``sim_events``);
                             `write_simulation` (``sim_files``)
+position fixes              `read_fixes`, `detect_fix_format` (``fixes.read``);
+                            `FixLog`, `FIX_COLUMNS`, `FIX_QUALITIES` (``fixes.table``);
+                            `FixSigmas`, `DEFAULT_FIX_SIGMAS` (``fixes.quality``);
+                            `write_fixes_csv`, `write_fixes_nmea` (``fixes.writers``)
 ==========================  =======================================================
 
 The names are imported on first use (PEP 562), so ``import gnss_obs`` stays cheap: it
@@ -61,6 +66,7 @@ _EXPORTS = {
     "gps_time_s_to_week_sow": "gpstime", "to_gps_time_s": "gpstime",
     "from_gps_time_s": "gpstime", "datetime64_to_gps_time_s": "gpstime",
     "gps_time_s_to_datetime64": "gpstime", "leap_seconds_at": "gpstime",
+    "utc_datetime64_to_gps_time_s": "gpstime", "gps_time_s_to_utc_iso": "gpstime",
     "GnssError": "errors", "GnssInputError": "errors",
     "solve_spp": "spp", "SppConfig": "spp", "SppResult": "spp",
     "MeasurementConfig": "measurements", "IONOSPHERE_MODELS": "measurements",
@@ -78,6 +84,10 @@ _EXPORTS = {
     "default_nav_path": "simulate", "GnssSimulation": "sim_result",
     "Outage": "sim_events", "SatelliteFault": "sim_events",
     "write_simulation": "sim_files",
+    "read_fixes": "fixes.read", "detect_fix_format": "fixes.read", "FixLog": "fixes.table",
+    "FIX_COLUMNS": "fixes.table", "FIX_QUALITIES": "fixes.table",
+    "FixSigmas": "fixes.quality", "DEFAULT_FIX_SIGMAS": "fixes.quality",
+    "write_fixes_csv": "fixes.writers", "write_fixes_nmea": "fixes.writers",
 }
 
 __all__ = sorted(_EXPORTS)

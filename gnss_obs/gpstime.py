@@ -27,7 +27,8 @@ from gnss_obs.constants import BDT_MINUS_GPST_S, DAY_S, WEEK_S
 __all__ = ["GPS_EPOCH", "calendar_to_gps_time_s", "gps_time_s_to_calendar",
            "week_sow_to_gps_time_s", "gps_time_s_to_week_sow", "to_gps_time_s",
            "from_gps_time_s", "datetime64_to_gps_time_s", "gps_time_s_to_datetime64",
-           "leap_seconds_at", "TIME_SYSTEMS"]
+           "leap_seconds_at", "TIME_SYSTEMS", "utc_datetime64_to_gps_time_s",
+           "gps_time_s_to_utc_iso"]
 
 #: The GPS epoch as a label, 1980-01-06 00:00:00.
 GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
@@ -181,3 +182,22 @@ def from_gps_time_s(t: npt.ArrayLike, system: str, *,
             leap = leap_seconds
         return t - leap
     raise ValueError(f"unknown time system {system!r}; expected one of {TIME_SYSTEMS}")
+
+
+def utc_datetime64_to_gps_time_s(dt: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """UTC labels as numpy datetime64 -> GPS time, s since the GPS epoch (leap seconds
+    from `leap_seconds_at`)."""
+    return to_gps_time_s(datetime64_to_gps_time_s(dt), "UTC")
+
+
+def gps_time_s_to_utc_iso(t: npt.ArrayLike, *, suffix: str = "") -> np.ndarray:
+    """GPS time -> ISO 8601 UTC labels to the millisecond, ``YYYY-MM-DDTHH:MM:SS.sss``
+    followed by `suffix` (e.g. ``"Z"``); the inverse of `utc_datetime64_to_gps_time_s`.
+
+    Returns
+    -------
+    ndarray of str
+    """
+    labels = gps_time_s_to_datetime64(from_gps_time_s(t, "UTC"))
+    text = np.datetime_as_string(labels.astype("datetime64[ms]"), unit="ms")
+    return np.char.add(text, suffix) if suffix else text

@@ -11,8 +11,13 @@ the same defaults; the main ones are importable from the package itself::
 command                                function(s)
 =====================================  ===========================================
 ``railnav simulate``                   `simulate_trip`, `get_scenario`
+``railnav simulate --fixes-format F``  + `trip_fixes` (`simulate_fixes`, `FixSimConfig`),
+                                       `gnss_obs.write_fixes_csv` / ``write_fixes_nmea``
 ``railnav run TRACK``                  `run_simulated`, `run_files`, `write_run`
                                        (`navigate` underneath, `NavigatorConfig`)
+``railnav run TRACK --fixes F``        `run_files` (`gnss_obs.read_fixes`, `FixModelConfig`)
+``railnav run ... --truth R``          `score_run` (`read_reference`, `reference_errors`,
+                                       `screen_fix_reference`)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
                                        (`baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
@@ -51,6 +56,11 @@ _EXPORTS = {
     "baro_track_check": "evaluation.baro",
     "route_candidates": "jobs.network", "run_simulated_network": "jobs.network",
     "run_files_network": "jobs.network",
+    "FixModelConfig": "filters.fix_epochs", "trip_fixes": "simulation.fixes",
+    "simulate_fixes": "simulation.fixes", "FixSimConfig": "simulation.fixes",
+    "score_run": "jobs.scoring", "read_reference": "evaluation.reference",
+    "reference_errors": "evaluation.reference",
+    "screen_fix_reference": "evaluation.reference",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -19,12 +19,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gnss_obs.errors import GnssError
+from gnss_obs.fixes.table import FixLog
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.oscillator import oscillator_from_name
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from railnav.errors import ConfigError
 from railnav.filters.fault_detection import FaultDetectionConfig
+from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
@@ -109,7 +111,11 @@ class NavigatorConfig:
         Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
         prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
         clock jumps; `railnav.filters.fault_detection`); None: every row goes to the update (and
-        its χ² gate).
+        its χ² gate). With GNSS position fixes (both track filters), also the fixes'
+        screen (each fix's rows tested at the prior, used together or not at all).
+    fix_model : railnav.filters.fix_epochs.FixModelConfig
+        What the GNSS fix rows assume beyond each fix's σ (track centre-line σ, heights,
+        speed; `railnav.filters.fix_rows`).
     """
 
     filter: str = DEFAULT_FILTER
@@ -130,6 +136,7 @@ class NavigatorConfig:
     along_accel_sigma_mps2: float = 1.0
     pseudorange_correlation_s: float = 20.0
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
+    fix_model: FixModelConfig = FixModelConfig()
     _imu: ImuErrors = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -158,6 +165,8 @@ class NavigatorConfig:
                 or isinstance(self.fault_detection, FaultDetectionConfig)):
             raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
                               f"{self.fault_detection!r}")
+        if not isinstance(self.fix_model, FixModelConfig):
+            raise ConfigError(f"fix_model must be a FixModelConfig, got {self.fix_model!r}")
         tau = self.pseudorange_correlation_s
         if not (isinstance(tau, (int, float)) and math.isfinite(tau) and tau >= 0):
             raise ConfigError(f"pseudorange_correlation_s must be a finite number >= 0, "
@@ -196,6 +205,8 @@ class SensorData:
     augmentation : gnss_obs.Augmentation or None
         Base-station corrections and precise orbits for the GNSS rows
         (`gnss_obs.augment`; its carrier-smoothed observations are `obs`).
+    fixes : gnss_obs.fixes.table.FixLog or None
+        GNSS position fixes with every σ (`gnss_obs.fixes.read_fixes`).
     """
 
     start_gps_time_s: float
@@ -203,10 +214,11 @@ class SensorData:
     obs: RinexObs | None = None
     nav: RinexNav | None = None
     augmentation: object = None
+    fixes: FixLog | None = None
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.start_gps_time_s):
             raise ConfigError(f"start_gps_time_s must be finite, got {self.start_gps_time_s!r}")
         check_gnss_pair(self.obs, self.nav)
-        if self.imu is None and self.obs is None:
-            raise ConfigError("no sensor data: give an IMU, GNSS observations, or both")
+        if self.imu is None and self.obs is None and self.fixes is None:
+            raise ConfigError("no sensor data: give an IMU, GNSS observations or fixes")

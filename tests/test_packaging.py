@@ -38,9 +38,9 @@ def test_data_maps_to_railnav_data_and_every_shipped_file_is_included():
     assert config["package-dir"] == {"railnav_data": "data"}
     patterns = config["package-data"]["railnav_data"]
     shipped = [p.relative_to(REPO / "data").as_posix()
-               for folder in (TRACKS, STUDIES, GNSS, NETWORKS)
-               for p in (REPO / "data" / folder).rglob("*")
-               if p.is_file() and p.suffix != ".py" and "__pycache__" not in p.parts]
+               for p in (REPO / "data").rglob("*") if p.is_file() and p.suffix not in
+               (".py", ".pyc") and p.parent != REPO / "data"]
+    assert {f.split("/")[0] for f in shipped} >= {TRACKS, STUDIES, GNSS, NETWORKS, "fixes"}
     assert len(shipped) > 15
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, pat) for pat in patterns)]
     assert missing == []

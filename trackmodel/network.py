@@ -22,6 +22,7 @@ element's length; a larger kink is reported (`Network.kinks`), never smoothed aw
 """
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -33,6 +34,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.errors import TrackError
+from trackmodel.fit import fit_track
 from trackmodel.sections import Section
 from trackmodel.track import Track
 
@@ -41,10 +43,18 @@ __all__ = ["Network", "Connection", "NetPosition", "Route", "START", "END", "NAV
 
 Array = npt.NDArray[np.float64]
 
+log = logging.getLogger(__name__)
+
 #: Netelement ends: its first point (``s = 0``) and its last (``s = length``).
 START, END = 0, 1
 #: Navigability of a connection: which way a train may pass from ``a`` to ``b``.
 NAVIGABILITY = ("both", "AB", "BA", "none")
+#: Sampling of a route line before its refit, m.
+ROUTE_SAMPLE_M = 2.0
+#: Tolerance of a route line's refit, m: the netelements' own fit tolerance.
+ROUTE_REFIT_TOL_M = 0.5
+#: Smallest radius of a refitted route line, m: below any railway's (tram loops ~15-20 m).
+ROUTE_MIN_RADIUS_M = 15.0
 #: A kink below this is taken as a continuous tangent, rad (0.5°: a 0.5-m fit tolerance
 #: over the last ~60 m of an element; switches diverge by 1/9–1/20 rad, i.e. 3–6°).
 CONTINUOUS_KINK_RAD = math.radians(0.5)
@@ -240,15 +250,42 @@ class Network:
         out = pd.concat(rows, ignore_index=True)[columns]
         return out.sort_values(["point", "distance_m"], ignore_index=True)
 
-    def route_track(self, legs: Sequence[tuple[str, int]]) -> Track:
-        """One `Track` along a route's legs (`chain_tracks` of the legs, each element
-        reversed where it is travelled ``-1``): the line a train on that route runs on,
-        with ``s`` from the start of the first leg."""
+    def route_track(self, legs: Sequence[tuple[str, int]], *,
+                    refit_tol_m: float | None = ROUTE_REFIT_TOL_M) -> Track:
+        """One `Track` along a route's legs: the line a train on that route runs on, with
+        ``s`` from the start of the first leg.
+
+        The legs' tracks (each reversed where travelled ``-1``) are chained
+        (`chain_tracks`); a joint that is not tangent-continuous (a switch's measured kink)
+        would put an instant turn into the line, which no vehicle makes and which an
+        inertial filter cannot follow. So the chained line is sampled every
+        `ROUTE_SAMPLE_M` and refitted within `refit_tol_m` (`trackmodel.fit.fit_track`):
+        the kink becomes the short curve the map's tolerance allows (a 6° kink within
+        0.5 m: a radius of ~400 m, a turnout's). A route that cannot be refitted (a kink
+        too sharp for `ROUTE_MIN_RADIUS_M`) keeps its kinks, with a warning. None: no refit.
+        """
         for (a, _), (b, db) in zip(legs[:-1], legs[1:]):
             if (b, db) not in self.graph.successors((a, _)):
                 raise TrackError(f"route: no passage from {a} to {b}")
-        return chain_tracks([self._track(e) if d == 1 else reversed_track(self._track(e))
+        line = chain_tracks([self._track(e) if d == 1 else reversed_track(self._track(e))
                              for e, d in legs])
+        if refit_tol_m is None or len(legs) == 1:
+            return line
+        s = np.linspace(0.0, line.length_m, int(math.ceil(line.length_m / ROUTE_SAMPLE_M)) + 1)
+        lat, lon, h = line.geodetic(s)
+        try:
+            return fit_track(lat, lon, h, tol_m=refit_tol_m, min_radius_m=ROUTE_MIN_RADIUS_M,
+                             earth=line.earth).track
+        except TrackError as exc:
+            log.warning("route %s keeps its joints' kinks (max %.1f deg): %s",
+                        ">".join(e for e, _ in legs), self._max_kink_deg(legs), exc)
+            return line
+
+    def _max_kink_deg(self, legs) -> float:
+        names = {e for e, _ in legs}
+        kinks = [c.kink_rad for c in self.connections if c.a in names and c.b in names
+                 and c.navigability != "none"]
+        return math.degrees(max(kinks)) if kinks else 0.0
 
     def kinks(self) -> pd.DataFrame:
         """Every navigable connection with its kink (deg), gap (m) and whether the tangent

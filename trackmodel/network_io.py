@@ -30,7 +30,14 @@ from trackmodel.errors import TrackError, TrackFileError
 from trackmodel.files import atomic_write_csv
 from trackmodel.fit import fit_track
 from trackmodel.io import read_track, write_track
-from trackmodel.network import END, NAVIGABILITY, START, Connection, Network
+from trackmodel.network import (
+    END,
+    NAVIGABILITY,
+    ROUTE_MIN_RADIUS_M,
+    START,
+    Connection,
+    Network,
+)
 
 __all__ = ["NetworkSource", "read_network_geojson", "build_network", "write_network",
            "read_network", "NETWORK_MIN_RADIUS_M"]
@@ -39,9 +46,8 @@ Array = npt.NDArray[np.float64]
 
 log = logging.getLogger(__name__)
 
-#: Smallest radius of a fitted netelement, m: below any railway's (tram loops ~15-20 m;
-#: main lines >= 150 m), above what a digitizing glitch fits.
-NETWORK_MIN_RADIUS_M = 15.0
+#: Smallest radius of a fitted netelement, m (that of a refitted route line).
+NETWORK_MIN_RADIUS_M = ROUTE_MIN_RADIUS_M
 
 
 @dataclass(frozen=True)

@@ -60,10 +60,11 @@ def time_window(text: str) -> tuple[float, float]:
 def register(subparsers) -> None:
     """Add the ``run`` subcommand."""
     p = subparsers.add_parser(
-        "run", help="filter a trip on a track (simulated, or from IMU/RINEX files)",
+        "run", help="filter a trip on a track (simulated, or from IMU/RINEX/fix files)",
         description="With only a track, simulate a scenario on it (truth, IMU, GNSS) and "
-                    "filter it; with --imu and/or --obs/--nav, filter those files. Writes "
-                    "estimates.csv, innovations.csv, summary.json (+ errors.csv with a truth) "
+                    "filter it; with --imu, --obs/--nav and/or --fixes, filter those files. "
+                    "Writes estimates.csv, innovations.csv, summary.json (+ errors.csv "
+                    "with a truth) "
                     "and plots to DIR. With several tracks, run one constrained filter per "
                     "candidate track and identify the track the train is on: summary.json "
                     "gets track_probabilities, estimates.csv the columns track and "
@@ -73,9 +74,7 @@ def register(subparsers) -> None:
     p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
-    p.add_argument("--start-gps-time-s", type=float, default=None,
-                   help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
-                        "scenario.json beside the IMU file, else the first GNSS epoch)")
+    _add_file_arguments(p)
     p.add_argument("--scenario", choices=sorted(SCENARIOS), default=None,
                    help="scenario to simulate (default: the track's name if it is a "
                         f"scenario, else {DEFAULT_SCENARIO})")
@@ -90,8 +89,9 @@ def register(subparsers) -> None:
     p.add_argument("--outage", type=outage_window, action="append", default=None,
                    metavar="START:DURATION",
                    help="GNSS outage, s from the start (repeatable; replaces the scenario's)")
-    p.add_argument("--filter", choices=FILTER_KINDS, default=DEFAULT_FILTER,
-                   help=f"which filter (default: {DEFAULT_FILTER})")
+    p.add_argument("--filter", choices=FILTER_KINDS, default=None,
+                   help=f"which filter (default: {DEFAULT_FILTER}; gnss-only for sensor "
+                        "files without --imu)")
     p.add_argument("--systems", default=None,
                    help="GNSS systems to use, e.g. G or GE (default: the simulated ones for "
                         "railnav simulate's files, else G)")
@@ -118,9 +118,40 @@ def register(subparsers) -> None:
     p.set_defaults(func=handler)
 
 
+def _add_file_arguments(p) -> None:
+    """The GNSS fix, scoring and start-time flags of ``run`` (sensor files only)."""
+    p.add_argument("--fixes", metavar="FILE",
+                   help="GNSS position fixes (loose coupling): CSV, NMEA 0183, u-blox UBX or "
+                        "GPX, told by content; alone (the gnss-only filter on [s, v]) or "
+                        "with --imu and/or --obs/--nav")
+    p.add_argument("--fix-sigma", action="append", default=None, metavar="QUALITY=H[,V[,S]]",
+                   help="σ of a fix class where the fix file has none: horizontal and "
+                        "vertical m, speed m/s (classes rtk_fixed, rtk_float, dgps, single, "
+                        "dead_reckoning; repeatable)")
+    p.add_argument("--fix-track-sigma-m", type=nonnegative_float, default=None, metavar="M",
+                   help="σ of the antenna's distance from the track centre-line beyond the "
+                        "fix σ, m (default 1.5)")
+    p.add_argument("--no-fix-heights", action="store_true",
+                   help="ignore the fixes' heights (a track without heights)")
+    p.add_argument("--truth", metavar="FILE",
+                   help="score the run against railnav's truth.csv, a reference trajectory "
+                        "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
+                        "class, rows that agree with the track); default for railnav "
+                        "simulate's files: the truth.csv beside scenario.json")
+    p.add_argument("--truth-quality", default=None, metavar="CLASS",
+                   help="--truth is a fix file: the class of its rows that serve as the "
+                        "reference (rtk_fixed, rtk_float, dgps, single, dead_reckoning; "
+                        "default its best)")
+    p.add_argument("--start-gps-time-s", type=float, default=None,
+                   help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
+                        "scenario.json beside the IMU file, else the first GNSS epoch)")
+
+
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
     from railnav.jobs.run import run_files, run_simulated, write_run
+    args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None or not _files(args)
+                                  else "gnss-only")
     _check_flags(args)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -132,13 +163,16 @@ def handler(args: argparse.Namespace) -> int:
         from railnav.jobs.baro import read_baro_csv
         baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
-    files = args.imu is not None or args.obs is not None
     with progress_bar("filter", enabled=not args.quiet) as progress:
-        if files:
+        if _files(args):
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
-                                nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
+                                nav_path=args.nav, fixes_path=args.fixes,
+                                truth_path=args.truth, truth_quality=args.truth_quality,
+                                start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
-                                imu_grade=args.imu_grade, outages=tuple(args.outage or ()),
+                                imu_grade=args.imu_grade, fix_sigmas=_fix_sigmas(args),
+                                fix_model=_fix_model(args),
+                                outages=None if args.outage is None else tuple(args.outage),
                                 window=args.window, progress=progress, **_augmentation(args))
         else:
             scenario = get_scenario(_scenario_name(args)).with_overrides(
@@ -186,7 +220,7 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(
         crossing_rate_per_s=args.crossing_rate_per_s)
     with progress_bar("filters", enabled=not args.quiet) as progress:
-        if args.imu is not None or args.obs is not None:
+        if _files(args):
             run = run_files_tracks(tracks, names, imu_path=args.imu, obs_path=args.obs,
                                    nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
                                    systems=args.systems, imu_grade=args.imu_grade,
@@ -218,17 +252,72 @@ def _measurement(systems: str | None):
         raise ConfigError(f"--systems: {exc}") from None
 
 
+def _files(args: argparse.Namespace) -> bool:
+    """Sensor files were given (else a simulated trip runs)."""
+    return args.imu is not None or args.obs is not None or args.fixes is not None
+
+
+def _fix_sigmas(args: argparse.Namespace) -> dict | None:
+    """--fix-sigma as a table of overrides (`gnss_obs.fixes.quality.parse_fix_sigma`)."""
+    if not args.fix_sigma:
+        return None
+    from gnss_obs.errors import GnssError
+    from gnss_obs.fixes.quality import parse_fix_sigma
+    try:
+        return dict(parse_fix_sigma(text) for text in args.fix_sigma)
+    except GnssError as exc:
+        raise ConfigError(f"--fix-sigma: {exc}") from None
+
+
+def _fix_model(args: argparse.Namespace):
+    """The fix model's settings from --fix-track-sigma-m and --no-fix-heights (None:
+    the defaults)."""
+    if args.fix_track_sigma_m is None and not args.no_fix_heights:
+        return None
+    from railnav.filters.fix_epochs import FixModelConfig
+    extra = {} if args.fix_track_sigma_m is None else {
+        "track_cross_sigma_m": args.fix_track_sigma_m}
+    return FixModelConfig(use_height=not args.no_fix_heights, **extra)
+
+
+def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
+    """The fix and truth flags against the inputs (part of `_check_flags`)."""
+    fix_flags = [flag for flag, given in (("--fix-sigma", args.fix_sigma),
+                                          ("--fix-track-sigma-m",
+                                           args.fix_track_sigma_m is not None),
+                                          ("--no-fix-heights", args.no_fix_heights)) if given]
+    if fix_flags and args.fixes is None:
+        raise ConfigError(f"{', '.join(fix_flags)}: only with --fixes")
+    if args.fixes is not None and several:
+        raise ConfigError("--fixes works with one track")
+    if args.fixes is not None and not kind.fixes:
+        takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).fixes)
+        raise ConfigError(f"--fixes: the {args.filter} filter takes no fixes (the {takes} "
+                          "filters do)")
+    if args.truth is not None and not _files(args):
+        raise ConfigError("--truth: a simulated run is scored against its own truth; "
+                          "--truth goes with sensor files")
+    if args.truth is not None and several:
+        raise ConfigError("--truth works with one track")
+    if args.truth_quality is not None and args.truth is None:
+        raise ConfigError("--truth-quality: only with --truth (a fix file)")
+    _fix_sigmas(args)
+
+
 def _check_flags(args: argparse.Namespace) -> None:
     """The one place where ``run``'s flags are checked against each other and against the
     inputs given: a flag that cannot apply is an error that says why, never ignored
     (single values are checked by their argparse types)."""
     _measurement(args.systems)   # validates --systems before any work
-    files = args.imu is not None or args.obs is not None
+    files = _files(args)
     kind = filter_kind(args.filter)
     given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
     if files and given:
         raise ConfigError(f"{', '.join(given)}: shape a simulated trip; with sensor files "
-                          "(--imu/--obs) there is none to shape")
+                          "(--imu/--obs/--fixes) there is none to shape")
+    if files and kind.needs_imu and args.imu is None:
+        raise ConfigError(f"--filter {args.filter}: needs --imu (without one, the gnss-only "
+                          "filter runs on the observations or fixes)")
     if not files and args.start_gps_time_s is not None:
         raise ConfigError("--start-gps-time-s: only with sensor files (a simulated trip "
                           "starts at its scenario's time)")
@@ -236,6 +325,7 @@ def _check_flags(args: argparse.Namespace) -> None:
         flag = "--imu-grade" if args.imu_grade is not None else "--imu"
         raise ConfigError(f"{flag}: the {args.filter} filter uses no IMU")
     several = len(args.tracks) > 1
+    _check_fix_flags(args, kind, several)
     if args.true_track is not None and args.true_track > len(args.tracks):
         raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
                           "given")
@@ -287,16 +377,27 @@ def _report(outcome, out: Path) -> str:
         lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
                      f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
                      "not used")
+    stats = s["statistics"]
+    if "fix_epochs" in stats:
+        lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
+                     "by the fault screen")
+    ref = s.get("reference")
+    if ref and ref.get("source") == "fixes":
+        lines.append(f"  reference: {ref['kept']} of {ref['candidates']} {ref['quality']} "
+                     f"fixes ({ref['off_track']} off the track, {ref['jumps']} jumps); "
+                     f"{ref['estimates_compared']} estimates compared")
     errors = s.get("errors")
-    if errors:
+    if errors and errors["all"]["along_track_m"]["rms"] is None:
+        lines.append("  no estimate has a reference sample: no errors")
+    elif errors:
         a = errors["all"]
         lines.append(f"  along-track RMS {a['along_track_m']['rms']:.3f} m, max "
                      f"{a['along_track_m']['max']:.3f} m; speed RMS "
-                     f"{a['speed_mps']['rms']:.4f} m/s; NEES mean {errors['nees']['mean']:.2f} "
-                     f"(dof {errors['nees']['dof']})")
+                     f"{_number(a['speed_mps']['rms'], '.4f')} m/s; NEES mean "
+                     f"{_number(errors['nees']['mean'], '.2f')} (dof {errors['nees']['dof']})")
         for o in errors["outages"]:
             lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
-                         f"at its end {o['at_end']['along_track_m']:+.3f} m")
+                         f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
     baro = s.get("baro")
     if baro:
         lines.append(f"  baro bias {baro['bias_m']:+.2f} ± {baro['sigma_bias_m']:.2f} m "
@@ -304,3 +405,8 @@ def _report(outcome, out: Path) -> str:
                      f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
                      "heights disagree")
     return "\n".join(lines)
+
+
+def _number(value, fmt: str) -> str:
+    """`value` formatted, or ``n/a`` for None (a quantity the reference does not know)."""
+    return "n/a" if value is None else format(value, fmt)

@@ -1,6 +1,8 @@
 """``railnav simulate TRACK --scenario NAME ...``: truth.csv, imu.csv and scenario.json.
 
-Thin layer over `railnav.simulation.scenarios.simulate_scenario` (STYLE.md §2.11).
+Thin layer over `railnav.simulation.trip.simulate_trip` (STYLE.md §2.11), and with
+``--fixes-format`` over `railnav.simulation.fixes.simulate_fixes` and the fix writers of
+`gnss_obs.fixes.writers`.
 """
 from __future__ import annotations
 
@@ -9,9 +11,18 @@ import json
 import logging
 from pathlib import Path
 
+from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
 from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
 from railnav.config import DEFAULT_SYSTEMS
+from railnav.errors import ConfigError
+from railnav.simulation.fixes import (
+    DEFAULT_QUALITY_MIX,
+    FIX_FORMATS_WRITTEN,
+    FixSimConfig,
+    parse_quality_mix,
+    trip_fixes,
+)
 from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
 from railnav.simulation.trip import simulate_trip
 from strapdown.imu_errors import IMU_GRADES
@@ -31,7 +42,8 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "simulate", help="simulate a trip: truth, IMU (and GNSS) files",
         description="Simulate a scenario (speed profile + sensors) on a track and write "
-                    "truth.csv, imu.csv and scenario.json to DIR.")
+                    "truth.csv, imu.csv and scenario.json to DIR (+ GNSS observations, "
+                    "and fixes with --fixes-format).")
     p.add_argument("track", metavar="TRACK", help="track file (.csv)")
     p.add_argument("--scenario", default="paper2017", choices=sorted(SCENARIOS),
                    help="named scenario (default: paper2017)")
@@ -50,13 +62,44 @@ def register(subparsers) -> None:
                         "file used, gnss_nav.rnx (default: yes)")
     p.add_argument("--systems", default=DEFAULT_SYSTEMS,
                    help=f"GNSS systems to simulate, e.g. G or GE (default {DEFAULT_SYSTEMS})")
+    p.add_argument("--fixes-format", choices=FIX_FORMATS_WRITTEN, default=None,
+                   help="also write GNSS position fixes of the truth: fixes.csv or "
+                        "fixes.nmea (GGA, RMC, VTG, GST)")
+    p.add_argument("--fixes-rate-hz", type=positive_float, default=None,
+                   help="fix rate, Hz (default 1; must divide the IMU rate)")
+    p.add_argument("--fixes-quality", default=None, metavar="CLASS=W,...",
+                   help="mix of fix classes by share of 30-s segments, e.g. "
+                        "rtk_fixed=0.5,single=0.5 (default "
+                        + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.set_defaults(func=handler)
 
 
+def _fix_config(args: argparse.Namespace) -> FixSimConfig | None:
+    """The fix simulation of the flags (None without --fixes-format)."""
+    given = [f for f, v in (("--fixes-rate-hz", args.fixes_rate_hz),
+                            ("--fixes-quality", args.fixes_quality)) if v is not None]
+    if args.fixes_format is None:
+        if given:
+            raise ConfigError(f"{', '.join(given)}: only with --fixes-format")
+        return None
+    extra = {} if args.fixes_rate_hz is None else {"rate_hz": args.fixes_rate_hz}
+    if args.fixes_quality is not None:
+        extra["quality_mix"] = parse_quality_mix(args.fixes_quality)
+    return FixSimConfig(**extra)
+
+
+def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
+    """Write the simulated fixes; their ``scenario.json`` entry."""
+    name = f"fixes.{fmt}"
+    (write_fixes_csv if fmt == "csv" else write_fixes_nmea)(out / name, fixes.table)
+    return {"file": name, "format": fmt, "count": len(fixes), **config.to_dict()}
+
+
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
+    fix_config = _fix_config(args)
     scenario = get_scenario(args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
@@ -64,6 +107,7 @@ def handler(args: argparse.Namespace) -> int:
     with progress_bar("simulate", enabled=not args.quiet) as progress:
         trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
                              systems=args.systems, progress=progress)
+    fixes = None if fix_config is None else trip_fixes(trip, fix_config)   # before any file
     result = trip.simulation
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -76,6 +120,8 @@ def handler(args: argparse.Namespace) -> int:
             "gnss_systems": args.systems if trip.gnss is not None else None,
             "n_samples": int(len(result.truth.time_s)),
             "end_time_s": float(result.truth.time_s[-1])}
+    if fix_config is not None:
+        meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
     log.info("wrote %d samples to %s", meta["n_samples"], out)
     return 0

@@ -89,22 +89,35 @@ def _truth_at(truth, t: Array) -> dict[str, Array]:
     return out
 
 
+def _largest(att: dict[str, Array]) -> Array:
+    """Largest |attitude error| per sample (NaN where all three are unknown)."""
+    a = np.abs(np.column_stack([att["yaw"], att["pitch"], att["roll"]]))
+    known = np.isfinite(a)
+    return np.where(known.any(axis=1), np.where(known, a, -np.inf).max(axis=1), np.nan)
+
+
 def _wrap(angle: Array) -> Array:
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
-def error_series(result, truth, track, *, clock_truth=None) -> ErrorSeries:
+def error_series(result, truth, track, *, clock_truth=None, known_states=None,
+                 valid=None) -> ErrorSeries:
     """Errors of a `railnav.NavigationResult` against a `railnav.simulation.truth.Truth`.
 
     Parameters
     ----------
     result : NavigationResult
     truth : railnav.simulation.truth.Truth
+        Unknown quantities NaN (a reference: `railnav.evaluation.reference`).
     track : trackmodel.Track
         The track of the truth (for the along/cross/vertical frame).
     clock_truth : callable, optional
         ``clock_truth(time_s) -> (bias_m, drift_mps)``; without it the clock states are
         left out of the NEES.
+    known_states : tuple of str, optional
+        Only these states (of those ``truth_states`` knows) count in the NEES.
+    valid : ndarray of bool, shape (K,), optional
+        Estimates with a truth (default all); the others get NaN errors.
 
     Returns
     -------
@@ -112,6 +125,9 @@ def error_series(result, truth, track, *, clock_truth=None) -> ErrorSeries:
     """
     est = result.estimates
     t = est["time_s"].to_numpy()
+    if truth.time_s.size == 0:
+        nan = np.full(t.size, np.nan)
+        return ErrorSeries(t, *([nan] * 12), 0)
     tr = _truth_at(truth, t)
     earth = track.earth
     r_est = geodetic_to_ecef(np.radians(est["lat_deg"].to_numpy()),
@@ -128,21 +144,25 @@ def error_series(result, truth, track, *, clock_truth=None) -> ErrorSeries:
     for name in ("yaw", "pitch", "roll"):
         col = f"{name}_deg"
         att[name] = _wrap(np.radians(est[col].to_numpy()) - tr[name]) if col in est else nan
-    nees, dof = _nees(result, truth, t, clock_truth)
+    nees, dof = _nees(result, truth, t, clock_truth, known_states)
     lat_est = np.radians(est["lat_deg"].to_numpy())
-    return ErrorSeries(
+    errors = ErrorSeries(
         time_s=t, along_track_m=np.einsum("ki,ki->k", e_n, point.u_n),
         cross_track_m=np.einsum("ki,ki->k", e_n, right),
         vertical_m=np.einsum("ki,ki->k", e_n, up), position_3d_m=np.linalg.norm(e_n, axis=1),
         speed_mps=est["speed_mps"].to_numpy() - tr["v"], yaw_rad=att["yaw"],
         pitch_rad=att["pitch"], roll_rad=att["roll"],
-        attitude_rad=np.nanmax(np.abs(np.column_stack([att["yaw"], att["pitch"], att["roll"]])),
-                               axis=1) if "yaw_deg" in est else nan,
+        attitude_rad=_largest(att) if "yaw_deg" in est else nan,
         latitude_rad=lat_est - tr["lat"],
         v_north_mps=est["v_north_mps"].to_numpy() - tr["v_n"][:, 1], nees=nees, nees_dof=dof)
+    if valid is None:
+        return errors
+    return ErrorSeries(**{f.name: np.where(valid, getattr(errors, f.name), np.nan)
+                          if f.name not in ("time_s", "nees_dof") else getattr(errors, f.name)
+                          for f in fields(errors)})
 
 
-def _nees(result, truth, t: Array, clock_truth) -> tuple[Array, int]:
+def _nees(result, truth, t: Array, clock_truth, known_states=None) -> tuple[Array, int]:
     """NEES on the known state components (NaN without a `truth_states` method)."""
     filt = result.filter_object
     if not hasattr(filt, "truth_states"):
@@ -153,6 +173,8 @@ def _nees(result, truth, t: Array, clock_truth) -> tuple[Array, int]:
                                       np.zeros(t.size) if drift is None else drift)
     if clock_truth is None:
         known &= ~np.isin(np.array(result.layout.names), ("clock_bias", "clock_drift"))
+    if known_states is not None:
+        known &= np.isin(np.array(result.layout.names), tuple(known_states))
     idx = np.flatnonzero(known)
     err = result.x[:, idx] - x_true[:, idx]
     for k, name in enumerate(np.array(result.layout.names)[idx]):

@@ -4,7 +4,8 @@
 holds the process model (`railnav.filters.constrained_model`), turns IMU samples into filter
 inputs with the track linearized along the predicted path (the per-step parameters of
 `strapdown.reduced`), and turns a GNSS epoch into pseudorange and range-rate rows
-(`railnav.filters.gnss_rows`) at the prior's position on the track, screened at the prior for
+(`railnav.filters.gnss_rows`), and a GNSS position fix into fix rows
+(`railnav.filters.fix_rows`), at the prior's position on the track, screened at the prior for
 faulty satellites and receiver clock jumps (`railnav.filters.fault_detection`,
 ``config.fault_detection``).
 
@@ -32,6 +33,7 @@ from railnav.filters.common import (
 )
 from railnav.filters.constrained_model import build_constrained_model, isb_state_name
 from railnav.filters.fault_detection import RowScreen
+from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.track_grid import TrackParameterGrid
@@ -55,10 +57,15 @@ class ConstrainedFilter:
     track : trackmodel.Track
     config : NavigatorConfig
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+    fixes : railnav.filters.fix_epochs.FixEpochs, optional
+        GNSS position fixes (`railnav.filters.fix_rows`, ``config.fix_model``).
+    schedule : railnav.filters.fix_epochs.EpochSchedule, optional
+        The epochs of `observations` (default: the GNSS epochs).
     """
 
 
-    def __init__(self, track: Track, config: NavigatorConfig, gnss=None) -> None:
+    def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *, fixes=None,
+                 schedule=None) -> None:
         self.track, self.config = track, config
         self.model = build_constrained_model(track.earth, estimate_biases=config.biases_estimated,
                      isb_systems=tuple(config.measurement.systems[1:]))
@@ -70,6 +77,9 @@ class ConstrainedFilter:
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
         self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
+        self.fix_rows = None if fixes is None else FixRowBuilder(track, self.layout, fixes,
+                                                                 config.fix_model)
+        self.schedule = schedule
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
         self._gravity: dict[int, float] = {}
@@ -136,10 +146,16 @@ class ConstrainedFilter:
 
     # -- discrete updates ------------------------------------------------------------------
     def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:
-        """GNSS rows of epoch `index` at the prior ``(x, P)`` (see `GnssRowBuilder`), those
-        the fault screen lets through (with a clock jump's covariance when it sees one)."""
-        rows = self.rows.observations(index, x, self._chunk_end)
-        return self.screen.screen(rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1], x, P)
+        """GNSS and fix rows of epoch `index` at the prior ``(x, P)`` (`GnssRowBuilder`,
+        `railnav.filters.fix_rows.FixRowBuilder`), those the fault screen lets through
+        (with a clock jump's covariance when it sees one)."""
+        g, f = (index, -1) if self.schedule is None else self.schedule.split(index)
+        gnss = None if g < 0 else (self.rows.observations(g, x, self._chunk_end),
+                                   self.rows.rows_sv[-1], self.rows.rows_kind[-1])
+        fix = None if f < 0 else self.fix_rows.observations(f, x)
+        rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="channel",
+                                                         fix_group=f)
+        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

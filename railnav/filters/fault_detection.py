@@ -31,6 +31,10 @@ r"""Satellite fault detection and exclusion (FDE) of a filter's GNSS rows, at th
    `readmission_passes` consecutive passes of the row test whose mean is consistent with
    zero (a ramp still running passes single rows now and then, not this).
 
+Rows are screened by their mode (`SCREEN_MODES`): ``channel`` as above; ``row``, the row
+test alone (GNSS fixes: a fix's error is no satellite's history); ``pass``, recorded and
+used. Rows of one group (a fix's rows) are used together: one failing rejects them all.
+
 Each row gets a status, ``used``, ``rejected`` or ``excluded`` (the row on which a channel
 becomes excluded is marked ``excluded``), and its fault probability, written to
 ``innovations.csv`` (`railnav.navigation.result`). `RowScreen.last` keeps the latest epoch's
@@ -51,7 +55,7 @@ over seeds 1–3 and checked on seeds 4–6: the largest pull was 2.97σ in both
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -63,16 +67,23 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from railnav.errors import ConfigError
 from railnav.filters.fault_channels import Channel
+from railnav.filters.row_sets import (
+    ROW_STATUSES,
+    evaluate_rows,
+    group_status,
+    subset_rows,
+)
 
 __all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "ROW_STATUSES",
-           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS"]
+           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
 
 log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
-#: Row statuses of ``innovations.csv``.
-ROW_STATUSES = ("used", "rejected", "excluded")
+#: How a row is screened (`RowScreen.screen`): with its channel's history, by the row
+#: test alone, or passed through.
+SCREEN_MODES = ("channel", "row", "pass")
 #: The residual of a declared clock jump must be consistent at this probability (the row
 #: gate's level: a jump is not declared while one satellite also fails).
 CLOCK_RESIDUAL_PROBABILITY = 0.9999
@@ -212,7 +223,8 @@ class RowScreen:
         return self.epochs[-1] if self.epochs else None
 
     def screen(self, observations: list[Observation], sv: np.ndarray, kind: np.ndarray,
-               x: Array, P: Array) -> list[Observation] | EpochRows:
+               x: Array, P: Array, *, modes: np.ndarray | None = None,
+               groups: np.ndarray | None = None) -> list[Observation] | EpochRows:
         """The rows of one epoch the update should use.
 
         Parameters
@@ -225,6 +237,10 @@ class RowScreen:
             Prior state.
         P : ndarray, shape (n, n)
             Prior covariance.
+        modes : ndarray of str, shape (m,), optional
+            `SCREEN_MODES` of each row (default ``channel``).
+        groups : ndarray of int, shape (m,), optional
+            Rows of one group >= 0 are used together or not at all (-1: no group).
 
         Returns
         -------
@@ -233,7 +249,7 @@ class RowScreen:
             was declared.
         """
         self._n_states = x.size
-        nu, H, R = _evaluate(observations, x)
+        nu, H, R = evaluate_rows(observations, x)
         S = H @ P @ H.T + np.diag(R)
         keys = np.array([f"{a}/{b}" for a, b in zip(sv, kind)], dtype=object)
         Q = np.zeros_like(P)
@@ -242,7 +258,11 @@ class RowScreen:
             Q[self.clock_index, self.clock_index] = jump[1]
             S = S + H @ Q @ H.T
         r = nu / np.sqrt(np.diag(S)) if nu.size else nu
-        status, prob, newly_excluded = self._decide(keys, r)
+        modes = np.full(keys.size, SCREEN_MODES[0], dtype=object) if modes is None else \
+            np.asarray(modes, dtype=object)
+        status, prob, newly_excluded = self._decide(keys, r, modes)
+        if groups is not None:
+            status = group_status(status, np.asarray(groups))
         for key in newly_excluded:   # what the channel pulled in before it was caught
             delta = self._channels[key].contamination()
             Q += np.outer(delta, delta)
@@ -254,7 +274,7 @@ class RowScreen:
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
-        rows = _subset(observations, used)
+        rows = subset_rows(observations, used)
         return EpochRows(rows, Q) if Q.any() else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
@@ -283,18 +303,24 @@ class RowScreen:
             self._channels[key] = Channel(self.config, self._n_states)
         return self._channels[key]
 
-    def _decide(self, keys: np.ndarray, r: Array) -> tuple[np.ndarray, Array, list[str]]:
-        """Status and fault probability of each row from its normalized innovation `r`,
-        and the channels excluded at this epoch; updates the channels."""
+    def _decide(self, keys: np.ndarray, r: Array, modes: np.ndarray
+                ) -> tuple[np.ndarray, Array, list[str]]:
+        """Status and fault probability of each row from its normalized innovation `r`
+        and its screen mode, and the channels excluded at this epoch; updates the
+        channels."""
         cfg = self.config
         status = np.full(keys.size, ROW_STATUSES[0], dtype=object)
         if cfg is None:
             return status, np.full(keys.size, np.nan), []
         prob = fault_probability(r * r, prior=cfg.fault_prior, scale=cfg.fault_scale)
+        prob = np.where(modes == SCREEN_MODES[2], np.nan, prob)
         failed = prob > cfg.decision_probability
         clip = float(np.sqrt(cfg.nis_threshold))
         excluded = []
         for i, key in enumerate(keys):
+            if modes[i] != SCREEN_MODES[0]:
+                status[i] = ROW_STATUSES[1] if failed[i] else ROW_STATUSES[0]
+                continue
             ch = self._channel(key)
             if ch.excluded:
                 status[i] = ROW_STATUSES[2]
@@ -310,13 +336,15 @@ class RowScreen:
 
     def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
                        H: Array, S: Array, P: Array) -> None:
-        """Each used row's correction ``K_i ν_i`` of this update, to its channel."""
+        """Each used row's correction ``K_i ν_i`` of this update, to its channel (rows
+        screened without a channel keep none)."""
         if self.config is None or not used.any():
             return
         H_u = H[used]
         K_t = np.linalg.solve(S[np.ix_(used, used)], H_u @ P)   # Kᵀ, S symmetric
         for k, (key, nu_k) in enumerate(zip(keys[used], nu[used])):
-            self._channels[key].add_influence(K_t[k] * nu_k)
+            if key in self._channels:
+                self._channels[key].add_influence(K_t[k] * nu_k)
 
     def clear_records(self) -> None:
         """Forget the recorded epochs (`frame`, `last`), keeping the channels' states (a
@@ -341,33 +369,3 @@ class RowScreen:
             "status": np.concatenate([e.status for e in self.epochs]),
             "fault_probability": np.concatenate([e.fault_probability for e in self.epochs]),
             "clock_jump_m": np.repeat([e.clock_jump_m for e in self.epochs], sizes)})
-
-
-def _evaluate(observations: list[Observation], x: Array) -> tuple[Array, Array, Array]:
-    """Innovations ``z − h(x)``, Jacobians and noise variances of all rows."""
-    n = x.size
-    if not observations:
-        return np.zeros(0), np.zeros((0, n)), np.zeros(0)
-    nus, Hs, Rs = [], [], []
-    for obs in observations:
-        if obs.R.ndim != 1 or obs.model.k != 1:
-            raise ValueError(f"{obs.model.name}: the row screen needs scalar rows with "
-                             "diagonal R (variances)")
-        z_pred, H = obs.model.evaluate(x, obs.p)
-        nus.append(obs.z.reshape(-1) - z_pred)
-        Hs.append(H)
-        Rs.append(obs.R)
-    return np.concatenate(nus), np.vstack(Hs), np.concatenate(Rs)
-
-
-def _subset(observations: list[Observation], keep: npt.NDArray[np.bool_]) -> list[Observation]:
-    """The observations restricted to the rows `keep` (in the stacked order)."""
-    out, start = [], 0
-    for obs in observations:
-        k = keep[start:start + obs.rows]
-        start += obs.rows
-        if k.all():
-            out.append(obs)
-        elif k.any():
-            out.append(replace(obs, z=obs.z[k], R=obs.R[k], p=obs.p[k]))
-    return out

@@ -1,4 +1,5 @@
-"""The GNSS-only track-constrained filter: ``[s, v, clock]`` from pseudoranges and Doppler.
+"""The GNSS-only track-constrained filter: ``[s, v, clock]`` from pseudoranges and Doppler,
+and ``[s, v]`` from GNSS position fixes (`railnav.filters.fix_rows`), or both.
 
 `GnssOnlyFilter` is what `railnav.navigate` drives for ``filter="gnss-only"``: data without
 an IMU. The process model is along-track kinematics with white acceleration
@@ -34,6 +35,8 @@ from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters.common import GnssRowBuilder, start_on_track, track_estimates
 from railnav.filters.constrained_model import isb_state_name
+from railnav.filters.fault_detection import RowScreen
+from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.filters.robust_rows import huber_inflate
 from trackmodel.track import Track
@@ -84,6 +87,13 @@ class GnssOnlyFilter:
     huber_k : float or None
         Huber threshold of the row down-weighting, in σ of the innovation (e.g.
         `railnav.filters.robust_rows.DEFAULT_HUBER_K`); None: off.
+    fixes : railnav.filters.fix_epochs.FixEpochs, optional
+        GNSS position fixes (`railnav.filters.fix_rows`, ``config.fix_model``), screened
+        at the prior (`railnav.filters.fault_detection`, ``config.fault_detection``; the
+        GNSS rows pass that screen untested). Fixes without GNSS observations: the state
+        is ``[s, v]``, no clock.
+    schedule : railnav.filters.fix_epochs.EpochSchedule, optional
+        The epochs of `observations` (default: the GNSS epochs).
 
     Attributes
     ----------
@@ -96,17 +106,23 @@ class GnssOnlyFilter:
 
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *,
-                 huber_k: float | None = None) -> None:
+                 huber_k: float | None = None, fixes=None, schedule=None) -> None:
         self.track, self.config, self.huber_k = track, config, huber_k
-        self.isb_systems = tuple(config.measurement.systems[1:])
-        self.model = build_gnss_only_model(self.isb_systems)
+        clock = gnss is not None or fixes is None
+        self.isb_systems = tuple(config.measurement.systems[1:]) if clock else ()
+        self.model = build_gnss_only_model(self.isb_systems, clock=clock)
         self.layout = self.model.layout
         self.process = self.model.process
         self.q_c = self.model.process_noise_density(
             along_accel_sigma_mps2=config.along_accel_sigma_mps2,
             oscillator=oscillator_from_name(config.oscillator))
         self.isb_names = tuple(isb_state_name(s) for s in self.isb_systems)
-        self.rows = GnssRowBuilder(track, self.layout, gnss, config, self.isb_names)
+        self.rows = GnssRowBuilder(track, self.layout, gnss, config, self.isb_names) \
+            if clock else None
+        self.schedule = schedule
+        self.fix_rows = None if fixes is None else FixRowBuilder(track, self.layout, fixes,
+                                                                 config.fix_model)
+        self.screen = None if fixes is None else RowScreen(config.fault_detection, None)
         interval = float(np.median(np.diff(gnss.time_s))) if gnss is not None and \
             len(gnss) > 1 else 1.0
         self.pseudorange_inflation = correlation_inflation(config.pseudorange_correlation_s,
@@ -130,7 +146,19 @@ class GnssOnlyFilter:
 
     def observations(self, index: int, x: Array, P: Array) -> list[Observation]:
         """GNSS rows of epoch `index` at the prior ``(x, P)``: pseudorange variances
-        inflated for correlated errors, then (with `huber_k`) Huber-weighted."""
+        inflated for correlated errors, then (with `huber_k`) Huber-weighted; with fixes,
+        the fix rows too, and the rows the fault screen lets through."""
+        g, f = (index, -1) if self.schedule is None else self.schedule.split(index)
+        rows = [] if g < 0 else self._gnss_rows(g, x, P)
+        if self.screen is None:
+            return rows
+        gnss = None if g < 0 else (rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1])
+        fix = None if f < 0 else self.fix_rows.observations(f, x)
+        rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="pass",
+                                                         fix_group=f)
+        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
+
+    def _gnss_rows(self, index: int, x: Array, P: Array) -> list[Observation]:
         rows = [replace(obs, R=obs.R * self.pseudorange_inflation)
                 if obs.model is self.rows.rows.pseudorange and self.pseudorange_inflation != 1.0
                 else obs for obs in self.rows.observations(index, x)]

@@ -2,7 +2,7 @@ r"""The GNSS-only track-constrained filter's process model: along-track kinemati
 
 State (`ekf.StateLayout`; names used everywhere, never indices)::
 
-    [s, v, clock_bias, clock_drift, (isb_<system> ...)]
+    [s, v, clock_bias, clock_drift, (isb_<system> ...)]      ([s, v] for position fixes only)
 
 ``s`` along-track distance (m), ``v = ds/dt`` signed speed (m/s: negative when the vehicle
 runs towards the track start), receiver clock bias ``c δt_r`` (m) and drift (m/s), one
@@ -91,25 +91,33 @@ class GnssOnlyModel:
         ndarray, shape (n_w,)
             ``[(m/s²)²·s, m²/s, m²/s³, m²/s ...]``.
         """
-        q = [along_accel_sigma_mps2 ** 2, oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
+        q = [along_accel_sigma_mps2 ** 2]
+        if "clock_bias" in self.layout.names:
+            q += [oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
         q += [ISB_RANDOM_WALK_M2PS] * len(self.isb_systems)
         return np.array(q, dtype=float)
 
 
 @functools.lru_cache(maxsize=None)
-def build_gnss_only_model(isb_systems: tuple[str, ...] = ()) -> GnssOnlyModel:
+def build_gnss_only_model(isb_systems: tuple[str, ...] = (), *,
+                          clock: bool = True) -> GnssOnlyModel:
     """Build (once per argument) the GNSS-only process model.
 
     Parameters
     ----------
     isb_systems : tuple of str
         GNSS systems that get an inter-system bias state (e.g. ``("E",)``).
+    clock : bool
+        With the receiver clock states; without (position fixes only, no pseudorange) the
+        state is ``[s, v]`` and the noise ``w_a`` alone.
 
     Returns
     -------
     GnssOnlyModel
     """
-    blocks = [("s", 1), ("v", 1), ("clock", CLOCK_STATE_NAMES)]
+    if not clock and isb_systems:
+        raise ValueError("inter-system biases need the clock states")
+    blocks = [("s", 1), ("v", 1)] + ([("clock", CLOCK_STATE_NAMES)] if clock else [])
     if isb_systems:
         blocks.append(("isb", tuple(isb_state_name(s) for s in isb_systems)))
     layout = StateLayout.from_blocks(blocks)
@@ -117,14 +125,16 @@ def build_gnss_only_model(isb_systems: tuple[str, ...] = ()) -> GnssOnlyModel:
     u = ca.SX.sym("u", 0, 1)
     p = ca.SX.sym("p", 0, 1)
     n_isb = len(isb_systems)
-    xdot = ca.vertcat(x[layout.index("v")], 0.0, x[layout.index("clock_drift")], 0.0,
-                      ca.SX.zeros(n_isb))
-    driven = [layout.index("v"), layout.index("clock_bias"), layout.index("clock_drift")] + \
+    clock_dot = [x[layout.index("clock_drift")], 0.0] if clock else []
+    xdot = ca.vertcat(x[layout.index("v")], 0.0, *clock_dot, ca.SX.zeros(n_isb))
+    driven = [layout.index("v")] + ([layout.index("clock_bias"), layout.index("clock_drift")]
+                                    if clock else []) + \
         [layout.index(isb_state_name(s)) for s in isb_systems]
     G = ca.SX.zeros(layout.size, len(driven))
     for col, row in enumerate(driven):
         G[row, col] = 1.0
-    name = "railnav_gnss_only" + ("_isb" + "".join(isb_systems) if isb_systems else "")
+    name = "railnav_gnss_only" + ("_isb" + "".join(isb_systems) if isb_systems else "") + \
+        ("" if clock else "_noclock")
     process = CdModel.from_expressions(layout, x, u, p, xdot, G=G, name=name)
     noise_names = ("w_a",) + tuple(f"w_{layout.names[i]}" for i in driven[1:])
     return GnssOnlyModel(process=process, layout=layout, isb_systems=tuple(isb_systems),

@@ -41,7 +41,7 @@ from strapdown.frames import omega_en_n
 from trackmodel.earth import C_n_e
 
 __all__ = ["TRACK_ROW_NAMES", "GnssRows", "build_gnss_rows", "compose_gnss_rows", "track_rows",
-           "pseudorange_parameters", "range_rate_parameters", "Receiver"]
+           "pseudorange_parameters", "range_rate_parameters", "Receiver", "track_position"]
 
 Array = npt.NDArray[np.float64]
 
@@ -88,7 +88,7 @@ def build_gnss_rows(layout: StateLayout, isb_names: tuple[str, ...] = ()) -> Gns
     i_s, i_v = layout.index("s"), layout.index("v")
 
     def receiver(x: ca.SX, part: ca.SX) -> tuple[ca.SX, ca.SX]:
-        r_e, t_e = _track_position(part, x[i_s])
+        r_e, t_e = track_position(part, x[i_s])
         return r_e, x[i_v] * t_e
 
     return compose_gnss_rows(layout, isb_names, receiver, n_part=_N_TRACK, name="track")
@@ -141,8 +141,9 @@ def compose_gnss_rows(layout: StateLayout, isb_names: tuple[str, ...], receiver:
         isb_names=tuple(isb_names))
 
 
-def _track_position(p: ca.SX, s: ca.SX) -> tuple[ca.SX, ca.SX]:
-    """``r_e(s)`` and ``t_e(s)`` from the track part of a row (module docstring)."""
+def track_position(p: ca.SX, s: ca.SX) -> tuple[ca.SX, ca.SX]:
+    """``r_e(s)`` and ``t_e(s)`` from the track part of a row (module docstring; also the
+    receiver of the fix rows, `railnav.filters.fix_rows`)."""
     delta = s - p[0]
     r_ref, t_ref, k_ref, j_ref = p[1:4], p[4:7], p[7:10], p[10:13]
     return (r_ref + delta * (t_ref + delta * (0.5 * k_ref + delta / 6.0 * j_ref)),

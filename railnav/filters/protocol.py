@@ -92,6 +92,9 @@ class FilterKind:
     banks : bool
         It can run in a multi-track bank (`railnav.navigation.bank`): it screens each
         epoch's rows and keeps their innovations (``screen.last``).
+    fixes : bool
+        It takes GNSS position fixes (`railnav.filters.fix_rows`): its class accepts
+        ``fixes`` and ``schedule``.
     summary : str
         One line for help texts.
     """
@@ -102,19 +105,20 @@ class FilterKind:
     needs_imu: bool
     streams: bool
     banks: bool
+    fixes: bool
     summary: str
 
 
 #: Every filter kind, by name, in the order the help lists them.
 FILTERS: dict[str, FilterKind] = {k.name: k for k in (
     FilterKind("constrained", "railnav.filters.constrained", "ConstrainedFilter",
-               needs_imu=True, streams=True, banks=True,
+               needs_imu=True, streams=True, banks=True, fixes=True,
                summary="track-constrained tightly coupled INS/GNSS (the 2017 paper's)"),
     FilterKind("unconstrained", "railnav.filters.unconstrained", "UnconstrainedFilter",
-               needs_imu=True, streams=True, banks=False,
+               needs_imu=True, streams=True, banks=False, fixes=False,
                summary="unconstrained 9-state tightly coupled INS/GNSS (baseline)"),
     FilterKind("gnss-only", "railnav.filters.gnss_only", "GnssOnlyFilter",
-               needs_imu=False, streams=False, banks=False,
+               needs_imu=False, streams=False, banks=False, fixes=True,
                summary="GNSS-only on the track: [s, v, clock], no IMU"),
 )}
 
@@ -137,7 +141,7 @@ def filter_kind(name: str) -> FilterKind:
                           f"{name!r}") from None
 
 
-def make_filter(track, config, gnss) -> Filter:
+def make_filter(track, config, gnss, *, fixes=None, schedule=None) -> Filter:
     """Build the filter object of ``config.filter``.
 
     Parameters
@@ -147,7 +151,23 @@ def make_filter(track, config, gnss) -> Filter:
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
         The trip's GNSS epochs (anything with ``prepare(index, r_guess_e)``); None when
         the filter will not see GNSS rows (or to build it only for its layout).
+    fixes : railnav.filters.fix_epochs.FixEpochs, optional
+        The trip's GNSS position fixes.
+    schedule : railnav.filters.fix_epochs.EpochSchedule, optional
+        The epochs ``observations(index, ...)`` is called with (GNSS epochs and fixes
+        merged); default: the GNSS epochs in order.
+
+    Raises
+    ------
+    ConfigError
+        Fixes for a filter kind that takes none.
     """
     kind = filter_kind(config.filter)
     cls = getattr(importlib.import_module(kind.module), kind.class_name)
-    return cls(track, config, gnss)
+    if fixes is None and schedule is None:
+        return cls(track, config, gnss)
+    if not kind.fixes:
+        takes = " or ".join(k.name for k in FILTERS.values() if k.fixes)
+        raise ConfigError(f"the {kind.name} filter takes no GNSS fixes (the {takes} "
+                          "filters do)")
+    return cls(track, config, gnss, fixes=fixes, schedule=schedule)

@@ -3,8 +3,10 @@
 * `run_simulated` simulates a scenario on a track (truth, IMU, GNSS: `railnav.simulation.trip`) and
   filters it, starting from the truth with errors drawn from the filter's own initial
   covariance (so that NEES is meaningful);
-* `run_files` filters recorded or previously simulated files (IMU CSV, RINEX obs + nav),
-  starting from the first GNSS fix; a truth CSV, when given, is used for the errors;
+* `run_files` filters recorded or previously simulated files (IMU CSV, RINEX obs + nav,
+  GNSS position fixes), starting from the first GNSS fix; a reference (railnav's truth.csv,
+  a reference trajectory or a fix file: `railnav.jobs.scoring`), given or found beside
+  ``railnav simulate``'s files, is used for the errors;
 * `write_run` writes ``estimates.csv``, ``innovations.csv``, ``summary.json`` (and
   ``errors.csv`` with a truth) and the plots into a directory, each file atomically.
 """
@@ -21,6 +23,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from gnss_obs.fixes.read import read_fixes
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
@@ -33,7 +36,15 @@ from railnav.config import (
 )
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
+from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import filter_kind
+from railnav.jobs.scoring import (
+    find_truth,
+    scenario_outages,
+    score_run,
+    simulation_meta,
+    with_timestamps,
+)
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
 from railnav.navigation.result import CSV_FLOAT_FORMAT, NavigationResult
@@ -145,15 +156,16 @@ def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None)
                               drawn=known)
 
 
-def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
+def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=None,
+              truth_path=None, truth_quality: str | None = None,
               start_gps_time_s: float | None = None, config: NavigatorConfig | None = None,
-              filter: str = DEFAULT_FILTER, systems: str | None = None,
-              imu_grade: str | None = None, outages=(),
-              window: tuple[float, float] | None = None, base_path=None,
-              base_lat_lon_h: tuple[float, float, float] | None = None, smoothing=None,
-              sp3_paths=(), max_correction_age_s: float | None = None,
+              filter: str | None = None, systems: str | None = None,
+              imu_grade: str | None = None, fix_sigmas=None,
+              fix_model: FixModelConfig | None = None, outages=None, window=None,
+              base_path=None, base_lat_lon_h: tuple[float, float, float] | None = None,
+              smoothing=None, sp3_paths=(), max_correction_age_s: float | None = None,
               progress: Callable[[int, int], None] | None = None) -> RunOutcome:
-    """Filter sensor files on a track.
+    """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
     ----------
@@ -162,25 +174,37 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
         ``imu.csv`` (`strapdown.imu.read_imu_csv`), times from the trip start.
     obs_path, nav_path : path, optional
         RINEX observation and navigation files (both or neither).
+    fixes_path : path, optional
+        GNSS position fixes: CSV, NMEA, UBX or GPX (`gnss_obs.fixes.read_fixes`).
+    truth_path, truth_quality : path, str, optional
+        A reference to score against (`railnav.evaluation.reference.read_reference`:
+        ``truth.csv``, a reference trajectory or a fix file, its rows of class
+        `truth_quality`, default its best); default: the ``truth.csv`` beside the
+        ``scenario.json`` of files written by ``railnav simulate``.
     start_gps_time_s : float, optional
-        GPS time of the IMU's ``time_s = 0``; default: from ``scenario.json`` beside the IMU
-        file (written by ``railnav simulate``), else the first GNSS epoch.
+        GPS time of the IMU's ``time_s = 0``; default: from ``scenario.json`` beside the
+        input files (written by ``railnav simulate``), else the first GNSS epoch or fix.
     config : NavigatorConfig, optional
         Default: for files written by ``railnav simulate`` (a ``scenario.json`` beside the
-        IMU or observation file) the simulation's sensor models
+        inputs) the simulation's sensor models
         (`railnav.simulation.trip.navigator_config_from_simulation`); otherwise `NavigatorConfig`'s
-        defaults (GNSS σ from elevation and C/N0). `filter`, `systems` and `imu_grade`
-        apply to the default only.
-    filter : str
+        defaults (GNSS σ from elevation and C/N0). `filter`, `systems`, `imu_grade` and
+        `fix_model` apply to the default only.
+    filter : str, optional
+        Default `railnav.config.DEFAULT_FILTER` with an IMU file, else ``gnss-only``.
     systems : str, optional
         GNSS systems to use (default: the simulated ones, else `railnav.config.DEFAULT_SYSTEMS`).
     imu_grade : str, optional
         The IMU grade the filter assumes (`strapdown.imu_errors.IMU_GRADES`); default: the
         simulated grade for files written by ``railnav simulate``. A recorded IMU file
         (no ``scenario.json`` beside it) needs one for the inertial filters.
-    outages : sequence of (start_s, duration_s)
-        Windows whose GNSS data are ignored (s from the trip start).
-    window : (start_s, end_s), optional
+    fix_sigmas, fix_model : dict of str to FixSigmas, FixModelConfig, optional
+        σ of the fix classes the fix file lacks (`gnss_obs.fixes.quality`); the fix
+        rows' assumptions (`railnav.filters.fix_epochs.FixModelConfig`).
+    outages : sequence of gnss_obs.Outage or (start_s, duration_s), optional
+        Windows whose GNSS data and fixes are ignored (s from the trip start); default:
+        the outages of ``scenario.json`` (``railnav simulate``'s files), else none.
+    window, progress : (start_s, end_s), callable(done, total), optional
     base_path : path, optional
         Base-station RINEX observations: code-differential pseudorange rows
         (`gnss_obs.augment`).
@@ -192,18 +216,38 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None,
         Precise orbit/clock files for the GNSS rows.
     max_correction_age_s : float, optional
         Oldest base correction applied (default `gnss_obs.DgpsConfig`'s).
-    progress : callable(done, total), optional
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
-                                     start_gps_time_s=start_gps_time_s, config=config,
-                                     filter=filter, systems=systems, imu_grade=imu_grade)
+                                     fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
+                                     config=config, filter=filter, systems=systems,
+                                     imu_grade=imu_grade, fix_sigmas=fix_sigmas,
+                                     fix_model=fix_model)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,
                           max_correction_age_s=max_correction_age_s)
-    result = navigate(track, data, config, outages=outages, progress=progress)
-    summary = run_summary(result, track, None, window, tuple(outages), {})
-    return RunOutcome(result, track, summary, data=data)
+    found = simulation_meta(imu_path, obs_path, fixes_path)
+    if outages is None:
+        outages = scenario_outages(found[0] if found else None)
+    result = with_timestamps(navigate(track, data, config, outages=outages,
+                                      progress=progress), data.fixes)
+    return _file_outcome(result, track, data, truth_path or find_truth(
+        imu_path, obs_path, fixes_path), truth_quality, window, tuple(outages))
+
+
+def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, window,
+                  outages) -> RunOutcome:
+    """A file run's outcome: scored against `truth_path` when there is one."""
+    errors, extra = None, {}
+    if truth_path is not None:
+        errors, extra["reference"] = score_run(result, track, truth_path,
+                                               start_gps_time_s=data.start_gps_time_s,
+                                               quality=truth_quality)
+    if data.fixes is not None:
+        extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
+                          "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
+    summary = run_summary(result, track, errors, window, outages, extra)
+    return RunOutcome(result, track, summary, errors, data=data)
 
 
 def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat_lon_h,
@@ -223,10 +267,11 @@ def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat
     return replace(data, obs=aug.obs, augmentation=aug)
 
 
-def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,
+def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path=None,
                       start_gps_time_s: float | None = None,
-                      config: NavigatorConfig | None = None, filter: str = DEFAULT_FILTER,
-                      systems: str | None = None, imu_grade: str | None = None
+                      config: NavigatorConfig | None = None, filter: str | None = None,
+                      systems: str | None = None, imu_grade: str | None = None,
+                      fix_sigmas=None, fix_model: FixModelConfig | None = None
                       ) -> tuple[SensorData, NavigatorConfig]:
     """The sensor data of `run_files` and the navigator configuration it uses (see there
     for the parameters and the defaults).
@@ -238,40 +283,35 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None,
         without the grade the filter should assume.
     """
     check_gnss_pair(obs_path, nav_path)
+    filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
     imu = read_imu_csv(imu_path) if imu_path is not None else None
     if config is None:
-        config = _default_file_config(imu_path, obs_path, filter, systems, imu_grade)
+        config = _default_file_config(imu_path, obs_path, fixes_path, filter, systems,
+                                      imu_grade)
+        if fix_model is not None:
+            config = replace(config, fix_model=fix_model)
     obs = read_rinex_obs(obs_path) if obs_path is not None else None
     nav = read_rinex_nav(nav_path) if nav_path is not None else None
+    fixes = read_fixes(fixes_path, sigmas=fix_sigmas) if fixes_path is not None else None
     if start_gps_time_s is None:
-        start_gps_time_s = _start_time(imu_path, obs)
-    return SensorData(float(start_gps_time_s), imu=imu, obs=obs, nav=nav), config
+        start_gps_time_s = _start_time(imu_path, obs, fixes, fixes_path)
+    return SensorData(float(start_gps_time_s), imu=imu, obs=obs, nav=nav, fixes=fixes), config
 
 
-def _simulation_meta(*paths) -> dict | None:
-    """The ``scenario.json`` beside the first of `paths` that has one (None if none)."""
-    for path in paths:
-        if path is None:
-            continue
-        meta = Path(path).with_name("scenario.json")
-        if meta.is_file():
-            try:
-                return json.loads(meta.read_text())
-            except ValueError as exc:
-                raise ConfigError(f"{meta}: not valid JSON ({exc})") from None
-    return None
-
-
-def _default_file_config(imu_path, obs_path, filter: str, systems: str | None,
+def _default_file_config(imu_path, obs_path, fixes_path, filter: str, systems: str | None,
                          imu_grade: str | None) -> NavigatorConfig:
-    meta = _simulation_meta(imu_path, obs_path)
-    if meta is not None:
+    found = simulation_meta(imu_path, obs_path, fixes_path)
+    if found is not None:
+        meta = found[0]
         extra = {} if systems is None else {"measurement": replace(
             navigator_config_from_simulation(meta).measurement, systems=systems)}
         if imu_grade is not None:
             extra["imu_errors"] = imu_grade
         log.info("sensor models from the simulation's scenario.json")
-        return navigator_config_from_simulation(meta, filter=filter, **extra)
+        # the scenario's initial σ of s and v are those of a start drawn about the truth
+        # (run_simulated); a file run starts from its first fix, with that fix's σ
+        return navigator_config_from_simulation(meta, filter=filter, initial_s_sigma_m=None,
+                                                initial_v_sigma_mps=None, **extra)
     if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
         raise ConfigError(f"{imu_path}: a recorded IMU file needs the grade the filter "
                           f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))})")
@@ -280,16 +320,21 @@ def _default_file_config(imu_path, obs_path, filter: str, systems: str | None,
                            measurement=MeasurementConfig(systems=systems or DEFAULT_SYSTEMS))
 
 
-def _start_time(imu_path, obs) -> float:
+def _start_time(imu_path, obs, fixes, fixes_path) -> float:
     """The trip's start in GPS time when the user did not give it."""
-    meta = _simulation_meta(imu_path)
-    if meta is not None:
+    found = simulation_meta(imu_path, fixes_path)
+    if found is not None:
         try:
-            return float(meta["scenario"]["start_gps_time_s"])
+            return float(found[0]["scenario"]["start_gps_time_s"])
         except (KeyError, ValueError, TypeError) as exc:
             raise ConfigError(f"scenario.json: no scenario.start_gps_time_s ({exc})") from None
+    starts = []
     if obs is not None and len(obs.table):
-        return float(obs.table["gps_time_s"].iloc[0])
+        starts.append(float(obs.table["gps_time_s"].iloc[0]))
+    if fixes is not None:
+        starts.append(float(fixes.table["gps_time_s"].iloc[0]))
+    if starts:
+        return min(starts)
     raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")
 
 

@@ -271,10 +271,7 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
     names = tuple(names) if names is not None else tuple(f"track{j}" for j in range(len(tracks)))
     if len(tracks) < 2 or len(names) != len(tracks) or len(set(names)) != len(names):
         raise ConfigError("a track bank needs at least two tracks with distinct names")
-    if not filter_kind(config.filter).banks:
-        raise ConfigError(f"parallel-track identification runs a filter that can run in a "
-                          f"bank ({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}"
-                          f"), not {config.filter!r}")
+    _check_bank_inputs(config, data)
     trip = trip_samples(data, config, outages=outages)
     filters = [make_filter(track, config, trip.gnss) for track in tracks]
     if callable(initial):
@@ -298,6 +295,17 @@ def navigate_tracks(tracks: Sequence, data: SensorData,
     return TrackBankResult(names=names, results=tuple(results), bank=bank,
                            start_gps_time_s=float(data.start_gps_time_s),
                            runtime_s=time.perf_counter() - started, **record)
+
+
+def _check_bank_inputs(config: NavigatorConfig, data) -> None:
+    """A bank runs a filter kind that banks, on GNSS observations (no position fixes)."""
+    if not filter_kind(config.filter).banks:
+        raise ConfigError(f"parallel-track identification runs a filter that can run in a "
+                          f"bank ({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}"
+                          f"), not {config.filter!r}")
+    if data.fixes is not None:
+        raise ConfigError("GNSS position fixes work with one track (a track bank runs on "
+                          "GNSS observations)")
 
 
 class _Lockstep:

@@ -2,14 +2,18 @@
 
 `navigate` is the one entry point behind ``railnav run`` and the notebooks. It
 
-1. cuts the GNSS observations into epochs (`railnav.filters.gnss_epochs`), without the
-   outage windows (the one place where a run skips GNSS data);
+1. cuts the GNSS observations into epochs (`railnav.filters.gnss_epochs`) and the GNSS
+   position fixes to the trip (`railnav.filters.fix_epochs.FixEpochs`), both without the
+   outage windows (the one place where a run skips GNSS data), and merges them into one
+   epoch schedule (`railnav.filters.fix_epochs.EpochSchedule`);
 2. builds the sample grid: the IMU samples (a sample is inserted, its input interpolated,
-   where a GNSS epoch falls between two), or for a filter that needs no IMU a grid at the
+   where an epoch falls between two), or for a filter that needs no IMU a grid at the
    output rate plus the epochs;
 3. builds the filter object once (`railnav.filters.protocol.make_filter`) and starts it from
-   the given `InitialState` (or one computed from the filter object) or from the first
-   GNSS fix (`railnav.navigation.initialization`);
+   the given `InitialState` (or one computed from the filter object), or from the first
+   single-point GNSS fix of the observations (`railnav.navigation.initialization`), or,
+   without observations, from the first position fix that agrees with the track
+   (`railnav.navigation.fix_start`);
 4. runs it through the chunk loop (`railnav.navigation.loop.ChunkLoop`), which stops early,
    with a warning, when a track-based filter's vehicle leaves the track; the result says
    where (`NavigationResult.left_track`);
@@ -32,8 +36,10 @@ import numpy.typing as npt
 from ekf.history import concatenate_results
 from railnav.config import NavigatorConfig, SensorData
 from railnav.errors import RailnavError
+from railnav.filters.fix_epochs import EpochSchedule, FixEpochs
 from railnav.filters.gnss_epochs import GnssEpochs
 from railnav.filters.protocol import Filter, filter_kind, make_filter
+from railnav.navigation.fix_start import initial_from_fixes
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.navigation.result import NavigationResult
@@ -83,8 +89,11 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
     """
     started = time.perf_counter()
     trip = trip_samples(data, config, outages=outages)
-    filt = make_filter(track, config, trip.gnss)
-    if initial is None:
+    filt = make_filter(track, config, trip.gnss, fixes=trip.fixes,
+                       schedule=trip.schedule if trip.fixes is not None else None)
+    if initial is None and trip.gnss is None and trip.fixes is not None:
+        initial = initial_from_fixes(filt, trip.fixes, config)
+    elif initial is None:
         initial = initial_from_gnss(filt, data, config, trip.gnss)
     elif callable(initial):
         initial = initial(filt)
@@ -118,13 +127,18 @@ class TripSamples:
         Inputs of the samples (interpolated at inserted epochs).
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
     epoch_times : ndarray, shape (E,)
-        GNSS epoch times, s from the trip start.
+        Measurement epoch times (GNSS epochs and fixes), s from the trip start.
+    fixes : railnav.filters.fix_epochs.FixEpochs or None
+    schedule : railnav.filters.fix_epochs.EpochSchedule
+        Which GNSS epoch and which fix each epoch has.
     """
 
     t: Array
     u: Array
     gnss: GnssEpochs | None
     epoch_times: Array
+    fixes: FixEpochs | None = None
+    schedule: EpochSchedule | None = None
 
     def from_time(self, start_s: float) -> tuple[Array, Array, npt.NDArray[np.intp]]:
         """Samples ``t, u`` from `start_s` on and the indices of the epochs they reach.
@@ -146,27 +160,35 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> Tr
     """The samples and GNSS epochs of a trip (steps 1–2 of `navigate`; also used to run
     several filters over the same data, `railnav.navigation.bank`)."""
     samples_t, samples_u = _sample_times(data, config)
-    gnss = None
+    gnss = fixes = None
     if data.obs is not None:
         gnss = GnssEpochs.from_files(data.obs, data.nav, config.measurement,
                                      start_gps_time_s=data.start_gps_time_s,
                                      end_s=float(samples_t[-1]), outages=outages,
                                      elevation_mask_deg=config.elevation_mask_deg,
                                      augmentation=data.augmentation)
-    epoch_times = gnss.time_s if gnss is not None else np.zeros(0)
-    samples_t, samples_u = _insert_samples(samples_t, samples_u, epoch_times)
-    return TripSamples(samples_t, samples_u, gnss, epoch_times)
+    if data.fixes is not None:
+        fixes = FixEpochs.from_table(data.fixes.table, start_gps_time_s=data.start_gps_time_s,
+                                     end_s=float(samples_t[-1]), outages=outages)
+    schedule = EpochSchedule.merge(gnss.time_s if gnss is not None else [],
+                                   fixes.time_s if fixes is not None else [],
+                                   tol_s=EPOCH_TIME_TOL_S)
+    samples_t, samples_u = _insert_samples(samples_t, samples_u, schedule.time_s)
+    return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule)
 
 
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
     """Sample times (s) and inputs of the filter before epochs are inserted."""
     if not filter_kind(config.filter).needs_imu:
-        if data.obs is None:
-            raise RailnavError(f"the {config.filter} filter needs GNSS observations")
-        t_obs = np.unique(data.obs.table["gps_time_s"].to_numpy()) - data.start_gps_time_s
-        t_obs = t_obs[t_obs >= 0]
+        if data.obs is None and data.fixes is None:
+            raise RailnavError(f"the {config.filter} filter needs GNSS observations or fixes")
+        times = [data.obs.table["gps_time_s"].to_numpy()] if data.obs is not None else []
+        if data.fixes is not None:
+            times.append(data.fixes.table["gps_time_s"].to_numpy(dtype=float))
+        t_obs = np.unique(np.concatenate(times)) - data.start_gps_time_s
+        t_obs = t_obs[t_obs >= -EPOCH_TIME_TOL_S]
         if t_obs.size < 2:
-            raise RailnavError("fewer than two GNSS epochs after the trip start")
+            raise RailnavError("fewer than two GNSS epochs or fixes after the trip start")
         grid = np.arange(t_obs[0], t_obs[-1], 1.0 / config.output_rate_hz)
         t = np.union1d(grid, t_obs)
         return t, np.zeros((t.size, 0))

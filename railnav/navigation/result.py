@@ -7,7 +7,8 @@ speed_mps, v_east_mps, ...``, then ``yaw_deg, ...``, clock, biases, and ``sigma_
 each; `railnav.filters.common.estimate_columns`). `NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
 innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
-m or m/s by kind). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
+m or m/s by kind; a GNSS position fix has the rows of `railnav.filters.fix_rows`, ``sv``
+``fix:<class>``). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
 channel is out, `railnav.filters.fault_detection`); ``accepted`` is ``status == "used"``;
 ``fault_probability`` is the row's posterior fault probability and ``clock_jump_m`` a
 receiver clock jump declared at the row's epoch (NaN for filters without the fault screen,
@@ -23,6 +24,7 @@ import pandas as pd
 
 from ekf.history import FilterResult
 from ekf.layout import StateLayout
+from railnav.filters.fix_rows import FIX_ROW_KINDS
 
 __all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT"]
 
@@ -141,10 +143,15 @@ class NavigationResult:
             jumps = inn.groupby("epoch")["clock_jump_m"].first().dropna()
             out["clock_jumps"] = [{"time_s": float(inn.loc[inn["epoch"] == e, "time_s"].iloc[0]),
                                    "jump_m": float(v)} for e, v in jumps.items()]
-        for kind in ("pseudorange", "range_rate"):
+        fix_kinds = [k for k in FIX_ROW_KINDS if len(inn) and (inn["kind"] == k).any()]
+        for kind in ("pseudorange", "range_rate", *fix_kinds):
             rows = inn[(inn["kind"] == kind) & inn["accepted"]] if len(inn) else inn
             out[f"nis_{kind}_mean"] = _finite_or_none(float(rows["nis"].mean())) \
                 if len(rows) else None
+        if fix_kinds:
+            fix = inn[inn["kind"].isin(fix_kinds)]
+            used = fix.groupby("epoch")["accepted"].all()
+            out["fix_epochs"], out["fixes_rejected"] = int(used.size), int((~used).sum())
         return out
 
 

@@ -6,9 +6,10 @@ starts with, and the GNSS settings the GNSS simulator uses. `SCENARIOS` holds th
 ones; build others with ``dataclasses.replace(get_scenario("curvy"), ...)`` or from
 scratch. `simulate_scenario` produces the truth and the ideal and measured IMU records.
 
-Random numbers: ``numpy.random.SeedSequence(seed).spawn(3)`` gives independent streams,
+Random numbers: ``numpy.random.SeedSequence(seed).spawn(4)`` gives independent streams,
 child 0 for the IMU errors, child 1 for GNSS measurements, child 2 for initial errors,
-so adding or changing one sensor does not change the others' draws.
+child 3 for GNSS position fixes, so adding or changing one sensor does not change the
+others' draws.
 """
 from __future__ import annotations
 
@@ -48,8 +49,9 @@ log = logging.getLogger(__name__)
 #: Example tracks shipped with the repository.
 TRACKS_DIR = shipped_path(TRACKS)
 #: 2020-11-29 12:40:00 GPST: inside the validity of the shipped broadcast navigation file.
-#: Indices of the independent random streams spawned from the seed.
-RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2}
+#: Indices of the independent random streams spawned from the seed (a stream added at the
+#: end leaves the others' draws unchanged: ``SeedSequence.spawn`` children are numbered).
+RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2, "fixes": 3}
 
 
 @dataclass(frozen=True)

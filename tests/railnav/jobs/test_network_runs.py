@@ -1,9 +1,11 @@
 """Which way did the train go? Routes through the real Brussels network (issue 13).
 
-References: before the switch the two route lines are the same fitted netelements, so
-their filters see the same data through the same geometry and their probabilities are
-exactly equal (1/2); after it, the true route must win (the diverging branch is 94 m
-away at the horizon). Geometry: data/networks/brussels_airport (tp-lib's test data).
+References: the true route must win after the switch (the diverging branch is 94 m away
+at the horizon), and before it the bank must never be confidently wrong: each route line
+is refitted on its own (the switch's kink made a short curve), so the lines of two routes
+agree before the switch within the refit's tolerance (measured: 0.15 m), and the true
+route's probability may rise there but must not fall far below its prior 1/2.
+Geometry: data/networks/brussels_airport (tp-lib's test data).
 """
 from __future__ import annotations
 
@@ -42,12 +44,17 @@ def _divergence_s(tracks, start_s) -> float:
     return float(s[np.argmax(gap > 1.0)])
 
 
+#: Two route lines refitted within 0.5 m of one chained line agree within twice that.
+REFIT_TOL_M = 0.5
+
+
 def test_two_routes_share_their_start(network, start):
     names, tracks, start_s = route_candidates(network, start, horizon_m=2500.0)
     assert len(names) == 2 and all(n.startswith(f"-{ELEMENT}>") for n in names)
     assert start_s == pytest.approx(BACK_FROM_END_M)
-    here = [t.at(start_s).r_e for t in tracks]
-    assert np.linalg.norm(here[0] - here[1]) < 1e-6
+    s = np.arange(start_s, _divergence_s(tracks, start_s) - 100.0, 5.0)
+    gap = np.linalg.norm(tracks[0].at(s).r_e - tracks[1].at(s).r_e, axis=1)
+    assert gap.max() < 2 * REFIT_TOL_M
 
 
 @pytest.mark.parametrize("true_route", [0, 1])
@@ -63,6 +70,6 @@ def test_the_route_taken_is_identified(network, start, true_route):
     t_split = (split_s - start_s) / SPEED_MPS
     before = bank.time_s < t_split - 5.0
     assert before.sum() > 10
-    np.testing.assert_allclose(bank.probabilities[before], 0.5, atol=1e-9)
+    assert bank.probabilities[before, true_route].min() > 0.2     # never confidently wrong
     final = bank.final_probabilities()
     assert final[names[true_route]] > 0.99, final
