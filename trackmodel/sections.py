@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from trackmodel.errors import TrackError
+from trackmodel.plausibility import check_section_values
 
 __all__ = ["Section", "SectionArrays", "MAX_ELEVATION_DEG", "tangent_frame"]
 
@@ -72,7 +73,9 @@ class Section:
     Raises
     ------
     TrackError
-        For a non-finite value, a length <= 0 or an elevation outside (-90°, 90°).
+        For a non-finite value, a length <= 0 or an elevation outside (-90°, 90°);
+        `trackmodel.plausibility.ImplausibleTrackError` (with the column) for a value
+        beyond the plausibility limits (radius, turn, length, azimuth).
     """
 
     length_m: float
@@ -93,6 +96,7 @@ class Section:
             value = getattr(self, name)
             if value is not None and not abs(value) < MAX_ELEVATION_DEG:
                 raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {value!r}")
+        check_section_values(self)
 
     @property
     def curvature_end(self) -> float:

@@ -47,6 +47,7 @@ from railnav.studies.config import (
     StudyConfig,
     check_field,
 )
+from trackmodel.textfile import read_text
 
 try:                                    # Python >= 3.11
     import tomllib
@@ -86,12 +87,13 @@ def load_study_config(path: str | Path) -> StudyConfig:
     Raises
     ------
     ConfigError
-        Located at the file, line and key of the problem.
+        Located at the file, line and key of the problem (a byte that is not UTF-8: its
+        line).
     OSError
         If the file cannot be read.
     """
     path = Path(path)
-    return parse_study_config(path.read_text(encoding="utf-8"), path=path)
+    return parse_study_config(read_text(path, error=ConfigError), path=path)
 
 
 def parse_study_config(text: str, *, path: str | Path = "<study>") -> StudyConfig:
