@@ -54,7 +54,7 @@ class InputError(ValueError):
             loc = f"{loc}, {self.column}" if loc else self.column
         parts = [p for p in (self.path, loc) if p]
         parts.append(self.message)
-        return ": ".join(parts)
+        return " ".join(": ".join(parts).splitlines())     # one line, whatever the input
 
     def at(self, path: str | os.PathLike) -> "InputError":
         """Return this error with `path` filled in when the raiser did not know it."""

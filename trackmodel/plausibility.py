@@ -169,7 +169,7 @@ def _kink_deg(given: float, continued: float) -> float:
     return abs((given - continued + 180.0) % 360.0 - 180.0)
 
 
-def check_table(sections: Sequence, *, lon_deg: float, h_m: float) -> None:
+def check_table(sections: Sequence, *, lon_deg: float, h_m: float, warn: bool = True) -> None:
     """Every limit that needs only the table: values, total length, kinks, heights.
 
     Parameters
@@ -177,6 +177,8 @@ def check_table(sections: Sequence, *, lon_deg: float, h_m: float) -> None:
     sections : sequence of trackmodel.sections.Section
     lon_deg, h_m : float
         The origin's longitude (degrees) and height (m).
+    warn : bool
+        Log the kinks below `MAX_KINK_DEG` (once per track: `Track` does).
 
     Raises
     ------
@@ -219,7 +221,7 @@ def check_table(sections: Sequence, *, lon_deg: float, h_m: float) -> None:
                 "the length", section=k, column="elevation_deg")
         azimuth += math.degrees(sec.turn_rad)
         elevation = end_elevation
-    if kinks:
+    if kinks and warn:
         worst = max(kinks)
         log.warning("%d joint(s) change the track's direction abruptly (largest %.3g° at "
                     "section %d, %s): the track has no curve there", len(kinks), worst[0],

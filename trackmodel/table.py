@@ -42,6 +42,8 @@ OPTIONAL_COLUMNS = ("curvature_1pm", "curvature_end_1pm", "elevation_end_deg")
 ALL_COLUMNS = ORIGIN_COLUMNS + REQUIRED_COLUMNS + OPTIONAL_COLUMNS
 
 Cell = str | float | None
+#: Longest column name quoted in an error message, characters.
+_MAX_SHOWN = 40
 
 
 def _number(cell: Cell, *, row: int, column: str, path) -> float | None:
@@ -67,8 +69,11 @@ def _check_columns(columns: Sequence[str], path) -> None:
         raise TrackFileError("empty file (no header line)", path=path)
     unknown = [c for c in columns if c not in ALL_COLUMNS]
     if unknown:
+        name = unknown[0]
+        if len(name) > _MAX_SHOWN or not name.isprintable():   # e.g. a stray quote's swallow
+            name = repr(name[:_MAX_SHOWN]) + ("..." if len(name) > _MAX_SHOWN else "")
         raise TrackFileError(f"unknown column (expected some of {', '.join(ALL_COLUMNS)})",
-                             path=path, column=unknown[0])
+                             path=path, column=name)
     missing = [c for c in REQUIRED_COLUMNS + ORIGIN_COLUMNS if c not in columns]
     if missing:
         raise TrackFileError("required column missing", path=path, column=missing[0])
@@ -159,7 +164,7 @@ def sections_from_rows(columns: Sequence[str], rows: Sequence[Mapping[str, Cell]
                                      path=path, row=row, column=given[0])
         sections.append(_section(values, row, path))
     try:
-        check_table(sections, lon_deg=origin.lon_deg, h_m=origin.h_m)
+        check_table(sections, lon_deg=origin.lon_deg, h_m=origin.h_m, warn=False)
     except ImplausibleTrackError as exc:
         raise located(exc, path) from None
     return tuple(sections), origin

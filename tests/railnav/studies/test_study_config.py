@@ -132,3 +132,16 @@ def test_issue18_non_utf8_study_file_is_a_located_error(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err == f"error: {path}: line 2: not UTF-8 text (byte 0xff)"
     assert not out.exists()
+
+
+@pytest.mark.parametrize("text,line,words", [
+    ("[study]\nx = " + "[" * 100_000 + "]" * 100_000 + "\n", None, "nested too deeply"),
+    ("[study]\nseed = " + "9" * 5000 + "\n", None, "4300 digits"),
+    ("[study]\nreplicates = 20000000000\n", 2, "20000000000 runs, more than 1000000"),
+])
+def test_issue18_toml_at_its_limits_is_a_located_error(text, line, words):
+    """Found by the fuzz suite: RecursionError and ValueError escaped tomllib, and a typo in
+    ``replicates`` listed 2e10 runs."""
+    with pytest.raises(ConfigError, match=words) as info:
+        parse_study_config(text, path="s.toml")
+    assert info.value.line == line and "\n" not in str(info.value)
