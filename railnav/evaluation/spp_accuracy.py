@@ -175,42 +175,9 @@ def accuracy_summary(errors: pd.DataFrame) -> SppAccuracy:
 
 def plot_spp(solution: pd.DataFrame, path: str | os.PathLike,
              errors: pd.DataFrame | None = None, reference: pd.DataFrame | None = None) -> None:
-    """Track (east/north from the first fix) and, with a reference, errors over time.
-
-    Written atomically as PNG to `path`.
-    """
-    from matplotlib.figure import Figure  # no pyplot: no global backend state touched
-
-    ok = np.isfinite(solution["lat_deg"].to_numpy())
-    rows = 1 if errors is None else 2
-    fig = Figure(figsize=(8, 4.5 * rows))
-    axes = fig.subplots(rows, 1, squeeze=False)
-    ax = axes[0, 0]
-    if ok.any():
-        first = solution[ok].iloc[0]
-        origin = dict(lat0=np.deg2rad(first["lat_deg"]), lon0=np.deg2rad(first["lon_deg"]),
-                      h0=float(first["h_m"]))
-        for frame, label, style in ((reference, "reference", "k-"), (solution[ok], "SPP", ".")):
-            if frame is None:
-                continue
-            r = geodetic_to_ecef(np.deg2rad(frame["lat_deg"].to_numpy()),
-                                 np.deg2rad(frame["lon_deg"].to_numpy()), frame["h_m"].to_numpy())
-            enu = ecef_to_enu(r, **origin)
-            ax.plot(enu[:, 0], enu[:, 1], style, ms=3, label=label)
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend()
-    ax.set_title("SPP track")
-    if errors is not None:
-        ax = axes[1, 0]
-        t = errors["gps_time_s"] - errors["gps_time_s"].iloc[0]
-        ax.plot(t, errors["horizontal_m"], label="horizontal")
-        ax.plot(t, errors["up_m"], label="vertical (up)")
-        ax.set_xlabel("time since first epoch (s)")
-        ax.set_ylabel("error (m)")
-        ax.grid(True)
-        ax.legend()
-    fig.tight_layout()
+    """`railnav.evaluation.spp_plots.spp_figure` (map; errors with ±3σ, VPL and HPL, or the
+    σ without a reference; satellites) written atomically as PNG to `path`."""
+    from railnav.evaluation.spp_plots import spp_figure
+    fig = spp_figure(solution, errors, reference)
     with atomic_write(path, "wb", encoding=None) as fh:
         fig.savefig(fh, format="png", dpi=110)
