@@ -37,8 +37,11 @@ def test_data_maps_to_railnav_data_and_every_shipped_file_is_included():
     config = _setuptools()
     assert config["package-dir"] == {"railnav_data": "data"}
     patterns = config["package-data"]["railnav_data"]
+    folders = sorted(p.name for p in (REPO / "data").iterdir()
+                     if p.is_dir() and p.name != "__pycache__")
+    assert {TRACKS, STUDIES, GNSS} <= set(folders)
     shipped = [p.relative_to(REPO / "data").as_posix()
-               for folder in (TRACKS, STUDIES, GNSS) for p in (REPO / "data" / folder).iterdir()
+               for folder in folders for p in (REPO / "data" / folder).iterdir()
                if p.is_file() and p.suffix != ".py"]
     assert len(shipped) > 15
     missing = [f for f in shipped if not any(fnmatch.fnmatch(f, pat) for pat in patterns)]

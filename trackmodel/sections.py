@@ -87,7 +87,7 @@ class Section:
 
     def __post_init__(self) -> None:
         if _finite("length_m", self.length_m) <= 0.0:
-            raise TrackError(f"length_m must be > 0, got {self.length_m!r}")
+            raise TrackError(f"length_m must be > 0, got {float(self.length_m)!r}")
         _finite("curvature_1pm", self.curvature_1pm)
         for name in ("azimuth_deg", "curvature_end_1pm", "elevation_deg", "elevation_end_deg"):
             if getattr(self, name) is not None:
@@ -95,7 +95,7 @@ class Section:
         for name in ("elevation_deg", "elevation_end_deg"):
             value = getattr(self, name)
             if value is not None and not abs(value) < MAX_ELEVATION_DEG:
-                raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {value!r}")
+                raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {float(value)!r}")
         check_section_values(self)
 
     @property

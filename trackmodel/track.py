@@ -201,7 +201,7 @@ class Track:
         L = self.length_m
         if s.size and (s.min() < -S_TOLERANCE_M or s.max() > L + S_TOLERANCE_M):
             raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
-                             f"got values in [{s.min()!r}, {s.max()!r}]")
+                             f"got values in [{float(s.min())!r}, {float(s.max())!r}]")
         return np.clip(s, 0.0, L)
 
     def section_of(self, s: Array) -> npt.NDArray[np.intp]:

@@ -7,10 +7,16 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 from pathlib import Path
 
 from gnss_obs.sim_files import write_simulation
-from railnav.commands.support import outage_window, positive_float, progress_bar
+from railnav.commands.support import (
+    output_path,
+    outage_window,
+    positive_float,
+    progress_bar,
+)
 from railnav.config import DEFAULT_SYSTEMS
 from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
 from railnav.simulation.trip import simulate_trip
@@ -51,7 +57,8 @@ def register(subparsers) -> None:
     p.add_argument("--systems", default=DEFAULT_SYSTEMS,
                    help=f"GNSS systems to simulate, e.g. G or GE (default {DEFAULT_SYSTEMS})")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                   help="output directory")
     p.set_defaults(func=handler)
 
 
@@ -67,8 +74,7 @@ def handler(args: argparse.Namespace) -> int:
     result = trip.simulation
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    if trip.gnss is not None:
-        write_simulation(out, trip.gnss, trip.nav)
+    written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
     atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
     atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
     meta = {"scenario": scenario_to_dict(scenario), "track": str(Path(args.track)),
@@ -77,5 +83,8 @@ def handler(args: argparse.Namespace) -> int:
             "n_samples": int(len(result.truth.time_s)),
             "end_time_s": float(result.truth.time_s[-1])}
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    log.info("wrote %d samples to %s", meta["n_samples"], out)
+    written = [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"]
+    print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
+          f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
+          f"{args.track})")
     return 0

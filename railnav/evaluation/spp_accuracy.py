@@ -82,7 +82,7 @@ def read_reference_trajectory(path: str | os.PathLike) -> pd.DataFrame:
     lat_deg = df["lat_deg"].to_numpy()
     outside = np.flatnonzero(np.abs(lat_deg) > 90.0)
     if outside.size:
-        raise ConfigError(f"must satisfy -90 <= lat_deg <= 90, got {lat_deg[outside[0]]!r}",
+        raise ConfigError(f"must satisfy -90 <= lat_deg <= 90, got {float(lat_deg[outside[0]])!r}",
                           path=path, row=int(outside[0]) + 1, column="lat_deg")
     return df.sort_values("gps_time_s").reset_index(drop=True)
 

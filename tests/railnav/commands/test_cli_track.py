@@ -200,3 +200,40 @@ def test_issue18_implausible_track_through_the_cli(tmp_path, capsys):
                      "50,30,0,3000,0,0,0.2\n")
     assert main(["track", "info", str(track)]) == 2
     assert _one_error_line(capsys).startswith(f"error: {track}: row 1, curvature_1pm: ")
+
+
+def test_issue18_sample_plot_and_fit_say_what_they_wrote(tmp_path, capsys):
+    samples, png = tmp_path / "s.csv", tmp_path / "t.png"
+    assert main(["-q", "track", "sample", str(TRACKS / "paper2017.csv"), "--step-m", "1000",
+                 "--out", str(samples)]) == 0
+    assert capsys.readouterr().out.startswith(f"{samples}: {len(pd.read_csv(samples))} points")
+    assert main(["-q", "track", "plot", str(TRACKS / "paper2017.csv"), "--out", str(png)]) == 0
+    assert capsys.readouterr().out.startswith(f"{png}: map, height and curvature")
+    survey = pd.read_csv(TRACKS / "barcelona_drive_survey.csv").iloc[:60]
+    poly, out, res = tmp_path / "poly.csv", tmp_path / "f.csv", tmp_path / "r.csv"
+    survey[["lat_deg", "lon_deg"]].to_csv(poly, index=False)
+    assert main(["-q", "track", "fit", str(poly), "--out", str(out), "--residuals",
+                 str(res)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{out}: ") and lines[1].startswith(f"{res}: ")
+    assert f"of the {len(pd.read_csv(res))} points" in lines[1]
+
+
+@pytest.mark.parametrize("text", ["lat_deg,lon_deg\n41.6,2.3\n",
+                                  "lat_deg,lon_deg\n41.6,2.3\n41.6,2.3\n41.6,2.3\n"])
+def test_issue18_fit_errors_name_the_survey(tmp_path, capsys, text):
+    """A 1-point survey (and one without spacing) printed no file name."""
+    survey = tmp_path / "one.csv"
+    survey.write_text(text)
+    assert main(["-q", "track", "fit", str(survey), "--out", str(tmp_path / "t.csv")]) == 2
+    assert _one_error_line(capsys).startswith(f"error: {survey}: ")
+
+
+def test_issue18_every_track_subcommand_has_a_description():
+    from railnav.cli import build_parser
+    parser = build_parser()
+    track = parser._subparsers._group_actions[0].choices["track"]
+    subcommands = track._subparsers._group_actions[0].choices
+    assert set(subcommands) == {"fit", "sample", "info", "plot"}
+    for name, sub in subcommands.items():
+        assert sub.description and len(sub.description) > 40, name
