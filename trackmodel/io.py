@@ -79,8 +79,9 @@ def parse_track_text(text: str, *, path: str | os.PathLike | None = None) -> Tra
     header = [c.strip() for c in next(reader, [])]
     rows = []
     for row, cells in enumerate(reader, start=1):
-        if len(cells) > len(header):
-            raise TrackFileError(f"{len(cells)} fields but the header has {len(header)}",
+        if len(cells) != len(header):     # more: a stray value; fewer: a row cut short
+            raise TrackFileError(f"{len(cells)} fields but the header has {len(header)}"
+                                 + (" (a row cut short?)" if len(cells) < len(header) else ""),
                                  path=path, row=row)
         rows.append(dict(zip(header, cells)))
     sections, origin = sections_from_rows(header, rows, path=path)

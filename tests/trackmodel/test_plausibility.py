@@ -115,3 +115,13 @@ def test_heights_agree_with_the_track():
     track = Track(sections, Origin(48.0, 11.0, 500.0))
     h_end, _, _ = section_heights(500.0, np.radians(1.0), np.radians(-2.0), 400.0)
     assert track.at(400.0).h == pytest.approx(h_end, abs=1e-6)
+
+
+def test_issue18_a_track_row_cut_short_is_an_error():
+    """A track file truncated inside its last row read as if complete (mutation fuzzing):
+    ',,,300' was a 300-m continuation; every row must have the header's fields."""
+    full = f"{HEADER}\n50,30,0,1000,0,0,,\n,,,300,,,0,\n"
+    assert parse_track_text(full).length_m == 1300.0
+    with pytest.raises(TrackFileError, match="cut short") as info:
+        parse_track_text(full[:full.rindex(",,0,")] + "\n", path="x.csv")
+    assert info.value.row == 2
