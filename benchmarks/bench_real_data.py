@@ -1,7 +1,7 @@
-"""GNSS-only track-constrained filter vs single-epoch solutions on the shared urban drive.
+"""GNSS-only track-constrained filter vs single-epoch solutions on the urban drive.
 
-Data: ``/work/shared/data/gnss_urban_drive`` (rover 2020-11-29 12:40-12:48 GPST, PPK
-reference); track: ``data/tracks/barcelona_drive.csv``, the reference's first leg fitted by
+Data: the full urban drive, a folder given as ``--data DIR`` (rover 2020-11-29 12:40-12:48
+GPST, PPK reference; provenance in ``data/gnss/README.md``); track: ``data/tracks/barcelona_drive.csv``, the reference's first leg fitted by
 ``railnav track fit`` (the car turns round after SoW 46006 and drives back in the other
 lane: the filter stops when it leaves the track's end, `railnav.navigate`).
 
@@ -21,8 +21,8 @@ white pseudorange errors (τ = 0), σ_a = 0.5 m/s², Huber row weights, and the 
 ionosphere-free combination (with the SPP on the same measurements) to show what the
 ionosphere residual costs. Also: the reference's distance to the track (the fit's part).
 
-Writes ``benchmarks/results/real_data.json``. Run: ``python benchmarks/bench_real_data.py``
-(about a minute, most of it gnss-lib-py; ``--skip-gnss-lib-py`` for seconds).
+Writes ``benchmarks/results/real_data.json``. Run: ``python benchmarks/bench_real_data.py
+--data DIR`` (about a minute, most of it gnss-lib-py; ``--skip-gnss-lib-py`` for seconds).
 """
 from __future__ import annotations
 
@@ -38,7 +38,8 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_spp_real import DEFAULT_DATA, run_gnss_lib_py  # noqa: E402
+from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
+from bench_spp_real import run_gnss_lib_py  # noqa: E402
 
 from gnss_obs.measurements import MeasurementConfig  # noqa: E402
 from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
@@ -54,6 +55,8 @@ from trackmodel.io import read_track  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 TRACK = REPO / "data" / "tracks" / "barcelona_drive.csv"
 RESULTS = Path(__file__).resolve().parent / "results" / "real_data.json"
+#: Files of the urban drive this benchmark reads from ``--data DIR``.
+DATA_FILES = ("rover_obs.rnx", "broadcast_nav.rnx", "reference_trajectory.csv")
 EPOCH_DECIMALS = 3     # epochs matched on gps_time_s to 1 ms (railnav.evaluation.spp_accuracy)
 
 
@@ -124,10 +127,11 @@ def spp(obs, nav, systems: str, **measurement) -> tuple[pd.DataFrame, float]:
 
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    add_data_argument(parser, DATA_FILES)
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--skip-gnss-lib-py", action="store_true")
     args = parser.parse_args(argv)
+    checked_data_dir(parser, args.data, DATA_FILES)
     obs_path, nav_path = args.data / "rover_obs.rnx", args.data / "broadcast_nav.rnx"
     obs, nav = read_rinex_obs(obs_path), read_rinex_nav(nav_path)
     reference = read_reference_trajectory(args.data / "reference_trajectory.csv")
@@ -146,7 +150,7 @@ def main(argv=None) -> dict:
             obs_path, nav_path, obs.header.approx_position_e,
             [nav.header.iono_gps_alpha, nav.header.iono_gps_beta])
         main_set.update({f"gnss-lib-py WLS G {k}": v for k, v in frames.items()})
-    report = {"data": str(args.data), "track": str(TRACK.relative_to(REPO)),
+    report = {"data": args.data.resolve().name, "track": str(TRACK.relative_to(REPO)),
               "same_epochs": score(track, main_set, reference), "left_track": stopped,
               "seconds": seconds}
     report["sensitivity"] = sensitivity(track, obs, nav, obs_path, nav_path, reference)

@@ -1,9 +1,12 @@
-"""Read the shared 8-minute rover observation file and the broadcast navigation file with
+"""Read the 8-minute rover observation file and the broadcast navigation file with
 `gnss_obs` and with georinex, in one process, and write the times and ratios as JSON.
 
 Usage::
 
-    python benchmarks/bench_rinex_read.py [--data DIR] [--repeat N] [--out FILE]
+    python benchmarks/bench_rinex_read.py --data DIR [--repeat N] [--out FILE]
+
+``DIR`` holds the full urban drive's ``rover_obs.rnx`` and ``broadcast_nav.rnx``
+(provenance in ``data/gnss/README.md``).
 
 Each reader's time is the best of ``--repeat`` runs (georinex: one run by default, it
 takes tens of seconds). Target: ours at least 20x faster on the observation file.
@@ -22,8 +25,11 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from trackmodel.files import atomic_write_text
 
+from _data_dir import add_data_argument, checked_data_dir  # beside this file
+
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "gnss_urban_drive"
+#: Files of the urban drive this benchmark reads from ``--data DIR``.
+DATA_FILES = ("rover_obs.rnx", "broadcast_nav.rnx")
 TARGET_RATIO = 20.0
 
 
@@ -48,13 +54,13 @@ def _count_values_georinex(ds) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA,
-                        help="folder with rover_obs.rnx and broadcast_nav.rnx")
+    add_data_argument(parser, DATA_FILES)
     parser.add_argument("--repeat", type=int, default=5, help="runs of our readers")
     parser.add_argument("--repeat-georinex", type=int, default=1, help="runs of georinex")
     parser.add_argument("--out", type=Path,
                         default=REPO / "benchmarks" / "results" / "rinex_read.json")
     args = parser.parse_args(argv)
+    checked_data_dir(parser, args.data, DATA_FILES)
     import georinex
 
     obs_path, nav_path = args.data / "rover_obs.rnx", args.data / "broadcast_nav.rnx"
@@ -64,7 +70,7 @@ def main(argv: list[str] | None = None) -> int:
                                args.repeat_georinex)
     geo_nav_s, _ = _best_time(lambda: georinex.load(nav_path), args.repeat_georinex)
     result = {
-        "obs_file": str(obs_path), "nav_file": str(nav_path),
+        "obs_file": obs_path.name, "nav_file": nav_path.name,
         "obs_values": {"ours": _count_values_ours(obs.table),
                        "georinex": _count_values_georinex(ds)},
         "seconds": {"ours_obs": ours_obs_s, "georinex_obs": geo_obs_s,

@@ -1,7 +1,8 @@
-"""railnav SPP against gnss-lib-py's weighted least squares on the shared urban drive.
+"""railnav SPP against gnss-lib-py's weighted least squares on the urban drive (data/gnss/README.md).
 
-Data: ``/work/shared/data/gnss_urban_drive`` (rover, 2020-11-29 12:40-12:48 GPST, and its
-post-processed reference trajectory). Every solution is scored by `railnav.evaluation.spp_accuracy` on
+Data: the full urban drive, a folder given as ``--data DIR`` (rover, 2020-11-29 12:40-12:48
+GPST, its post-processed reference trajectory and two SP3 files; provenance in
+``data/gnss/README.md``). Every solution is scored by `railnav.evaluation.spp_accuracy` on
 the same epochs (those where every method has a fix and the reference has a position):
 horizontal RMS / 95 %, vertical RMS, and the Doppler speed error against central
 differences of the reference.
@@ -30,8 +31,8 @@ Fairness, documented (gnss-lib-py is a benchmark-only dependency):
   approximate position, then once more at its own first-pass solution of each epoch;
 * satellites below 10° elevation are removed, as in railnav.
 
-Writes ``benchmarks/results/spp_real.json``. Run: ``python benchmarks/bench_spp_real.py``
-(about a minute: gnss-lib-py reads RINEX through georinex).
+Writes ``benchmarks/results/spp_real.json``. Run: ``python benchmarks/bench_spp_real.py
+--data DIR`` (about a minute: gnss-lib-py reads RINEX through georinex).
 """
 from __future__ import annotations
 
@@ -55,8 +56,12 @@ from railnav.evaluation.spp_accuracy import accuracy_summary, read_reference_tra
 from trackmodel.earth import ecef_to_geodetic
 from trackmodel.files import atomic_write_text
 
+from _data_dir import add_data_argument, checked_data_dir  # beside this file
+
 REPO = Path(__file__).resolve().parents[1]
-DEFAULT_DATA = REPO.parent / "shared" / "data" / "gnss_urban_drive"
+#: Files of the urban drive this benchmark reads from ``--data DIR``.
+DATA_FILES = ("rover_obs.rnx", "broadcast_nav.rnx", "reference_trajectory.csv",
+              "COD21340.sp3", "igr21340.sp3")
 RESULTS = Path(__file__).resolve().parent / "results" / "spp_real.json"
 LEAP_SECONDS_MS = 18_000.0  # GPST - UTC on 2020-11-29 (nav header LEAP SECONDS)
 ELEVATION_MASK_DEG = 10.0
@@ -165,10 +170,11 @@ def orbit_figures(data: Path, nav) -> dict:
 
 def main(argv=None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA)
+    add_data_argument(parser, DATA_FILES)
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--skip-gnss-lib-py", action="store_true")
     args = parser.parse_args(argv)
+    checked_data_dir(parser, args.data, DATA_FILES)
     obs_path, nav_path = args.data / "rover_obs.rnx", args.data / "broadcast_nav.rnx"
     obs, nav = read_rinex_obs(obs_path), read_rinex_nav(nav_path)
     reference = read_reference_trajectory(args.data / "reference_trajectory.csv")
@@ -181,7 +187,7 @@ def main(argv=None) -> dict:
             obs_path, nav_path, obs.header.approx_position_e,
             [nav.header.iono_gps_alpha, nav.header.iono_gps_beta])
         solutions.update({f"gnss-lib-py G {k}": v for k, v in glp_frames.items()})
-    report = {"data": str(args.data), "epochs": int(obs.table["gps_time_s"].nunique()),
+    report = {"data": args.data.resolve().name, "epochs": int(obs.table["gps_time_s"].nunique()),
               "accuracy_same_epochs": _scores(solutions, reference),
               "accuracy_all_epochs": {k: accuracy_summary(spp_errors(v, reference)).__dict__
                                       for k, v in solutions.items()},

@@ -1,4 +1,5 @@
-"""The data railnav ships: tracks, networks, studies and GNSS excerpts (installed as `railnav_data`).
+"""The data railnav ships: tracks, networks, studies, GNSS excerpts and a baro example
+(installed as `railnav_data`).
 
 The repository keeps them in its top-level ``data/`` folder; the wheel carries that folder
 as the package `railnav_data`, so code finds a shipped file the same way in a checkout, an
@@ -10,10 +11,10 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
-__all__ = ["shipped_path", "TRACKS", "STUDIES", "GNSS", "NETWORKS"]
+__all__ = ["shipped_path", "TRACKS", "STUDIES", "GNSS", "NETWORKS", "BARO"]
 
 #: Subfolders.
-TRACKS, STUDIES, GNSS, NETWORKS = "tracks", "studies", "gnss", "networks"
+TRACKS, STUDIES, GNSS, NETWORKS, BARO = "tracks", "studies", "gnss", "networks", "baro"
 
 
 def shipped_path(*parts: str) -> Path:

@@ -17,6 +17,7 @@ import pandas as pd
 
 from strapdown.errors import ImuInputError
 from trackmodel.errors import finite_column
+from trackmodel.textfile import read_csv_table
 
 __all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "RATE_TOLERANCE"]
 
@@ -83,15 +84,15 @@ def read_imu_csv(path: str | os.PathLike) -> Imu:
     ------
     ImuInputError
         Missing columns, non-numeric or non-finite values (located by row and column),
-        fewer than 2 rows, or non-uniform / non-increasing time.
+        fewer than 2 rows, or non-uniform / non-increasing time; an empty file, a byte that
+        is not UTF-8 or a row with more fields than the header (located by line).
     """
-    try:
-        frame = pd.read_csv(path, **_EXACT_FLOATS)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise ImuInputError(f"not a CSV table ({' '.join(str(exc).split())})", path=path) from None
+    frame = read_csv_table(path, error=ImuInputError, **_EXACT_FLOATS)
     missing = [c for c in IMU_COLUMNS if c not in frame.columns]
     if missing:
-        raise ImuInputError(f"missing columns {missing}", path=path)
+        raise ImuInputError(f"missing column{'s' if len(missing) > 1 else ''} "
+                            f"{', '.join(missing)} (imu.csv has {', '.join(IMU_COLUMNS)})",
+                            path=path)
     for col in IMU_COLUMNS:
         frame[col] = finite_column(frame, col, path=path, error=ImuInputError)
     if len(frame) < 2:

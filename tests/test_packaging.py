@@ -37,6 +37,9 @@ def test_data_maps_to_railnav_data_and_every_shipped_file_is_included():
     config = _setuptools()
     assert config["package-dir"] == {"railnav_data": "data"}
     patterns = config["package-data"]["railnav_data"]
+    folders = sorted(p.name for p in (REPO / "data").iterdir()
+                     if p.is_dir() and p.name != "__pycache__")
+    assert {TRACKS, STUDIES, GNSS} <= set(folders)
     shipped = [p.relative_to(REPO / "data").as_posix()
                for p in (REPO / "data").rglob("*") if p.is_file() and p.suffix not in
                (".py", ".pyc") and p.parent != REPO / "data"]

@@ -54,7 +54,7 @@ class InputError(ValueError):
             loc = f"{loc}, {self.column}" if loc else self.column
         parts = [p for p in (self.path, loc) if p]
         parts.append(self.message)
-        return ": ".join(parts)
+        return " ".join(": ".join(parts).splitlines())     # one line, whatever the input
 
     def at(self, path: str | os.PathLike) -> "InputError":
         """Return this error with `path` filled in when the raiser did not know it."""
@@ -83,9 +83,22 @@ def finite_column(frame, column: str, *, path: str | os.PathLike | None = None,
     values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
-        raise error(f"{frame[column].iloc[bad[0]]!r} is not a finite number", path=path,
+        raise error(_not_finite(frame[column].iloc[bad[0]]), path=path,
                     row=int(bad[0]) + 1, column=column)
     return values
+
+
+def _not_finite(cell) -> str:
+    """What is wrong with a cell that is not a finite number, in the file's words (never a
+    NumPy repr such as ``np.float64(nan)``)."""
+    if isinstance(cell, str):
+        return f"{cell.strip()!r} is not a finite number"
+    if cell is None or (isinstance(cell, (float, np.floating)) and np.isnan(cell)):
+        return "empty or NaN (a finite number is needed)"
+    try:
+        return f"{float(cell)!r} is not a finite number"
+    except (TypeError, ValueError):
+        return f"{str(cell)!r} is not a finite number"
 
 
 class TrackError(Exception):

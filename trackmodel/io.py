@@ -22,7 +22,9 @@ from collections.abc import Sequence
 from trackmodel.earth import WGS84, Ellipsoid, earth_from_name
 from trackmodel.errors import TrackFileError
 from trackmodel.files import atomic_write_text
-from trackmodel.table import sections_from_rows, sections_to_frame
+from trackmodel.plausibility import ImplausibleTrackError
+from trackmodel.textfile import read_text
+from trackmodel.table import located, sections_from_rows, sections_to_frame
 from trackmodel.track import Track
 
 __all__ = ["read_track", "write_track", "parse_track_text", "track_to_text", "EARTH_KEY"]
@@ -77,12 +79,16 @@ def parse_track_text(text: str, *, path: str | os.PathLike | None = None) -> Tra
     header = [c.strip() for c in next(reader, [])]
     rows = []
     for row, cells in enumerate(reader, start=1):
-        if len(cells) > len(header):
-            raise TrackFileError(f"{len(cells)} fields but the header has {len(header)}",
+        if len(cells) != len(header):     # more: a stray value; fewer: a row cut short
+            raise TrackFileError(f"{len(cells)} fields but the header has {len(header)}"
+                                 + (" (a row cut short?)" if len(cells) < len(header) else ""),
                                  path=path, row=row)
         rows.append(dict(zip(header, cells)))
     sections, origin = sections_from_rows(header, rows, path=path)
-    return Track(sections, origin, WGS84 if earth is None else earth)
+    try:
+        return Track(sections, origin, WGS84 if earth is None else earth)
+    except ImplausibleTrackError as exc:      # found while walking the sections (latitude)
+        raise located(exc, path) from None
 
 
 def read_track(path: str | os.PathLike) -> Track:
@@ -99,16 +105,12 @@ def read_track(path: str | os.PathLike) -> Track:
     Raises
     ------
     TrackFileError
-        For anything that is not a valid track file (one line, with row and column).
+        For anything that is not a valid track file (one line, with row and column; a byte
+        that is not UTF-8 with its line).
     OSError
         If the file cannot be opened.
     """
-    with open(path, encoding="utf-8") as fh:
-        try:
-            text = fh.read()
-        except UnicodeDecodeError as exc:
-            raise TrackFileError(f"not a UTF-8 text file ({exc.reason})", path=path) from None
-    return parse_track_text(text, path=path)
+    return parse_track_text(read_text(path, error=TrackFileError), path=path)
 
 
 def _cell(value) -> str:

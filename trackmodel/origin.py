@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass
 
 from trackmodel.errors import TrackError
+from trackmodel.plausibility import check_origin_values
 
 __all__ = ["Origin", "MAX_ORIGIN_LAT_DEG"]
 
@@ -24,14 +25,16 @@ class Origin:
     Parameters
     ----------
     lat_deg, lon_deg : float
-        Geodetic latitude (|φ| < 89.9°) and longitude, degrees.
+        Geodetic latitude (|φ| < 89.9°) and longitude (|λ| <= 180°), degrees.
     h_m : float
-        Ellipsoidal height, m.
+        Ellipsoidal height, m (`trackmodel.plausibility.MIN_H_M` to `MAX_H_M`).
 
     Raises
     ------
     TrackError
-        For a value that is not finite or a latitude outside ``(-89.9, 89.9)``.
+        For a value that is not finite or a latitude outside ``(-89.9, 89.9)``;
+        `trackmodel.plausibility.ImplausibleTrackError` (with the column) for a longitude
+        or height outside the plausibility limits.
     """
 
     lat_deg: float
@@ -43,7 +46,9 @@ class Origin:
             if not math.isfinite(float(getattr(self, name))):
                 raise TrackError(f"origin {name} must be finite, got {getattr(self, name)!r}")
         if not abs(self.lat_deg) < MAX_ORIGIN_LAT_DEG:
-            raise TrackError(f"origin must satisfy -89.9 < lat_deg < 89.9, got {self.lat_deg!r}")
+            raise TrackError(f"origin must satisfy -89.9 < lat_deg < 89.9, "
+                             f"got {float(self.lat_deg)!r}")
+        check_origin_values(self.lon_deg, self.h_m)
 
     @property
     def lat(self) -> float:

@@ -21,10 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from trackmodel.earth import WGS84, Ellipsoid, ecef_to_enu, geodetic_to_ecef
 from trackmodel.errors import TrackError, TrackFileError, finite_column
+from trackmodel.plausibility import MAX_ABS_LON_DEG, MAX_H_M, MIN_H_M
+from trackmodel.textfile import read_csv_table
 
 __all__ = ["Polyline", "read_polyline", "clean_polyline", "find_reversal", "split_legs",
            "MIN_SPACING_M", "MAX_TURN_DEG", "MIN_LEG_M"]
@@ -80,6 +81,14 @@ class Polyline:
                         None if self.h is None else self.h[index])
 
 
+#: Surveyed points a track can start from (`trackmodel.origin`, `trackmodel.plausibility`).
+_POINT_LIMITS = (
+    ("lat_deg", lambda x: np.abs(x) >= 89.9, "-89.9 < lat_deg < 89.9"),
+    ("lon_deg", lambda x: np.abs(x) > MAX_ABS_LON_DEG, "-180 <= lon_deg <= 180"),
+    ("h_m", lambda x: (x < MIN_H_M) | (x > MAX_H_M), f"{MIN_H_M:g} <= h_m <= {MAX_H_M:g}"),
+)
+
+
 def read_polyline(path: str | os.PathLike) -> Polyline:
     """Read a polyline CSV with columns ``lat_deg, lon_deg`` and optional ``h_m``.
 
@@ -88,13 +97,12 @@ def read_polyline(path: str | os.PathLike) -> Polyline:
     Raises
     ------
     TrackFileError
-        Missing column, empty file, non-numeric or non-finite value, |lat| >= 89.9°
-        (located by row and column).
+        Missing column, empty file, non-numeric or non-finite value, a point outside
+        `_POINT_LIMITS` (located by row and column); a byte that is not UTF-8 or a row with
+        more fields than the header (located by line).
     """
-    try:
-        frame = pd.read_csv(path, comment="#", dtype=str, skipinitialspace=True)
-    except pd.errors.EmptyDataError:
-        raise TrackFileError("empty file", path=path) from None
+    frame = read_csv_table(path, error=TrackFileError, comment="#", dtype=str,
+                           skipinitialspace=True)
     frame.columns = [str(c).strip() for c in frame.columns]
     for c in POLYLINE_COLUMNS:
         if c not in frame.columns:
@@ -105,11 +113,12 @@ def read_polyline(path: str | os.PathLike) -> Polyline:
     values = {}
     for c in cols:
         values[c] = finite_column(frame, c, path=path, error=TrackFileError)
-    big = np.abs(values["lat_deg"]) >= 89.9
-    if big.any():
-        row = int(np.flatnonzero(big)[0])
-        raise TrackFileError("must satisfy -89.9 < lat_deg < 89.9", path=path, row=row + 1,
-                             column="lat_deg")
+    for column, outside, text in _POINT_LIMITS:
+        bad = np.flatnonzero(outside(values[column])) if column in values else []
+        if len(bad):
+            value = float(values[column][bad[0]])
+            raise TrackFileError(f"must satisfy {text}, got {value!r}", path=path,
+                                 row=int(bad[0]) + 1, column=column)
     return Polyline(np.radians(values["lat_deg"]), np.radians(values["lon_deg"]),
                     values.get("h_m"))
 

@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from trackmodel.errors import TrackError
+from trackmodel.plausibility import check_section_values
 
 __all__ = ["Section", "SectionArrays", "MAX_ELEVATION_DEG", "tangent_frame"]
 
@@ -72,7 +73,9 @@ class Section:
     Raises
     ------
     TrackError
-        For a non-finite value, a length <= 0 or an elevation outside (-90°, 90°).
+        For a non-finite value, a length <= 0 or an elevation outside (-90°, 90°);
+        `trackmodel.plausibility.ImplausibleTrackError` (with the column) for a value
+        beyond the plausibility limits (radius, turn, length, azimuth).
     """
 
     length_m: float
@@ -84,7 +87,7 @@ class Section:
 
     def __post_init__(self) -> None:
         if _finite("length_m", self.length_m) <= 0.0:
-            raise TrackError(f"length_m must be > 0, got {self.length_m!r}")
+            raise TrackError(f"length_m must be > 0, got {float(self.length_m)!r}")
         _finite("curvature_1pm", self.curvature_1pm)
         for name in ("azimuth_deg", "curvature_end_1pm", "elevation_deg", "elevation_end_deg"):
             if getattr(self, name) is not None:
@@ -92,7 +95,8 @@ class Section:
         for name in ("elevation_deg", "elevation_end_deg"):
             value = getattr(self, name)
             if value is not None and not abs(value) < MAX_ELEVATION_DEG:
-                raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {value!r}")
+                raise TrackError(f"{name} must satisfy -90 < {name} < 90, got {float(value)!r}")
+        check_section_values(self)
 
     @property
     def curvature_end(self) -> float:

@@ -16,6 +16,9 @@ curvature_1pm        no        start curvature dA/ds, 1/m, + = clockwise (empty 
 curvature_end_1pm    no        end curvature, 1/m: a clothoid (empty = constant)
 elevation_end_deg    no        end elevation, degrees: a vertical curve (empty = constant)
 ===================  ========  ==========================================================
+
+Values beyond the plausibility limits (`trackmodel.plausibility`: radius, turn, length,
+azimuth, longitude, height, kinks) are errors at their row and column.
 """
 from __future__ import annotations
 
@@ -27,10 +30,11 @@ import pandas as pd
 
 from trackmodel.errors import TrackError, TrackFileError
 from trackmodel.origin import Origin
+from trackmodel.plausibility import ImplausibleTrackError, check_table
 from trackmodel.sections import MAX_ELEVATION_DEG, Section
 
 __all__ = ["ORIGIN_COLUMNS", "REQUIRED_COLUMNS", "OPTIONAL_COLUMNS", "ALL_COLUMNS",
-           "sections_from_rows", "sections_from_frame", "sections_to_frame"]
+           "sections_from_rows", "sections_from_frame", "sections_to_frame", "located"]
 
 ORIGIN_COLUMNS = ("lat_deg", "lon_deg", "h_m")
 REQUIRED_COLUMNS = ("length_m", "azimuth_deg", "elevation_deg")
@@ -38,6 +42,8 @@ OPTIONAL_COLUMNS = ("curvature_1pm", "curvature_end_1pm", "elevation_end_deg")
 ALL_COLUMNS = ORIGIN_COLUMNS + REQUIRED_COLUMNS + OPTIONAL_COLUMNS
 
 Cell = str | float | None
+#: Longest column name quoted in an error message, characters.
+_MAX_SHOWN = 40
 
 
 def _number(cell: Cell, *, row: int, column: str, path) -> float | None:
@@ -63,8 +69,11 @@ def _check_columns(columns: Sequence[str], path) -> None:
         raise TrackFileError("empty file (no header line)", path=path)
     unknown = [c for c in columns if c not in ALL_COLUMNS]
     if unknown:
+        name = unknown[0]
+        if len(name) > _MAX_SHOWN or not name.isprintable():   # e.g. a stray quote's swallow
+            name = repr(name[:_MAX_SHOWN]) + ("..." if len(name) > _MAX_SHOWN else "")
         raise TrackFileError(f"unknown column (expected some of {', '.join(ALL_COLUMNS)})",
-                             path=path, column=unknown[0])
+                             path=path, column=name)
     missing = [c for c in REQUIRED_COLUMNS + ORIGIN_COLUMNS if c not in columns]
     if missing:
         raise TrackFileError("required column missing", path=path, column=missing[0])
@@ -78,7 +87,8 @@ def _origin(values: dict[str, float | None], path) -> Origin:
     try:
         return Origin(values["lat_deg"], values["lon_deg"], values["h_m"])
     except TrackError as exc:
-        raise TrackFileError(str(exc), path=path, row=1, column="lat_deg") from None
+        column = getattr(exc, "column", None) or "lat_deg"
+        raise TrackFileError(str(exc), path=path, row=1, column=column) from None
 
 
 def _section(values: dict[str, float | None], row: int, path) -> Section:
@@ -96,11 +106,21 @@ def _section(values: dict[str, float | None], row: int, path) -> Section:
             if values[name] is None:
                 raise TrackFileError("the first section needs a value", path=path, row=1,
                                      column=name)
-    return Section(length_m=length, azimuth_deg=values["azimuth_deg"],
-                   elevation_deg=values["elevation_deg"],
-                   curvature_1pm=values.get("curvature_1pm") or 0.0,
-                   curvature_end_1pm=values.get("curvature_end_1pm"),
-                   elevation_end_deg=values.get("elevation_end_deg"))
+    try:
+        return Section(length_m=length, azimuth_deg=values["azimuth_deg"],
+                       elevation_deg=values["elevation_deg"],
+                       curvature_1pm=values.get("curvature_1pm") or 0.0,
+                       curvature_end_1pm=values.get("curvature_end_1pm"),
+                       elevation_end_deg=values.get("elevation_end_deg"))
+    except ImplausibleTrackError as exc:
+        raise located(exc, path, row=row) from None
+
+
+def located(exc: ImplausibleTrackError, path, *, row: int | None = None) -> TrackFileError:
+    """`exc` as a file error at its section's row (1-based) and column."""
+    if row is None and exc.section is not None:
+        row = exc.section + 1
+    return TrackFileError(exc.message, path=path, row=row, column=exc.column)
 
 
 def sections_from_rows(columns: Sequence[str], rows: Sequence[Mapping[str, Cell]], *,
@@ -124,7 +144,8 @@ def sections_from_rows(columns: Sequence[str], rows: Sequence[Mapping[str, Cell]
     Raises
     ------
     TrackFileError
-        With the row (1-based, header not counted) and column of the first problem.
+        With the row (1-based, header not counted) and column of the first problem,
+        including values beyond the plausibility limits (`trackmodel.plausibility`).
     """
     _check_columns(list(columns), path)
     if not rows:
@@ -142,6 +163,10 @@ def sections_from_rows(columns: Sequence[str], rows: Sequence[Mapping[str, Cell]
                 raise TrackFileError("the origin belongs on row 1 only (leave it empty)",
                                      path=path, row=row, column=given[0])
         sections.append(_section(values, row, path))
+    try:
+        check_table(sections, lon_deg=origin.lon_deg, h_m=origin.h_m, warn=False)
+    except ImplausibleTrackError as exc:
+        raise located(exc, path) from None
     return tuple(sections), origin
 
 

@@ -21,6 +21,13 @@ from trackmodel.errors import TrackError
 from trackmodel.integrated import ChebyshevSections, integrate_section
 from trackmodel.loxodrome import loxodrome_position
 from trackmodel.origin import Origin
+from trackmodel.plausibility import (
+    MAX_TRACK_LAT_DEG,
+    MIN_H_M,
+    ImplausibleTrackError,
+    check_latitude_reach,
+    check_table,
+)
 from trackmodel.sections import Section, SectionArrays, tangent_frame
 from trackmodel.table import sections_from_frame
 
@@ -105,7 +112,9 @@ class Track:
     Raises
     ------
     TrackError
-        For an empty table or a first section without azimuth/elevation.
+        For an empty table or a first section without azimuth/elevation;
+        `trackmodel.plausibility.ImplausibleTrackError` (with the section and column) for a
+        table beyond the plausibility limits, found before anything is integrated.
     """
 
     sections: tuple[Section, ...]
@@ -117,6 +126,7 @@ class Track:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sections", tuple(self.sections))
+        check_table(self.sections, lon_deg=self.origin.lon_deg, h_m=self.origin.h_m)
         table = SectionArrays.resolve(self.sections)
         starts = np.empty((len(self.sections) + 1, 3))
         starts[0] = (self.origin.lat, self.origin.lon, self.origin.h)
@@ -124,17 +134,29 @@ class Track:
         lox = table.is_loxodrome
         for k in range(len(self.sections)):
             if lox[k]:
-                end = loxodrome_position(starts[k, 0], starts[k, 1], starts[k, 2],
-                                         azimuth=table.azimuth0[k],
-                                         elevation=table.elevation0[k],
-                                         t=table.length[k], earth=self.earth)
-                starts[k + 1] = [float(x) for x in end]
+                starts[k + 1] = self._loxodrome_end(table, k, starts[k])
             else:
+                check_latitude_reach(starts[k, 0], table.length[k], index=k,
+                                     min_radius_m=self.earth.a_m * (1.0 - self.earth.e2) + MIN_H_M)
                 new, starts[k + 1] = integrate_section(table, k, starts[k], self.earth)
                 chunks.extend(new)
         object.__setattr__(self, "table", table)
         object.__setattr__(self, "starts", starts)
         object.__setattr__(self, "_chunks", ChebyshevSections.stack(chunks) if chunks else None)
+
+    def _loxodrome_end(self, table: SectionArrays, k: int, start: Array) -> list[float]:
+        """End of straight section `k` (closed form); its latitude must stay off the poles
+        (it changes monotonically along a loxodrome, so the end decides)."""
+        with np.errstate(all="ignore"):          # a section across a pole: NaN, refused below
+            end = [float(x) for x in loxodrome_position(
+                start[0], start[1], start[2], azimuth=table.azimuth0[k],
+                elevation=table.elevation0[k], t=table.length[k], earth=self.earth)]
+        if not abs(end[0]) < math.radians(MAX_TRACK_LAT_DEG):
+            raise ImplausibleTrackError(
+                f"the section runs from latitude {math.degrees(start[0]):.6g}° to "
+                f"{math.degrees(end[0]):.6g}°, beyond ±{MAX_TRACK_LAT_DEG}°",
+                section=k, column="length_m")
+        return end
 
     @classmethod
     def from_sections(cls, sections, *, lat: float, lon: float, h: float = 0.0,
@@ -179,7 +201,7 @@ class Track:
         L = self.length_m
         if s.size and (s.min() < -S_TOLERANCE_M or s.max() > L + S_TOLERANCE_M):
             raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
-                             f"got values in [{s.min()!r}, {s.max()!r}]")
+                             f"got values in [{float(s.min())!r}, {float(s.max())!r}]")
         return np.clip(s, 0.0, L)
 
     def section_of(self, s: Array) -> npt.NDArray[np.intp]:

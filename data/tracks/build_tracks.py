@@ -1,12 +1,19 @@
 """Rebuild the example track files of this folder (run from the repository root).
 
     python data/tracks/build_tracks.py            # paper2017, curvy, east_west, double_a/b
-    python data/tracks/build_tracks.py --fit      # also refit barcelona_drive (~6 s)
+    python data/tracks/build_tracks.py --fit      # also refit barcelona_drive (~6 s) to the
+                                                  # shipped barcelona_drive_survey.csv
+    python data/tracks/build_tracks.py --fit --data DIR
+                                                  # first cut the survey again from
+                                                  # DIR/reference_trajectory.csv
 
+``DIR`` is the folder of the full urban drive (the dataset ``mosaicx5_multi_dynamic`` of the
+PyPI package ``gnss-benchmark`` 2.3.0); nothing outside this repository is read without it.
 See README.md here for what each file is and where the surveyed path comes from.
 """
 from __future__ import annotations
 
+import argparse
 import math
 import sys
 from pathlib import Path
@@ -23,7 +30,10 @@ from trackmodel.track import Origin, Track
 
 HERE = Path(__file__).resolve().parent
 GRADE_2PC_DEG = math.degrees(math.atan(0.02))
-SURVEY = Path("/work/shared/data/gnss_urban_drive/reference_trajectory.csv")
+#: The surveyed points barcelona_drive.csv is fitted to (shipped beside it).
+SURVEY = HERE / "barcelona_drive_survey.csv"
+#: The full drive's reference, inside the folder given as --data.
+REFERENCE_NAME = "reference_trajectory.csv"
 #: The drive turns round after this row of reference_trajectory.csv (0-based, GPS SoW
 #: 46008) and comes back along its own path in the other lane: the first leg is the track.
 LAST_ROW_FIRST_LEG = 394
@@ -99,15 +109,34 @@ def double_line() -> tuple[Track, Track]:
     return track_a, offset_track(track_a, DOUBLE_TRACK_SPACING_M)
 
 
-def barcelona_survey() -> pd.DataFrame:
-    ref = pd.read_csv(SURVEY)
+def barcelona_survey(data: Path) -> pd.DataFrame:
+    """The first leg of the urban drive's reference trajectory, in `data` (module docstring)."""
+    ref = pd.read_csv(data / REFERENCE_NAME)
     ref.columns = ["gps_week", "gps_sow_s", "lat_deg", "lon_deg", "h_m", "sdn_m", "sde_m",
                    "sdu_m"]
     return ref.iloc[:LAST_ROW_FIRST_LEG + 1][["gps_week", "gps_sow_s", "lat_deg", "lon_deg",
                                                "h_m"]]
 
 
+def _arguments(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--fit", action="store_true",
+                        help="also refit barcelona_drive.csv to barcelona_drive_survey.csv")
+    parser.add_argument("--data", type=Path, default=None, metavar="DIR",
+                        help=f"with --fit: cut barcelona_drive_survey.csv again from "
+                             f"DIR/{REFERENCE_NAME} (the full urban drive)")
+    args = parser.parse_args(argv)
+    if args.data is not None:
+        if not args.fit:
+            parser.error("--data is used only with --fit")
+        if not (args.data / REFERENCE_NAME).is_file():
+            parser.error(f"--data {args.data}: no {REFERENCE_NAME} there (the folder of the "
+                         "urban drive, dataset mosaicx5_multi_dynamic of gnss-benchmark 2.3.0)")
+    return args
+
+
 def main(argv: list[str]) -> None:
+    args = _arguments(argv)
     write_track(paper2017(), HERE / "paper2017.csv",
                 comments=["Dolgiy, Rozenberg, Bayandurova 2017: A = pi/6, theta = pi/60, "
                           "1000 s at 20 m/s + margin; origin Kyiv (see README.md)"])
@@ -121,9 +150,10 @@ def main(argv: list[str]) -> None:
     write_track(track_b, HERE / "double_b.csv",
                 comments=[f"double line, track B: {DOUBLE_TRACK_SPACING_M} m to the right of "
                           "double_a.csv (trackmodel.offset.offset_track)"])
-    if "--fit" in argv:
-        survey = barcelona_survey()
-        survey.to_csv(HERE / "barcelona_drive_survey.csv", index=False)
+    if args.fit:
+        if args.data is not None:
+            barcelona_survey(args.data).to_csv(SURVEY, index=False)
+        survey = pd.read_csv(SURVEY)
         result = fit_track(np.radians(survey.lat_deg), np.radians(survey.lon_deg),
                            survey.h_m.to_numpy(), tol_m=0.5, vtol_m=1.0)
         write_track(result.track, HERE / "barcelona_drive.csv", comments=[

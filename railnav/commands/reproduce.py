@@ -1,4 +1,4 @@
-"""``railnav reproduce EXPERIMENT [--runs N] [--seed N] [--out DIR]``.
+"""``railnav reproduce EXPERIMENT [--runs N] [--seed N] [--out DIR]`` (DIR: `DEFAULT_OUT`).
 
 Thin layer over `railnav.reproduce.common.run_experiment` (STYLE.md §2.11): runs a source
 paper's experiment as a seeded Monte Carlo, prints our figures (median and 95th
@@ -11,15 +11,18 @@ import argparse
 import logging
 from pathlib import Path
 
-from railnav.commands.support import nonnegative_int, positive_int, progress_bar
+from railnav.commands.support import nonnegative_int, output_path, positive_int, progress_bar
 from railnav.reproduce.common import EXPERIMENTS, run_experiment, write_result_json
 
-__all__ = ["register", "handler", "DEFAULT_SEED"]
+__all__ = ["register", "handler", "DEFAULT_SEED", "DEFAULT_OUT"]
 
 log = logging.getLogger(__name__)
 
 #: Seed of the Monte Carlo when ``--seed`` is not given.
 DEFAULT_SEED = 1
+#: Output folder when ``--out`` is not given (as ``railnav run``'s ``railnav-run``): never
+#: the working directory itself.
+DEFAULT_OUT = "railnav-reproduce"
 
 
 def register(subparsers) -> None:
@@ -37,7 +40,8 @@ def register(subparsers) -> None:
                    help="Monte Carlo runs (default: the experiment's)")
     p.add_argument("--seed", type=nonnegative_int, default=DEFAULT_SEED,
                    help=f"random seed (default {DEFAULT_SEED})")
-    p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
+    p.add_argument("--out", default=DEFAULT_OUT, type=output_path, metavar="DIR",
+                   help=f"output directory (default: {DEFAULT_OUT})")
     p.set_defaults(func=handler)
 
 

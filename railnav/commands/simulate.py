@@ -9,11 +9,17 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
 from pathlib import Path
 
 from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
 from gnss_obs.sim_files import write_simulation
-from railnav.commands.support import outage_window, positive_float, progress_bar
+from railnav.commands.support import (
+    output_path,
+    outage_window,
+    positive_float,
+    progress_bar,
+)
 from railnav.config import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.simulation.fixes import (
@@ -72,7 +78,8 @@ def register(subparsers) -> None:
                         "rtk_fixed=0.5,single=0.5 (default "
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    p.add_argument("--out", required=True, type=output_path, metavar="DIR",
+                   help="output directory")
     p.set_defaults(func=handler)
 
 
@@ -111,8 +118,7 @@ def handler(args: argparse.Namespace) -> int:
     result = trip.simulation
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    if trip.gnss is not None:
-        write_simulation(out, trip.gnss, trip.nav)
+    written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
     atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
     atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
     meta = {"scenario": scenario_to_dict(scenario), "track": str(Path(args.track)),
@@ -123,5 +129,8 @@ def handler(args: argparse.Namespace) -> int:
     if fix_config is not None:
         meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    log.info("wrote %d samples to %s", meta["n_samples"], out)
+    written = [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"]
+    print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
+          f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
+          f"{args.track})")
     return 0

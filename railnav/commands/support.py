@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import sys
 from collections.abc import Callable, Iterator
 
@@ -11,7 +12,8 @@ from railnav.errors import ConfigError
 
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
            "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
-           "augmentation_requested", "read_augmentation"]
+           "augmentation_requested", "read_augmentation", "output_path", "same_file",
+           "check_outputs"]
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
@@ -160,3 +162,48 @@ def read_augmentation(args: argparse.Namespace, obs, nav, measurement):
         smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
                    if args.smooth_window_s else None),
         sp3=[read_sp3(p) for p in args.sp3])
+
+
+def output_path(text: str) -> str:
+    """argparse type of an output file or folder: not empty (``--out ''`` would write into
+    the working directory under a hidden temporary name)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an output path cannot be empty")
+    return text
+
+
+def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    """True when two paths name one file (the same resolved path, or one file through links)."""
+    if os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:              # one of them does not exist yet: not the same file
+        return False
+
+
+def check_outputs(inputs: dict[str, str | os.PathLike],
+                  outputs: dict[str, str | os.PathLike | None]) -> None:
+    """Refuse an output that is an input or another output, before any work.
+
+    Parameters
+    ----------
+    inputs : dict of description -> path
+        E.g. ``{"the survey being fitted": args.polyline}``.
+    outputs : dict of option -> path or None
+        E.g. ``{"--out": args.out, "--residuals": args.residuals}`` (None: not given).
+
+    Raises
+    ------
+    ConfigError
+        ``FILE: --residuals: is also --out ...``, located at the output and its option.
+    """
+    taken = dict(inputs)
+    for option, path in outputs.items():
+        if path is None:
+            continue
+        for name, other in taken.items():
+            if same_file(path, other):
+                raise ConfigError(f"is {name}: give a different file (nothing was written)",
+                                  path=path, column=option)
+        taken[f"also {option}"] = path

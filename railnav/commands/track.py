@@ -11,13 +11,13 @@ import sys
 
 import numpy as np
 
-from railnav.commands.support import positive_float, progress_bar
-from trackmodel.errors import TrackFileError
+from railnav.commands.support import check_outputs, output_path, positive_float, progress_bar
+from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.files import atomic_write_text
 from trackmodel.fit import DEFAULT_TOL_M, DEFAULT_VTOL_M, fit_track
 from trackmodel.io import read_track, write_track
 from trackmodel.plot import plot_track
-from trackmodel.polyline import Polyline, read_polyline, split_legs
+from trackmodel.polyline import POLYLINE_COLUMNS, Polyline, read_polyline, split_legs
 from trackmodel.summary import sample_track, track_info
 
 __all__ = ["register"]
@@ -25,26 +25,38 @@ __all__ = ["register"]
 
 def read_survey(path) -> Polyline:
     """A surveyed path: a polyline CSV (`trackmodel.polyline.read_polyline`), or a reference
-    trajectory in GPS week / seconds-of-week layout (`railnav.evaluation.spp_accuracy`), in time order.
+    trajectory in GPS week / seconds-of-week layout (`railnav.evaluation.spp_accuracy`), in
+    time order.
+
+    The reference layout is tried only when the file lacks the polyline's columns; an error
+    located in either layout's rows (a bad value, a ragged row) is the file's error.
 
     Raises
     ------
-    trackmodel.TrackFileError
-        When the file is neither (the polyline reader's error).
+    trackmodel.TrackFileError, railnav.errors.ConfigError
+        Located at the row/line and column of the problem; when the file is in neither
+        layout, the polyline reader's "required column missing".
     """
     try:
         return read_polyline(path)
     except TrackFileError as polyline_error:
-        if polyline_error.column is None:
+        if not _missing_polyline_column(polyline_error):
             raise
-        from railnav.errors import ConfigError
         from railnav.evaluation.spp_accuracy import read_reference_trajectory
         try:
             ref = read_reference_trajectory(path)
-        except (ConfigError, ValueError):
-            raise polyline_error from None
+        except InputError as ref_error:
+            if ref_error.row is None and ref_error.line is None:
+                raise polyline_error from None     # not that layout either
+            raise
         return Polyline(np.radians(ref["lat_deg"].to_numpy()),
                         np.radians(ref["lon_deg"].to_numpy()), ref["h_m"].to_numpy())
+
+
+def _missing_polyline_column(error: TrackFileError) -> bool:
+    """True for the polyline reader's error of a file without its columns (nothing located
+    in the rows: the file may be in the other layout)."""
+    return error.column in POLYLINE_COLUMNS and error.row is None and error.line is None
 
 
 def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
@@ -59,10 +71,17 @@ def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
 
 
 def _fit(args: argparse.Namespace) -> int:
-    poly, note = _leg(read_survey(args.polyline), args.leg, args.polyline)
-    with progress_bar("fitting", enabled=not args.quiet) as progress:
-        result = fit_track(poly.lat, poly.lon, poly.h, tol_m=args.tol_m, vtol_m=args.vtol_m,
-                           progress=progress)
+    check_outputs({"the survey being fitted": args.polyline},
+                  {"--out": args.out, "--residuals": args.residuals})
+    try:
+        poly, note = _leg(read_survey(args.polyline), args.leg, args.polyline)
+        with progress_bar("fitting", enabled=not args.quiet) as progress:
+            result = fit_track(poly.lat, poly.lon, poly.h, tol_m=args.tol_m,
+                               vtol_m=args.vtol_m, progress=progress)
+    except TrackFileError:
+        raise
+    except TrackError as exc:       # a survey the fitter cannot use: say which file
+        raise TrackFileError(str(exc), path=args.polyline) from None
     write_track(result.track, args.out, comments=[
         f"fitted by railnav track fit from {args.polyline}{note} (tol_m={args.tol_m}): "
         f"{result.n_sections} sections, max horizontal deviation "
@@ -71,12 +90,16 @@ def _fit(args: argparse.Namespace) -> int:
         atomic_write_text(args.residuals, result.residuals.to_csv(index=False))
     print(f"{args.out}: {result.n_sections} sections, {result.track.length_m:.1f} m, "
           f"max horizontal deviation {result.max_horizontal_m:.3f} m")
+    if args.residuals:
+        print(f"{args.residuals}: the deviation of each of the {len(result.residuals)} points")
     return 0
 
 
 def _sample(args: argparse.Namespace) -> int:
+    check_outputs({"the track being sampled": args.track}, {"--out": args.out})
     frame = sample_track(read_track(args.track), args.step_m)
     atomic_write_text(args.out, frame.to_csv(index=False, float_format="%.10g"))
+    print(f"{args.out}: {len(frame)} points every {args.step_m:g} m along {args.track}")
     return 0
 
 
@@ -97,16 +120,26 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
+    check_outputs({"the track being plotted": args.track}, {"--out": args.out})
     plot_track(read_track(args.track), args.out)
+    print(f"{args.out}: map, height and curvature of {args.track}")
     return 0
 
 
 def register(subparsers) -> None:
     """Add ``track`` and its subcommands."""
-    parser = subparsers.add_parser("track", help="fit, sample, describe and plot track files")
+    parser = subparsers.add_parser(
+        "track", help="fit, sample, describe and plot track files",
+        description="Track files (docs/file-formats.md): fit one to a survey, sample it, "
+                    "describe it, plot it.")
     sub = parser.add_subparsers(dest="track_command", metavar="SUBCOMMAND", required=True)
 
-    p = sub.add_parser("fit", help="fit a track file to a surveyed polyline")
+    p = sub.add_parser(
+        "fit", help="fit a track file to a surveyed polyline",
+        description="Fit a track (straights, arcs, clothoids, grades, vertical curves) to "
+                    "surveyed points in travel order, every point within --tol-m of it, and "
+                    "write it as a track file. A survey that turns round is refused with "
+                    "its legs listed; --leg N fits one.")
     p.add_argument("polyline", metavar="POLYLINE.csv",
                    help="columns lat_deg, lon_deg and optional h_m, in travel order; or a "
                         "reference trajectory (GPS week, seconds of week, lat, lon, h)")
@@ -117,23 +150,38 @@ def register(subparsers) -> None:
                    help="largest horizontal deviation of a point, m (default %(default)s)")
     p.add_argument("--vtol-m", type=positive_float, default=DEFAULT_VTOL_M,
                    help="height tolerance of the vertical profile, m (default %(default)s)")
-    p.add_argument("--out", required=True, metavar="TRACK.csv", help="track file to write")
-    p.add_argument("--residuals", metavar="CSV", help="also write per-point deviations")
+    p.add_argument("--out", required=True, type=output_path, metavar="TRACK.csv",
+                   help="track file to write")
+    p.add_argument("--residuals", type=output_path, metavar="CSV",
+                   help="also write per-point deviations")
     p.set_defaults(func=_fit)
 
-    p = sub.add_parser("sample", help="sample a track every --step-m metres")
+    p = sub.add_parser(
+        "sample", help="sample a track every --step-m metres",
+        description="Write the track's position, azimuth, elevation and curvature every "
+                    "--step-m metres along it as CSV (s_m, lat_deg, lon_deg, h_m, "
+                    "azimuth_deg, elevation_deg, curvature_1pm).")
     p.add_argument("track", metavar="TRACK.csv")
     p.add_argument("--step-m", type=positive_float, default=1.0,
                    help="spacing along the track, m (default %(default)s)")
-    p.add_argument("--out", required=True, metavar="SAMPLES.csv")
+    p.add_argument("--out", required=True, type=output_path, metavar="SAMPLES.csv",
+                   help="CSV to write")
     p.set_defaults(func=_sample)
 
-    p = sub.add_parser("info", help="length, sections, min radius, max grade")
+    p = sub.add_parser(
+        "info", help="length, sections, min radius, max grade",
+        description="Print a track's length, its sections by kind (straights, arcs, "
+                    "transitions), smallest radius, largest grade, height range and Earth "
+                    "model; --json for a machine-readable form.")
     p.add_argument("track", metavar="TRACK.csv")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_info)
 
-    p = sub.add_parser("plot", help="map, height and curvature profiles")
+    p = sub.add_parser(
+        "plot", help="map, height and curvature profiles",
+        description="Draw the track's map (start and end marked, section joints dotted), "
+                    "its height and its curvature along s into one figure.")
     p.add_argument("track", metavar="TRACK.csv")
-    p.add_argument("--out", required=True, metavar="FILE.png")
+    p.add_argument("--out", required=True, type=output_path, metavar="FILE.png",
+                   help="figure to write (PNG, PDF or SVG by the extension)")
     p.set_defaults(func=_plot)

@@ -151,8 +151,8 @@ def plot_outage_growth(table: pd.DataFrame, *, quantity: str = "horizontal_m",
     `panel_by` value (in order of appearance)."""
     bands = growth_bands(table, quantity=quantity, by=(panel_by, line_by), band=band)
     return _panels(bands, "time_into_outage_s", panel_by, line_by,
-                   xlabel="time into the GNSS outage [s]",
-                   ylabel=f"|{_label(quantity)}| [m]", band=band, log_x=False, log_y=log,
+                   xlabel="time into the GNSS outage (s)",
+                   ylabel=f"|{_label(quantity)}| (m)", band=band, log_x=False, log_y=log,
                    order=list(dict.fromkeys(table[panel_by])))
 
 
@@ -163,8 +163,8 @@ def plot_errors_at_durations(table: pd.DataFrame, durations_s: Sequence[float], 
     `plot_outage_growth`."""
     ends = errors_at_durations(table, durations_s, quantity=quantity,
                                by=(panel_by, line_by), band=band)
-    return _panels(ends, "duration_s", panel_by, line_by, xlabel="outage duration [s]",
-                   ylabel=f"|{_label(quantity)}| at the outage end [m]", band=band,
+    return _panels(ends, "duration_s", panel_by, line_by, xlabel="outage duration (s)",
+                   ylabel=f"|{_label(quantity)}| at the outage end (m)", band=band,
                    log_x=True, log_y=True, order=list(dict.fromkeys(table[panel_by])),
                    markers=True)
 

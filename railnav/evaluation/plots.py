@@ -1,7 +1,16 @@
-"""Plots of a navigation run: errors with ±3σ bands, estimates, the track with the estimate.
+"""Plots of a navigation run: errors against the truth, estimates with their σ, the map.
 
-Figures are built with `matplotlib.figure.Figure` (no global pyplot state, no backend
-change) and written to PNG by the caller's path. GNSS outages are shaded.
+* ``errors.png`` (`errors_figure`, with a truth): estimate − truth of each quantity the
+  filter has, with its ``±3σ`` band; along-track (or 3-D), cross-track and vertical position
+  (m), speed (m/s), yaw, pitch and roll (mrad).
+* ``estimates.png`` (`estimates_figure`, without a truth): left, each estimate with its
+  ``±3σ`` band — distance along the track (m), speed (m/s), yaw, pitch, roll (deg); right,
+  its 1σ in the same unit, so that the growth of the uncertainty is read at a glance.
+* ``track.png`` (`track_estimate_figure`, `railnav.evaluation.map_plots`): the map.
+
+Figures are `matplotlib.figure.Figure` s (no global pyplot state, no backend change); the
+shared conventions — outage shading, robust axis limits, units — are
+`railnav.evaluation.plot_style`.
 """
 from __future__ import annotations
 
@@ -10,133 +19,151 @@ import os
 import numpy as np
 from matplotlib.figure import Figure
 
-from trackmodel.earth import ecef_to_enu, geodetic_to_ecef
+from railnav.evaluation.map_plots import plot_track_estimate, track_estimate_figure
+from railnav.evaluation.plot_style import (
+    MRAD_PER_RAD,
+    SIGMA_BAND,
+    TIME_LABEL,
+    limit_axis,
+    outage_legend_handle,
+    outage_spans,
+    plain_axis,
+    robust_limit,
+    save_png,
+    shade_outages,
+    sigma_band,
+)
 
 __all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "errors_figure",
            "estimates_figure", "track_estimate_figure", "SIGMA_BAND"]
 
-#: Width of the uncertainty bands, in standard deviations.
-SIGMA_BAND = 3.0
-_OUTAGE_STYLE = dict(color="0.85", zorder=0, lw=0)
+_DEG_TO_MRAD = np.pi / 180.0 * MRAD_PER_RAD
 
-
-def _shade(ax, outages) -> None:
-    for start, duration in outages:
-        ax.axvspan(start, start + duration, **_OUTAGE_STYLE)
-
-
-def _save(fig: Figure, path: str | os.PathLike) -> None:
-    from trackmodel.files import atomic_write
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=110)
+#: Error panels: (errors field, σ column of estimates.csv, σ scale to the plot unit, words,
+#: unit, scale of the error to the plot unit).
+_POSITION = ("along_track_m", "sigma_s_m", 1.0, "along-track error", "m", 1.0)
+_ERROR_PANELS = {
+    "position_3d_m": ("position_3d_m", None, 1.0, "3-D position error", "m", 1.0),
+    "cross_track_m": ("cross_track_m", "sigma_cross_track_m", 1.0, "cross-track error", "m",
+                      1.0),
+    "vertical_m": ("vertical_m", "sigma_up_m", 1.0, "vertical error", "m", 1.0),
+    "speed_mps": ("speed_mps", "sigma_speed_mps", 1.0, "speed error", "m/s", 1.0),
+    **{f"{a}_rad": (f"{a}_rad", f"sigma_{a}_deg", _DEG_TO_MRAD, f"{a} error", "mrad",
+                    MRAD_PER_RAD) for a in ("yaw", "pitch", "roll")},
+}
+#: Estimate panels: (column, words, unit).
+_ESTIMATE_PANELS = (("s_m", "distance along the track", "m"), ("speed_mps", "speed", "m/s"),
+                    ("yaw_deg", "yaw", "deg"), ("pitch_deg", "pitch", "deg"),
+                    ("roll_deg", "roll", "deg"))
 
 
 def plot_errors(errors, result, path: str | os.PathLike) -> None:
     """`errors_figure` written to a PNG file."""
-    _save(errors_figure(errors, result), path)
+    save_png(errors_figure(errors, result), path)
 
 
 def plot_estimates(result, path: str | os.PathLike) -> None:
     """`estimates_figure` written to a PNG file."""
-    _save(estimates_figure(result), path)
+    save_png(estimates_figure(result), path)
 
 
-def plot_track_estimate(track, result, path: str | os.PathLike, *, truth=None) -> None:
-    """`track_estimate_figure` written to a PNG file."""
-    _save(track_estimate_figure(track, result, truth=truth), path)
+def _error_panels(est) -> list[tuple]:
+    panels = [_POSITION]
+    if "sigma_east_m" in est and "sigma_s_m" not in est:   # an unconstrained filter
+        panels = [_ERROR_PANELS["position_3d_m"]]
+    if "sigma_cross_track_m" in est:   # a filter off the track: its cross and vertical errors
+        panels += [_ERROR_PANELS["cross_track_m"], _ERROR_PANELS["vertical_m"]]
+    panels.append(_ERROR_PANELS["speed_mps"])
+    panels += [_ERROR_PANELS[f"{a}_rad"] for a in ("yaw", "pitch", "roll")
+               if f"sigma_{a}_deg" in est]
+    return panels
 
 
 def errors_figure(errors, result) -> Figure:
-    """Errors against the truth with the filter's ±3σ bands, outages shaded.
+    """Errors against the truth with the filter's ±3σ bands, GNSS outages shaded.
 
     Parameters
     ----------
     errors : railnav.evaluation.metrics.ErrorSeries
-    result : railnav.NavigationResult
+    result : railnav.navigation.result.NavigationResult
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     est, t = result.estimates, errors.time_s
-    panels = [("along_track_m", "sigma_s_m", 1.0, "along-track error [m]"),
-              ("speed_mps", "sigma_speed_mps", 1.0, "speed error [m/s]")]
-    if "sigma_east_m" in est and "sigma_s_m" not in est:   # an unconstrained filter
-        panels[0] = ("position_3d_m", None, 1.0, "3-D position error [m]")
-    if "sigma_cross_track_m" in est:   # a filter off the track: its cross and vertical errors
-        panels[1:1] = [("cross_track_m", "sigma_cross_track_m", 1.0, "cross-track error [m]"),
-                       ("vertical_m", "sigma_up_m", 1.0, "vertical error [m]")]
-    for name in ("yaw", "pitch", "roll"):
-        if f"sigma_{name}_deg" in est:
-            panels.append((f"{name}_rad", f"sigma_{name}_deg", np.pi / 180.0,
-                           f"{name} error [rad]"))
-    fig = Figure(figsize=(9, 2.0 * len(panels) + 0.6), layout="constrained")
+    panels = _error_panels(est)
+    spans = outage_spans(result)
+    fig = Figure(figsize=(9, 1.9 * len(panels) + 0.8), layout="constrained")
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, (err_name, sig_name, scale, label) in zip(axes, panels):
-        _shade(ax, result.outages)
-        ax.plot(t, getattr(errors, err_name), lw=0.8, color="C0", label="error")
+    for ax, (field, sig_name, sig_scale, words, unit, scale) in zip(axes, panels):
+        shade_outages(ax, spans)
+        value = np.asarray(getattr(errors, field), dtype=float) * scale
+        band = None
         if sig_name is not None and sig_name in est:
-            band = SIGMA_BAND * est[sig_name].to_numpy() * scale
-            ax.fill_between(t, -band, band, color="C1", alpha=0.25, lw=0, label="±3σ")
-        ax.set_ylabel(label)
-        ax.grid(True, lw=0.3)
-    axes[0].legend(loc="upper right", fontsize=8)
-    axes[-1].set_xlabel("time from start [s]  (grey: GNSS outage)")
+            band = SIGMA_BAND * est[sig_name].to_numpy() * sig_scale
+            sigma_band(ax, t, 0.0, band / SIGMA_BAND, label=f"±{SIGMA_BAND:g}σ of the filter")
+        ax.plot(t, value, lw=0.8, color="C0", label="estimate − truth")
+        limit_axis(ax, t, value, robust_limit(value, band), unit)
+        ax.set_ylabel(f"{words} ({unit})")
+        plain_axis(ax)
+    handles, _ = axes[0].get_legend_handles_labels()
+    if spans:
+        handles.append(outage_legend_handle())
     fig.suptitle(f"{result.filter} filter: errors against the truth")
+    fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
+    axes[-1].set_xlabel(TIME_LABEL)
     return fig
 
 
 def estimates_figure(result) -> Figure:
-    """Estimated distance, speed and attitude with their σ (for runs without truth)."""
+    """Estimates with ±3σ bands (left) and their 1σ (right), GNSS outages shaded; for runs
+    without a truth.
+
+    Parameters
+    ----------
+    result : railnav.navigation.result.NavigationResult
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     est = result.estimates
     t = est["time_s"].to_numpy()
-    panels = [(c, f"sigma_{c}" if f"sigma_{c}" in est else None)
-              for c in ("s_m", "speed_mps", "yaw_deg", "pitch_deg", "roll_deg") if c in est]
-    fig = Figure(figsize=(9, 1.9 * len(panels) + 0.6), layout="constrained")
-    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, (col, sig) in zip(axes, panels):
-        _shade(ax, result.outages)
-        ax.plot(t, est[col], lw=0.8)
-        if sig is not None:
-            ax2 = ax.twinx()
-            ax2.plot(t, est[sig], lw=0.6, color="C1")
-            ax2.set_ylabel("σ", color="C1")
-        ax.set_ylabel(col)
-        ax.grid(True, lw=0.3)
-    axes[-1].set_xlabel("time from start [s]  (grey: GNSS outage)")
-    fig.suptitle(f"{result.filter} filter: estimates")
+    panels = [p for p in _ESTIMATE_PANELS if p[0] in est]
+    spans = outage_spans(result)
+    fig = Figure(figsize=(12, 1.9 * len(panels) + 0.8), layout="constrained")
+    axes = fig.subplots(len(panels), 2, sharex=True, squeeze=False,
+                        gridspec_kw={"width_ratios": (1.6, 1.0)})
+    for (ax, ax_sigma), (col, words, unit) in zip(axes, panels):
+        value = est[col].to_numpy()
+        sigma = est.get(f"sigma_{col}")
+        for a in (ax, ax_sigma):
+            shade_outages(a, spans)
+            plain_axis(a)
+        if sigma is not None:
+            sigma_band(ax, t, value, sigma.to_numpy(), label=f"±{SIGMA_BAND:g}σ")
+            ax_sigma.plot(t, sigma, lw=0.9, color="C1")
+            ax_sigma.set_ylim(0.0, robust_limit(sigma.to_numpy()))
+            limit_axis_top(ax_sigma, t, sigma.to_numpy(), unit)
+        ax.plot(t, value, lw=0.9, color="C0", label="estimate")
+        ax.set_ylabel(f"{words} ({unit})")
+        ax_sigma.set_ylabel(f"1σ of {words.split(' ')[0]} ({unit})")
+    handles, _ = axes[0, 0].get_legend_handles_labels()
+    if spans:
+        handles.append(outage_legend_handle())
+    fig.suptitle(f"{result.filter} filter: estimates and their uncertainty")
+    fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
+    for ax in axes[-1]:
+        ax.set_xlabel(TIME_LABEL)
     return fig
 
 
-def track_estimate_figure(track, result, *, truth=None) -> Figure:
-    """Map view (local east/north, m) of the track, the estimate and the outage spans."""
-    s = np.linspace(0.0, track.length_m, 2000)
-    line = track.at(s)
-    lat0, lon0, h0 = float(line.lat[0]), float(line.lon[0]), float(line.h[0])
-
-    def enu(lat_deg, lon_deg, h_m):
-        r = geodetic_to_ecef(np.radians(lat_deg), np.radians(lon_deg), h_m, earth=track.earth)
-        return ecef_to_enu(r, lat0=lat0, lon0=lon0, h0=h0, earth=track.earth)
-
-    track_n = ecef_to_enu(line.r_e, lat0=lat0, lon0=lon0, h0=h0, earth=track.earth)
-    est = result.estimates
-    est_n = enu(est["lat_deg"].to_numpy(), est["lon_deg"].to_numpy(), est["h_m"].to_numpy())
-    fig = Figure(figsize=(7, 6.5), layout="constrained")
-    ax = fig.subplots()
-    ax.plot(track_n[:, 0], track_n[:, 1], color="0.6", lw=3, label="track")
-    ax.plot(est_n[:, 0], est_n[:, 1], color="C0", lw=1, label="estimate")
-    t = est["time_s"].to_numpy()
-    for k, (start, duration) in enumerate(result.outages):
-        m = (t >= start) & (t < start + duration)
-        ax.plot(est_n[m, 0], est_n[m, 1], color="C3", lw=2,
-                label="GNSS outage" if k == 0 else None)
-    if truth is not None:
-        ax.plot(*enu(np.degrees(truth.lat), np.degrees(truth.lon), truth.h)[:, :2].T,
-                color="k", lw=0.6, ls="--", label="truth")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("east [m]")
-    ax.set_ylabel("north [m]")
-    ax.legend(loc="best", fontsize=8)
-    ax.grid(True, lw=0.3)
-    ax.set_title(f"{result.filter} filter on the track")
-    return fig
+def limit_axis_top(ax, t, values, unit: str) -> None:
+    """Like `plot_style.limit_axis` for a σ axis from 0: report a clipped peak."""
+    v = np.asarray(values, dtype=float)
+    top = ax.get_ylim()[1]
+    if np.isfinite(v).any() and np.nanmax(v) > top:
+        k = int(np.nanargmax(v))
+        ax.text(0.995, 0.96, f"off scale: {v[k]:.3g} {unit} at {t[k]:.0f} s",
+                transform=ax.transAxes, ha="right", va="top", fontsize=7, color="C3")

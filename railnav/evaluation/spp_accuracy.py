@@ -30,6 +30,7 @@ from railnav.errors import ConfigError
 from trackmodel.earth import C_n_e, ecef_to_enu, geodetic_to_ecef
 from trackmodel.errors import finite_column
 from trackmodel.files import atomic_write
+from trackmodel.textfile import read_csv_table
 
 __all__ = ["read_reference_trajectory", "spp_errors", "SppAccuracy", "accuracy_summary",
            "plot_spp", "MAX_DIFF_GAP_S", "MATCH_TOLERANCE_S", "match_epochs"]
@@ -43,14 +44,18 @@ _WEEK_COLUMNS = ("week", "sow", "lat_deg", "lon_deg", "h_m")
 
 
 def _week_layout(path) -> pd.DataFrame:
-    df = pd.read_csv(path, comment="#", header=None)
+    """The GPS week / seconds-of-week layout: headerless rows after ``#`` comments; every
+    value a finite number (located by row, 1-based among the data rows, and column)."""
+    df = read_csv_table(path, error=ConfigError, comment="#", header=None, dtype=str,
+                        skipinitialspace=True)
     if df.shape[1] < len(_WEEK_COLUMNS):
         raise ConfigError("expected columns GPS week, seconds of week, latitude (deg), "
                           "longitude (deg), height (m)", path=path)
     df = df.iloc[:, :len(_WEEK_COLUMNS)].set_axis(list(_WEEK_COLUMNS), axis=1)
-    out = pd.DataFrame({"gps_time_s": df["week"] * float(WEEK_S) + df["sow"]})
+    values = {c: finite_column(df, c, path=path, error=ConfigError) for c in _WEEK_COLUMNS}
+    out = pd.DataFrame({"gps_time_s": values["week"] * float(WEEK_S) + values["sow"]})
     for c in _PROJECT_COLUMNS[1:]:
-        out[c] = df[c]
+        out[c] = values[c]
     return out
 
 
@@ -65,20 +70,24 @@ def read_reference_trajectory(path: str | os.PathLike) -> pd.DataFrame:
     Raises
     ------
     ConfigError
-        Empty file, missing columns, or a value that is not a finite number (with the row).
+        Empty file, missing columns, a value that is not a finite number or a latitude
+        outside ±90° (with the row); a byte that is not UTF-8 or a row with more fields
+        than the first (with the line).
     """
-    try:
-        head = pd.read_csv(path, nrows=0, comment=None)
-    except pd.errors.EmptyDataError:
-        raise ConfigError("empty reference file", path=path) from None
+    head = read_csv_table(path, error=ConfigError, nrows=0, comment=None, dtype=str)
     if set(_PROJECT_COLUMNS) <= set(head.columns):
-        df = pd.read_csv(path, usecols=list(_PROJECT_COLUMNS))
+        df = read_csv_table(path, error=ConfigError, usecols=list(_PROJECT_COLUMNS), dtype=str)
     else:
         df = _week_layout(path)
     if df.empty:
         raise ConfigError("reference file has no rows", path=path)
     for c in df.columns:
         df[c] = finite_column(df, c, path=path, error=ConfigError)
+    lat_deg = df["lat_deg"].to_numpy()
+    outside = np.flatnonzero(np.abs(lat_deg) > 90.0)
+    if outside.size:
+        raise ConfigError(f"must satisfy -90 <= lat_deg <= 90, got {float(lat_deg[outside[0]])!r}",
+                          path=path, row=int(outside[0]) + 1, column="lat_deg")
     return df.sort_values("gps_time_s").reset_index(drop=True)
 
 
@@ -184,42 +193,9 @@ def accuracy_summary(errors: pd.DataFrame) -> SppAccuracy:
 
 def plot_spp(solution: pd.DataFrame, path: str | os.PathLike,
              errors: pd.DataFrame | None = None, reference: pd.DataFrame | None = None) -> None:
-    """Track (east/north from the first fix) and, with a reference, errors over time.
-
-    Written atomically as PNG to `path`.
-    """
-    from matplotlib.figure import Figure  # no pyplot: no global backend state touched
-
-    ok = np.isfinite(solution["lat_deg"].to_numpy())
-    rows = 1 if errors is None else 2
-    fig = Figure(figsize=(8, 4.5 * rows))
-    axes = fig.subplots(rows, 1, squeeze=False)
-    ax = axes[0, 0]
-    if ok.any():
-        first = solution[ok].iloc[0]
-        origin = dict(lat0=np.deg2rad(first["lat_deg"]), lon0=np.deg2rad(first["lon_deg"]),
-                      h0=float(first["h_m"]))
-        for frame, label, style in ((reference, "reference", "k-"), (solution[ok], "SPP", ".")):
-            if frame is None:
-                continue
-            r = geodetic_to_ecef(np.deg2rad(frame["lat_deg"].to_numpy()),
-                                 np.deg2rad(frame["lon_deg"].to_numpy()), frame["h_m"].to_numpy())
-            enu = ecef_to_enu(r, **origin)
-            ax.plot(enu[:, 0], enu[:, 1], style, ms=3, label=label)
-    ax.set_xlabel("east (m)")
-    ax.set_ylabel("north (m)")
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.legend()
-    ax.set_title("SPP track")
-    if errors is not None:
-        ax = axes[1, 0]
-        t = errors["gps_time_s"] - errors["gps_time_s"].iloc[0]
-        ax.plot(t, errors["horizontal_m"], label="horizontal")
-        ax.plot(t, errors["up_m"], label="vertical (up)")
-        ax.set_xlabel("time since first epoch (s)")
-        ax.set_ylabel("error (m)")
-        ax.grid(True)
-        ax.legend()
-    fig.tight_layout()
+    """`railnav.evaluation.spp_plots.spp_figure` (map; errors with ±3σ, VPL and HPL, or the
+    σ without a reference; satellites) written atomically as PNG to `path`."""
+    from railnav.evaluation.spp_plots import spp_figure
+    fig = spp_figure(solution, errors, reference)
     with atomic_write(path, "wb", encoding=None) as fh:
         fig.savefig(fh, format="png", dpi=110)

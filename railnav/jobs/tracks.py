@@ -162,13 +162,19 @@ def write_track_run(run: TrackRunOutcome, out_dir: str | os.PathLike, *,
     """Write a run over candidate tracks into `out_dir` (module docstring)."""
     out = Path(out_dir)
     written = write_run(run.outcome, out, plots=plots)
+    if plots:    # the map again, with every candidate track (write_run draws the best one)
+        from railnav.evaluation.map_plots import plot_track_estimate
+        plot_track_estimate([r.filter_object.track for r in run.bank.results],
+                            run.outcome.result, out / "track.png", truth=run.outcome.truth,
+                            names=run.bank.names)
     atomic_write_csv(out / "track_probabilities.csv", run.bank.probability_frame(),
                      float_format=CSV_FLOAT_FORMAT)
     written.append(out / "track_probabilities.csv")
     if plots:
+        from railnav.evaluation.plot_style import outage_spans
         from railnav.evaluation.track_plots import plot_track_probabilities
         plot_track_probabilities(run.bank, out / "track_probabilities.png",
-                                 outages=run.outcome.result.outages)
+                                 outages=outage_spans(run.outcome.result))
         written.append(out / "track_probabilities.png")
     return written
 

@@ -2,7 +2,7 @@
 
 Ivanov, Shishkin, Boikov, Ivanov, Lezhneva, "Adaptive algorithms of information processing
 in navigation complexes of mobile ground objects", J. Communications Technology and
-Electronics, 2021 (original: ``shared/seeds/000_29c46a5a6873b512.txt``). Frame of the
+Electronics, 2021 (summarized in ``docs/papers-and-errata.md`` §2). Frame of the
 paper: ``x`` north, ``y`` east, ``H`` up (relative height); SI units throughout.
 
 Horizontal channel (paper eqs. 8–11, 14, 15), state ``[x, y, V_x, V_y, Δa_x, Δa_y]``::

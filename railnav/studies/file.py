@@ -47,15 +47,19 @@ from railnav.studies.config import (
     StudyConfig,
     check_field,
 )
+from trackmodel.textfile import read_text
 
 try:                                    # Python >= 3.11
     import tomllib
 except ModuleNotFoundError:             # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["load_study_config", "parse_study_config"]
+__all__ = ["load_study_config", "parse_study_config", "MAX_STUDY_RUNS"]
 
 Outages = tuple[tuple[float, float], ...]
+
+#: Most runs one study file may describe (a million one-minute runs: two CPU-years).
+MAX_STUDY_RUNS = 1_000_000
 
 #: The file key of each validated field.
 _FIELD_KEYS = {"name": ("study", "name"), "seed": ("study", "seed"),
@@ -86,28 +90,20 @@ def load_study_config(path: str | Path) -> StudyConfig:
     Raises
     ------
     ConfigError
-        Located at the file, line and key of the problem.
+        Located at the file, line and key of the problem (a byte that is not UTF-8: its
+        line).
     OSError
         If the file cannot be read.
     """
     path = Path(path)
-    return parse_study_config(path.read_text(encoding="utf-8"), path=path)
+    return parse_study_config(read_text(path, error=ConfigError), path=path)
 
 
 def parse_study_config(text: str, *, path: str | Path = "<study>") -> StudyConfig:
     """`load_study_config` of a file's text (`path` names it in messages and sets the
     folder of relative track paths)."""
     path = Path(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        message = str(exc)
-        found = _TOML_LOCATION.search(message)
-        line = None
-        if found:    # a line, or the end of the document: its last line
-            line = int(found.group(1)) if found.group(1) else max(len(text.splitlines()), 1)
-        raise ConfigError(_TOML_LOCATION.sub("", message) or "not valid TOML", path=path,
-                          line=line) from None
+    data = _parse_toml(text, path)
     locate = _Locator(text, path)
     for table, value in data.items():
         if table not in _TABLES or not isinstance(value, dict):
@@ -131,7 +127,41 @@ def parse_study_config(text: str, *, path: str | Path = "<study>") -> StudyConfi
             if name == "outage_sets" and "outages" not in grid:
                 key = "outage_duration_s" if "outage_duration_s" in grid else None
             raise locate.error(table, key, exc.message) from None
+    _check_size(fields_, locate)
     return StudyConfig(**fields_)
+
+
+def _parse_toml(text: str, path: Path) -> dict:
+    """The TOML document, or a `ConfigError` at the line tomllib names."""
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        message = str(exc)
+        found = _TOML_LOCATION.search(message)
+        line = None
+        if found:    # a line, or the end of the document: its last line
+            line = int(found.group(1)) if found.group(1) else max(len(text.splitlines()), 1)
+        raise ConfigError(_TOML_LOCATION.sub("", message) or "not valid TOML", path=path,
+                          line=line) from None
+    except RecursionError:
+        raise ConfigError("not valid TOML: arrays or tables nested too deeply",
+                          path=path) from None
+    except ValueError as exc:           # tomllib's own limits, e.g. a 5000-digit integer
+        reason = " ".join(str(exc).split(";")[0].split())
+        raise ConfigError(f"not valid TOML: {reason}", path=path) from None
+
+
+def _check_size(fields_: dict[str, Any], locate: "_Locator") -> None:
+    """Refuse a study of more than `MAX_STUDY_RUNS` runs (a typo such as ``replicates =
+    20000000000`` would otherwise fill the memory listing its runs)."""
+    runs = fields_["replicates"]
+    for axis in ("tracks", "imu_grades", "speeds_mps", "filters", "sigma_pseudorange_m",
+                 "sigma_range_rate_mps", "outage_sets"):
+        runs *= len(fields_[axis])
+    if runs > MAX_STUDY_RUNS:
+        raise locate.error("study", "replicates",
+                           f"the grid times the replicates is {runs} runs, more than "
+                           f"{MAX_STUDY_RUNS}: split the study")
 
 
 def _study_fields(study: dict, locate: "_Locator") -> dict[str, Any]:

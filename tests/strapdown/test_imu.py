@@ -27,7 +27,7 @@ def test_round_trip_is_exact(tmp_path, rng):
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n0.01,1,2,3,4,5,6\n0.03,1,2,3,4,5,6\n",
      "uniform step"),
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n", "at least 2"),
-    ("", "not a CSV"),
+    ("", "empty file"),
 ])
 def test_bad_files_raise_located_errors(tmp_path, text, match):
     path = tmp_path / "imu.csv"

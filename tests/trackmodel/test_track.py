@@ -108,9 +108,13 @@ def test_position_and_tangent_continuous_across_joints(curvy):
 
 
 def test_explicit_azimuth_makes_a_kink():
-    track = Track([Section(100.0, 0.0, 0.0), Section(100.0, 90.0, 0.0)], ORIGIN)
-    assert np.degrees(track.at(100.0).azimuth) == pytest.approx(90.0)
+    """A small kink (within `MAX_KINK_DEG`) is taken as written; a larger one is refused
+    (issue 18: a 180° kink ran with NEES 2.5e8)."""
+    track = Track([Section(100.0, 0.0, 0.0), Section(100.0, 4.0, 0.0)], ORIGIN)
+    assert np.degrees(track.at(100.0).azimuth) == pytest.approx(4.0)
     assert np.degrees(track.at(99.0).azimuth) == pytest.approx(0.0)
+    with pytest.raises(TrackError, match="turns the track by 90°"):
+        Track([Section(100.0, 0.0, 0.0), Section(100.0, 90.0, 0.0)], ORIGIN)
 
 
 def test_scalar_and_array_queries_agree(curvy):

@@ -49,3 +49,15 @@ def test_output_path_that_is_a_file_gives_one_line_and_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:")
     assert blocker.read_text() == "not a directory"
+
+
+def test_issue18_default_out_is_not_the_working_directory(tmp_path, monkeypatch, capsys):
+    """``reproduce`` wrote EXPERIMENT.json into the current directory; now into its own
+    folder, as ``run`` (railnav-run) and ``study`` (railnav-study) do, and says so."""
+    from railnav.commands.reproduce import DEFAULT_OUT
+    monkeypatch.chdir(tmp_path)
+    assert main(["-q", "reproduce", "anomaly2021", "--runs", "1"]) == 0
+    assert [p.name for p in tmp_path.iterdir()] == [DEFAULT_OUT]
+    written = tmp_path / DEFAULT_OUT / "anomaly2021.json"
+    assert json.loads(written.read_text())["runs"] == 1
+    assert f"written: {DEFAULT_OUT}" in capsys.readouterr().out

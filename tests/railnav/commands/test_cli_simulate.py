@@ -138,3 +138,14 @@ def test_bad_track_file_is_one_line_exit_2(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("error:") and "bad.csv" in err and "\n" not in err
     assert not (out / "truth.csv").exists()
+
+
+def test_issue18_simulate_says_what_it_wrote(tmp_path, capsys, paper_file):
+    out = tmp_path / "said"
+    assert main(["-q", "simulate", str(paper_file), "--duration-s", "2", "--imu-grade",
+                 "perfect", "--out", str(out), "--no-gnss"]) == 0
+    printed = capsys.readouterr().out.strip()
+    names = printed.split(": ", 1)[1].split(" (")[0].split(", ")
+    assert sorted(names) == sorted(p.name for p in out.iterdir())
+    samples = len(pd.read_csv(out / "truth.csv"))
+    assert f"({samples} IMU samples" in printed

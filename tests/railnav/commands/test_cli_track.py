@@ -118,3 +118,122 @@ def test_fit_of_one_leg(tmp_path):
         assert f"leg {leg} of 2" in out.read_text().splitlines()[1]
     assert main(["-q", "track", "fit", str(survey), "--leg", "3", "--out",
                  str(tmp_path / "x.csv")]) == 2
+
+
+# --- issue 18: surveys that used to give tracebacks, and outputs that overwrote inputs ---
+
+def _one_error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize("data,message", [
+    (b"lat_deg,lon_deg\n41.6,2.3\n\xff\xfe41.7,2.4\n", "line 3: not UTF-8 text (byte 0xff)"),
+    (b"lat_deg,lon_deg\n41.6,2.3\n41.7,2.4,5\n41.8,2.5\n",
+     "line 3: 3 fields, but the header has 2"),
+    (b"# GPSW,GPSSoW,latitude(deg),longitude(deg),height(m)\n2134,45600,41.6,2.3,1\n"
+     b"2134,45601,,2.4,1\n", "row 2, lat_deg: empty or NaN (a finite number is needed)"),
+    (b"gps_week,gps_sow_s,lat_deg,lon_deg,h_m\n2134,45600,41.6,2.3,1\n2134,45601,,2.4,1\n",
+     "row 2, lat_deg: empty or NaN (a finite number is needed)"),
+    (b"# GPSW,GPSSoW,latitude(deg),longitude(deg),height(m)\n2134,45600,41.6,2.3,1\n"
+     b"2134,45601,41.7,2.4,1,7\n", "line 3: 6 fields, but the header has 5"),
+    (b"lat_deg,lon_deg,h_m\n41.6,2.3,1e12\n",
+     "row 1, h_m: must satisfy -1000 <= h_m <= 10000, got 1000000000000.0"),
+], ids=["non-UTF-8", "extra field", "NaN lat, week layout", "NaN lat, named columns",
+        "extra field, week layout", "h 1e12"])
+def test_issue18_bad_survey_is_a_located_error(tmp_path, capsys, data, message):
+    survey, out = tmp_path / "survey.csv", tmp_path / "track.csv"
+    survey.write_bytes(data)
+    assert main(["-q", "track", "fit", str(survey), "--out", str(out)]) == 2
+    assert _one_error_line(capsys) == f"error: {survey}: {message}"
+    assert not out.exists()
+
+
+def test_issue18_fit_refuses_to_overwrite_its_survey(tmp_path, capsys):
+    survey = tmp_path / "s.csv"
+    survey.write_text("lat_deg,lon_deg\n41.6,2.3\n41.6001,2.3001\n")
+    before = survey.read_bytes()
+    assert main(["-q", "track", "fit", str(survey), "--out", str(survey)]) == 2
+    assert _one_error_line(capsys) == (f"error: {survey}: --out: is the survey being fitted: "
+                                       "give a different file (nothing was written)")
+    assert survey.read_bytes() == before
+    # the same file through another spelling of its path
+    other = tmp_path / "sub" / ".." / "s.csv"
+    (tmp_path / "sub").mkdir()
+    assert main(["-q", "track", "fit", str(survey), "--out", str(other)]) == 2
+    assert survey.read_bytes() == before
+
+
+def test_issue18_fit_refuses_residuals_on_the_track_file(tmp_path, capsys):
+    survey = pd.read_csv(TRACKS / "barcelona_drive_survey.csv").iloc[:60]
+    poly = tmp_path / "poly.csv"
+    survey[["lat_deg", "lon_deg"]].to_csv(poly, index=False)
+    out = tmp_path / "f.csv"
+    assert main(["-q", "track", "fit", str(poly), "--out", str(out), "--residuals",
+                 str(out)]) == 2
+    assert "--residuals: is also --out" in _one_error_line(capsys)
+    assert not out.exists()
+
+
+def test_issue18_sample_and_plot_refuse_to_overwrite_the_track(tmp_path, capsys):
+    track = tmp_path / "t.csv"
+    track.write_bytes((TRACKS / "paper2017.csv").read_bytes())
+    before = track.read_bytes()
+    for command in ("sample", "plot"):
+        assert main(["-q", "track", command, str(track), "--out", str(track)]) == 2
+        assert f"is the track being {command}" in _one_error_line(capsys)
+    assert track.read_bytes() == before
+
+
+def test_issue18_empty_out_is_refused(tmp_path, capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["track", "sample", str(TRACKS / "paper2017.csv"), "--out", ""])
+    assert info.value.code == 2
+    assert "an output path cannot be empty" in capsys.readouterr().err
+
+
+def test_issue18_implausible_track_through_the_cli(tmp_path, capsys):
+    """The flipped digit of issue 18: radius 5 m over 3 km; it hung the reader."""
+    track = tmp_path / "t.csv"
+    track.write_text("lat_deg,lon_deg,h_m,length_m,azimuth_deg,elevation_deg,curvature_1pm\n"
+                     "50,30,0,3000,0,0,0.2\n")
+    assert main(["track", "info", str(track)]) == 2
+    assert _one_error_line(capsys).startswith(f"error: {track}: row 1, curvature_1pm: ")
+
+
+def test_issue18_sample_plot_and_fit_say_what_they_wrote(tmp_path, capsys):
+    samples, png = tmp_path / "s.csv", tmp_path / "t.png"
+    assert main(["-q", "track", "sample", str(TRACKS / "paper2017.csv"), "--step-m", "1000",
+                 "--out", str(samples)]) == 0
+    assert capsys.readouterr().out.startswith(f"{samples}: {len(pd.read_csv(samples))} points")
+    assert main(["-q", "track", "plot", str(TRACKS / "paper2017.csv"), "--out", str(png)]) == 0
+    assert capsys.readouterr().out.startswith(f"{png}: map, height and curvature")
+    survey = pd.read_csv(TRACKS / "barcelona_drive_survey.csv").iloc[:60]
+    poly, out, res = tmp_path / "poly.csv", tmp_path / "f.csv", tmp_path / "r.csv"
+    survey[["lat_deg", "lon_deg"]].to_csv(poly, index=False)
+    assert main(["-q", "track", "fit", str(poly), "--out", str(out), "--residuals",
+                 str(res)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{out}: ") and lines[1].startswith(f"{res}: ")
+    assert f"of the {len(pd.read_csv(res))} points" in lines[1]
+
+
+@pytest.mark.parametrize("text", ["lat_deg,lon_deg\n41.6,2.3\n",
+                                  "lat_deg,lon_deg\n41.6,2.3\n41.6,2.3\n41.6,2.3\n"])
+def test_issue18_fit_errors_name_the_survey(tmp_path, capsys, text):
+    """A 1-point survey (and one without spacing) printed no file name."""
+    survey = tmp_path / "one.csv"
+    survey.write_text(text)
+    assert main(["-q", "track", "fit", str(survey), "--out", str(tmp_path / "t.csv")]) == 2
+    assert _one_error_line(capsys).startswith(f"error: {survey}: ")
+
+
+def test_issue18_every_track_subcommand_has_a_description():
+    from railnav.cli import build_parser
+    parser = build_parser()
+    track = parser._subparsers._group_actions[0].choices["track"]
+    subcommands = track._subparsers._group_actions[0].choices
+    assert set(subcommands) == {"fit", "sample", "info", "plot"}
+    for name, sub in subcommands.items():
+        assert sub.description and len(sub.description) > 40, name

@@ -118,3 +118,30 @@ def test_cli_bad_config_is_one_line_and_exit_2(tmp_path, capsys):
     assert err == (f"error: {path}: line 5, grid.imu_grade: unknown IMU grade 'gold'; presets "
                    "are perfect, paper2017, navigation, tactical, mems\n")
     assert not (tmp_path / "out").exists()
+
+
+def test_issue18_non_utf8_study_file_is_a_located_error(tmp_path, capsys):
+    """A byte that is not UTF-8 raised UnicodeDecodeError; now the file and the line."""
+    path = tmp_path / "s.toml"
+    path.write_bytes(b'[study]\nname = "\xff"\n')
+    with pytest.raises(ConfigError) as info:
+        load_study_config(path)
+    assert (info.value.path, info.value.line) == (str(path), 2)
+    out = tmp_path / "out"
+    assert main(["study", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {path}: line 2: not UTF-8 text (byte 0xff)"
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text,line,words", [
+    ("[study]\nx = " + "[" * 100_000 + "]" * 100_000 + "\n", None, "nested too deeply"),
+    ("[study]\nseed = " + "9" * 5000 + "\n", None, "4300 digits"),
+    ("[study]\nreplicates = 20000000000\n", 2, "20000000000 runs, more than 1000000"),
+])
+def test_issue18_toml_at_its_limits_is_a_located_error(text, line, words):
+    """Found by the fuzz suite: RecursionError and ValueError escaped tomllib, and a typo in
+    ``replicates`` listed 2e10 runs."""
+    with pytest.raises(ConfigError, match=words) as info:
+        parse_study_config(text, path="s.toml")
+    assert info.value.line == line and "\n" not in str(info.value)

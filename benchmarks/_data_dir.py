@@ -1,0 +1,32 @@
+"""The folder of the full urban drive, for the benchmarks on real data (``--data DIR``).
+
+The repository ships only a 3-minute excerpt of the drive (``data/gnss/``, provenance in its
+README). The benchmarks on the whole 8 minutes read the original files from a folder the
+user names; there is no default, so nothing outside the repository is read unasked.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_data_argument", "checked_data_dir", "DATASET"]
+
+#: Where the files come from (data/gnss/README.md).
+DATASET = ("the dataset mosaicx5_multi_dynamic of the PyPI package gnss-benchmark 2.3.0 "
+           "(Rokubun, MIT), see data/gnss/README.md")
+
+
+def add_data_argument(parser: argparse.ArgumentParser, names: tuple[str, ...]) -> None:
+    """Add the required ``--data DIR`` option, documenting the files it must hold."""
+    parser.add_argument("--data", type=Path, required=True, metavar="DIR",
+                        help=f"folder with {', '.join(names)}: {DATASET}")
+
+
+def checked_data_dir(parser: argparse.ArgumentParser, data: Path,
+                     names: tuple[str, ...]) -> Path:
+    """`data` if it holds every file of `names`; else the parser's one-line error (exit 2)."""
+    missing = [n for n in names if not (data / n).is_file()]
+    if missing:
+        parser.error(f"--data {data}: missing {', '.join(missing)} (expected the files of "
+                     f"{DATASET})")
+    return data

@@ -1,0 +1,129 @@
+"""What every figure of a run shares: GNSS outage shading, robust axis limits, σ bands, units.
+
+The conventions a reader can rely on in every PNG railnav writes:
+
+* axes are named in words with the unit in parentheses, ``along-track error (m)``; attitude
+  errors are in mrad, attitude estimates in degrees; no axis carries a multiplier or an
+  offset (``1e-5``);
+* time is ``time from the trip start (s)``;
+* GNSS outages are shaded grey wherever a time axis is drawn: the declared outages of a
+  simulation, and in recorded data the gaps between GNSS epochs longer than
+  `GAP_FACTOR` × the usual epoch interval (a legend entry says so; nothing is claimed when
+  there is none);
+* a ``±3σ`` band is the filter's own uncertainty (`SIGMA_BAND` standard deviations);
+* an error axis is scaled to the errors and the typical band (`robust_limit`), not to the
+  band's peak (the initial convergence, the end of an outage); a value beyond the axis is
+  reported in the panel's corner rather than hidden.
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["SIGMA_BAND", "GAP_FACTOR", "TIME_LABEL", "OUTAGE_STYLE", "MRAD_PER_RAD",
+           "gnss_gaps", "outage_spans", "shade_outages", "robust_limit", "limit_axis",
+           "sigma_band", "plain_axis", "save_png", "outage_legend_handle"]
+
+Array = npt.NDArray[np.float64]
+
+#: Width of the uncertainty bands, in standard deviations.
+SIGMA_BAND = 3.0
+#: A gap between GNSS epochs longer than this many times their median interval is shaded.
+GAP_FACTOR = 2.5
+TIME_LABEL = "time from the trip start (s)"
+OUTAGE_STYLE = dict(color="0.85", zorder=0, lw=0)
+MRAD_PER_RAD = 1e3
+#: Percentile of |error| that sets an error axis (the largest 0.5 % may be off scale).
+ERROR_PERCENTILE = 99.5
+#: Head room above the robust extent of the data.
+HEADROOM = 1.25
+
+
+def gnss_gaps(epoch_time_s: npt.ArrayLike) -> list[tuple[float, float]]:
+    """``(start_s, duration_s)`` of the gaps between GNSS epochs longer than `GAP_FACTOR`
+    times the median epoch interval (the outages seen in recorded data)."""
+    t = np.unique(np.asarray(epoch_time_s, dtype=float))
+    if t.size < 3:
+        return []
+    step = np.diff(t)
+    long_gap = np.flatnonzero(step > GAP_FACTOR * np.median(step))
+    return [(float(t[i]), float(step[i])) for i in long_gap]
+
+
+def outage_spans(result) -> list[tuple[float, float]]:
+    """The declared outages of a run and the GNSS gaps of its data that none of them covers
+    (``result``: a `railnav.navigation.result.NavigationResult`)."""
+    declared = [(float(a), float(d)) for a, d in getattr(result, "outages", ())]
+    innovations = getattr(result, "innovations", None)
+    found = gnss_gaps(innovations["time_s"]) if innovations is not None and len(
+        innovations) else []
+
+    def covered(start: float, duration: float) -> bool:
+        return any(a <= start + duration and start <= a + d for a, d in declared)
+
+    return declared + [gap for gap in found if not covered(*gap)]
+
+
+def shade_outages(ax, spans) -> None:
+    """Grey spans on a time axis."""
+    for start, duration in spans:
+        ax.axvspan(start, start + duration, **OUTAGE_STYLE)
+
+
+def outage_legend_handle():
+    """A legend entry for the shading."""
+    from matplotlib.patches import Patch
+    return Patch(color=OUTAGE_STYLE["color"], label="GNSS outage")
+
+
+def robust_limit(values: npt.ArrayLike, band: npt.ArrayLike | None = None) -> float:
+    """Half-height of a symmetric error axis: `HEADROOM` × the larger of the
+    `ERROR_PERCENTILE` th percentile of |values| and the median of `band` (≥ 0)."""
+    v = np.abs(np.asarray(values, dtype=float))
+    v = v[np.isfinite(v)]
+    extent = float(np.percentile(v, ERROR_PERCENTILE)) if v.size else 0.0
+    if band is not None:
+        b = np.asarray(band, dtype=float)
+        b = b[np.isfinite(b)]
+        if b.size:
+            extent = max(extent, float(np.median(b)))
+    return HEADROOM * extent if extent > 0.0 else 1.0
+
+
+def limit_axis(ax, t: Array, values: Array, limit: float, unit: str) -> None:
+    """Set the axis to ±`limit` and say in its corner how far a clipped value reaches."""
+    ax.set_ylim(-limit, limit)
+    v = np.asarray(values, dtype=float)
+    finite = np.isfinite(v)
+    if not finite.any():
+        return
+    k = int(np.nanargmax(np.where(finite, np.abs(v), -np.inf)))
+    if abs(v[k]) > limit:
+        ax.text(0.995, 0.96, f"off scale: {v[k]:+.3g} {unit} at {t[k]:.0f} s",
+                transform=ax.transAxes, ha="right", va="top", fontsize=7, color="C3")
+
+
+def sigma_band(ax, t: Array, centre: Array | float, sigma: Array, *, label: str | None = None,
+               color: str = "C1") -> None:
+    """Shade ``centre ± SIGMA_BAND σ``."""
+    half = SIGMA_BAND * np.asarray(sigma, dtype=float)
+    ax.fill_between(t, centre - half, centre + half, color=color, alpha=0.25, lw=0,
+                    label=label)
+
+
+def plain_axis(ax) -> None:
+    """No offset or multiplier on the y axis (values read as printed); a light grid."""
+    try:
+        ax.ticklabel_format(axis="y", style="plain", useOffset=False)
+    except AttributeError:         # a log or categorical axis has no such formatter
+        pass
+    ax.grid(True, lw=0.3)
+
+
+def save_png(fig, path: str | os.PathLike, *, dpi: int = 110) -> None:
+    """Write `fig` to `path` as PNG, atomically."""
+    from trackmodel.files import atomic_write
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=dpi)
