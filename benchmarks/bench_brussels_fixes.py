@@ -112,9 +112,11 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
-    out = {"data": str(args.data), "logs": {name: run_log(args.data, name) for name in LOGS},
+    out = {"data": Path(args.data).name, "logs": {name: run_log(args.data, name) for name in LOGS},
            "python": platform.python_version(), "machine": platform.machine()}
-    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    # record file names, not this machine's folders (the data folder is given by --data)
+    text = json.dumps(out, indent=2).replace(str(args.data).rstrip("/") + "/", "")
+    atomic_write_text(args.out, text + "\n")
     for name, r in out["logs"].items():
         print(_line(name, r))
         if "single_reference" in r:

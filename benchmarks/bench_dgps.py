@@ -5,7 +5,7 @@ Windows (2020-11-29, urban drive near Barcelona, reference = post-processed traj
 * ``shared``: 12:40:00-12:42:59 GPST, the excerpts shipped in ``data/gnss`` (rover, base
   G+E records, broadcast nav, CODE SP3 11:00-14:30);
 * ``held-out``: 12:43:00-12:47:59, from the full files of the shared data set, given with
-  ``--data DIR`` (``../shared/data/gnss_urban_drive`` here). Without ``--data`` only the
+  ``--data DIR`` (the folder of the shared urban drive: rover, base, nav, SP3, reference). Without ``--data`` only the
   shared window is computed and the JSON says so.
 
 Solutions per window and systems (G, GE): ``spp``, ``spp+smooth``, ``dgps``,
@@ -27,7 +27,7 @@ chosen on the shared window (grid over `MeasurementConfig.cn0_ref_dbhz`,
 and the DGNSS residual RMS per system and C/N0 bin.
 
 Writes ``benchmarks/results/dgps.json``. Run:
-``python benchmarks/bench_dgps.py --data ../shared/data/gnss_urban_drive`` (a few minutes).
+``python benchmarks/bench_dgps.py --data DIR`` (a few minutes).
 """
 from __future__ import annotations
 

@@ -20,8 +20,8 @@ This is the lowest package: it imports nothing else of the project.
 from trackmodel.earth import WGS84, Ellipsoid, sphere
 from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.io import read_track, write_track
-from trackmodel.sections import Section
 from trackmodel.origin import Origin
+from trackmodel.sections import Section
 from trackmodel.track import Track, TrackPoint
 
 __all__ = ["Ellipsoid", "WGS84", "sphere", "InputError", "TrackError", "TrackFileError",

@@ -42,9 +42,15 @@ from trackmodel.errors import TrackError
 from trackmodel.fit_plane import PlaneFit
 from trackmodel.horizontal import fit_horizontal
 from trackmodel.mercator import MercatorPlane
-from trackmodel.polyline import Polyline, clean_polyline, find_reversal, local_enu, split_legs
-from trackmodel.profile import Profile, fit_vertical, flat_profile
 from trackmodel.origin import Origin
+from trackmodel.polyline import (
+    Polyline,
+    clean_polyline,
+    find_reversal,
+    local_enu,
+    split_legs,
+)
+from trackmodel.profile import Profile, fit_vertical, flat_profile
 from trackmodel.sections import Section
 from trackmodel.track import Track
 

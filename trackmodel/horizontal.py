@@ -18,8 +18,8 @@ import numpy.typing as npt
 
 from trackmodel.clothoid import PlaneCurve
 from trackmodel.fit_plane import PlaneFit, fit_plane
-from trackmodel.lsq import levenberg_marquardt
 from trackmodel.knots import prune, refine, simplify
+from trackmodel.lsq import levenberg_marquardt
 from trackmodel.pieces import Shape
 from trackmodel.reference import reference_azimuth
 from trackmodel.segment import HORIZONTAL_KINDS, fit_values, running_integral, segment

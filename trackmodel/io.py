@@ -23,8 +23,8 @@ from trackmodel.earth import WGS84, Ellipsoid, earth_from_name
 from trackmodel.errors import TrackFileError
 from trackmodel.files import atomic_write_text
 from trackmodel.plausibility import ImplausibleTrackError
-from trackmodel.textfile import read_text
 from trackmodel.table import located, sections_from_rows, sections_to_frame
+from trackmodel.textfile import read_text
 from trackmodel.track import Track
 
 __all__ = ["read_track", "write_track", "parse_track_text", "track_to_text", "EARTH_KEY"]

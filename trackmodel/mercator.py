@@ -19,7 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from trackmodel.earth import Ellipsoid, isometric_latitude, latitude_from_isometric, radii
+from trackmodel.earth import (
+    Ellipsoid,
+    isometric_latitude,
+    latitude_from_isometric,
+    radii,
+)
 
 __all__ = ["MercatorPlane"]
 

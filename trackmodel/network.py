@@ -255,31 +255,35 @@ class Network:
         """One `Track` along a route's legs: the line a train on that route runs on, with
         ``s`` from the start of the first leg.
 
-        The legs' tracks (each reversed where travelled ``-1``) are chained
-        (`chain_tracks`); a joint that is not tangent-continuous (a switch's measured kink)
-        would put an instant turn into the line, which no vehicle makes and which an
-        inertial filter cannot follow. So the chained line is sampled every
-        `ROUTE_SAMPLE_M` and refitted within `refit_tol_m` (`trackmodel.fit.fit_track`):
-        the kink becomes the short curve the map's tolerance allows (a 6° kink within
-        0.5 m: a radius of ~400 m, a turnout's). A route that cannot be refitted (a kink
-        too sharp for `ROUTE_MIN_RADIUS_M`) keeps its kinks, with a warning. None: no refit.
+        The legs' tracks (each reversed where travelled ``-1``) meet at joints that are not
+        tangent-continuous (a switch's measured kink): chained as they are, the line would
+        take an instant turn, which no vehicle makes and which an inertial filter cannot
+        follow. So the legs are sampled every `ROUTE_SAMPLE_M` and the route is refitted
+        within `refit_tol_m` (`trackmodel.fit.fit_track`): each kink becomes the curve the
+        map's tolerance allows. ``refit_tol_m=None``: the legs chained as they are
+        (`chain_tracks`; a kink above the track model's limit is then an error).
+
+        Raises
+        ------
+        TrackError
+            A leg that does not lead to the next, or a route whose kinks no curve of radius
+            >= `ROUTE_MIN_RADIUS_M` can follow within the tolerance.
         """
-        for (a, _), (b, db) in zip(legs[:-1], legs[1:]):
-            if (b, db) not in self.graph.successors((a, _)):
+        for (a, da), (b, db) in zip(legs[:-1], legs[1:]):
+            if (b, db) not in self.graph.successors((a, da)):
                 raise TrackError(f"route: no passage from {a} to {b}")
-        line = chain_tracks([self._track(e) if d == 1 else reversed_track(self._track(e))
-                             for e, d in legs])
-        if refit_tol_m is None or len(legs) == 1:
-            return line
-        s = np.linspace(0.0, line.length_m, int(math.ceil(line.length_m / ROUTE_SAMPLE_M)) + 1)
-        lat, lon, h = line.geodetic(s)
+        tracks = [self._track(e) if d == 1 else reversed_track(self._track(e))
+                  for e, d in legs]
+        if refit_tol_m is None or len(tracks) == 1:
+            return chain_tracks(tracks)
+        lat, lon, h = _route_points(tracks)
         try:
             return fit_track(lat, lon, h, tol_m=refit_tol_m, min_radius_m=ROUTE_MIN_RADIUS_M,
-                             earth=line.earth).track
+                             earth=tracks[0].earth).track
         except TrackError as exc:
-            log.warning("route %s keeps its joints' kinks (max %.1f deg): %s",
-                        ">".join(e for e, _ in legs), self._max_kink_deg(legs), exc)
-            return line
+            raise TrackError(f"route {'>'.join(e for e, _ in legs)}: its joints (kinks up to "
+                             f"{self._max_kink_deg(legs):.1f}°) cannot be refitted within "
+                             f"{refit_tol_m:g} m: {exc}") from None
 
     def _max_kink_deg(self, legs) -> float:
         names = {e for e, _ in legs}
@@ -354,6 +358,18 @@ def chain_tracks(tracks: Sequence[Track]) -> Track:
         sections.extend(track.sections[1:])
     first = tracks[0].origin
     return Track(tuple(sections), first, tracks[0].earth)
+
+
+def _route_points(tracks: Sequence[Track]) -> tuple[Array, Array, Array]:
+    """Points every <= `ROUTE_SAMPLE_M` along each track in turn, each joint's point once."""
+    parts = []
+    for k, track in enumerate(tracks):
+        n = int(math.ceil(track.length_m / ROUTE_SAMPLE_M)) + 1
+        lat, lon, h = track.geodetic(np.linspace(0.0, track.length_m, n))
+        start = 0 if k == 0 else 1                      # the previous track ended there
+        parts.append(np.column_stack([lat[start:], lon[start:], h[start:]]))
+    points = np.vstack(parts)
+    return points[:, 0], points[:, 1], points[:, 2]
 
 
 def _check_connection(c: Connection, elements: Mapping[str, Track]) -> None:

@@ -11,7 +11,12 @@ import argparse
 import logging
 from pathlib import Path
 
-from railnav.commands.support import nonnegative_int, output_path, positive_int, progress_bar
+from railnav.commands.support import (
+    nonnegative_int,
+    output_path,
+    positive_int,
+    progress_bar,
+)
 from railnav.reproduce.common import EXPERIMENTS, run_experiment, write_result_json
 
 __all__ = ["register", "handler", "DEFAULT_SEED", "DEFAULT_OUT"]

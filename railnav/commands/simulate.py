@@ -15,8 +15,8 @@ from pathlib import Path
 from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
 from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import (
-    output_path,
     outage_window,
+    output_path,
     positive_float,
     progress_bar,
 )

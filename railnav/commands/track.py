@@ -11,7 +11,12 @@ import sys
 
 import numpy as np
 
-from railnav.commands.support import check_outputs, output_path, positive_float, progress_bar
+from railnav.commands.support import (
+    check_outputs,
+    output_path,
+    positive_float,
+    progress_bar,
+)
 from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.files import atomic_write_text
 from trackmodel.fit import DEFAULT_TOL_M, DEFAULT_VTOL_M, fit_track

@@ -27,7 +27,7 @@ import pandas as pd
 
 from gnss_obs.constants import WEEK_S
 from railnav.errors import ConfigError
-from trackmodel.earth import C_n_e, ecef_to_enu, geodetic_to_ecef
+from trackmodel.earth import C_n_e, geodetic_to_ecef
 from trackmodel.errors import finite_column
 from trackmodel.files import atomic_write
 from trackmodel.textfile import read_csv_table

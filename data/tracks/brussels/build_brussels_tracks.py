@@ -33,7 +33,6 @@ from collections import deque
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from gnss_obs.fixes.read import read_fixes
 from trackmodel.fit import fit_track
