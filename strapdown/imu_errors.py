@@ -45,14 +45,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import lfilter
 
 from strapdown.errors import StrapdownError
-from strapdown.imu import Imu
+
+if TYPE_CHECKING:
+    from strapdown.imu import Imu
 
 __all__ = ["ImuErrors", "TriadErrors", "IMU_GRADES", "imu_grade", "apply_imu_errors", "STANDARD_GRAVITY_MPS2"]
 
@@ -191,6 +192,8 @@ def imu_grade(grade: str | ImuErrors) -> ImuErrors:
 def _gauss_markov(n: int, dt: float, sigma: float, tau_s: float,
                   rng: np.random.Generator) -> Array:
     """(n, 3) stationary first-order Gauss–Markov samples (exact discretization)."""
+    from scipy.signal import lfilter   # here: the grade table is read without SciPy (CLI)
+
     phi = math.exp(-dt / tau_s)
     start = sigma * rng.standard_normal(3)
     drive = rng.standard_normal((n, 3))

@@ -9,14 +9,11 @@ import json
 import logging
 from pathlib import Path
 
-from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import outage_window, positive_float, progress_bar
-from railnav.config import DEFAULT_SYSTEMS
+from railnav.defaults import DEFAULT_SYSTEMS
 from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
-from railnav.simulation.trip import simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
-from trackmodel.io import read_track
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]
 
@@ -57,6 +54,9 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
+    from gnss_obs.sim_files import write_simulation
+    from railnav.simulation.trip import simulate_trip
+    from trackmodel.io import read_track
     scenario = get_scenario(args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)

@@ -8,17 +8,17 @@ import argparse
 import json
 import math
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from railnav.commands.support import positive_float, progress_bar
 from trackmodel.errors import TrackFileError
 from trackmodel.files import atomic_write_text
-from trackmodel.fit import DEFAULT_TOL_M, DEFAULT_VTOL_M, fit_track
-from trackmodel.io import read_track, write_track
-from trackmodel.plot import plot_track
-from trackmodel.polyline import Polyline, read_polyline, split_legs
-from trackmodel.summary import sample_track, track_info
+from trackmodel.fit_defaults import DEFAULT_TOL_M, DEFAULT_VTOL_M
+
+if TYPE_CHECKING:
+    from trackmodel.polyline import Polyline
 
 __all__ = ["register"]
 
@@ -32,6 +32,7 @@ def read_survey(path) -> Polyline:
     trackmodel.TrackFileError
         When the file is neither (the polyline reader's error).
     """
+    from trackmodel.polyline import Polyline, read_polyline
     try:
         return read_polyline(path)
     except TrackFileError as polyline_error:
@@ -49,6 +50,7 @@ def read_survey(path) -> Polyline:
 
 def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
     """The points of leg `leg` (1-based) of a survey, and a note for the file's comment."""
+    from trackmodel.polyline import split_legs
     if leg is None:
         return poly, ""
     legs = split_legs(poly)
@@ -59,6 +61,8 @@ def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
 
 
 def _fit(args: argparse.Namespace) -> int:
+    from trackmodel.fit import fit_track
+    from trackmodel.io import write_track
     poly, note = _leg(read_survey(args.polyline), args.leg, args.polyline)
     with progress_bar("fitting", enabled=not args.quiet) as progress:
         result = fit_track(poly.lat, poly.lon, poly.h, tol_m=args.tol_m, vtol_m=args.vtol_m,
@@ -75,12 +79,16 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _sample(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.summary import sample_track
     frame = sample_track(read_track(args.track), args.step_m)
     atomic_write_text(args.out, frame.to_csv(index=False, float_format="%.10g"))
     return 0
 
 
 def _info(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.summary import track_info
     info = track_info(read_track(args.track)).to_dict()
     if args.json:
         json.dump({k: (None if isinstance(v, float) and math.isinf(v) else v)
@@ -97,6 +105,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.plot import plot_track
     plot_track(read_track(args.track), args.out)
     return 0
 
