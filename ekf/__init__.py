@@ -14,7 +14,8 @@ Typical use::
     smooth = rts_smooth(res.smoother, res.x_final, res.P_final)
 
 Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step`` (the
-symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it),
+symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it;
+``library_cache``: the compiled libraries on disk, ``$RAILNAV_CACHE_DIR``),
 ``update`` / ``gating`` (discrete updates), ``series`` / ``cd_filter`` / ``history`` (the
 driver), ``smoother``, ``consistency``, ``linear`` / ``correlated`` / ``bank`` (linear KF,
 a linear step with measurement noise correlated with the process noise, multiple-model
