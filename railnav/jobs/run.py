@@ -36,7 +36,7 @@ from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
 from railnav.filters.protocol import filter_kind
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
-from railnav.navigation.result import CSV_FLOAT_FORMAT, NavigationResult
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, NavigationResult
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import (
     SimulatedTrip,
@@ -287,7 +287,7 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
     written = []
 
     def csv(name: str, frame: pd.DataFrame) -> None:
-        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT)
+        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT, decimals=CSV_DECIMALS)
         written.append(out / name)
 
     csv("estimates.csv", outcome.result.estimates)
