@@ -277,11 +277,6 @@ def run_summary(result: NavigationResult, track, errors, window, outages, extra:
 
 def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = True) -> list[Path]:
     """Write a run's files into `out_dir` (created); returns the paths written."""
-    from railnav.evaluation.plots import (
-        plot_errors,
-        plot_estimates,
-        plot_track_estimate,
-    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -296,7 +291,12 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
         csv("errors.csv", outcome.errors.to_frame())
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
     written.append(out / "summary.json")
-    if plots:
+    if plots:                       # matplotlib only when drawing (~0.5 s to import)
+        from railnav.evaluation.plots import (
+            plot_errors,
+            plot_estimates,
+            plot_track_estimate,
+        )
         if outcome.errors is not None:
             plot_errors(outcome.errors, outcome.result, out / "errors.png")
             written.append(out / "errors.png")
