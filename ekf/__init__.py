@@ -14,7 +14,8 @@ Typical use::
     smooth = rts_smooth(res.smoother, res.x_final, res.P_final)
 
 Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step`` (the
-symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it),
+symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it;
+``library_cache``: the compiled libraries on disk, ``$RAILNAV_CACHE_DIR``),
 ``update`` / ``gating`` (discrete updates), ``series`` / ``cd_filter`` / ``history`` (the
 driver), ``smoother``, ``consistency``, ``linear`` / ``correlated`` / ``bank`` (linear KF,
 a linear step with measurement noise correlated with the process noise, multiple-model
@@ -32,36 +33,45 @@ Two properties to know when building a model on it:
 * A continuous measurement whose Jacobian depends on a noisy input (e.g. ``v·ω``) is
   biased by errors in variables by ``ω²/(ω² + σ_ω²)`` per sample (``σ_ω`` = per-sample
   input noise): negligible when the per-sample noise is small against the signal.
+
+The names are imported on first use (PEP 562), so ``import ekf`` (and ``ekf.errors``)
+stays cheap: it imports neither CasADi nor SciPy.
 """
 from __future__ import annotations
 
-from ekf.bank import (BankStep, Hypothesis, ModelBank, imm_starts, merge_gaussians,
-                      switching_update, uniform_switching)
-from ekf.cd_filter import CdFilter, FilterConfig
-from ekf.compiled import CompileOptions
-from ekf.consistency import chi2_band, normalized_squares
-from ekf.correlated import correlated_step
-from ekf.errors import FilterDivergedError, FilterError, ModelError
-from ekf.gating import Gate, chi2_threshold
-from ekf.history import FilterResult, SmootherData
-from ekf.layout import StateLayout
-from ekf.linear import LinearModel, predict_linear
-from ekf.model import CdModel, MeasurementModel
-from ekf.propagate import Propagator, StepOutputs
-from ekf.outliers import common_offset, fault_probability, fault_threshold
-from ekf.series import Epoch, EpochRows, InputSeries
-from ekf.smoother import SmoothedResult, rts_smooth
-from ekf.step import StepData, StepOptions, build_step
-from ekf.update import Observation, UpdateRecord, discrete_update, kalman_update
+import importlib
 
-__all__ = [
-    "BankStep", "CdFilter", "CdModel", "CompileOptions", "Epoch", "EpochRows", "FilterConfig",
-    "FilterDivergedError", "FilterError", "FilterResult", "Gate", "Hypothesis",
-    "InputSeries", "LinearModel", "MeasurementModel", "ModelBank", "ModelError",
-    "Observation", "Propagator", "SmoothedResult", "SmootherData", "StateLayout",
-    "StepData", "StepOptions", "StepOutputs", "UpdateRecord", "build_step", "chi2_band",
-    "chi2_threshold", "common_offset", "correlated_step", "discrete_update",
-    "fault_probability", "fault_threshold", "imm_starts", "kalman_update", "merge_gaussians",
-    "normalized_squares", "predict_linear", "rts_smooth", "switching_update",
-    "uniform_switching",
-]
+#: Public name -> the module that owns it.
+_EXPORTS = {
+    "BankStep": "bank", "CdFilter": "cd_filter", "CdModel": "model",
+    "CompileOptions": "compiled", "Epoch": "series", "EpochRows": "series",
+    "FilterConfig": "cd_filter", "FilterDivergedError": "errors", "FilterError": "errors",
+    "FilterResult": "history", "Gate": "gating", "Hypothesis": "bank",
+    "InputSeries": "series", "LinearModel": "linear", "MeasurementModel": "model",
+    "ModelBank": "bank", "ModelError": "errors", "Observation": "update",
+    "Propagator": "propagate", "SmoothedResult": "smoother", "SmootherData": "history",
+    "StateLayout": "layout", "StepData": "step", "StepOptions": "step",
+    "StepOutputs": "propagate", "UpdateRecord": "update", "build_step": "step",
+    "chi2_band": "consistency", "chi2_threshold": "gating", "common_offset": "outliers",
+    "correlated_step": "correlated", "discrete_update": "update",
+    "fault_probability": "outliers", "fault_threshold": "outliers", "imm_starts": "bank",
+    "kalman_update": "update", "merge_gaussians": "bank",
+    "normalized_squares": "consistency", "predict_linear": "linear",
+    "rts_smooth": "smoother", "switching_update": "bank", "uniform_switching": "bank",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'ekf' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f"ekf.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

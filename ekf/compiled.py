@@ -3,10 +3,13 @@
 The step function (:func:`ekf.step.build_step`) is written out as C by
 ``casadi.CodeGenerator``; a small C loop (below) runs it over ``N`` steps, chaining the
 state and packed covariance and writing every per-step output into caller-owned buffers.
-``gcc -O2 -shared -fPIC`` builds it once; the library is cached under a file name that
-is the SHA-256 of the C source and the compiler command, so later processes (tests,
-Monte Carlo workers) load it without compiling. A run of ``N`` steps is one ctypes call
-on NumPy buffers: no ``casadi.DM`` conversion and no per-step Python.
+``gcc -O2 -shared -fPIC`` builds it once; the library is cached on disk
+(`ekf.library_cache`: ``$RAILNAV_CACHE_DIR/ekf`` or the user cache directory, atomic
+writes, one compiling process at a time) under a name that is the SHA-256 of the CasADi
+function's serialization, the C template, the compiler command and the CasADi version, so
+later processes (runs, tests, Monte Carlo workers) load it without generating code or
+compiling. A run of ``N`` steps is one ctypes call on NumPy buffers: no ``casadi.DM``
+conversion and no per-step Python.
 
 Compared with CasADi's own ``jit`` option on a ``mapaccum``: the same generated code,
 but ``N`` is a run-time argument (one library for any interval length) and the library
@@ -21,7 +24,6 @@ import os
 import shutil
 import subprocess
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,13 +31,11 @@ import casadi as ca
 import numpy as np
 
 from ekf.errors import FilterError
+from ekf.library_cache import default_cache_dir, load_library
 
 __all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available"]
 
 log = logging.getLogger(__name__)
-
-#: Environment variable that overrides the default cache directory.
-CACHE_ENV = "EKF_CASADI_CACHE"
 
 _LOOP_TEMPLATE = r"""
 /* ---- ekf/compiled.py: run {fname} over N steps, chaining inputs 0,1 from outputs 0,1 ---- */
@@ -89,8 +89,8 @@ class CompileOptions:
     flags : tuple of str
         Optimization flags.
     cache_dir : str or None
-        Where libraries are cached; ``None``: ``$EKF_CASADI_CACHE`` or
-        ``<tmp>/ekf-casadi-<uid>``.
+        Where libraries are cached; ``None``: ``$RAILNAV_CACHE_DIR/ekf``, else the user
+        cache directory's ``railnav/ekf`` (`ekf.library_cache`).
     """
 
     compiler: str = "gcc"
@@ -98,15 +98,12 @@ class CompileOptions:
     cache_dir: str | None = None
 
     def directory(self) -> Path:
-        """The cache directory (created if missing)."""
-        if self.cache_dir is not None:
-            path = Path(self.cache_dir)
-        elif os.environ.get(CACHE_ENV):
-            path = Path(os.environ[CACHE_ENV])
-        else:
-            path = Path(tempfile.gettempdir()) / f"ekf-casadi-{os.getuid()}"
-        path.mkdir(parents=True, exist_ok=True)
-        return path
+        """The cache directory (read when a library is loaded; created when one is built)."""
+        return Path(self.cache_dir) if self.cache_dir is not None else default_cache_dir()
+
+    def command(self) -> list[str]:
+        """The compiler command without its input and output files."""
+        return [self.compiler, *self.flags, "-shared", "-fPIC"]
 
 
 def compiler_available(opts: CompileOptions = CompileOptions()) -> bool:
@@ -131,34 +128,35 @@ def _c_source(fun: ca.Function, template: str, loop: str) -> str:
 def _load(fun: ca.Function, template: str, opts: CompileOptions
           ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
     loop = f"{fun.name()}_loop"
-    path, seconds = _build_library(_c_source(fun, template, loop), opts)
-    lib = ctypes.CDLL(str(path))
+    command = opts.command()
+    key = _cache_key(fun, template, loop, command)
+    lib, seconds = load_library(opts.directory(), key, lambda path: _compile(
+        _c_source(fun, template, loop), command, path))
     entry = getattr(lib, loop)
     entry.restype = ctypes.c_int
     return lib, entry, seconds
 
 
-def _build_library(source: str, opts: CompileOptions) -> tuple[Path, float]:
-    """Compile (or find in the cache) the library of a C source; return (path, seconds)."""
-    command = [opts.compiler, *opts.flags, "-shared", "-fPIC"]
-    digest = hashlib.sha256((source + "\0" + " ".join(command)).encode()).hexdigest()[:20]
-    directory = opts.directory()
-    target = directory / f"ekf_{digest}.so"
-    if target.exists():
-        return target, 0.0
-    start = time.perf_counter()
-    with tempfile.TemporaryDirectory(dir=directory) as tmp:
+def _cache_key(fun: ca.Function, template: str, loop: str, command: list[str]) -> str:
+    """What a library is, hashed without generating its code: the function (CasADi's
+    serialization, stable across processes), the C template and entry name, the compiler
+    command and the CasADi version (whose code generator writes the C)."""
+    digest = hashlib.sha256()
+    for part in (ca.__version__, template, loop, " ".join(command), fun.serialize()):
+        digest.update(part.encode())
+        digest.update(b"\0")
+    return digest.hexdigest()[:24]
+
+
+def _compile(source: str, command: list[str], target: Path) -> None:
+    """Compile a C source into the shared library `target`."""
+    with tempfile.TemporaryDirectory() as tmp:
         c_file = Path(tmp) / "step.c"
         c_file.write_text(source)
-        partial = Path(tmp) / "step.so"
-        result = subprocess.run([*command, str(c_file), "-o", str(partial), "-lm"],
+        result = subprocess.run([*command, str(c_file), "-o", str(target), "-lm"],
                                 capture_output=True, text=True, check=False)
-        if result.returncode != 0:
-            raise FilterError(f"compiling the step function failed: {result.stderr[-2000:]}")
-        os.replace(partial, target)
-    seconds = time.perf_counter() - start
-    log.info("compiled %s in %.2f s", target.name, seconds)
-    return target, seconds
+    if result.returncode != 0:
+        raise FilterError(f"compiling the step function failed: {result.stderr[-2000:]}")
 
 
 class CompiledLoop:

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import chi2
+
+from ekf.gating import chi2_quantile
 
 __all__ = ["normalized_squares", "chi2_band"]
 
@@ -47,4 +48,4 @@ def chi2_band(dof: int, runs: int, probability: float = 0.95) -> tuple[float, fl
     """
     tail = 0.5 * (1.0 - probability)
     total = dof * runs
-    return float(chi2.ppf(tail, total) / runs), float(chi2.ppf(1.0 - tail, total) / runs)
+    return chi2_quantile(tail, total) / runs, chi2_quantile(1.0 - tail, total) / runs

@@ -7,10 +7,9 @@ back ``(label, content, line_number)`` triples; each reader interprets its own l
 """
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass
-
-import logging
 
 from gnss_obs.constants import BDT_MINUS_GPST_S
 from gnss_obs.errors import GnssInputError

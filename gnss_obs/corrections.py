@@ -30,9 +30,14 @@ from trackmodel.earth import WGS84, C_n_e, Ellipsoid, ecef_to_geodetic
 
 __all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
            "troposphere_delay_m", "klobuchar_delay_s", "ionosphere_scale", "day_of_year",
-           "STANDARD_HUMIDITY"]
+           "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
 
 Array = npt.NDArray[np.float64]
+
+#: How a measurement model handles the ionosphere (`gnss_obs.measurements.MeasurementConfig`):
+#: the Klobuchar delay of this module, the ionosphere-free combination of two signals, or
+#: nothing. Here, in a module without pandas, so the ``railnav spp`` parser can offer them.
+IONOSPHERE_MODELS = ("klobuchar", "iono-free", "none")
 
 # --- standard atmosphere (as in RTKLIB's tropmodel; Berg 1948 lapse formulas) -----------
 #: Sea-level pressure hPa, temperature K, and relative humidity (0-1) of the standard atmosphere.

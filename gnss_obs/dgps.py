@@ -36,7 +36,11 @@ import pandas as pd
 
 from gnss_obs.epoch import prepare_epoch, split_epochs, transmit_states_batch
 from gnss_obs.errors import GnssError
-from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
+from gnss_obs.measurements import (
+    MeasurementConfig,
+    glonass_channels,
+    select_measurements,
+)
 from gnss_obs.observables import predict_pseudorange
 from trackmodel.earth import geodetic_to_ecef
 

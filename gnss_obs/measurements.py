@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS, carrier_frequency_hz
+from gnss_obs.corrections import IONOSPHERE_MODELS
 from gnss_obs.ephemeris import GALILEO_MESSAGES
 from gnss_obs.errors import GnssError
 
@@ -44,7 +45,6 @@ SECONDARY_SIGNALS: dict[str, tuple[str, ...]] = {
     "G": ("2W", "2L", "2X", "2S"), "E": ("7Q", "7X", "7I"), "C": ("7I", "7X"),
     "R": ("2C", "2P"), "J": ("2L", "2X", "2S"),
 }
-IONOSPHERE_MODELS = ("klobuchar", "iono-free", "none")
 
 #: Columns of the `select_measurements` table.
 MEASUREMENT_COLUMNS = ["gps_time_s", "sv", "system", "prn", "signal", "band", "frequency_hz",

@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg, optimize, stats
+from scipy import linalg
 
 __all__ = ["WlsStep", "wls_step", "huber_wls", "FdeResult", "fault_detection_exclusion",
            "chi2_threshold", "detection_noncentrality", "protection_levels"]
@@ -228,6 +228,7 @@ def chi2_threshold(dof: int, p_false_alarm: float) -> float:
     """Threshold T with ``P(χ²_dof > T) = p_false_alarm`` (inf for dof < 1)."""
     if dof < 1:
         return float("inf")
+    from scipy import stats  # here: ~0.4 s to import, and a filter run never asks
     return float(stats.chi2.isf(p_false_alarm, dof))
 
 
@@ -236,6 +237,7 @@ def detection_noncentrality(dof: int, p_false_alarm: float, p_missed_detection: 
     """Non-centrality λ at which the χ²_dof test misses a fault with ``p_missed_detection``."""
     if dof < 1:
         return float("inf")
+    from scipy import optimize, stats
     threshold = chi2_threshold(dof, p_false_alarm)
 
     def miss(lam: float) -> float:

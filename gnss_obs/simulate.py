@@ -33,7 +33,6 @@ written with `write_rinex_obs` reads back identically.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -45,7 +44,6 @@ from railnav_data import GNSS, shipped_path
 from gnss_obs.constants import (
     OMEGA_E_GPS,
     SPEED_OF_LIGHT_MPS,
-    WEEK_S,
     carrier_frequency_hz,
 )
 from gnss_obs.corrections import (
@@ -59,6 +57,11 @@ from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
+from gnss_obs.sim_defaults import (
+    DEFAULT_START_GPS_TIME_S,
+    PAPER_SIGMA_PR_M,
+    PAPER_SIGMA_RR_MPS,
+)
 from gnss_obs.sim_events import (
     Outage,
     SatelliteFault,
@@ -79,13 +82,6 @@ Array = npt.NDArray[np.float64]
 
 #: Simulated signal per system: (RINEX signal, band).
 SIM_SIGNALS = {"G": ("1C", 1), "E": ("1C", 1), "C": ("2I", 2), "R": ("1C", 1), "J": ("1C", 1)}
-#: Start of a simulated trip when none is given: 2020-11-29 12:40:00 GPST, inside the
-#: shipped navigation file (records 09:00-15:00; the shared urban drive's hour). The one
-#: default start time of the project (`railnav.simulation.scenarios` uses it).
-DEFAULT_START_GPS_TIME_S = 2134 * WEEK_S + 45_600.0
-#: The 2017 paper's GNSS noise (SEEDS.md: variances 15 m² and 0.5 (m/s)² at 1 Hz).
-PAPER_SIGMA_PR_M = math.sqrt(15.0)
-PAPER_SIGMA_RR_MPS = math.sqrt(0.5)
 _RINEX_DECIMALS = 3
 _LIGHT_TIME_ITERATIONS = 6
 _LIGHT_TIME_TOL_S = 1e-13

@@ -5,11 +5,11 @@ measurement model, gating, output rate, initial uncertainty); `SensorData` carri
 recorded or simulated measurements with the one time reference that links them
 (`start_gps_time_s`: the GPS time of ``time_s = 0``).
 
-This module owns the defaults of a run, each written once here and imported wherever a
-signature or a command-line flag needs it: `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`,
-`DEFAULT_SYSTEMS` (and `NavigatorConfig`'s field defaults). The defaults of a simulated
-trip (speed profile, GNSS σ, start time) are its scenario's
-(`railnav.simulation.scenarios`).
+This module owns `NavigatorConfig`'s field defaults; the defaults a command-line flag
+shows, `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE` and `DEFAULT_SYSTEMS`, are written once in
+`railnav.defaults` (a module that imports nothing, so the parser stays light) and
+re-exported here. The defaults of a simulated trip (speed profile, GNSS σ, start time)
+are its scenario's (`railnav.simulation.scenarios`).
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.oscillator import oscillator_from_name
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
+from railnav.defaults import DEFAULT_FILTER, DEFAULT_IMU_GRADE, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.fault_detection import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
@@ -34,14 +35,6 @@ from strapdown.imu_errors import ImuErrors, imu_grade
 
 __all__ = ["NavigatorConfig", "SensorData", "FILTER_KINDS", "DEFAULT_FILTER",
            "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS", "check_gnss_pair"]
-
-#: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
-DEFAULT_FILTER = "constrained"
-#: The IMU grade a simulated trip has and a filter assumes when none is named
-#: (`strapdown.imu_errors.IMU_GRADES`).
-DEFAULT_IMU_GRADE = "tactical"
-#: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
-DEFAULT_SYSTEMS = "G"
 
 
 def check_gnss_pair(obs, nav) -> None:

@@ -45,14 +45,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields, replace
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
-from scipy.signal import lfilter
 
 from strapdown.errors import StrapdownError
-from strapdown.imu import Imu
+
+if TYPE_CHECKING:
+    from strapdown.imu import Imu
 
 __all__ = ["ImuErrors", "TriadErrors", "IMU_GRADES", "imu_grade", "apply_imu_errors", "STANDARD_GRAVITY_MPS2"]
 
@@ -190,10 +191,18 @@ def imu_grade(grade: str | ImuErrors) -> ImuErrors:
 
 def _gauss_markov(n: int, dt: float, sigma: float, tau_s: float,
                   rng: np.random.Generator) -> Array:
-    """(n, 3) stationary first-order Gauss–Markov samples (exact discretization)."""
+    """(n, 3) stationary first-order Gauss–Markov samples (exact discretization).
+
+    The draws are made for any `sigma`, so that the draws after them do not depend on it;
+    with ``sigma = 0`` the samples are zeros (what the recursion gives) without the filter.
+    """
     phi = math.exp(-dt / tau_s)
     start = sigma * rng.standard_normal(3)
     drive = rng.standard_normal((n, 3))
+    if sigma == 0.0:
+        return np.zeros((n, 3))
+    from scipy.signal import lfilter   # here: ~0.4 s to import (scipy.signal loads stats)
+
     gain = sigma * math.sqrt(-math.expm1(-2.0 * dt / tau_s))
     return lfilter([gain], [1.0, -phi], drive, axis=0, zi=(phi * start)[None, :])[0]
 

@@ -16,13 +16,34 @@ positive turning clockwise (to the right); cross-track offsets positive to the r
 the direction of increasing ``s``.
 
 This is the lowest package: it imports nothing else of the project.
-"""
-from trackmodel.earth import WGS84, Ellipsoid, sphere
-from trackmodel.errors import InputError, TrackError, TrackFileError
-from trackmodel.io import read_track, write_track
-from trackmodel.origin import Origin
-from trackmodel.sections import Section
-from trackmodel.track import Track, TrackPoint
 
-__all__ = ["Ellipsoid", "WGS84", "sphere", "InputError", "TrackError", "TrackFileError",
-           "Section", "Origin", "Track", "TrackPoint", "read_track", "write_track"]
+The names are imported on first use (PEP 562), so ``import trackmodel`` (and
+``trackmodel.errors``) stays cheap: it imports neither SciPy nor pandas.
+"""
+from __future__ import annotations
+
+import importlib
+
+#: Public name -> the module that owns it.
+_EXPORTS = {
+    "Ellipsoid": "earth", "WGS84": "earth", "sphere": "earth", "InputError": "errors",
+    "TrackError": "errors", "TrackFileError": "errors", "Section": "sections",
+    "Origin": "origin", "Track": "track", "TrackPoint": "track", "read_track": "io",
+    "write_track": "io",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    try:
+        module = _EXPORTS[name]
+    except KeyError:
+        raise AttributeError(f"module 'trackmodel' has no attribute {name!r}") from None
+    value = getattr(importlib.import_module(f"trackmodel.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

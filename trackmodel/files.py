@@ -9,7 +9,7 @@ from __future__ import annotations
 import contextlib
 import os
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from typing import IO
 
 __all__ = ["atomic_write", "atomic_write_text", "atomic_write_csv"]
@@ -64,8 +64,13 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
         fh.write(text)
 
 
-def atomic_write_csv(path: str | os.PathLike, frame, *, float_format: str | None = None) -> None:
-    """Write a pandas table to `path` atomically as CSV (no index; `float_format` as in
-    ``DataFrame.to_csv``)."""
-    with atomic_write(path, newline="") as fh:
-        frame.to_csv(fh, index=False, float_format=float_format)
+def atomic_write_csv(path: str | os.PathLike, frame, *, float_format: str | None = None,
+                     decimals: Mapping[str, int] | None = None) -> None:
+    """Write a pandas table to `path` atomically as CSV, no index, by pyarrow's fast
+    writer (`trackmodel.csv_table.write_csv`: ``float_format="%.Ng"`` keeps N significant
+    digits, None the shortest round-trip form; `decimals` rounds the named columns to so
+    many decimals)."""
+    from trackmodel.csv_table import write_csv  # pyarrow: only when a table is written
+
+    with atomic_write(path, "wb") as fh:
+        write_csv(fh, frame, float_format=float_format, decimals=decimals)

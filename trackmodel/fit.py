@@ -39,6 +39,7 @@ import pandas as pd
 from trackmodel.blas import single_blas_thread
 from trackmodel.earth import WGS84, Ellipsoid
 from trackmodel.errors import TrackError
+from trackmodel.fit_defaults import DEFAULT_TOL_M, DEFAULT_VTOL_M
 from trackmodel.fit_plane import PlaneFit
 from trackmodel.horizontal import fit_horizontal
 from trackmodel.mercator import MercatorPlane
@@ -60,8 +61,6 @@ __all__ = ["TrackFit", "fit_track", "DEFAULT_TOL_M", "DEFAULT_VTOL_M", "DEFAULT_
 
 Array = npt.NDArray[np.float64]
 
-DEFAULT_TOL_M = 0.5
-DEFAULT_VTOL_M = 1.0
 #: Smallest radius of a fitted curve, m: a car's or a tram's tightest street corner.
 DEFAULT_MIN_RADIUS_M = 5.0
 #: The plane fit aims inside this fraction of the tolerance (margin for the exact track),

@@ -22,13 +22,15 @@ from railnav.commands.support import (
     positive_int,
     progress_bar,
 )
-from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS
+from railnav.defaults import (
+    DEFAULT_CROSSING_RATE_PER_S,
+    DEFAULT_FILTER,
+    DEFAULT_SYSTEMS,
+)
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
-from railnav.navigation.bank import DEFAULT_CROSSING_RATE_PER_S
 from railnav.simulation.scenarios import SCENARIOS, get_scenario
 from strapdown.imu_errors import IMU_GRADES
-from trackmodel.io import read_track
 
 __all__ = ["register", "handler", "DEFAULT_OUT", "DEFAULT_SCENARIO", "time_window"]
 
@@ -149,10 +151,11 @@ def _add_file_arguments(p) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
-    from railnav.jobs.run import run_files, run_simulated, write_run
     args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None or not _files(args)
                                   else "gnss-only")
-    _check_flags(args)
+    _check_flags(args)                  # before the engine is imported: errors stay fast
+    from railnav.jobs.run import run_files, run_simulated, write_run
+    from trackmodel.io import read_track
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
@@ -215,6 +218,7 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
         write_track_run,
     )
     from railnav.navigation.bank import TrackBankConfig
+    from trackmodel.io import read_track
     names = track_names(args.tracks)
     tracks = [read_track(path) for path in args.tracks]
     bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(

@@ -12,28 +12,23 @@ import logging
 import os
 from pathlib import Path
 
-from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
-from gnss_obs.sim_files import write_simulation
 from railnav.commands.support import (
     outage_window,
     output_path,
     positive_float,
     progress_bar,
 )
-from railnav.config import DEFAULT_SYSTEMS
+from railnav.defaults import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.simulation.fixes import (
     DEFAULT_QUALITY_MIX,
     FIX_FORMATS_WRITTEN,
     FixSimConfig,
     parse_quality_mix,
-    trip_fixes,
 )
 from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
-from railnav.simulation.trip import simulate_trip
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
-from trackmodel.io import read_track
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]
 
@@ -99,6 +94,7 @@ def _fix_config(args: argparse.Namespace) -> FixSimConfig | None:
 
 def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
     """Write the simulated fixes; their ``scenario.json`` entry."""
+    from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
     name = f"fixes.{fmt}"
     (write_fixes_csv if fmt == "csv" else write_fixes_nmea)(out / name, fixes.table)
     return {"file": name, "format": fmt, "count": len(fixes), **config.to_dict()}
@@ -106,6 +102,10 @@ def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
+    from gnss_obs.sim_files import write_simulation
+    from railnav.simulation.fixes import trip_fixes
+    from railnav.simulation.trip import simulate_trip
+    from trackmodel.io import read_track
     fix_config = _fix_config(args)
     scenario = get_scenario(args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,

@@ -13,26 +13,21 @@ from __future__ import annotations
 import argparse
 import logging
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gnss_obs.measurements import IONOSPHERE_MODELS, MeasurementConfig
-from gnss_obs.rinex_nav import read_rinex_nav
-from gnss_obs.rinex_obs import read_rinex_obs
-from gnss_obs.spp import SppConfig, solve_spp
+from gnss_obs.corrections import IONOSPHERE_MODELS
 from railnav.commands.support import (
     add_augmentation_arguments,
     progress_bar,
     read_augmentation,
 )
 from railnav.errors import ConfigError
-from railnav.evaluation.spp_accuracy import (
-    accuracy_summary,
-    plot_spp,
-    read_reference_trajectory,
-    spp_errors,
-)
 from trackmodel.files import atomic_write_csv
+
+if TYPE_CHECKING:
+    from gnss_obs.spp import SppConfig
 
 __all__ = ["register", "handler", "FLOAT_FORMAT"]
 
@@ -70,6 +65,8 @@ def register(subparsers) -> None:
 
 
 def _config(args: argparse.Namespace) -> SppConfig:
+    from gnss_obs.measurements import MeasurementConfig
+    from gnss_obs.spp import SppConfig
     systems = args.systems.strip().upper()
     try:
         return SppConfig(measurement=MeasurementConfig(systems=systems,
@@ -81,6 +78,15 @@ def _config(args: argparse.Namespace) -> SppConfig:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav spp``; returns the exit status."""
+    from gnss_obs.rinex_nav import read_rinex_nav
+    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.spp import solve_spp
+    from railnav.evaluation.spp_accuracy import (
+        accuracy_summary,
+        plot_spp,
+        read_reference_trajectory,
+        spp_errors,
+    )
     config = _config(args)
     obs = read_rinex_obs(args.obs)
     nav = read_rinex_nav(args.nav)

@@ -8,6 +8,7 @@ import argparse
 import json
 import math
 import sys
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -19,11 +20,10 @@ from railnav.commands.support import (
 )
 from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.files import atomic_write_text
-from trackmodel.fit import DEFAULT_TOL_M, DEFAULT_VTOL_M, fit_track
-from trackmodel.io import read_track, write_track
-from trackmodel.plot import plot_track
-from trackmodel.polyline import POLYLINE_COLUMNS, Polyline, read_polyline, split_legs
-from trackmodel.summary import sample_track, track_info
+from trackmodel.fit_defaults import DEFAULT_TOL_M, DEFAULT_VTOL_M
+
+if TYPE_CHECKING:
+    from trackmodel.polyline import Polyline
 
 __all__ = ["register"]
 
@@ -42,6 +42,7 @@ def read_survey(path) -> Polyline:
         Located at the row/line and column of the problem; when the file is in neither
         layout, the polyline reader's "required column missing".
     """
+    from trackmodel.polyline import Polyline, read_polyline
     try:
         return read_polyline(path)
     except TrackFileError as polyline_error:
@@ -61,11 +62,13 @@ def read_survey(path) -> Polyline:
 def _missing_polyline_column(error: TrackFileError) -> bool:
     """True for the polyline reader's error of a file without its columns (nothing located
     in the rows: the file may be in the other layout)."""
+    from trackmodel.polyline import POLYLINE_COLUMNS
     return error.column in POLYLINE_COLUMNS and error.row is None and error.line is None
 
 
 def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
     """The points of leg `leg` (1-based) of a survey, and a note for the file's comment."""
+    from trackmodel.polyline import split_legs
     if leg is None:
         return poly, ""
     legs = split_legs(poly)
@@ -76,6 +79,8 @@ def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
 
 
 def _fit(args: argparse.Namespace) -> int:
+    from trackmodel.fit import fit_track
+    from trackmodel.io import write_track
     check_outputs({"the survey being fitted": args.polyline},
                   {"--out": args.out, "--residuals": args.residuals})
     try:
@@ -101,6 +106,8 @@ def _fit(args: argparse.Namespace) -> int:
 
 
 def _sample(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.summary import sample_track
     check_outputs({"the track being sampled": args.track}, {"--out": args.out})
     frame = sample_track(read_track(args.track), args.step_m)
     atomic_write_text(args.out, frame.to_csv(index=False, float_format="%.10g"))
@@ -109,6 +116,8 @@ def _sample(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.summary import track_info
     info = track_info(read_track(args.track)).to_dict()
     if args.json:
         json.dump({k: (None if isinstance(v, float) and math.isinf(v) else v)
@@ -125,6 +134,8 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _plot(args: argparse.Namespace) -> int:
+    from trackmodel.io import read_track
+    from trackmodel.plot import plot_track
     check_outputs({"the track being plotted": args.track}, {"--out": args.out})
     plot_track(read_track(args.track), args.out)
     print(f"{args.out}: map, height and curvature of {args.track}")

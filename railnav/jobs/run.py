@@ -47,7 +47,7 @@ from railnav.jobs.scoring import (
 )
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
-from railnav.navigation.result import CSV_FLOAT_FORMAT, NavigationResult
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, NavigationResult
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import (
     SimulatedTrip,
@@ -356,17 +356,12 @@ def run_summary(result: NavigationResult, track, errors, window, outages, extra:
 
 def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = True) -> list[Path]:
     """Write a run's files into `out_dir` (created); returns the paths written."""
-    from railnav.evaluation.plots import (
-        plot_errors,
-        plot_estimates,
-        plot_track_estimate,
-    )
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     written = []
 
     def csv(name: str, frame: pd.DataFrame) -> None:
-        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT)
+        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT, decimals=CSV_DECIMALS)
         written.append(out / name)
 
     csv("estimates.csv", outcome.result.estimates)
@@ -375,7 +370,12 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
         csv("errors.csv", outcome.errors.to_frame())
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
     written.append(out / "summary.json")
-    if plots:
+    if plots:                       # matplotlib only when drawing (~0.5 s to import)
+        from railnav.evaluation.plots import (
+            plot_errors,
+            plot_estimates,
+            plot_track_estimate,
+        )
         if outcome.errors is not None:
             plot_errors(outcome.errors, outcome.result, out / "errors.png")
             written.append(out / "errors.png")

@@ -31,7 +31,7 @@ from railnav.jobs.run import (
 )
 from railnav.navigation.bank import TrackBankConfig, convert_state, navigate_tracks
 from railnav.navigation.bank_result import TrackBankResult
-from railnav.navigation.result import CSV_FLOAT_FORMAT
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT
 from railnav.simulation.scenarios import Scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from trackmodel.files import atomic_write_csv
@@ -168,7 +168,7 @@ def write_track_run(run: TrackRunOutcome, out_dir: str | os.PathLike, *,
                             run.outcome.result, out / "track.png", truth=run.outcome.truth,
                             names=run.bank.names)
     atomic_write_csv(out / "track_probabilities.csv", run.bank.probability_frame(),
-                     float_format=CSV_FLOAT_FORMAT)
+                     float_format=CSV_FLOAT_FORMAT, decimals=CSV_DECIMALS)
     written.append(out / "track_probabilities.csv")
     if plots:
         from railnav.evaluation.plot_style import outage_spans

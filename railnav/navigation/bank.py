@@ -70,6 +70,7 @@ from ekf.bank import imm_starts, switching_update, uniform_switching
 from ekf.history import concatenate_results
 from ekf.update import LOG_2PI
 from railnav.config import NavigatorConfig, SensorData
+from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
 from railnav.errors import ConfigError, RailnavError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.bank_result import TrackBankResult
@@ -86,9 +87,6 @@ log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
-
-#: Rate of changing tracks, 1/s (module docstring).
-DEFAULT_CROSSING_RATE_PER_S = 1e-5
 
 
 @dataclass(frozen=True)

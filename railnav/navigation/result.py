@@ -26,11 +26,14 @@ from ekf.history import FilterResult
 from ekf.layout import StateLayout
 from railnav.filters.fix_rows import FIX_ROW_KINDS
 
-__all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT"]
+__all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
 
 #: CSV float format of the output tables: 12 significant digits (µm at 10⁶ m, 1e-10° in
-#: degrees).
+#: degrees), except the times (`CSV_DECIMALS`).
 CSV_FLOAT_FORMAT = "%.12g"
+#: Columns of the output tables written with fixed decimals: times to the µs (12
+#: significant digits would keep ``gps_time_s``, ~1.3e9 s, to 10 ms only).
+CSV_DECIMALS = {"time_s": 6, "gps_time_s": 6}
 
 Array = npt.NDArray[np.float64]
 

@@ -51,10 +51,11 @@ from railnav.evaluation.running_stats import RunningCounts, RunningSummary
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
-from railnav.navigation.result import CSV_FLOAT_FORMAT, estimates_frame
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, estimates_frame
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import navigator_config_for
 from railnav.simulation.trip_stream import TripSegment, epoch_step, trip_segments
+from trackmodel.csv_table import write_csv
 from trackmodel.files import atomic_write, atomic_write_text
 
 __all__ = ["StreamOutcome", "stream_simulated", "DEFAULT_SEGMENT_S",
@@ -332,7 +333,7 @@ class _Writer:
         self.paths: tuple[Path, ...] = ()
         if out is not None:
             for name in ("estimates.csv", "errors.csv"):
-                self.handles[name] = files.enter_context(atomic_write(out / name, newline=""))
+                self.handles[name] = files.enter_context(atomic_write(out / name, "wb"))
                 self.paths += (out / name,)
         self._header = True
 
@@ -342,8 +343,8 @@ class _Writer:
         k = estimates["time_s"].to_numpy() * self.rate_hz
         keep = np.abs(k - np.round(k)) < EPOCH_TIME_TOL_S * self.rate_hz
         for name, frame in (("estimates.csv", estimates), ("errors.csv", errors)):
-            frame[keep].to_csv(self.handles[name], index=False, header=self._header,
-                               float_format=CSV_FLOAT_FORMAT)
+            write_csv(self.handles[name], frame[keep], header=self._header,
+                      float_format=CSV_FLOAT_FORMAT, decimals=CSV_DECIMALS)
         self._header = False
 
 

@@ -20,14 +20,16 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from railnav.errors import ConfigError
 from trackmodel.files import atomic_write_text
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["PaperFigure", "Quantity", "ReproductionResult", "Experiment", "EXPERIMENTS",
            "run_experiment", "write_result_json", "PERCENTILE"]
@@ -124,6 +126,8 @@ class ReproductionResult:
     def to_table(self) -> pd.DataFrame:
         """One row per quantity and variant: ``quantity, unit, variant, paper, median,
         p95`` (``paper`` is the stated figure, e.g. ``"≈140"``, or ``""``)."""
+        import pandas as pd  # here: the experiment table is read without pandas (CLI)
+
         rows = []
         for q in self.quantities:
             for variant in self.variants:

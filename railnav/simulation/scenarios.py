@@ -17,29 +17,31 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from railnav_data import TRACKS, shipped_path
 
 from gnss_obs.errors import GnssError
-from gnss_obs.sim_events import Outage
-from gnss_obs.simulate import (
+from gnss_obs.sim_defaults import (
     DEFAULT_START_GPS_TIME_S,
     PAPER_SIGMA_PR_M,
     PAPER_SIGMA_RR_MPS,
 )
-from railnav.config import DEFAULT_IMU_GRADE
+from gnss_obs.sim_events import Outage
+from railnav.defaults import DEFAULT_IMU_GRADE
 from railnav.errors import ConfigError
 from railnav.simulation.profiles import (
     SpeedProfile,
     constant_speed,
     station_stop_profile,
 )
-from railnav.simulation.truth import Truth, ideal_imu, simulate_truth
 from strapdown.errors import StrapdownError
-from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, apply_imu_errors, imu_grade
+
+if TYPE_CHECKING:
+    from railnav.simulation.truth import Truth
+    from strapdown.imu import Imu
 
 __all__ = ["Scenario", "SimulationResult", "SCENARIOS", "get_scenario", "simulate_scenario",
            "TRACKS_DIR", "DEFAULT_START_GPS_TIME_S", "scenario_to_dict", "RNG_STREAMS"]
@@ -243,6 +245,8 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
     trackmodel.TrackFileError, OSError
         For a bad track file.
     """
+    # here, not at the top: the scenario table is read without CasADi (the CLI's parser)
+    from railnav.simulation.truth import ideal_imu, simulate_truth
     from trackmodel.io import read_track
 
     if not (isinstance(seed, (int, np.integer)) and seed >= 0):

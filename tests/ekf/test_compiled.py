@@ -1,16 +1,35 @@
-"""The compiled step loop: a disk-cache hit compiles nothing; a broken compiler is a
-FilterError, not a crash."""
+"""The compiled step loop and its disk cache: a hit generates no code and compiles
+nothing; the directory comes from the options, ``$RAILNAV_CACHE_DIR`` or the user cache
+directory; concurrent processes compile a library once; an unwritable directory still
+runs (compiled privately, with a warning); a broken compiler is a FilterError."""
 from __future__ import annotations
+
+import json
+import logging
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+import ekf.compiled as compiled
 from ekf.compiled import CompiledLoop, CompileOptions
 from ekf.errors import FilterError
+from ekf.library_cache import default_cache_dir, user_cache_dir
 from ekf.packing import pack_sym
 from ekf.propagate import Propagator
 from ekf.step import StepData, build_step
 from tests.support.ekf_examples import attitude_speed_clock_toy
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def _data(name: str) -> np.ndarray:
+    return StepData.of(attitude_speed_clock_toy(name)).assemble(
+        u=np.tile([0, 0, 9.81, 0, 0, 0], (4, 1)), p=np.zeros((3, 0)), z_c=np.zeros((3, 2)),
+        dt=np.full(3, 0.01), q_c=np.full((3, 6), 1e-10), r_c=np.zeros((3, 2)))
 
 
 def test_cache_hit_and_backends_agree(tmp_path):
@@ -19,16 +38,90 @@ def test_cache_hit_and_backends_agree(tmp_path):
     first = CompiledLoop(step, opts)
     second = CompiledLoop(step, opts)
     assert len(list(tmp_path.glob("*.so"))) == 1 and second.compile_seconds == 0.0
-    d = StepData.of(attitude_speed_clock_toy("cachecheck")).assemble(
-        u=np.tile([0, 0, 9.81, 0, 0, 0], (4, 1)), p=np.zeros((3, 0)), z_c=np.zeros((3, 2)),
-        dt=np.full(3, 0.01), q_c=np.full((3, 6), 1e-10), r_c=np.zeros((3, 2)))
+    assert first.compile_seconds > 0.0
+    d = _data("cachecheck")
     x0, P0 = np.zeros(7), pack_sym(np.eye(7))
     a = first.run(x0, P0, d)
     b = Propagator(attitude_speed_clock_toy("cachecheck"), backend="casadi").run(x0, P0, d)
     np.testing.assert_allclose(a[1], b.P_next, rtol=1e-12)
 
 
+def test_a_cache_hit_generates_no_code(tmp_path, monkeypatch):
+    """The key is the function's hash: a hit needs neither the code generator nor gcc."""
+    opts = CompileOptions(cache_dir=str(tmp_path))
+    step = build_step(attitude_speed_clock_toy("keycheck"))
+    CompiledLoop(step, opts)
+
+    def no_codegen(*args):
+        raise AssertionError("code generated on a cache hit")
+    monkeypatch.setattr(compiled, "_c_source", no_codegen)
+    again = CompiledLoop(build_step(attitude_speed_clock_toy("keycheck")), opts)
+    assert again.compile_seconds == 0.0
+    # another compiler command is another library
+    with pytest.raises(AssertionError, match="code generated"):
+        CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O1",)))
+
+
+def test_cache_directory_from_the_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("RAILNAV_CACHE_DIR", str(tmp_path / "root"))
+    assert CompileOptions().directory() == tmp_path / "root" / "ekf"
+    assert CompileOptions(cache_dir=str(tmp_path)).directory() == tmp_path
+    monkeypatch.delenv("RAILNAV_CACHE_DIR")
+    if sys.platform.startswith("linux"):        # the XDG convention (platformdirs')
+        monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+        assert default_cache_dir() == tmp_path / "xdg" / "railnav" / "ekf"
+        monkeypatch.delenv("XDG_CACHE_HOME")
+        assert user_cache_dir() == Path.home() / ".cache" / "railnav"
+
+
+def test_unwritable_cache_directory_still_runs(tmp_path, caplog):
+    """A cache directory that cannot be created (below a regular file; chmod would not
+    stop root) compiles privately and warns once; nothing is written."""
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    opts = CompileOptions(cache_dir=str(blocker / "cache"))
+    with caplog.at_level(logging.WARNING, logger="ekf.library_cache"):
+        loop = CompiledLoop(build_step(attitude_speed_clock_toy("readonly")), opts)
+        again = CompiledLoop(build_step(attitude_speed_clock_toy("readonly")), opts)
+    assert loop.compile_seconds > 0.0 and again.compile_seconds > 0.0
+    warnings = [r for r in caplog.records if "not writable" in r.getMessage()]
+    assert len(warnings) == 1 and "RAILNAV_CACHE_DIR" in warnings[0].getMessage()
+    x0, P0 = np.zeros(7), pack_sym(np.eye(7))
+    np.testing.assert_array_equal(loop.run(x0, P0, _data("readonly"))[1],
+                                  again.run(x0, P0, _data("readonly"))[1])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+#: Build the toy's loop into the cache directory argv[1]; print the compile seconds.
+WORKER = """
+import json, sys
+from ekf.compiled import CompiledLoop, CompileOptions
+from ekf.step import build_step
+from tests.support.ekf_examples import attitude_speed_clock_toy
+loop = CompiledLoop(build_step(attitude_speed_clock_toy("concurrent")),
+                    CompileOptions(cache_dir=sys.argv[1]))
+print(json.dumps(loop.compile_seconds))
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "fork") or sys.platform == "win32",
+                    reason="the lock is fcntl's")
+def test_concurrent_processes_compile_once(tmp_path):
+    """Two processes started together on an empty cache: one compiles, the other waits
+    for its lock and loads the library (reference: the file count and the timings)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    procs = [subprocess.Popen([sys.executable, "-c", WORKER, str(tmp_path)], cwd=REPO,
+                              env=env, stdout=subprocess.PIPE, text=True) for _ in range(2)]
+    seconds = [json.loads(p.communicate(timeout=300)[0]) for p in procs]
+    assert all(p.returncode == 0 for p in procs)
+    assert sorted(s > 0 for s in seconds) == [False, True], seconds
+    assert len(list(tmp_path.glob("*.so"))) == 1
+    assert not [p for p in tmp_path.iterdir() if p.is_dir()]      # no partial build left
+
+
 def test_broken_compiler_is_reported(tmp_path):
     step = build_step(attitude_speed_clock_toy("brokencc"))
     with pytest.raises(FilterError, match="compiling"):
         CompiledLoop(step, CompileOptions(compiler="false", cache_dir=str(tmp_path)))
+    assert not list(tmp_path.glob("*.so"))

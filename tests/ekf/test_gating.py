@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from ekf.errors import ModelError
-from ekf.gating import Gate, chi2_threshold
+from ekf.gating import Gate, chi2_quantile, chi2_threshold
 
 #: Table values are printed to 3 decimals.
 ATOL_TABLE = 5e-4
@@ -44,3 +44,11 @@ def test_scalar_rows_fast_path_equals_row_by_row_test(kind, rng):
     slow = np.array([gate.passes(innov[[i]], S[[i]][:, [i]])[0] for i in range(m)])
     np.testing.assert_array_equal(fast, slow)
     assert 0 < fast.sum() < m
+
+
+@pytest.mark.parametrize("dof", [1, 2, 3, 7, 16, 40, 700, 70000])
+def test_chi2_quantile_is_scipy_stats_to_the_bit(dof):
+    """Reference: ``scipy.stats.chi2.ppf`` (the module the engine no longer imports)."""
+    from scipy.stats import chi2
+    for probability in (1e-6, 0.025, 0.5, 0.95, 0.975, 0.9973, 0.9999, 0.999999):
+        assert chi2_quantile(probability, dof) == chi2.ppf(probability, dof)

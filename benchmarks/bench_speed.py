@@ -1,0 +1,218 @@
+"""Speed a user feels (issue 15): every figure measured side by side in one run.
+
+On this machine, in one invocation (the load average is recorded before and after):
+
+* ``help``: wall time of ``railnav --help`` (``python -m railnav.cli --help``, a fresh
+  interpreter each time);
+* ``end_to_end``: ``railnav run data/tracks/paper2017.csv`` (the paper's 1000-s trip
+  simulated and filtered, estimates/innovations/errors CSV, summary.json), with and
+  without ``--no-plots``, as subprocesses; × real time = 1000 s / wall. ``first_run``
+  is one more ``--no-plots`` run with an empty compiled-code cache (``RAILNAV_CACHE_DIR``
+  pointing at a new directory): what the first run on a machine costs;
+* ``filter``: `railnav.navigate` alone on that trip's sensor data, in this process
+  (`bench_navigator._time_filter`: compiled code built and a first call made before timing);
+* ``numpy_loop``: the plain NumPy EKF of the same size in this process (7 states, a 2-D
+  correlated pseudo-measurement at each of the 100 000 steps, 1000 updates of 20 rows;
+  `bench_ekf_engine._time_numpy`), the whole loop unless ``--numpy-fraction`` < 1;
+* ``bank``: `railnav.navigation.bank.navigate_tracks` with 8 hypotheses, the tracks of a
+  line and its parallels every 4.5 m (`trackmodel.offset.offset_track`), 300 s of the
+  ``curvy`` scenario on one of them; × real time = 300 s / wall;
+* ``streaming``: the 10-hour streamed trip of `bench_studies` in a subprocess, its peak
+  resident memory (``--no-streaming`` skips it: about 2 minutes on a quiet machine).
+
+Writes ``benchmarks/results/speed.json``. Run from the repository root:
+``python benchmarks/bench_speed.py`` (``--quick`` for a smoke run).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent
+sys.path[:0] = [str(REPO), str(HERE)]       # this checkout, then the sibling benchmarks
+import bench_ekf_engine  # noqa: E402  (the plain NumPy loop)
+import bench_navigator  # noqa: E402  (the 2017 trip, the filter timing)
+import bench_studies  # noqa: E402  (the 10-h streamed trip)
+import numpy as np  # noqa: E402
+
+RESULTS = HERE / "results" / "speed.json"
+TRACK = REPO / "data" / "tracks" / "paper2017.csv"
+TRIP_S = 1000.0
+BANK_TRIP_S = 300.0
+BANK_HYPOTHESES = 8
+BANK_SPACING_M = 4.5
+#: Issue 15's acceptance figures.
+TARGETS = {"help_s": 0.5, "end_to_end_x": 500.0, "end_to_end_no_plots_x": 800.0,
+           "filter_x": 5000.0, "numpy_over_filter": 5.0, "bank_8_x": 1000.0,
+           "streaming_peak_rss_mb": 300.0}
+
+
+def _env(**extra: str) -> dict:
+    path = os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])
+    return {**os.environ, "PYTHONPATH": path, "MPLBACKEND": "Agg", **extra}
+
+
+def _wall(argv: list[str], env: dict) -> float:
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "railnav.cli", *argv], check=True, env=env,
+                   stdout=subprocess.DEVNULL, cwd=REPO)
+    return time.perf_counter() - start
+
+
+def _help(repeats: int) -> dict:
+    times = [_wall(["--help"], _env()) for _ in range(repeats)]
+    return {"command": "python -m railnav.cli --help", "run_s": times, "best_s": min(times),
+            "median_s": statistics.median(times)}
+
+
+def _end_to_end(repeats: int) -> dict:
+    """With and without plots, alternated; then one run on an empty compiled-code cache."""
+    times = {"plots": [], "no_plots": []}
+    with tempfile.TemporaryDirectory() as tmp:
+        run = ["-q", "run", str(TRACK)]
+        _wall([*run, "--no-plots", "--out", f"{tmp}/warm"], _env())   # cache warm
+        for k in range(repeats):
+            times["plots"].append(_wall([*run, "--out", f"{tmp}/p{k}"], _env()))
+            times["no_plots"].append(_wall([*run, "--no-plots", "--out", f"{tmp}/n{k}"],
+                                           _env()))
+        first = _wall([*run, "--no-plots", "--out", f"{tmp}/first"],
+                      _env(RAILNAV_CACHE_DIR=f"{tmp}/empty-cache"))
+    out = {key: {"command": f"railnav run data/tracks/paper2017.csv"
+                            f"{'' if key == 'plots' else ' --no-plots'}",
+                 "run_s": t, "best_s": min(t), "median_s": statistics.median(t),
+                 "real_time_factor": TRIP_S / min(t)} for key, t in times.items()}
+    out["first_run"] = {"command": "railnav run data/tracks/paper2017.csv --no-plots, "
+                                   "empty RAILNAV_CACHE_DIR", "run_s": first,
+                        "compile_overhead_s": first - out["no_plots"]["best_s"]}
+    return out
+
+
+def _bank(repeats: int) -> dict:
+    """8 hypotheses (a line and its parallels) on 300 s of the curvy scenario."""
+    from railnav.filters.protocol import make_filter
+    from railnav.jobs.run import truth_start
+    from railnav.navigation.bank import convert_state, navigate_tracks
+    from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+    from railnav.simulation.trip import navigator_config_for, simulate_trip
+    from trackmodel.io import read_track
+    from trackmodel.offset import offset_track
+
+    base = read_track(TRACKS_DIR / "double_a.csv")
+    true_index = BANK_HYPOTHESES // 2
+    tracks = [offset_track(base, (k - true_index) * BANK_SPACING_M) if k != true_index
+              else base for k in range(BANK_HYPOTHESES)]
+    scenario = replace(get_scenario("curvy"), duration_s=BANK_TRIP_S, sigma_pseudorange_m=3.0)
+    trip = simulate_trip(scenario, track=base, seed=1)
+    config = navigator_config_for(scenario)
+    filters = [make_filter(t, config, None) for t in tracks]
+    truth = filters[true_index]
+    x_true = truth.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
+    P0 = truth_start(truth, trip, config).P0
+    initial = [truth_start(f, trip, config, x_true=convert_state(truth, f, x_true, P0)[0])
+               for f in filters]
+    data = trip.sensor_data()
+    first_start = time.perf_counter()
+    navigate_tracks(tracks, data, config, initial=initial)        # builds, compiles
+    first = time.perf_counter() - first_start
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        bank = navigate_tracks(tracks, data, config, initial=initial)
+        times.append(time.perf_counter() - start)
+    final = bank.probabilities[-1]
+    return {"hypotheses": BANK_HYPOTHESES, "spacing_m": BANK_SPACING_M,
+            "trip_s": BANK_TRIP_S, "first_run_s": first, "run_s": times,
+            "best_s": min(times), "real_time_factor": BANK_TRIP_S / min(times),
+            "true_track_probability_at_end": float(final[true_index])}
+
+
+def _meets(doc: dict) -> dict:
+    e2e = doc["end_to_end"]
+    meets = {
+        "help_s": doc["help"]["best_s"] < TARGETS["help_s"],
+        "end_to_end_x": e2e["plots"]["real_time_factor"] >= TARGETS["end_to_end_x"],
+        "end_to_end_no_plots_x":
+            e2e["no_plots"]["real_time_factor"] >= TARGETS["end_to_end_no_plots_x"],
+        "filter_x": doc["filter"]["real_time_factor"] >= TARGETS["filter_x"],
+        "numpy_over_filter": doc["ratios"]["numpy_loop_over_filter"]
+        >= TARGETS["numpy_over_filter"],
+    }
+    if doc.get("bank"):
+        meets["bank_8_x"] = doc["bank"]["real_time_factor"] >= TARGETS["bank_8_x"]
+    if doc.get("streaming"):
+        meets["streaming_peak_rss_mb"] = (doc["streaming"]["peak_rss_mb"]
+                                          < TARGETS["streaming_peak_rss_mb"])
+    return meets
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--numpy-fraction", type=float, default=1.0,
+                        help="fraction of the NumPy loop timed (scaled up); 1: all of it")
+    parser.add_argument("--hours", type=float, default=10.0, help="streamed trip, h")
+    parser.add_argument("--no-streaming", action="store_true")
+    parser.add_argument("--no-bank", action="store_true")
+    parser.add_argument("--quick", action="store_true",
+                        help="1 repeat, 5 %% of the NumPy loop, no streaming (smoke run)")
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.repeats, args.numpy_fraction, args.no_streaming = 1, 0.05, True
+    doc = {"machine": {"python": platform.python_version(),
+                       "processor": platform.processor() or platform.machine(),
+                       "cpus": os.cpu_count(), "load_average_before": list(os.getloadavg())},
+           "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
+           "filter": bench_navigator._time_filter(args.repeats)}
+    samples, epochs = bench_ekf_engine._scenario(np.random.default_rng(7))
+    doc["numpy_loop"] = bench_ekf_engine._time_numpy(samples, epochs, args.numpy_fraction)
+    doc["numpy_loop"]["real_time_factor"] = TRIP_S / doc["numpy_loop"]["run_s"]
+    doc["ratios"] = {"numpy_loop_over_filter":
+                     doc["numpy_loop"]["run_s"] / doc["filter"]["best_s"]}
+    doc["bank"] = None if args.no_bank else _bank(args.repeats)
+    doc["streaming"] = None if args.no_streaming else bench_studies._streaming(args.hours)
+    doc["machine"]["load_average_after"] = list(os.getloadavg())
+    doc["targets"], doc["meets"] = TARGETS, _meets(doc)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(doc, indent=2) + "\n")
+    tmp.replace(args.out)
+    return doc
+
+
+def _print(doc: dict) -> None:
+    e2e = doc["end_to_end"]
+    print(f"railnav --help        {doc['help']['best_s']:.3f} s (median "
+          f"{doc['help']['median_s']:.3f})")
+    print(f"run, plots            {e2e['plots']['best_s']:.2f} s = "
+          f"{e2e['plots']['real_time_factor']:.0f}x real time")
+    print(f"run, --no-plots       {e2e['no_plots']['best_s']:.2f} s = "
+          f"{e2e['no_plots']['real_time_factor']:.0f}x; first run (empty cache) "
+          f"{e2e['first_run']['run_s']:.2f} s")
+    print(f"filter alone          {doc['filter']['best_s']:.3f} s = "
+          f"{doc['filter']['real_time_factor']:.0f}x")
+    print(f"NumPy loop            {doc['numpy_loop']['run_s']:.2f} s "
+          f"({doc['ratios']['numpy_loop_over_filter']:.1f}x the filter)")
+    if doc["bank"]:
+        print(f"bank of 8             {doc['bank']['best_s']:.2f} s = "
+              f"{doc['bank']['real_time_factor']:.0f}x")
+    if doc["streaming"]:
+        print(f"10-h streamed trip    peak RSS {doc['streaming']['peak_rss_mb']:.0f} MB, "
+              f"{doc['streaming']['wall_s']:.0f} s")
+    print("load average", doc["machine"]["load_average_before"], "->",
+          doc["machine"]["load_average_after"])
+    print("meets", json.dumps(doc["meets"]))
+
+
+if __name__ == "__main__":
+    _print(main())

@@ -1,0 +1,25 @@
+"""The defaults of a run that the command line shows: each written once here.
+
+`DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
+`railnav.config.NavigatorConfig`, which re-exports them) and `DEFAULT_CROSSING_RATE_PER_S`
+(of `railnav.navigation.bank.TrackBankConfig`, which explains it). They live in a module
+that imports nothing, so that the ``railnav`` parser (help texts, choices, defaults) is
+built without importing the engine, CasADi, SciPy or pandas: ``railnav --help`` and an
+argument error stay fast. The defaults of a simulated trip (speed profile, GNSS σ, start
+time) are its scenario's (`railnav.simulation.scenarios`).
+"""
+from __future__ import annotations
+
+__all__ = ["DEFAULT_FILTER", "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS",
+           "DEFAULT_CROSSING_RATE_PER_S"]
+
+#: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
+DEFAULT_FILTER = "constrained"
+#: The IMU grade a simulated trip has and a filter assumes when none is named
+#: (`strapdown.imu_errors.IMU_GRADES`).
+DEFAULT_IMU_GRADE = "tactical"
+#: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
+DEFAULT_SYSTEMS = "G"
+#: Several tracks: the rate of changing tracks, 1/s (`railnav.navigation.bank`'s module
+#: docstring: one crossing per ~28 h of running).
+DEFAULT_CROSSING_RATE_PER_S = 1e-5

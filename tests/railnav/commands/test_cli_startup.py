@@ -1,0 +1,81 @@
+"""Start-up of the command line: help and argument errors import no heavy machinery.
+
+Each case runs ``railnav.cli.main`` in a fresh interpreter (a subprocess: this test
+session has long imported everything) and reads ``sys.modules`` afterwards. Reference:
+the modules a call may not import — CasADi, SciPy and the engine (``ekf`` beyond its
+errors) for any parse or flag error; with ``--help``, also pandas and matplotlib (the bulk
+of a cold start). How fast that is belongs to ``benchmarks/bench_speed.py``, not here.
+"""
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[3]
+PAPER = str(REPO / "data" / "tracks" / "paper2017.csv")
+
+#: Run main(argv) silently for each argv in turn; after each, the exit status and the
+#: heavy modules loaded so far (cumulative: a module one call loads shows in the later
+#: reports too, and the first report that shows it names the call).
+PROBE = """
+import contextlib, io, json, sys
+from railnav.cli import main
+heavy = ("casadi", "scipy", "pandas", "matplotlib")
+reports = []
+for argv in json.loads(sys.argv[1]):
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
+    reports.append({"argv": argv, "code": code,
+                    "heavy": sorted(m for m in sys.modules if m in heavy),
+                    "engine": sorted(m for m in sys.modules
+                                     if m.startswith("ekf.") and m != "ekf.errors")})
+print(json.dumps(reports))
+"""
+
+#: Never imported by parsing or by a flag error.
+FORBIDDEN = {"casadi", "scipy"}
+#: Never imported by --help either.
+FORBIDDEN_HELP = FORBIDDEN | {"pandas", "matplotlib"}
+
+HELP = [["--help"], ["run", "--help"], ["simulate", "--help"], ["spp", "--help"],
+        ["reproduce", "--help"], ["study", "--help"], ["track", "--help"],
+        ["track", "fit", "--help"]]
+ERRORS = [
+    [],                                                     # no command
+    ["run"],                                                # no track
+    ["run", PAPER, "--filter", "kalman"],                   # not a filter kind
+    ["run", PAPER, "--imu-grade", "consumer"],              # not an IMU grade
+    ["run", PAPER, "--scenario", "nowhere"],                # not a scenario
+    ["run", PAPER, "--crossing-rate-per-s", "-1"],          # a bad number
+    ["simulate", PAPER, "--imu-grade", "consumer", "--out", "x"],
+    ["run", PAPER, "--start-gps-time-s", "1e9"],            # a flag that cannot apply
+]
+
+
+def _probe(calls: list[list[str]]) -> list[dict]:
+    """One fresh interpreter for all `calls` (a subprocess costs ~0.5 s)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(calls)], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=120, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def test_help_imports_no_heavy_module():
+    for report in _probe(HELP):
+        assert report["code"] == 0, report
+        assert not FORBIDDEN_HELP & set(report["heavy"]), report
+        assert report["engine"] == [], report
+
+
+def test_argument_errors_import_no_engine():
+    for report in _probe(ERRORS):
+        assert report["code"] == 2, report
+        assert not FORBIDDEN & set(report["heavy"]), report
+        assert report["engine"] == [], report
