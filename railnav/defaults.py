@@ -11,7 +11,7 @@ time) are its scenario's (`railnav.simulation.scenarios`).
 from __future__ import annotations
 
 __all__ = ["DEFAULT_FILTER", "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS",
-           "DEFAULT_CROSSING_RATE_PER_S"]
+           "DEFAULT_CROSSING_RATE_PER_S", "DEFAULT_HORIZON_M"]
 
 #: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
 DEFAULT_FILTER = "constrained"
@@ -23,3 +23,6 @@ DEFAULT_SYSTEMS = "G"
 #: Several tracks: the rate of changing tracks, 1/s (`railnav.navigation.bank`'s module
 #: docstring: one crossing per ~28 h of running).
 DEFAULT_CROSSING_RATE_PER_S = 1e-5
+#: Track networks: how far ahead of a start the routes through the switches are followed,
+#: m (`railnav.jobs.network`).
+DEFAULT_HORIZON_M = 5_000.0

@@ -29,9 +29,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:                 # pandas is imported where a table is built
+    import pandas as pd
 
 from gnss_obs.errors import GnssError
 from gnss_obs.fixes.table import FIX_QUALITIES
@@ -137,6 +140,7 @@ def apply_fix_sigmas(table: pd.DataFrame, sigmas: dict[str, FixSigmas] | None = 
     pandas.DataFrame
         A copy.
     """
+
     sigmas = sigmas or DEFAULT_FIX_SIGMAS
     out = table.copy()
     quality = out["quality"].to_numpy()

@@ -34,9 +34,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:                 # pandas is imported where a table is built
+    import pandas as pd
 
 from gnss_obs.errors import GnssInputError
 
@@ -113,6 +116,8 @@ def fix_frame(columns: dict, *, path: str | os.PathLike) -> tuple[pd.DataFrame, 
     GnssInputError
         No row, a latitude or longitude out of range, or a quality not in `FIX_QUALITIES`.
     """
+    import pandas as pd  # here, not at import: the CLI parser reads this module
+
     n = len(columns["gps_time_s"])
     if n == 0:
         raise GnssInputError("no usable fix in the file", path=path)

@@ -12,6 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from railnav.commands.support import nonnegative_int, positive_float, progress_bar
+from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError
 
 __all__ = ["register", "start_position", "DEFAULT_OUT"]
@@ -107,7 +108,6 @@ def register(subparsers) -> None:
 
 
 def _add_start(p) -> None:
-    from railnav.jobs.network import DEFAULT_HORIZON_M
     p.add_argument("network", metavar="DIR", help="network folder (railnav network build)")
     p.add_argument("--start", type=start_position, required=True,
                    metavar="ELEMENT:S_M[:+|-]",

@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 
+from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError
 from railnav.jobs.tracks import TrackRunOutcome, run_files_tracks, run_simulated_tracks
 from railnav.navigation.bank import TrackBankConfig
@@ -35,8 +36,6 @@ __all__ = ["route_candidates", "route_name", "run_simulated_network", "run_files
 
 #: A static bank: a train does not change route between switches.
 NETWORK_BANK = TrackBankConfig(crossing_rate_per_s=0.0)
-#: How far ahead routes are enumerated when not given, m.
-DEFAULT_HORIZON_M = 5_000.0
 #: The most routes a run follows.
 DEFAULT_MAX_ROUTES = 16
 
