@@ -173,19 +173,23 @@ class Network:
                 out.append(Route(((start.element, start.direction),), float(ahead)))
         graph = self.graph.copy()
         source, target = ("from", start.element), ("to", end.element)
-        # edges weigh the element they leave: the start pays what is ahead of it instead
+        # edges weigh the element they leave; a path also pays what is ahead of the start,
+        # so it pays the start element twice: its length is the path's weight less that
         graph.add_edge(source, (start.element, start.direction),
-                       weight=self._ahead(start.element, start.direction, start.s_m)
-                       - self.length_m(start.element))
+                       weight=self._ahead(start.element, start.direction, start.s_m))
         for direction in (1, -1):
             entry = self._behind(end.element, direction, end.s_m)
             graph.add_edge((end.element, direction), target, weight=entry)
-        paths = _shortest_paths(graph, source, target, start, self.elements)
-        for path in islice(paths, max_routes):
-            legs = tuple(path[1:-1])
-            if len(legs) == 1:
-                continue                     # the same element, handled above
-            out.append(Route(legs, _path_length(graph, path)))
+        paid_twice = self.length_m(start.element)
+        try:
+            for path in islice(nx.shortest_simple_paths(graph, source, target, weight="weight"),
+                               max_routes):
+                legs = tuple(path[1:-1])
+                if len(legs) == 1:
+                    continue                     # the same element, handled above
+                out.append(Route(legs, _path_length(graph, path) - paid_twice))
+        except nx.NetworkXNoPath:
+            pass
         return sorted(out, key=lambda r: r.length_m)[:max_routes]
 
     def routes_ahead(self, start: NetPosition, *, horizon_m: float, max_routes: int = 32
@@ -420,19 +424,6 @@ def _travel_graph(elements: Mapping[str, Track], connections: Iterable[Connectio
             entering = (y, 1 if y_end == START else -1)
             graph.add_edge(leaving, entering, weight=float(elements[x].length_m))
     return graph
-
-
-def _shortest_paths(graph: nx.DiGraph, source, target, start: NetPosition, elements):
-    """Yen's k shortest simple paths with the start's negative weight made non-negative:
-    every path pays the start element's full length once, so it is added to all."""
-    offset = float(elements[start.element].length_m)
-    shifted = graph.copy()
-    for u, v, data in shifted.out_edges(source, data=True):
-        data["weight"] = data["weight"] + offset
-    try:
-        yield from nx.shortest_simple_paths(shifted, source, target, weight="weight")
-    except nx.NetworkXNoPath:
-        return
 
 
 def _path_length(graph: nx.DiGraph, path: list) -> float:

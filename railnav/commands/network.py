@@ -148,7 +148,6 @@ def _routes(args: argparse.Namespace) -> int:
     from railnav.jobs.network import route_name
     from trackmodel.network_io import read_network
     network = read_network(args.network)
-    network.length_m(args.start.element)          # an unknown element: one-line error
     routes = network.routes_ahead(args.start, horizon_m=args.horizon_m)
     for k, route in enumerate(routes):
         print(f"{k}: {route.length_m:8.1f} m  {route_name(route)}")
