@@ -4,7 +4,8 @@ Thin layer over `railnav.jobs.run.run_simulated` / `railnav.jobs.run.run_files` 
 `railnav.jobs.run.write_run` (STYLE.md §2.11). With several tracks (candidates: the tracks of
 a double line, the routes after a switch) over `railnav.jobs.tracks.run_simulated_tracks` /
 `run_files_tracks` and `write_track_run`: one constrained filter per track and their
-probabilities (`railnav.navigation.bank`).
+probabilities (`railnav.navigation.bank`). The flags and their checks are
+`railnav.commands.run_flags`; the terminal report is `railnav.commands.run_report`.
 """
 from __future__ import annotations
 
@@ -12,51 +13,28 @@ import argparse
 import logging
 from pathlib import Path
 
-from railnav.commands.support import (
-    add_augmentation_arguments,
-    augmentation_requested,
-    nonnegative_float,
-    nonnegative_int,
-    outage_window,
-    positive_float,
-    positive_int,
-    progress_bar,
+from railnav.commands.run_flags import (
+    DEFAULT_OUT,
+    DEFAULT_SCENARIO,
+    add_run_arguments,
+    augmentation,
+    check_flags,
+    files_given,
+    fix_model,
+    fix_sigmas,
+    scenario_name,
+    seed,
+    time_window,
 )
-from railnav.defaults import (
-    DEFAULT_CROSSING_RATE_PER_S,
-    DEFAULT_FILTER,
-    DEFAULT_SYSTEMS,
-)
+from railnav.commands.run_report import report
+from railnav.commands.support import progress_bar
+from railnav.defaults import DEFAULT_FILTER, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
-from railnav.filters.protocol import FILTER_KINDS, filter_kind
-from railnav.simulation.scenarios import SCENARIOS, get_scenario
-from strapdown.imu_errors import IMU_GRADES
+from railnav.simulation.scenarios import get_scenario
 
 __all__ = ["register", "handler", "DEFAULT_OUT", "DEFAULT_SCENARIO", "time_window"]
 
 log = logging.getLogger(__name__)
-
-#: Output directory when --out is not given.
-DEFAULT_OUT = "railnav-run"
-#: Scenario simulated on a track whose file name is not a scenario's name.
-DEFAULT_SCENARIO = "curvy"
-#: Random seed of a simulated trip when --seed is not given.
-DEFAULT_SEED = 0
-#: Flags that shape a simulated trip (attribute -> flag); with sensor files there is none.
-SIMULATION_FLAGS = {"scenario": "--scenario", "speed_mps": "--speed-mps",
-                    "duration_s": "--duration-s", "seed": "--seed",
-                    "true_track": "--true-track"}
-
-
-def time_window(text: str) -> tuple[float, float]:
-    """argparse type for ``START:END`` (seconds from the trip start)."""
-    try:
-        start, end = (float(x) for x in text.split(":"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not START:END in seconds") from None
-    if not (0 <= start < end < float("inf")):
-        raise argparse.ArgumentTypeError(f"{text!r}: need 0 <= START < END")
-    return start, end
 
 
 def register(subparsers) -> None:
@@ -71,89 +49,15 @@ def register(subparsers) -> None:
                     "candidate track and identify the track the train is on: summary.json "
                     "gets track_probabilities, estimates.csv the columns track and "
                     "track_probability, and track_probabilities.csv/.png are written.")
-    p.add_argument("tracks", metavar="TRACK", nargs="+",
-                   help="track file(s) (.csv); several: candidate tracks named by file stem")
-    p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
-    p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
-    p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
-    _add_file_arguments(p)
-    p.add_argument("--scenario", choices=sorted(SCENARIOS), default=None,
-                   help="scenario to simulate (default: the track's name if it is a "
-                        f"scenario, else {DEFAULT_SCENARIO})")
-    p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
-                   help="the IMU grade the filter assumes (simulated trip: also the grade "
-                        "simulated; default the scenario's). A recorded IMU file needs it "
-                        "(files written by railnav simulate: default the simulated grade)")
-    p.add_argument("--speed-mps", type=positive_float, default=None,
-                   help="top speed of the simulated trip, m/s")
-    p.add_argument("--duration-s", type=positive_float, default=None,
-                   help="duration of the simulated trip, s")
-    p.add_argument("--outage", type=outage_window, action="append", default=None,
-                   metavar="START:DURATION",
-                   help="GNSS outage, s from the start (repeatable; replaces the scenario's)")
-    p.add_argument("--filter", choices=FILTER_KINDS, default=None,
-                   help=f"which filter (default: {DEFAULT_FILTER}; gnss-only for sensor "
-                        "files without --imu)")
-    p.add_argument("--systems", default=None,
-                   help="GNSS systems to use, e.g. G or GE (default: the simulated ones for "
-                        "railnav simulate's files, else G)")
-    p.add_argument("--window", type=time_window, default=None, metavar="START:END",
-                   help="also summarize the errors over this window, s")
-    p.add_argument("--seed", type=nonnegative_int, default=None,
-                   help=f"random seed of the simulation (default {DEFAULT_SEED})")
-    p.add_argument("--true-track", type=positive_int, default=None, metavar="N",
-                   help="several tracks, simulated trip: the track it runs on, 1 = the first "
-                        "given (default 1; the filters are not told)")
-    p.add_argument("--crossing-rate-per-s", type=nonnegative_float,
-                   default=None, metavar="RATE",
-                   help="several tracks: rate of changing tracks, 1/s (default "
-                        f"{DEFAULT_CROSSING_RATE_PER_S:g}; 0: no crossovers)")
-    p.add_argument("--baro", metavar="BARO.csv", default=None,
-                   help="barometric altimeter readings (columns gps_time_s or time_s, "
-                        "baro_h_m): bias estimated against the track height, GNSS heights "
-                        "checked against the calibrated baro (baro.csv, baro_gnss.csv, "
-                        "summary.json 'baro'); one track only")
-    add_augmentation_arguments(p)
-    p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"output directory (default: {DEFAULT_OUT})")
+    add_run_arguments(p)
     p.set_defaults(func=handler)
-
-
-def _add_file_arguments(p) -> None:
-    """The GNSS fix, scoring and start-time flags of ``run`` (sensor files only)."""
-    p.add_argument("--fixes", metavar="FILE",
-                   help="GNSS position fixes (loose coupling): CSV, NMEA 0183, u-blox UBX or "
-                        "GPX, told by content; alone (the gnss-only filter on [s, v]) or "
-                        "with --imu and/or --obs/--nav")
-    p.add_argument("--fix-sigma", action="append", default=None, metavar="QUALITY=H[,V[,S]]",
-                   help="σ of a fix class where the fix file has none: horizontal and "
-                        "vertical m, speed m/s (classes rtk_fixed, rtk_float, dgps, single, "
-                        "dead_reckoning; repeatable)")
-    p.add_argument("--fix-track-sigma-m", type=nonnegative_float, default=None, metavar="M",
-                   help="σ of the antenna's distance from the track centre-line beyond the "
-                        "fix σ, m (default 1.5)")
-    p.add_argument("--no-fix-heights", action="store_true",
-                   help="ignore the fixes' heights (a track without heights)")
-    p.add_argument("--truth", metavar="FILE",
-                   help="score the run against railnav's truth.csv, a reference trajectory "
-                        "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
-                        "class, rows that agree with the track); default for railnav "
-                        "simulate's files: the truth.csv beside scenario.json")
-    p.add_argument("--truth-quality", default=None, metavar="CLASS",
-                   help="--truth is a fix file: the class of its rows that serve as the "
-                        "reference (rtk_fixed, rtk_float, dgps, single, dead_reckoning; "
-                        "default its best)")
-    p.add_argument("--start-gps-time-s", type=float, default=None,
-                   help="GPS time (s since 1980-01-06) of the IMU's time_s = 0 (default: from "
-                        "scenario.json beside the IMU file, else the first GNSS epoch)")
 
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
-    args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None or not _files(args)
-                                  else "gnss-only")
-    _check_flags(args)                  # before the engine is imported: errors stay fast
+    args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
+                                  or not files_given(args) else "gnss-only")
+    check_flags(args)                  # before the engine is imported: errors stay fast
     from railnav.jobs.run import run_files, run_simulated, write_run
     from trackmodel.io import read_track
     out = Path(args.out)
@@ -167,30 +71,30 @@ def handler(args: argparse.Namespace) -> int:
         baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
     with progress_bar("filter", enabled=not args.quiet) as progress:
-        if _files(args):
+        if files_given(args):
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, fixes_path=args.fixes,
                                 truth_path=args.truth, truth_quality=args.truth_quality,
                                 start_gps_time_s=args.start_gps_time_s,
                                 filter=args.filter, systems=args.systems,
-                                imu_grade=args.imu_grade, fix_sigmas=_fix_sigmas(args),
-                                fix_model=_fix_model(args),
+                                imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
+                                fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
-                                window=args.window, progress=progress, **_augmentation(args))
+                                window=args.window, progress=progress, **augmentation(args))
         else:
-            scenario = get_scenario(_scenario_name(args)).with_overrides(
+            scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
                 imu_errors=args.imu_grade, outages=args.outage)
             from railnav.simulation.trip import navigator_config_for
             systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
-            outcome = run_simulated(track, scenario, config=config, seed=_seed(args),
+            outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
     write_run(outcome, out, plots=not args.no_plots)
     if baro_check is not None:
         _write_baro(baro_check, out)
-    print(_report(outcome, out))
+    print(report(outcome, out))
     return 0
 
 
@@ -224,7 +128,7 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(
         crossing_rate_per_s=args.crossing_rate_per_s)
     with progress_bar("filters", enabled=not args.quiet) as progress:
-        if _files(args):
+        if files_given(args):
             run = run_files_tracks(tracks, names, imu_path=args.imu, obs_path=args.obs,
                                    nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
                                    systems=args.systems, imu_grade=args.imu_grade,
@@ -232,185 +136,16 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
                                    window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for
-            scenario = get_scenario(_scenario_name(args)).with_overrides(
+            scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
                 imu_errors=args.imu_grade, outages=args.outage)
             systems = args.systems or DEFAULT_SYSTEMS
             run = run_simulated_tracks(tracks, names, scenario,
                                        true_track=(args.true_track or 1) - 1,
                                        config=navigator_config_for(scenario, systems=systems),
-                                       seed=_seed(args), systems=systems, bank=bank,
+                                       seed=seed(args), systems=systems, bank=bank,
                                        window=args.window, progress=progress)
     write_track_run(run, out, plots=not args.no_plots)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
-    print(_report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
+    print(report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
     return 0
-
-
-def _measurement(systems: str | None):
-    from gnss_obs.errors import GnssError
-    from gnss_obs.measurements import MeasurementConfig
-    try:
-        return MeasurementConfig(systems=systems or DEFAULT_SYSTEMS)
-    except GnssError as exc:
-        raise ConfigError(f"--systems: {exc}") from None
-
-
-def _files(args: argparse.Namespace) -> bool:
-    """Sensor files were given (else a simulated trip runs)."""
-    return args.imu is not None or args.obs is not None or args.fixes is not None
-
-
-def _fix_sigmas(args: argparse.Namespace) -> dict | None:
-    """--fix-sigma as a table of overrides (`gnss_obs.fixes.quality.parse_fix_sigma`)."""
-    if not args.fix_sigma:
-        return None
-    from gnss_obs.errors import GnssError
-    from gnss_obs.fixes.quality import parse_fix_sigma
-    try:
-        return dict(parse_fix_sigma(text) for text in args.fix_sigma)
-    except GnssError as exc:
-        raise ConfigError(f"--fix-sigma: {exc}") from None
-
-
-def _fix_model(args: argparse.Namespace):
-    """The fix model's settings from --fix-track-sigma-m and --no-fix-heights (None:
-    the defaults)."""
-    if args.fix_track_sigma_m is None and not args.no_fix_heights:
-        return None
-    from railnav.filters.fix_epochs import FixModelConfig
-    extra = {} if args.fix_track_sigma_m is None else {
-        "track_cross_sigma_m": args.fix_track_sigma_m}
-    return FixModelConfig(use_height=not args.no_fix_heights, **extra)
-
-
-def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
-    """The fix and truth flags against the inputs (part of `_check_flags`)."""
-    fix_flags = [flag for flag, given in (("--fix-sigma", args.fix_sigma),
-                                          ("--fix-track-sigma-m",
-                                           args.fix_track_sigma_m is not None),
-                                          ("--no-fix-heights", args.no_fix_heights)) if given]
-    if fix_flags and args.fixes is None:
-        raise ConfigError(f"{', '.join(fix_flags)}: only with --fixes")
-    if args.fixes is not None and several:
-        raise ConfigError("--fixes works with one track")
-    if args.fixes is not None and not kind.fixes:
-        takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).fixes)
-        raise ConfigError(f"--fixes: the {args.filter} filter takes no fixes (the {takes} "
-                          "filters do)")
-    if args.truth is not None and not _files(args):
-        raise ConfigError("--truth: a simulated run is scored against its own truth; "
-                          "--truth goes with sensor files")
-    if args.truth is not None and several:
-        raise ConfigError("--truth works with one track")
-    if args.truth_quality is not None and args.truth is None:
-        raise ConfigError("--truth-quality: only with --truth (a fix file)")
-    _fix_sigmas(args)
-
-
-def _check_flags(args: argparse.Namespace) -> None:
-    """The one place where ``run``'s flags are checked against each other and against the
-    inputs given: a flag that cannot apply is an error that says why, never ignored
-    (single values are checked by their argparse types)."""
-    _measurement(args.systems)   # validates --systems before any work
-    files = _files(args)
-    kind = filter_kind(args.filter)
-    given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
-    if files and given:
-        raise ConfigError(f"{', '.join(given)}: shape a simulated trip; with sensor files "
-                          "(--imu/--obs/--fixes) there is none to shape")
-    if files and kind.needs_imu and args.imu is None:
-        raise ConfigError(f"--filter {args.filter}: needs --imu (without one, the gnss-only "
-                          "filter runs on the observations or fixes)")
-    if not files and args.start_gps_time_s is not None:
-        raise ConfigError("--start-gps-time-s: only with sensor files (a simulated trip "
-                          "starts at its scenario's time)")
-    if not kind.needs_imu and (args.imu_grade is not None or args.imu is not None):
-        flag = "--imu-grade" if args.imu_grade is not None else "--imu"
-        raise ConfigError(f"{flag}: the {args.filter} filter uses no IMU")
-    several = len(args.tracks) > 1
-    _check_fix_flags(args, kind, several)
-    if args.true_track is not None and args.true_track > len(args.tracks):
-        raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
-                          "given")
-    if several and args.baro is not None:
-        raise ConfigError("--baro works with one track")
-    if augmentation_requested(args) and (args.obs is None or several):
-        raise ConfigError("--base/--base-position/--smooth-window-s/--sp3: need --obs and one "
-                          "track")
-    if args.base_position is not None and args.base is None:
-        raise ConfigError("--base-position needs --base")
-    if not several and args.crossing_rate_per_s is not None:
-        raise ConfigError("--crossing-rate-per-s: only with several tracks")
-    if several and not kind.banks:
-        banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
-        raise ConfigError(f"several tracks run the {banked} filter, not --filter "
-                          f"{args.filter}")
-
-
-def _augmentation(args: argparse.Namespace) -> dict:
-    """`run_files` keywords of ``--base ... --sp3``."""
-    from gnss_obs.smoothing import SmoothingConfig
-
-    return {"base_path": args.base, "base_lat_lon_h": args.base_position,
-            "smoothing": (SmoothingConfig(window_s=args.smooth_window_s)
-                          if args.smooth_window_s else None),
-            "sp3_paths": tuple(args.sp3), "max_correction_age_s": args.max_age_s}
-
-
-def _seed(args: argparse.Namespace) -> int:
-    return DEFAULT_SEED if args.seed is None else args.seed
-
-
-def _scenario_name(args) -> str:
-    """--scenario, else the first track's file name if it is a scenario's, else
-    `DEFAULT_SCENARIO`."""
-    if args.scenario is not None:
-        return args.scenario
-    stem = Path(args.tracks[0]).stem
-    return stem if stem in SCENARIOS else DEFAULT_SCENARIO
-
-
-def _report(outcome, out: Path) -> str:
-    """A few lines for the terminal: what ran and the headline errors."""
-    s = outcome.summary
-    lines = [f"{s['filter']} filter: {s['steps']} steps, {s['statistics']['gnss_epochs']} GNSS "
-             f"epochs in {s['runtime_s']:.2f} s -> {out}/"]
-    left = s.get("left_track")
-    if left:
-        lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
-                     f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
-                     "not used")
-    stats = s["statistics"]
-    if "fix_epochs" in stats:
-        lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
-                     "by the fault screen")
-    ref = s.get("reference")
-    if ref and ref.get("source") == "fixes":
-        lines.append(f"  reference: {ref['kept']} of {ref['candidates']} {ref['quality']} "
-                     f"fixes ({ref['off_track']} off the track, {ref['jumps']} jumps); "
-                     f"{ref['estimates_compared']} estimates compared")
-    errors = s.get("errors")
-    if errors and errors["all"]["along_track_m"]["rms"] is None:
-        lines.append("  no estimate has a reference sample: no errors")
-    elif errors:
-        a = errors["all"]
-        lines.append(f"  along-track RMS {a['along_track_m']['rms']:.3f} m, max "
-                     f"{a['along_track_m']['max']:.3f} m; speed RMS "
-                     f"{_number(a['speed_mps']['rms'], '.4f')} m/s; NEES mean "
-                     f"{_number(errors['nees']['mean'], '.2f')} (dof {errors['nees']['dof']})")
-        for o in errors["outages"]:
-            lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
-                         f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
-    baro = s.get("baro")
-    if baro:
-        lines.append(f"  baro bias {baro['bias_m']:+.2f} ± {baro['sigma_bias_m']:.2f} m "
-                     f"({baro['bias_flagged']} of {baro['readings']} readings flagged); "
-                     f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
-                     "heights disagree")
-    return "\n".join(lines)
-
-
-def _number(value, fmt: str) -> str:
-    """`value` formatted, or ``n/a`` for None (a quantity the reference does not know)."""
-    return "n/a" if value is None else format(value, fmt)

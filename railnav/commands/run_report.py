@@ -1,0 +1,51 @@
+"""What ``railnav run`` prints when it is done: what ran and the headline errors."""
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["report"]
+
+
+def report(outcome, out: Path) -> str:
+    """A few lines for the terminal: what ran and the headline errors."""
+    s = outcome.summary
+    lines = [f"{s['filter']} filter: {s['steps']} steps, {s['statistics']['gnss_epochs']} GNSS "
+             f"epochs in {s['runtime_s']:.2f} s -> {out}/"]
+    left = s.get("left_track")
+    if left:
+        lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
+                     f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
+                     "not used")
+    stats = s["statistics"]
+    if "fix_epochs" in stats:
+        lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
+                     "by the fault screen")
+    ref = s.get("reference")
+    if ref and ref.get("source") == "fixes":
+        lines.append(f"  reference: {ref['kept']} of {ref['candidates']} {ref['quality']} "
+                     f"fixes ({ref['off_track']} off the track, {ref['jumps']} jumps); "
+                     f"{ref['estimates_compared']} estimates compared")
+    errors = s.get("errors")
+    if errors and errors["all"]["along_track_m"]["rms"] is None:
+        lines.append("  no estimate has a reference sample: no errors")
+    elif errors:
+        a = errors["all"]
+        lines.append(f"  along-track RMS {a['along_track_m']['rms']:.3f} m, max "
+                     f"{a['along_track_m']['max']:.3f} m; speed RMS "
+                     f"{_number(a['speed_mps']['rms'], '.4f')} m/s; NEES mean "
+                     f"{_number(errors['nees']['mean'], '.2f')} (dof {errors['nees']['dof']})")
+        for o in errors["outages"]:
+            lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
+                         f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
+    baro = s.get("baro")
+    if baro:
+        lines.append(f"  baro bias {baro['bias_m']:+.2f} ± {baro['sigma_bias_m']:.2f} m "
+                     f"({baro['bias_flagged']} of {baro['readings']} readings flagged); "
+                     f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
+                     "heights disagree")
+    return "\n".join(lines)
+
+
+def _number(value, fmt: str) -> str:
+    """`value` formatted, or ``n/a`` for None (a quantity the reference does not know)."""
+    return "n/a" if value is None else format(value, fmt)
