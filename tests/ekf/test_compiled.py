@@ -62,6 +62,43 @@ def test_a_cache_hit_generates_no_code(tmp_path, monkeypatch):
         CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O1",)))
 
 
+def test_native_flags_change_no_bit(tmp_path):
+    """`NATIVE_FLAGS` are for speed only: the same outputs, to the bit, as ``-O2`` alone
+    (the constrained filter's step: trigonometry, Cholesky, congruences)."""
+    from railnav.filters.constrained_model import build_constrained_model
+    from trackmodel.earth import WGS84
+    model = build_constrained_model(WGS84).process
+    step = build_step(model)
+    rng = np.random.default_rng(3)
+    n_steps = 50
+    u = np.tile([0.1, 0.0, 9.81, 0.0, 0.0, 1e-3], (n_steps + 1, 1)) \
+        + 1e-3 * rng.normal(size=(n_steps + 1, 6))
+    p = np.tile(rng.uniform(0.1, 1.0, model.n_p), (n_steps, 1))
+    p[:, :3] = [0.7, 0.1, 30.0]
+    d = StepData.of(model).assemble(u=u, p=p, z_c=np.zeros((n_steps, 2)),
+                                    dt=np.full(n_steps, 0.01),
+                                    q_c=np.full((n_steps, model.n_w), 1e-8),
+                                    r_c=np.full((n_steps, 2), 1e-6))
+    x0 = np.array([0.3, 0.01, 0.0, 100.0, 20.0, 5.0, 0.1])
+    P0 = pack_sym(np.diag([1e-6, 1e-6, 1e-6, 25.0, 0.01, 100.0, 1.0]))
+    native = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path)))
+    plain = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
+    assert len(list(tmp_path.glob("*.so"))) == 2
+    for a, b in zip(native.run(x0, P0, d), plain.run(x0, P0, d)):
+        assert np.all(np.isfinite(a)) and np.array_equal(a, b)
+
+
+def test_the_processor_is_part_of_a_native_key(monkeypatch):
+    step = build_step(attitude_speed_clock_toy("cpukey"))
+    native = CompileOptions().command()
+    assert "-march=native" in native
+    plain = CompileOptions(flags=("-O2",)).command()
+    keys = [compiled._cache_key(step, "t", "loop", c) for c in (native, plain)]
+    monkeypatch.setattr(compiled, "cpu_signature", lambda: "another processor")
+    assert compiled._cache_key(step, "t", "loop", native) != keys[0]
+    assert compiled._cache_key(step, "t", "loop", plain) == keys[1]   # portable code
+
+
 def test_cache_directory_from_the_environment(tmp_path, monkeypatch):
     monkeypatch.setenv("RAILNAV_CACHE_DIR", str(tmp_path / "root"))
     assert CompileOptions().directory() == tmp_path / "root" / "ekf"
