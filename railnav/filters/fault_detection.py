@@ -64,7 +64,7 @@ import pandas as pd
 from ekf.gating import chi2_threshold
 from ekf.outliers import common_offset, fault_probability, fault_threshold
 from ekf.series import EpochRows
-from ekf.update import Observation
+from ekf.update import EvaluatedObservations, Observation
 from railnav.errors import ConfigError
 from railnav.filters.fault_channels import Channel
 from railnav.filters.row_sets import (
@@ -245,8 +245,9 @@ class RowScreen:
         Returns
         -------
         list of ekf.Observation, or ekf.EpochRows
-            The used rows; an `ekf.EpochRows` with the clock-jump covariance when a jump
-            was declared.
+            The used rows (an `ekf.update.EvaluatedObservations`: evaluated at ``x``, so
+            the update does not evaluate them again); an `ekf.EpochRows` with the
+            clock-jump covariance when a jump was declared.
         """
         self._n_states = x.size
         nu, H, R = evaluate_rows(observations, x)
@@ -274,7 +275,8 @@ class RowScreen:
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
-        rows = subset_rows(observations, used)
+        rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
+                                     H=H[used], R=R[used], groups=np.arange(int(used.sum())))
         return EpochRows(rows, Q) if Q.any() else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
