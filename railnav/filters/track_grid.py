@@ -26,7 +26,7 @@ Array = npt.NDArray[np.float64]
 #: Grid spacing, m.
 GRID_STEP_M = 0.5
 #: Length of track sampled per window, m (re-sampled when the vehicle leaves it).
-GRID_WINDOW_M = 400.0
+GRID_WINDOW_M = 2000.0
 
 
 class TrackParameterGrid:
