@@ -259,7 +259,8 @@ def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, 
     el_sc = np.asarray(elevation, dtype=float) / _SEMICIRCLE_RAD
     az = np.asarray(azimuth, dtype=float)
     psi = 0.0137 / (el_sc + 0.11) - 0.022
-    phi_i = np.clip(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC, _MAX_IPP_LAT_SC)
+    phi_i = np.minimum(np.maximum(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC),
+                       _MAX_IPP_LAT_SC)
     lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
     phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
     sow = np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)

@@ -64,7 +64,7 @@ class TrackParameterGrid:
         s = np.asarray(s, dtype=float)
         if not (self._lo <= s.min() and s.max() <= self._hi):
             self._open(float(s.min()), float(s.max()))
-        j = np.clip(np.searchsorted(self._s, s), 1, self._s.size - 1)
+        j = np.minimum(np.maximum(np.searchsorted(self._s, s), 1), self._s.size - 1)
         return np.where(s - self._s[j - 1] <= self._s[j] - s, j - 1, j)
 
     def parameters(self, s: Array) -> tuple[Array, npt.NDArray[np.intp]]:
