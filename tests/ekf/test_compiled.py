@@ -62,25 +62,20 @@ def test_a_cache_hit_generates_no_code(tmp_path, monkeypatch):
         CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O1",)))
 
 
-def test_native_flags_change_no_bit(tmp_path):
+def test_native_flags_change_no_bit(tmp_path, rng):
     """`NATIVE_FLAGS` are for speed only: the same outputs, to the bit, as ``-O2`` alone
-    (the constrained filter's step: trigonometry, Cholesky, congruences)."""
-    from railnav.filters.constrained_model import build_constrained_model
-    from trackmodel.earth import WGS84
-    model = build_constrained_model(WGS84).process
+    (a step with trigonometry, Cholesky solves and congruences, over random inputs)."""
+    model = attitude_speed_clock_toy("nativecheck")
     step = build_step(model)
-    rng = np.random.default_rng(3)
     n_steps = 50
     u = np.tile([0.1, 0.0, 9.81, 0.0, 0.0, 1e-3], (n_steps + 1, 1)) \
-        + 1e-3 * rng.normal(size=(n_steps + 1, 6))
-    p = np.tile(rng.uniform(0.1, 1.0, model.n_p), (n_steps, 1))
-    p[:, :3] = [0.7, 0.1, 30.0]
-    d = StepData.of(model).assemble(u=u, p=p, z_c=np.zeros((n_steps, 2)),
-                                    dt=np.full(n_steps, 0.01),
-                                    q_c=np.full((n_steps, model.n_w), 1e-8),
+        + 1e-2 * rng.normal(size=(n_steps + 1, 6))
+    d = StepData.of(model).assemble(u=u, p=np.zeros((n_steps, 0)),
+                                    z_c=1e-3 * rng.normal(size=(n_steps, 2)),
+                                    dt=np.full(n_steps, 0.01), q_c=np.full((n_steps, 6), 1e-8),
                                     r_c=np.full((n_steps, 2), 1e-6))
-    x0 = np.array([0.3, 0.01, 0.0, 100.0, 20.0, 5.0, 0.1])
-    P0 = pack_sym(np.diag([1e-6, 1e-6, 1e-6, 25.0, 0.01, 100.0, 1.0]))
+    x0 = np.concatenate([rng.normal(0, 0.1, 3), rng.normal(0, 1, 4)])
+    P0 = pack_sym(np.diag(rng.uniform(1e-6, 1.0, 7)))
     native = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path)))
     plain = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
     assert len(list(tmp_path.glob("*.so"))) == 2
