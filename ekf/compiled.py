@@ -3,12 +3,11 @@
 The step function (:func:`ekf.step.build_step`) is written out as C by
 ``casadi.CodeGenerator``; a small C loop (below) runs it over ``N`` steps, chaining the
 state and packed covariance and writing every per-step output into caller-owned buffers.
-``gcc -O2 -march=native -ffp-contract=off -shared -fPIC`` builds it once (`NATIVE_FLAGS`:
-the same bits as plain ``-O2``, faster); the library is cached on disk
+``gcc -O2 -shared -fPIC`` builds it once (with `NATIVE_FLAGS` on processors with AVX2: the
+same bits, faster); the library is cached on disk
 (`ekf.library_cache`: ``$RAILNAV_CACHE_DIR/ekf`` or the user cache directory, atomic
 writes, one compiling process at a time) under a name that is the SHA-256 of the CasADi
-function's serialization, the C template, the compiler command, the CasADi version and,
-with ``-march=native``, the processor (`cpu_signature`), so
+function's serialization, the C template, the compiler command and the CasADi version, so
 later processes (runs, tests, Monte Carlo workers) load it without generating code or
 compiling. A run of ``N`` steps is one ctypes call on NumPy buffers: no ``casadi.DM``
 conversion and no per-step Python.
@@ -20,7 +19,6 @@ survives the process.
 from __future__ import annotations
 
 import ctypes
-import functools
 import hashlib
 import logging
 import os
@@ -38,18 +36,34 @@ from ekf.errors import FilterError
 from ekf.library_cache import default_cache_dir, load_library
 
 __all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available",
-           "NATIVE_FLAGS", "cpu_signature"]
+           "NATIVE_FLAGS", "has_avx2"]
 
 log = logging.getLogger(__name__)
 
-#: Flags for the processor that compiles, without changing any result: ``-march=native``
-#: lets the compiler use its instruction set (here AVX2: the step loop of the constrained
-#: filter is ~1.5x faster, mostly because the code calls libm's AVX sin/cos without the
-#: SSE/AVX transition), ``-ffp-contract=off`` forbids the fused multiply-adds it would
-#: otherwise form (one rounding instead of two: other bits). Measured: the step outputs are
-#: bit-identical to ``-O2`` alone (`tests/ekf/test_compiled.py`). Without ``-march=native``
-#: support, the compile is retried without these flags.
-NATIVE_FLAGS = ("-march=native", "-ffp-contract=off")
+#: Flags for processors with AVX2, without changing any result: ``-mavx2`` (VEX-encoded
+#: code: the constrained filter's step loop is ~1.5x faster, mostly because the code no
+#: longer switches between SSE and libm's AVX sin/cos) and ``-ffp-contract=off``. FMA stays
+#: off (``-mavx2`` does not enable it): a fused multiply-add rounds once instead of twice,
+#: other bits. ``-march=native`` is NOT bit-safe: on AVX-512 machines GCC forms
+#: ``vfmaddsub`` in vectorized code even with ``-ffp-contract=off`` (found on the
+#: unconstrained filter's range-rate rows). Tested: outputs equal to the bit to ``-O2``
+#: alone (`tests/ekf/test_compiled.py`). A compiler refusing them gets a retry without.
+NATIVE_FLAGS = ("-mavx2", "-ffp-contract=off")
+
+
+def has_avx2() -> bool:
+    """Whether this is an x86-64 processor with AVX2 (Linux ``/proc/cpuinfo``; False when
+    it cannot be told)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return False
+    try:
+        with open("/proc/cpuinfo") as fh:
+            for line in fh:
+                if line.startswith("flags"):
+                    return "avx2" in line.split()
+    except OSError:
+        pass
+    return False
 
 _LOOP_TEMPLATE = r"""
 /* ---- ekf/compiled.py: run {fname} over N steps, chaining inputs 0,1 from outputs 0,1 ---- */
@@ -101,14 +115,15 @@ class CompileOptions:
     compiler : str
         C compiler command (must accept gcc-style flags).
     flags : tuple of str
-        Optimization flags (default ``-O2`` and `NATIVE_FLAGS`).
+        Optimization flags (default ``-O2``, and `NATIVE_FLAGS` on processors with AVX2:
+        the flags are in the cache key, so a cache shared with other processors is safe).
     cache_dir : str or None
         Where libraries are cached; ``None``: ``$RAILNAV_CACHE_DIR/ekf``, else the user
         cache directory's ``railnav/ekf`` (`ekf.library_cache`).
     """
 
     compiler: str = "gcc"
-    flags: tuple[str, ...] = ("-O2", *NATIVE_FLAGS)
+    flags: tuple[str, ...] = ("-O2", *NATIVE_FLAGS) if has_avx2() else ("-O2",)
     cache_dir: str | None = None
 
     def directory(self) -> Path:
@@ -154,33 +169,12 @@ def _load(fun: ca.Function, template: str, opts: CompileOptions
 def _cache_key(fun: ca.Function, template: str, loop: str, command: list[str]) -> str:
     """What a library is, hashed without generating its code: the function (CasADi's
     serialization, stable across processes), the C template and entry name, the compiler
-    command and the CasADi version (whose code generator writes the C); with
-    ``-march=native`` also the processor, so a cache shared by two machines never hands one
-    the other's instructions."""
+    command and the CasADi version (whose code generator writes the C)."""
     digest = hashlib.sha256()
-    cpu = cpu_signature() if "-march=native" in command else ""
-    for part in (ca.__version__, template, loop, " ".join(command), cpu, fun.serialize()):
+    for part in (ca.__version__, template, loop, " ".join(command), fun.serialize()):
         digest.update(part.encode())
         digest.update(b"\0")
     return digest.hexdigest()[:24]
-
-
-@functools.lru_cache(maxsize=1)
-def cpu_signature() -> str:
-    """The processor's model and instruction-set flags (Linux ``/proc/cpuinfo``), else
-    `platform.processor` and `platform.machine`."""
-    try:
-        lines = Path("/proc/cpuinfo").read_text().splitlines()
-    except OSError:
-        lines = []
-    keys = ("model name", "flags", "Features", "CPU part")
-    found = {}
-    for line in lines:
-        key = line.split(":", 1)[0].strip()
-        if key in keys and key not in found:
-            found[key] = line.split(":", 1)[-1].strip()
-    return "|".join([platform.machine(), platform.processor(),
-                     *(found.get(k, "") for k in keys)])
 
 
 def _compile(source: str, command: list[str], target: Path) -> None:
