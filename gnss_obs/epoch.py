@@ -322,5 +322,4 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
         iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
         pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
         cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
-    finite = np.isfinite(clock_m)
-    return prepared if finite.all() else prepared.subset(finite)
+    return prepared if np.isfinite(clock_m).all() else prepared.subset(np.isfinite(clock_m))
