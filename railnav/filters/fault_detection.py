@@ -35,6 +35,14 @@ Rows are screened by their mode (`SCREEN_MODES`): ``channel`` as above; ``row``,
 test alone (GNSS fixes: a fix's error is no satellite's history); ``pass``, recorded and
 used. Rows of one group (a fix's rows) are used together: one failing rejects them all.
 
+**Evaluated once.** The screen evaluates every row at the prior (each `ekf.Observation`'s
+model: its compiled rows) and hands the used ones to the update as an
+`ekf.update.EvaluatedObservations`, which the update takes as they are. A new kind of row
+(odometer, balise, attitude, zero speed) needs nothing more than its `ekf.MeasurementModel`
+(scalar rows, variances ``R``) and its place in `railnav.filters.fix_rows.stack_epoch_rows`
+with a label, a kind and a screen mode: it is then evaluated, screened and updated on the
+same path as the GNSS rows.
+
 Each row gets a status, ``used``, ``rejected`` or ``excluded`` (the row on which a channel
 becomes excluded is marked ``excluded``), and its fault probability, written to
 ``innovations.csv`` (`railnav.navigation.result`). `RowScreen.last` keeps the latest epoch's
