@@ -125,6 +125,9 @@ class Network:
         The netelements by id.
     connections : sequence of Connection
         Their joints (kink and gap are measured here from the tracks).
+    attributes : mapping of str to mapping of str to str, optional
+        Each netelement's attributes from its source (e.g. OpenStreetMap's ``railway``,
+        ``gauge``, ``service``, ``usage``); kept and written, not interpreted.
 
     Raises
     ------
@@ -133,11 +136,14 @@ class Network:
         unknown navigability, or an empty network.
     """
 
-    def __init__(self, elements: Mapping[str, Track], connections: Sequence[Connection]
-                 ) -> None:
+    def __init__(self, elements: Mapping[str, Track], connections: Sequence[Connection],
+                 attributes: Mapping[str, Mapping[str, str]] | None = None) -> None:
         if not elements:
             raise TrackError("a network needs at least one netelement")
         self.elements: dict[str, Track] = dict(elements)
+        self.attributes: dict[str, dict[str, str]] = {
+            name: dict(values) for name, values in (attributes or {}).items()
+            if name in self.elements and values}
         for c in connections:
             _check_connection(c, self.elements)
         self.connections = tuple(_measured(c, self.elements) for c in connections)
