@@ -229,7 +229,8 @@ class Network:
 
     def project(self, lat: npt.ArrayLike, lon: npt.ArrayLike, *, radius_m: float
                 ) -> pd.DataFrame:
-        """Candidate netelements within `radius_m` of each point (horizontal distance).
+        """Candidate netelements within `radius_m` of each point (horizontal distance;
+        `trackmodel.network_project.project_onto`).
 
         Parameters
         ----------
@@ -243,24 +244,8 @@ class Network:
             ``point, element, s_m, cross_track_m, distance_m``, one row per candidate,
             sorted by point then distance.
         """
-        lat, lon = np.atleast_1d(np.asarray(lat, float)), np.atleast_1d(np.asarray(lon, float))
-        rows = []
-        for element, track in self.elements.items():
-            near = _near_element(track, lat, lon, radius_m)
-            if not near.any():
-                continue
-            proj = track.project(lat[near], lon[near])
-            inside = (np.abs(proj.along_m) < 1e-6) & (np.abs(proj.cross_track_m) <= radius_m)
-            idx = np.flatnonzero(near)[inside]
-            rows.append(pd.DataFrame({"point": idx, "element": element,
-                                      "s_m": proj.s[inside],
-                                      "cross_track_m": proj.cross_track_m[inside],
-                                      "distance_m": np.abs(proj.cross_track_m[inside])}))
-        columns = ["point", "element", "s_m", "cross_track_m", "distance_m"]
-        if not rows:
-            return pd.DataFrame(columns=columns)
-        out = pd.concat(rows, ignore_index=True)[columns]
-        return out.sort_values(["point", "distance_m"], ignore_index=True)
+        from trackmodel.network_project import project_onto
+        return project_onto(self.elements, lat, lon, radius_m=radius_m)
 
     def route_track(self, legs: Sequence[tuple[str, int]], *,
                     refit_tol_m: float | None = ROUTE_REFIT_TOL_M) -> Track:
@@ -393,22 +378,3 @@ def _travel_graph(elements: Mapping[str, Track], connections: Iterable[Connectio
 
 def _path_length(graph: nx.DiGraph, path: list) -> float:
     return float(sum(graph[u][v]["weight"] for u, v in zip(path[:-1], path[1:])))
-
-
-def _near_element(track: Track, lat: Array, lon: Array, radius_m: float
-                  ) -> npt.NDArray[np.bool_]:
-    """Points horizontally within `radius_m` (plus the sampling step and 1 %) of points
-    sampled every <= 50 m along `track`: a cheap prefilter before the exact projection
-    (equirectangular distances on the mean Earth radius)."""
-    n = max(2, int(math.ceil(track.length_m / 50.0)) + 1)
-    t_lat, t_lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
-    step = track.length_m / (n - 1)
-    north = _MEAN_RADIUS_M * (lat[:, None] - t_lat[None, :])
-    dlon = (lon[:, None] - t_lon[None, :] + math.pi) % (2 * math.pi) - math.pi
-    east = _MEAN_RADIUS_M * np.cos(lat)[:, None] * dlon
-    reach = 1.01 * (radius_m + step)
-    return np.min(north ** 2 + east ** 2, axis=1) <= reach ** 2
-
-
-#: Mean Earth radius for the prefilter's distances, m (IUGG).
-_MEAN_RADIUS_M = 6_371_008.8

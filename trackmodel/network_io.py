@@ -32,7 +32,6 @@ from trackmodel.errors import TrackError, TrackFileError
 from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.fit import fit_track
 from trackmodel.io import read_track, write_track
-from trackmodel.track import Track
 from trackmodel.network import (
     NAVIGABILITY,
     ROUTE_MIN_RADIUS_M,
@@ -40,6 +39,7 @@ from trackmodel.network import (
     Connection,
     Network,
 )
+from trackmodel.track import Track
 
 __all__ = ["NetworkSource", "read_network_geojson", "write_network_geojson", "build_network",
            "write_network", "read_network", "network_from_track", "NETWORK_MIN_RADIUS_M",

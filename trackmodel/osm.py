@@ -150,7 +150,7 @@ def _extent_m(lat: Array, lon: Array) -> float:
 
 def _read(path: Path) -> tuple[list[_Way], dict[int, str]]:
     """The railway ways (with located nodes) and the switch/crossing nodes' tags."""
-    import osmium                                # heavy: only when an OSM file is read
+    import osmium  # heavy: only when an OSM file is read
     if not path.is_file():
         raise TrackFileError("no such file", path=path)
     ways, node_tags, dropped = [], {}, 0

@@ -16,7 +16,11 @@ import pytest
 from trackmodel.errors import TrackError
 from trackmodel.network import END, START, Connection, NetPosition, Network
 from trackmodel.network_io import read_network
-from trackmodel.network_lines import ROUTE_MIN_RADIUS_M, ROUTE_REFIT_TOL_M, tail_sections
+from trackmodel.network_lines import (
+    ROUTE_MIN_RADIUS_M,
+    ROUTE_REFIT_TOL_M,
+    tail_sections,
+)
 from trackmodel.sections import Section
 from trackmodel.track import Track
 
