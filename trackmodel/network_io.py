@@ -300,9 +300,13 @@ def read_network(folder: str | os.PathLike) -> Network:
         if not name or name in elements:
             raise TrackFileError(f"netelement {name!r} empty or given twice",
                                  path=root / "elements.csv", row=i)
-        target = (root / file).resolve()
-        if root.resolve() not in target.parents:
-            raise TrackFileError(f"file {file!r} is outside the network folder",
+        try:
+            target = (root / file).resolve()
+            inside = root.resolve() in target.parents
+        except (OSError, ValueError):                 # a NUL byte, a loop of links
+            inside = False
+        if not inside:
+            raise TrackFileError(f"file {file!r} is not a file inside the network folder",
                                  path=root / "elements.csv", row=i)
         elements[name] = read_track(target)
         attributes[name] = {k: v for k, v in row.items() if v != ""}

@@ -129,9 +129,8 @@ def load_network(path: str | os.PathLike, *, tol_m: float = DEFAULT_TOL_M,
     Raises
     ------
     TrackFileError
-        A file of none of these kinds, or a bad one (located).
-    TrackError
-        A netelement that cannot be fitted (named).
+        A file of none of these kinds, a bad one, or a netelement that cannot be fitted
+        (located: the file, then the netelement).
     """
     from trackmodel.io import read_track
     from trackmodel.network_io import (
@@ -150,4 +149,9 @@ def load_network(path: str | os.PathLike, *, tol_m: float = DEFAULT_TOL_M,
         source = read_osm(path)
     else:
         source = read_network_geojson(path)
-    return build_network(source, tol_m=tol_m, progress=progress)
+    try:
+        return build_network(source, tol_m=tol_m, progress=progress)
+    except TrackFileError:
+        raise
+    except TrackError as exc:                    # a netelement that cannot be fitted
+        raise TrackFileError(str(exc), path=path) from None
