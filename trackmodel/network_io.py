@@ -302,7 +302,7 @@ def read_network(folder: str | os.PathLike) -> Network:
                                  path=root / "elements.csv", row=i)
         try:
             target = (root / file).resolve()
-            inside = root.resolve() in target.parents
+            inside = root.resolve() in target.parents and target.is_file()
         except (OSError, ValueError):                 # a NUL byte, a loop of links
             inside = False
         if not inside:

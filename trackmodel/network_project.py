@@ -15,9 +15,13 @@ import pandas as pd
 
 from trackmodel.track import Track
 
-__all__ = ["project_onto"]
+__all__ = ["project_onto", "MEAN_RADIUS_M"]
 
 Array = npt.NDArray[np.float64]
+
+#: Mean Earth radius for local equirectangular distances, m (IUGG R1): the network
+#: modules' one value.
+MEAN_RADIUS_M = 6_371_008.8
 
 
 def project_onto(elements: Mapping[str, Track], lat: npt.ArrayLike, lon: npt.ArrayLike, *,
@@ -52,12 +56,9 @@ def _near_element(track: Track, lat: Array, lon: Array, radius_m: float
     n = max(2, int(math.ceil(track.length_m / 50.0)) + 1)
     t_lat, t_lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
     step = track.length_m / (n - 1)
-    north = _MEAN_RADIUS_M * (lat[:, None] - t_lat[None, :])
+    north = MEAN_RADIUS_M * (lat[:, None] - t_lat[None, :])
     dlon = (lon[:, None] - t_lon[None, :] + math.pi) % (2 * math.pi) - math.pi
-    east = _MEAN_RADIUS_M * np.cos(lat)[:, None] * dlon
+    east = MEAN_RADIUS_M * np.cos(lat)[:, None] * dlon
     reach = 1.01 * (radius_m + step)
     return np.min(north ** 2 + east ** 2, axis=1) <= reach ** 2
 
-
-#: Mean Earth radius for the prefilter's distances, m (IUGG).
-_MEAN_RADIUS_M = 6_371_008.8

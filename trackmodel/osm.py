@@ -45,6 +45,7 @@ import numpy.typing as npt
 from trackmodel.errors import TrackFileError
 from trackmodel.network import END, START, Connection
 from trackmodel.network_io import NetworkSource
+from trackmodel.network_project import MEAN_RADIUS_M
 from trackmodel.polyline import MIN_SPACING_M
 
 __all__ = ["read_osm", "RAILWAY_KINDS", "MAX_DEFLECTION_DEG", "LEG_M", "OSM_SUFFIXES"]
@@ -68,8 +69,6 @@ LEG_M = 10.0
 MIN_ELEMENT_M = MIN_SPACING_M
 #: File names osmium reads (by their ending).
 OSM_SUFFIXES = (".osm", ".osm.pbf", ".pbf", ".osm.bz2", ".osm.gz", ".o5m", ".opl")
-#: Mean Earth radius for the legs' local directions, m (IUGG).
-_MEAN_RADIUS_M = 6_371_008.8
 
 
 @dataclass
@@ -141,11 +140,17 @@ def _contract(pieces, path):
     return find
 
 
+def _plane(lat: Array, lon: Array) -> tuple[Array, Array]:
+    """East and north of the points from the first, m (local equirectangular plane)."""
+    north = MEAN_RADIUS_M * (lat - lat[0])
+    east = MEAN_RADIUS_M * math.cos(lat[0]) * ((lon - lon[0] + math.pi) % (2 * math.pi)
+                                                - math.pi)
+    return east, north
+
+
 def _extent_m(lat: Array, lon: Array) -> float:
-    """Largest distance of a point from the first, m (local equirectangular plane)."""
-    north = _MEAN_RADIUS_M * (lat - lat[0])
-    east = _MEAN_RADIUS_M * math.cos(lat[0]) * (lon - lon[0])
-    return float(np.max(np.hypot(east, north)))
+    """Largest distance of a point from the first, m."""
+    return float(np.max(np.hypot(*_plane(lat, lon))))
 
 
 def _read(path: Path) -> tuple[list[_Way], dict[int, str]]:
@@ -205,9 +210,7 @@ def _pieces(way: _Way, splits: set[int]) -> list[tuple[str, tuple[int, int]]]:
 def _leg(lat: Array, lon: Array) -> float:
     """Azimuth of the polyline leaving its first point, to the point `LEG_M` along it (or
     its last), rad (local equirectangular plane)."""
-    north = _MEAN_RADIUS_M * (lat - lat[0])
-    east = _MEAN_RADIUS_M * math.cos(lat[0]) * ((lon - lon[0] + math.pi) % (2 * math.pi)
-                                                 - math.pi)
+    east, north = _plane(lat, lon)
     along = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(east), np.diff(north)))])
     reach = min(LEG_M, float(along[-1]))
     x, y = np.interp(reach, along, east), np.interp(reach, along, north)

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.networks import switch_tracks
 from trackmodel.errors import TrackError
 from trackmodel.io import read_track
 from trackmodel.network import END, START, Connection, Network
@@ -26,24 +27,15 @@ from trackmodel.network_io import (
     write_network,
     write_network_geojson,
 )
-from trackmodel.sections import Section
-from trackmodel.track import Track
 
 DATA = Path(__file__).resolve().parents[2] / "data"
 FIT_TOL_M = 0.5
 
 
-def _straight(lat, lon, length_m, azimuth_rad):
-    return Track.from_sections([Section(length_m, math.degrees(azimuth_rad))],
-                               lat=float(np.squeeze(lat)), lon=float(np.squeeze(lon)))
-
-
 @pytest.fixture(scope="module")
 def switch() -> Network:
-    t = _straight(math.radians(50.0), math.radians(4.0), 1000.0, 0.0)
-    s = _straight(*t.geodetic(1000.0)[:2], 500.0, 0.0)
-    d = _straight(*t.geodetic(1000.0)[:2], 500.0, 0.1)
-    return Network({"T": t, "S": s, "D": d},
+    tracks = switch_tracks()
+    return Network({k: tracks[k] for k in "TSD"},
                    [Connection("T", END, "S", START), Connection("T", END, "D", START, "AB"),
                     Connection("S", START, "D", START, "none")],
                    {"T": {"gauge": "1435", "usage": "main"}, "D": {"service": "siding"}})

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.support.networks import DIVERGE_RAD, straight, switch_tracks
 from trackmodel.errors import TrackError
 from trackmodel.network import END, START, Connection, NetPosition, Network
 from trackmodel.network_io import read_network
@@ -25,35 +26,27 @@ from trackmodel.sections import Section
 from trackmodel.track import Track
 
 NETWORKS = Path(__file__).resolve().parents[2] / "data" / "networks"
-DIVERGE_RAD = 0.1
 ATOL_M = 1e-3
-
-
-def _straight(lat, lon, length_m, azimuth_rad):
-    return Track.from_sections([Section(length_m, math.degrees(azimuth_rad))],
-                               lat=float(np.squeeze(lat)), lon=float(np.squeeze(lon)))
 
 
 @pytest.fixture(scope="module")
 def switch() -> Network:
     """T (1000 m north) -> S (500 m north) or D (500 m at 0.1 rad)."""
-    t = _straight(math.radians(50.0), math.radians(4.0), 1000.0, 0.0)
-    s = _straight(*t.geodetic(1000.0)[:2], 500.0, 0.0)
-    d = _straight(*t.geodetic(1000.0)[:2], 500.0, DIVERGE_RAD)
-    return Network({"T": t, "S": s, "D": d},
+    tracks = switch_tracks()
+    return Network({k: tracks[k] for k in "TSD"},
                    [Connection("T", END, "S", START), Connection("T", END, "D", START),
                     Connection("S", START, "D", START, "none")])
 
 
 def test_routes_share_their_common_leg_exactly(switch):
-    straight = switch.route_line((("T", 1), ("S", 1))).track
+    ahead = switch.route_line((("T", 1), ("S", 1))).track
     diverging = switch.route_line((("T", 1), ("D", 1))).track
     s = np.linspace(0.0, 1000.0, 2001)
-    assert np.array_equal(straight.at(s).r_e, diverging.at(s).r_e)     # the same floats
-    assert np.array_equal(straight.at(s).r_e, switch.elements["T"].at(s).r_e)
+    assert np.array_equal(ahead.at(s).r_e, diverging.at(s).r_e)        # the same floats
+    assert np.array_equal(ahead.at(s).r_e, switch.elements["T"].at(s).r_e)
     # the straight-through joint is continuous: the line is T then S
     on_s = switch.elements["S"].at(np.array([250.0])).r_e
-    assert np.linalg.norm(straight.at(np.array([1250.0])).r_e - on_s) < ATOL_M
+    assert np.linalg.norm(ahead.at(np.array([1250.0])).r_e - on_s) < ATOL_M
 
 
 def test_transition_lands_on_the_branch(switch):
@@ -121,7 +114,7 @@ def test_brussels_routes_agree_up_to_their_switch():
 
 def test_a_joint_no_transition_can_follow_is_named(switch):
     t = switch.elements["T"]
-    back = _straight(*t.geodetic(1000.0)[:2], 20.0, math.radians(120.0))
+    back = straight(*t.geodetic(1000.0)[:2], 20.0, math.radians(120.0))
     net = Network({"T": t, "B": back}, [Connection("T", END, "B", START)])
     with pytest.raises(TrackError, match="joint T -> B: a kink of 120.0°"):
         net.route_line((("T", 1), ("B", 1)))

@@ -6,12 +6,11 @@ data/ (each read by its own reader).
 """
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
+from tests.support.networks import switch_tracks
 from trackmodel.errors import TrackError, TrackFileError
 from trackmodel.network import END, START, Connection, NetPosition, Network
 from trackmodel.network_io import read_network
@@ -22,26 +21,14 @@ from trackmodel.network_routes import (
     route_text,
     route_track,
 )
-from trackmodel.sections import Section
-from trackmodel.track import Track
 
 DATA = Path(__file__).resolve().parents[2] / "data"
-
-
-def _straight(lat, lon, length_m, azimuth_rad):
-    return Track.from_sections([Section(length_m, math.degrees(azimuth_rad))],
-                               lat=float(np.squeeze(lat)), lon=float(np.squeeze(lon)))
 
 
 @pytest.fixture(scope="module")
 def switch() -> Network:
     """T (1000 m north) -> S (500 m north) or D (500 m at 0.1 rad); Y ends where S ends."""
-    t = _straight(math.radians(50.0), math.radians(4.0), 1000.0, 0.0)
-    s = _straight(*t.geodetic(1000.0)[:2], 500.0, 0.0)
-    d = _straight(*t.geodetic(1000.0)[:2], 500.0, 0.1)
-    y_start = _straight(*s.geodetic(500.0)[:2], 300.0, 0.0).geodetic(300.0)
-    y = _straight(*y_start[:2], 300.0, math.pi)
-    return Network({"T": t, "S": s, "D": d, "Y": y},
+    return Network(switch_tracks(),
                    [Connection("T", END, "S", START), Connection("T", END, "D", START),
                     Connection("S", START, "D", START, "none"), Connection("S", END, "Y", END)])
 
