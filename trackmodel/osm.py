@@ -14,7 +14,9 @@ passes twice: a loop). A way not split is netelement ``w<way id>``; a split one 
 **Connections and navigability.** Where netelement ends meet at a node, every pair of ends
 is a connection:
 
-* at a *plain* node (two ends, no switch or crossing tag) a train passes both ways;
+* at a *plain* node (two ends, no switch or crossing tag) a train passes both ways,
+  unless the two legs form a V (deflection above `MAX_PLAIN_DEFLECTION_DEG`: seen where two
+  tram tracks cut at an extract's border end on one node);
 * anywhere else (a switch, tagged or not, and crossings) the geometry decides. Each end's
   *leg* is its direction away from the node, measured to the point `LEG_M` along it (or
   its far end). A train passes between two legs when they are nearly opposite: the
@@ -62,6 +64,9 @@ KEPT_TAGS = ("railway", "gauge", "service", "usage")
 SWITCH, CROSSING = "switch", "railway_crossing"
 #: Largest deflection between two legs a train passes at a switch, deg (module docstring).
 MAX_DEFLECTION_DEG = 45.0
+#: At a plain node two ends whose legs deflect more than this (a V: the ways meet head on,
+#: e.g. two tracks cut at the extract's border on one node) do not pass, deg.
+MAX_PLAIN_DEFLECTION_DEG = 90.0
 #: A leg's direction is measured to the point this far along it, m.
 LEG_M = 10.0
 #: A piece of way whose points all lie within this of its first is contracted to a node,
@@ -226,7 +231,8 @@ def _connections(here: list[tuple[str, int, float]], tag: str | None) -> list[Co
     """Every pair of the ends meeting at one node, with its navigability (module
     docstring)."""
     out = []
-    plain = tag is None and len(here) == 2
+    plain = tag is None and len(here) == 2 and _deflection(here[0][2], here[1][2]) <= (
+        math.radians(MAX_PLAIN_DEFLECTION_DEG))
     limit = math.radians(MAX_DEFLECTION_DEG)
     best = {i: min((j for j in range(len(here)) if j != i),
                    key=lambda j: _deflection(here[i][2], here[j][2]), default=None)

@@ -149,3 +149,21 @@ def test_bad_osm_is_a_located_one_line_error(tmp_path, text, message):
     with pytest.raises(TrackFileError, match=message) as info:
         read_osm(path)
     assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("turn_deg, navigability", [(60.0, "both"), (120.0, "none")])
+def test_plain_node_passes_unless_the_ways_meet_in_a_v(tmp_path, turn_deg, navigability):
+    """Two ways at an untagged node: a train passes where the second turns off the first's
+    line by up to 90°; beyond (a V, the ways meeting head on) it does not."""
+    def node(i, east, north):
+        lat = 50.0 + math.degrees(north / R_M)
+        lon = 4.0 + math.degrees(east / (R_M * math.cos(math.radians(50.0))))
+        return f'<node id="{i}" lat="{lat:.9f}" lon="{lon:.9f}"/>'
+    a = math.radians(turn_deg)
+    nodes = node(1, 0, 0) + node(2, 0, 100) + node(3, 100 * math.sin(a), 100 + 100 * math.cos(a))
+    ways = ('<way id="10"><nd ref="1"/><nd ref="2"/><tag k="railway" v="tram"/></way>'
+            '<way id="11"><nd ref="2"/><nd ref="3"/><tag k="railway" v="tram"/></way>')
+    path = tmp_path / "v.osm"
+    path.write_text(f'<osm version="0.6">{nodes}{ways}</osm>')
+    (c,) = read_osm(path).connections
+    assert (c.a, c.b, c.navigability) == ("w10", "w11", navigability)
