@@ -52,11 +52,12 @@ def register_data_commands(sub) -> None:
                                       "folder",
                        description="Read a network (" + SOURCE_HELP + "), fit every "
                                    "netelement, check it (errors stop it, warnings are "
-                                   "printed) and write a network folder.")
+                                   "printed) and write a network folder (or GeoJSON).")
     p.add_argument("source", metavar="SOURCE", help=SOURCE_HELP)
     _add_tol(p)
-    p.add_argument("--out", required=True, type=output_path, metavar="DIR",
-                   help="network folder to write (replaced if it is one)")
+    p.add_argument("--out", required=True, type=output_path, metavar="DIR|FILE.geojson",
+                   help="network folder to write (replaced if it is one); a name ending in "
+                        ".geojson writes GeoJSON netelements + netrelations instead")
     p.set_defaults(func=import_handler)
     c = sub.add_parser("check", help="gaps, open ends, duplicates, short netelements, kinks",
                        description="Check a network and print every finding on its own "
@@ -128,8 +129,13 @@ def import_handler(args: argparse.Namespace) -> int:
         raise ConfigError(f"{source}: {errors[0]}{more}; nothing written")
     for finding in findings:
         log.warning("%s: %s", source, finding)
-    write_network(network, args.out)
-    print(f"{args.out}/: {_summary(network)}; {len(findings)} warning(s)")
+    if Path(args.out).suffix.lower() in (".geojson", ".json"):
+        from trackmodel.network_io import write_network_geojson
+        write_network_geojson(network, args.out)
+        print(f"{args.out}: {_summary(network)}; {len(findings)} warning(s)")
+    else:
+        write_network(network, args.out)
+        print(f"{args.out}/: {_summary(network)}; {len(findings)} warning(s)")
     return 0
 
 

@@ -37,6 +37,16 @@ def test_import_osm_and_info(tmp_path, capsys):
     assert "netelements by railway=: rail 6, tram 2" in text and "checks: 0 error(s)" in text
 
 
+def test_import_to_geojson_reads_back(tmp_path, capsys):
+    out = tmp_path / "h.geojson"
+    assert main(["-q", "network", "import", HANDMADE, "--out", str(out)]) == 0
+    from trackmodel.network_io import read_network_geojson
+    from trackmodel.osm import read_osm
+    again, first = read_network_geojson(out), read_osm(HANDMADE)
+    assert sorted(again.polylines) == sorted(first.polylines)
+    assert again.attributes == first.attributes
+
+
 def test_import_track_csv_is_one_element(tmp_path, capsys):
     out = tmp_path / "net"
     assert main(["-q", "network", "import", str(DATA / "tracks" / "curvy.csv"),
