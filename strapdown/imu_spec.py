@@ -327,6 +327,9 @@ def noise_errors(table: dict, *, path=None) -> ImuErrors:
     """
     names = {f.name for f in fields(ImuErrors)} - {"name"}
     base_name = table.get("grade")
+    if base_name is not None and not isinstance(base_name, str):
+        raise ImuInputError(f"[noise] grade must be a preset name, got {base_name!r}",
+                            path=path)
     try:
         base = imu_grade(base_name) if base_name is not None else ImuErrors()
     except StrapdownError as exc:

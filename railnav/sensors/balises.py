@@ -99,7 +99,8 @@ def read_balises_csv(path: str | os.PathLike) -> BaliseLog:
             raise ConfigError(message, path=path, row=int(np.flatnonzero(bad)[0]) + 1,
                               column=col)
     if "id" in frame.columns:
-        ids = frame["id"].fillna("").astype(str).str.strip().to_numpy(dtype=object)
+        ids = np.array(["" if pd.isna(v) else str(v).strip() for v in frame["id"]],
+                       dtype=object)
     else:
         ids = np.array([f"row{k + 1}" for k in range(len(frame))], dtype=object)
     return BaliseLog(times, column, s, lat, lon, sigma, ids, str(path))

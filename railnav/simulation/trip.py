@@ -28,14 +28,17 @@ from gnss_obs.simulate import (
 )
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
 from railnav.errors import ConfigError
+from railnav.filters.track_frame import LeverArms
 from railnav.simulation.scenarios import (
     RNG_STREAMS,
     Scenario,
     SimulationResult,
     simulate_scenario,
 )
-from railnav.filters.track_frame import LeverArms
-from railnav.simulation.track_sensors import antenna_track, sensor_models_from_simulation
+from railnav.simulation.track_sensors import (
+    antenna_track,
+    sensor_models_from_simulation,
+)
 from strapdown.imu_errors import ImuErrors
 
 __all__ = ["SimulatedTrip", "simulate_trip", "navigator_config_for", "gnss_sim_config_for",

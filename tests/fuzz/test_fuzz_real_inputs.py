@@ -11,8 +11,6 @@ tables and keys (and some that are not) hold values of every TOML type.
 from __future__ import annotations
 
 import json
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -25,7 +23,7 @@ from railnav.sensors.odometer import read_odometer_csv
 from strapdown.errors import ImuInputError
 from strapdown.imu_log import read_imu_log
 from strapdown.imu_spec import ImuSpec, read_imu_spec
-from tests.support.fuzz import FUZZ, csv_cells, mutated, time_limit
+from tests.support.fuzz import FUZZ, csv_cells, mutated, read_fuzzed
 
 ROWS = 120
 _t = np.arange(ROWS) * 0.01
@@ -72,18 +70,7 @@ SPEC_KEYS = {"columns": ["time", "accel", "gyro"],
 
 
 def _read(data: bytes, reader, errors: tuple[type, ...], name: str = "input.csv"):
-    """`reader` of `data` written to a file: its result, or None after one of `errors`
-    (one line, starting with the file's path); anything else fails the test."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / name
-        path.write_bytes(data)
-        with time_limit():
-            try:
-                return reader(path)
-            except errors as exc:
-                text = str(exc)
-                assert "\n" not in text and text.startswith(str(path)), text
-                return None
+    return read_fuzzed(data, reader, errors, name=name)
 
 
 @FUZZ

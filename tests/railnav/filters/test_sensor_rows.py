@@ -18,8 +18,12 @@ from railnav.filters.balise_rows import BaliseRowBuilder, build_balise_rows
 from railnav.filters.fault_detection import FaultDetectionConfig, RowScreen
 from railnav.filters.fix_rows import stack_epoch_rows
 from railnav.filters.gnss_only_model import build_gnss_only_model
-from railnav.filters.gnss_rows import build_gnss_rows, pseudorange_parameters, \
-    range_rate_parameters, track_rows
+from railnav.filters.gnss_rows import (
+    build_gnss_rows,
+    pseudorange_parameters,
+    range_rate_parameters,
+    track_rows,
+)
 from railnav.filters.odometer_epochs import OdometerConfig, OdometerEpochs
 from railnav.filters.odometer_rows import OdometerRowBuilder, build_odometer_rows
 from railnav.filters.sensor_rows import SensorRows, sensor_states, slip_episodes
