@@ -226,3 +226,27 @@ def test_observation_types_are_those_of_the_engine():
                           np.array(["x"], dtype=object))
     obs, _, _ = BaliseRowBuilder(SCALED, epochs).observations(0, np.zeros(SCALED.size), None)
     assert isinstance(obs[0], Observation) and obs[0].R.shape == (1,)
+
+
+def test_lever_armed_fix_rows_follow_the_antenna():
+    """A fix exactly at the antenna of the point 3 m ahead: the rows' prediction at that s
+    equals the measured z (the antenna's offset cancels), their ∂/∂s match central
+    differences; without the arm the cross-track row would see the 1.2-m offset."""
+    from railnav.filters.fix_epochs import FixModelConfig
+    from railnav.filters.fix_rows import FixRowBuilder
+    from tests.railnav.filters.test_fix_rows import _fixes_at
+    layout = build_gnss_only_model((), clock=False).layout
+    s_true = S_CLOTHOID_M + 3.0
+    fixes = _fixes_at(_antenna(s_true))
+    armed = FixRowBuilder(CURVY, layout, fixes, FixModelConfig(), antenna_m=ARM)
+    obs, _, kind = armed.observations(0, np.array([S_CLOTHOID_M, 20.0]))
+    pred, H = obs[0].model.evaluate(np.array([s_true, 20.0]), obs[0].p)
+    np.testing.assert_allclose(pred, obs[0].z[:, 0], atol=2e-3)
+    fd = [(obs[0].model.evaluate(np.array([s_true + 1e-3, 20.0]), obs[0].p)[0][i]
+           - obs[0].model.evaluate(np.array([s_true - 1e-3, 20.0]), obs[0].p)[0][i]) / 2e-3
+          for i in range(len(pred))]
+    np.testing.assert_allclose(H[:, 0], fd, atol=1e-5)
+    plain = FixRowBuilder(CURVY, layout, fixes, FixModelConfig())
+    cross = dict(zip(plain.observations(0, np.array([s_true, 20.0]))[2],
+                     plain.observations(0, np.array([s_true, 20.0]))[0][0].z[:, 0]))
+    assert cross["fix_cross"] == pytest.approx(-ARM[1], abs=0.05)   # 1.2 m right of the track
