@@ -66,7 +66,9 @@ def add_run_arguments(p) -> None:
     """Every argument of ``run`` (`register` builds the parser around them)."""
     p.add_argument("tracks", metavar="TRACK", nargs="+",
                    help="track file(s) (.csv); several: candidate tracks named by file stem")
-    p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
+    p.add_argument("--imu", metavar="IMU.csv",
+                   help="IMU samples: railnav's imu.csv (railnav simulate's), or a logger's "
+                        "CSV read with --imu-spec")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
     add_file_arguments(p)
@@ -75,8 +77,9 @@ def add_run_arguments(p) -> None:
                         f"scenario, else {DEFAULT_SCENARIO})")
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
                    help="the IMU grade the filter assumes (simulated trip: also the grade "
-                        "simulated; default the scenario's). A recorded IMU file needs it "
-                        "(files written by railnav simulate: default the simulated grade)")
+                        "simulated; default the scenario's). A recorded IMU file needs it, "
+                        "or an --imu-spec with a [noise] table (files written by railnav "
+                        "simulate: default the simulated grade)")
     p.add_argument("--speed-mps", type=positive_float, default=None,
                    help="top speed of the simulated trip, m/s")
     p.add_argument("--duration-s", type=positive_float, default=None,

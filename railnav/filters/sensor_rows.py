@@ -123,11 +123,13 @@ def sensor_statistics(innovations: pd.DataFrame) -> dict:
     odo = innovations[innovations["kind"].isin(ODOMETER_ROW_KINDS)]
     if len(odo):
         speed = odo[odo["kind"] == ODOMETER_ROW_KINDS[0]]
+        zero = odo[odo["kind"] == ODOMETER_ROW_KINDS[1]]
         out["odometer"] = {
-            "rows": int(len(odo)), "zero_speed_rows": int(len(odo) - len(speed)),
+            "rows": int(len(odo)), "zero_speed_rows": int(len(zero)),
             "rows_rejected": int((odo["status"] == "rejected").sum()),
             "rows_excluded": int((odo["status"] == "excluded").sum()),
-            "nis_used_mean": _mean(odo.loc[odo["accepted"], "nis"]),
+            "nis_used_mean": _mean(speed.loc[speed["accepted"], "nis"]),
+            "zero_speed_nis_mean": _mean(zero.loc[zero["accepted"], "nis"]),
             "slip_episodes": slip_episodes(innovations)}
     bal = innovations[innovations["kind"] == BALISE_ROW_KIND]
     if len(bal):
