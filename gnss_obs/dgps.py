@@ -247,10 +247,12 @@ def augment(obs, nav, config: MeasurementConfig, *, base_obs=None,
     sp3 : sequence of Sp3
         Precise products; empty = broadcast orbits and clocks.
     """
+    from gnss_obs.coverage import check_sp3_coverage
     from gnss_obs.precise import PreciseOrbits
     from gnss_obs.smoothing import smooth_observations
 
     cfg = dgps or DgpsConfig()
+    check_sp3_coverage(obs, sp3)
     precise = PreciseOrbits.from_sp3(*sp3) if sp3 else None
     if smoothing is not None:
         obs = smooth_observations(obs, smoothing)
