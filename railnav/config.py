@@ -215,3 +215,15 @@ class SensorData:
         check_gnss_pair(self.obs, self.nav)
         if self.imu is None and self.obs is None and self.fixes is None:
             raise ConfigError("no sensor data: give an IMU, GNSS observations or fixes")
+
+    @property
+    def end_s(self) -> float:
+        """The trip's last time, s from its start: the last IMU sample, else the last GNSS
+        epoch or fix."""
+        if self.imu is not None:
+            return float(self.imu.time_s[-1])
+        times = [float(frame["gps_time_s"].max()) for frame in (
+            self.obs.table if self.obs is not None else None,
+            self.fixes.table if self.fixes is not None else None)
+            if frame is not None and len(frame)]
+        return max(times) - self.start_gps_time_s if times else 0.0

@@ -35,7 +35,12 @@ from railnav.config import (
     check_gnss_pair,
 )
 from railnav.errors import ConfigError
-from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
+from railnav.evaluation.metrics import (
+    ErrorSeries,
+    check_trip_times,
+    error_series,
+    summarize,
+)
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import filter_kind
 from railnav.jobs.scoring import (
@@ -120,6 +125,7 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
     """
     config = config or navigator_config_for(scenario, systems=systems)
     trip = simulate_trip(scenario, track=track, seed=seed, systems=systems, faults=faults)
+    check_trip_times(float(trip.truth.time_s[-1]), outages=scenario.outages, window=window)
     result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
                       initial=functools.partial(truth_start, trip=trip, config=config),
                       progress=progress)
@@ -229,6 +235,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     found = simulation_meta(imu_path, obs_path, fixes_path)
     if outages is None:
         outages = scenario_outages(found[0] if found else None)
+    check_trip_times(data.end_s, outages=outages, window=window)
     result = with_timestamps(navigate(track, data, config, outages=outages,
                                       progress=progress), data.fixes)
     return _file_outcome(result, track, data, truth_path or find_truth(

@@ -173,8 +173,28 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> Tr
     schedule = EpochSchedule.merge(gnss.time_s if gnss is not None else [],
                                    fixes.time_s if fixes is not None else [],
                                    tol_s=EPOCH_TIME_TOL_S)
+    if data.imu is not None:
+        _check_overlap(data, samples_t, schedule.time_s)
     samples_t, samples_u = _insert_samples(samples_t, samples_u, schedule.time_s)
     return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule)
+
+
+def _check_overlap(data: SensorData, t: Array, epoch_times: Array) -> None:
+    """An error when no GNSS epoch or fix falls within the IMU samples' time span."""
+    sources = [(name, frame["gps_time_s"].to_numpy(dtype=float)) for name, frame in (
+        (getattr(data.obs, "path", None) or "GNSS observations",
+         data.obs.table if data.obs is not None else None),
+        (getattr(data.fixes, "path", None) or "GNSS fixes",
+         data.fixes.table if data.fixes is not None else None)) if frame is not None]
+    inside = (epoch_times >= t[0] - EPOCH_TIME_TOL_S) & (epoch_times <= t[-1] + EPOCH_TIME_TOL_S)
+    if not sources or inside.any():
+        return
+    spans = "; ".join(f"{name} {np.min(g) - data.start_gps_time_s:.1f} to "
+                      f"{np.max(g) - data.start_gps_time_s:.1f} s" if g.size else f"{name} empty"
+                      for name, g in sources)
+    raise RailnavError(f"the IMU samples ({t[0]:.1f} to {t[-1]:.1f} s from the trip start, "
+                       f"GPS time {data.start_gps_time_s:.1f} s) and the GNSS data ({spans}) "
+                       "do not overlap: check the IMU's time_s and --start-gps-time-s")
 
 
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
