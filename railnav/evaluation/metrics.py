@@ -210,13 +210,15 @@ def _stats(x: Array) -> dict[str, float | None]:
     return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(np.max(np.abs(x)))}
 
 
-def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | None = None
-                     ) -> None:
+def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | None = None,
+                     track_end: bool = False) -> None:
     """Outages and the summary window must fall inside the trip ``[0, end_s]``.
 
     An outage or window that starts at or after the trip's end would change nothing and
     report nothing (issue 18: it was silently ignored): an error. One that starts inside
-    and ends after the end is cut there by the run: a warning says so.
+    and ends after the end is cut there by the run: a warning says so. When the trip
+    ended early at the track's end (`track_end`: the scenario's duration was not reached),
+    an outage after it is the scenario's, not a mistake: a warning.
 
     Parameters
     ----------
@@ -224,6 +226,8 @@ def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | 
         The trip's last time, s from its start.
     outages : sequence of (start_s, duration_s)
     window : (start_s, end_s), optional
+    track_end : bool
+        The trip ended at the track's end before its scenario's duration.
 
     Raises
     ------
@@ -235,9 +239,12 @@ def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | 
         spans.append(("window", float(window[0]), float(window[1])))
     for name, start, stop in spans:
         label = f"{name} {start:g}-{stop:g} s"
-        if start >= end_s:
+        if start >= end_s and name == "outage" and track_end:
+            log.warning("%s starts after the trip ends at the track's end (%g s): no effect",
+                        label, end_s)
+        elif start >= end_s:
             raise ConfigError(f"{label} starts after the trip ends at {end_s:g} s")
-        if stop > end_s:
+        elif stop > end_s:
             log.warning("%s ends after the trip (at %g s): only %g-%g s is covered", label,
                         end_s, start, end_s)
 
