@@ -27,9 +27,8 @@ from railnav.commands.run_flags import (
     time_window,
 )
 from railnav.commands.run_report import report
-from railnav.commands.support import progress_bar
+from railnav.commands.support import output_dir, progress_bar, written_line
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_SYSTEMS
-from railnav.errors import ConfigError
 from railnav.simulation.scenarios import get_scenario
 
 __all__ = ["register", "handler", "DEFAULT_OUT", "DEFAULT_SCENARIO", "time_window"]
@@ -58,13 +57,20 @@ def handler(args: argparse.Namespace) -> int:
     args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
                                   or not files_given(args) else "gnss-only")
     check_flags(args)                  # before the engine is imported: errors stay fast
+    inputs = [*args.tracks, args.imu, args.obs, args.nav, args.fixes, args.truth, args.baro,
+              args.base, *args.sp3]
+    with output_dir(args, inputs) as tmp:     # --out checked before any work
+        text, written = (_several_tracks(args, tmp) if len(args.tracks) > 1
+                         else _one_track(args, tmp))
+    print(text)
+    print(written_line(args.out, written, tmp))
+    return 0
+
+
+def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """Run one filter on one track and write it into `tmp`: (report, files written)."""
     from railnav.jobs.run import run_files, run_simulated, write_run
     from trackmodel.io import read_track
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"{out}: exists and is not a directory")
-    if len(args.tracks) > 1:
-        return _several_tracks(args, out)
     baro = None
     if args.baro is not None:
         from railnav.jobs.baro import read_baro_csv
@@ -91,11 +97,10 @@ def handler(args: argparse.Namespace) -> int:
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
-    write_run(outcome, out, plots=not args.no_plots)
+    written = write_run(outcome, tmp, plots=not args.no_plots)
     if baro_check is not None:
-        _write_baro(baro_check, out)
-    print(report(outcome, out))
-    return 0
+        written += _write_baro(baro_check, tmp)
+    return report(outcome, Path(args.out)), written
 
 
 def _baro_check(outcome, baro):
@@ -107,14 +112,16 @@ def _baro_check(outcome, baro):
     return check
 
 
-def _write_baro(check, out: Path) -> None:
+def _write_baro(check, out: Path) -> list[Path]:
     from trackmodel.files import atomic_write_csv
     atomic_write_csv(out / "baro.csv", check.to_frame())
     atomic_write_csv(out / "baro_gnss.csv", check.gnss_frame())
+    return [out / "baro.csv", out / "baro_gnss.csv"]
 
 
-def _several_tracks(args: argparse.Namespace, out: Path) -> int:
-    """``railnav run A.csv B.csv ...``: identify the track among candidates."""
+def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """``railnav run A.csv B.csv ...``: identify the track among candidates; written into
+    `tmp`: (report, files written)."""
     from railnav.jobs.tracks import (
         run_files_tracks,
         run_simulated_tracks,
@@ -145,7 +152,7 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
                                        config=navigator_config_for(scenario, systems=systems),
                                        seed=seed(args), systems=systems, bank=bank,
                                        window=args.window, progress=progress)
-    write_track_run(run, out, plots=not args.no_plots)
+    written = write_track_run(run, tmp, plots=not args.no_plots)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
-    print(report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
-    return 0
+    return (report(run.outcome, Path(args.out)) + f"\n  track probabilities at the end: {probs}",
+            written)

@@ -9,14 +9,16 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 from pathlib import Path
 
+from railnav.commands.run_flags import SCENARIO_HELP, scenario_for
 from railnav.commands.support import (
+    add_output_arguments,
     outage_window,
-    output_path,
+    output_dir,
     positive_float,
     progress_bar,
+    written_line,
 )
 from railnav.defaults import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
@@ -30,12 +32,14 @@ from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_di
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
-__all__ = ["register", "handler", "FLOAT_FORMAT"]
+__all__ = ["register", "handler", "FLOAT_FORMAT", "DEFAULT_OUT"]
 
 log = logging.getLogger(__name__)
 
 #: CSV float format: 17 significant digits round-trip every float64 exactly.
 FLOAT_FORMAT = "%.17g"
+#: Output directory when --out is not given.
+DEFAULT_OUT = "railnav-simulate"
 
 
 def register(subparsers) -> None:
@@ -46,8 +50,7 @@ def register(subparsers) -> None:
                     "truth.csv, imu.csv and scenario.json to DIR (+ GNSS observations, "
                     "and fixes with --fixes-format).")
     p.add_argument("track", metavar="TRACK", help="track file (.csv)")
-    p.add_argument("--scenario", default="paper2017", choices=sorted(SCENARIOS),
-                   help="named scenario (default: paper2017)")
+    p.add_argument("--scenario", default=None, choices=sorted(SCENARIOS), help=SCENARIO_HELP)
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
                    help="IMU error preset (default: the scenario's; 'perfect' = ideal IMU)")
     p.add_argument("--speed-mps", type=positive_float, default=None,
@@ -73,8 +76,7 @@ def register(subparsers) -> None:
                         "rtk_fixed=0.5,single=0.5 (default "
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", required=True, type=output_path, metavar="DIR",
-                   help="output directory")
+    add_output_arguments(p, DEFAULT_OUT)
     p.set_defaults(func=handler)
 
 
@@ -102,22 +104,29 @@ def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
-    from gnss_obs.sim_files import write_simulation
     from railnav.simulation.fixes import trip_fixes
     from railnav.simulation.trip import simulate_trip
     from trackmodel.io import read_track
     fix_config = _fix_config(args)
-    scenario = get_scenario(args.scenario).with_overrides(
+    scenario = get_scenario(scenario_for(args.track, args.scenario)).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
     track = read_track(args.track)
-    with progress_bar("simulate", enabled=not args.quiet) as progress:
-        trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
-                             systems=args.systems, progress=progress)
-    fixes = None if fix_config is None else trip_fixes(trip, fix_config)   # before any file
+    with output_dir(args, [args.track]) as tmp:
+        with progress_bar("simulate", enabled=not args.quiet) as progress:
+            trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
+                                 systems=args.systems, progress=progress)
+        fixes = None if fix_config is None else trip_fixes(trip, fix_config)
+        written, meta = _write(tmp, trip, scenario, args, fixes, fix_config)
+    print(f"{written_line(args.out, written, tmp)} ({meta['n_samples']} IMU samples, "
+          f"{meta['end_time_s']:.1f} s of the {scenario.name} scenario on {args.track})")
+    return 0
+
+
+def _write(out: Path, trip, scenario, args, fixes, fix_config) -> tuple[list[Path], dict]:
+    """Write a simulated trip's files into `out`: (paths written, scenario.json content)."""
+    from gnss_obs.sim_files import write_simulation
     result = trip.simulation
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
     atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
     atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
@@ -128,9 +137,6 @@ def handler(args: argparse.Namespace) -> int:
             "end_time_s": float(result.truth.time_s[-1])}
     if fix_config is not None:
         meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
+        written.append(out / meta["fixes"]["file"])
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    written = [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"]
-    print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
-          f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
-          f"{args.track})")
-    return 0
+    return [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"], meta

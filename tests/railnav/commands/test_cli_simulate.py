@@ -124,7 +124,10 @@ def test_overrides_outages_and_measured_imu(tmp_path, paper_file):
 
 def test_trip_ends_at_track_end(tmp_path, paper_file):
     out = tmp_path / "end"
-    assert main(["-q", "simulate", str(paper_file), "--speed-mps", "50", "--duration-s", "1000",
+    # --scenario paper2017 (constant speed: 25 km at 50 m/s = 500 s): simulate's default
+    # was paper2017, it now follows run's rule (the track's name, else curvy; issue 18)
+    assert main(["-q", "simulate", str(paper_file), "--scenario", "paper2017",
+                 "--speed-mps", "50", "--duration-s", "1000",
                  "--imu-grade", "perfect", "--out", str(out), "--no-gnss"]) == 0
     truth = pd.read_csv(out / "truth.csv")
     assert truth["s_m"].iloc[-1] <= 25000.0 and truth["time_s"].iloc[-1] == pytest.approx(500.0)
