@@ -32,7 +32,8 @@ command                                function(s)
                                        `trackmodel.network`)
 =====================================  ===========================================
 
-The names are imported on first use (PEP 562), so ``import railnav`` stays cheap.
+The names are imported on first use (PEP 562), so ``import railnav`` stays cheap;
+``railnav.__version__`` is the installed distribution's version (package metadata).
 """
 from __future__ import annotations
 
@@ -63,10 +64,18 @@ _EXPORTS = {
     "screen_fix_reference": "evaluation.reference",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted(_EXPORTS)   # and __version__, from the package metadata
 
 
 def __getattr__(name: str):
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            value = version("railnav")
+        except PackageNotFoundError:     # a source tree that was never installed
+            value = "0+unknown"
+        globals()[name] = value
+        return value
     try:
         module = _EXPORTS[name]
     except KeyError:
