@@ -29,6 +29,8 @@ USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, 
 
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
+#: Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
 
 
 class _VersionAction(argparse.Action):
@@ -112,9 +114,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     _configure_logging(args.verbose, args.quiet)
     try:
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:     # a message when the command says what was kept
+        print(f"error: {str(exc) or 'interrupted'}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except FilterDivergedError as exc:
         if args.debug:
             raise

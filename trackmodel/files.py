@@ -21,7 +21,7 @@ from typing import IO
 from trackmodel.errors import InputError
 
 __all__ = ["atomic_write", "atomic_write_text", "atomic_write_csv", "output_directory",
-           "check_output_file"]
+           "check_output_file", "directory_lock", "LOCK_FILE"]
 
 
 @contextlib.contextmanager
@@ -230,3 +230,43 @@ def check_output_file(path: str | os.PathLike, *, overwrite: bool = False) -> No
         os.unlink(probe)
     except OSError as exc:
         raise InputError(f"cannot write here: {exc.strerror or exc}", path=target) from None
+
+
+#: Lock file of `directory_lock`, inside the directory.
+LOCK_FILE = ".lock"
+
+
+@contextlib.contextmanager
+def directory_lock(path: str | os.PathLike, *, what: str = "process") -> Iterator[Path]:
+    """Hold an exclusive lock on the directory `path` (created) for the block.
+
+    The lock is an ``flock`` on ``path/.lock``, which holds the owner's pid for the
+    message; the system releases it when the holder exits, however it ends (SIGKILL
+    included), so a lock is never stale.
+
+    Raises
+    ------
+    InputError
+        Naming `path` when another process holds the lock (``what``: what it is, for the
+        message, e.g. "study").
+    """
+    import fcntl                       # POSIX; imported here so Windows can import us
+
+    directory = Path(path)
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        fd = os.open(directory / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError as exc:
+        raise InputError(f"cannot write here: {exc.strerror or exc}", path=directory) from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            owner = os.pread(fd, 32, 0).decode(errors="replace").strip() or "?"
+            raise InputError(f"another {what} (pid {owner}) is running on it: wait for it "
+                             "or give another folder", path=directory) from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+        yield directory
+    finally:
+        os.close(fd)                   # releases the lock
