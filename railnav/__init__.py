@@ -18,6 +18,11 @@ command                                function(s)
 ``railnav run TRACK --fixes F``        `run_files` (`gnss_obs.read_fixes`, `FixModelConfig`)
 ``railnav run ... --truth R``          `score_run` (`read_reference`, `reference_errors`,
                                        `screen_fix_reference`)
+``railnav run TRACK --smooth``         ``run_simulated``/``run_files(smooth=True)``
+                                       (`smooth_result`, `smooth_outcome`;
+                                       ``NavigatorConfig(rts_smoothing=True)``)
+``--out DIR [--overwrite]``            `trackmodel.files.output_directory` (every
+                                       command: written whole or not at all)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
                                        (`baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
@@ -62,6 +67,7 @@ _EXPORTS = {
     "score_run": "jobs.scoring", "read_reference": "evaluation.reference",
     "reference_errors": "evaluation.reference",
     "screen_fix_reference": "evaluation.reference",
+    "smooth_result": "navigation.smoothing", "smooth_outcome": "jobs.smoothed",
 }
 
 __all__ = sorted(_EXPORTS)   # and __version__, from the package metadata

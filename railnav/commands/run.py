@@ -86,7 +86,8 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
                                 imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
-                                window=args.window, progress=progress, **augmentation(args))
+                                window=args.window, smooth=args.smooth, progress=progress,
+                                **augmentation(args))
         else:
             scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
@@ -95,7 +96,8 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
             systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
-                                    systems=systems, window=args.window, progress=progress)
+                                    systems=systems, window=args.window, smooth=args.smooth,
+                                    progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
     written = write_run(outcome, tmp, plots=not args.no_plots)
     if baro_check is not None:

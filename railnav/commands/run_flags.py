@@ -32,7 +32,8 @@ from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.simulation.scenarios import SCENARIOS
 from strapdown.imu_errors import IMU_GRADES
 
-__all__ = ["add_run_arguments", "add_file_arguments", "check_flags", "time_window",
+__all__ = ["add_run_arguments", "add_file_arguments", "add_result_arguments", "check_flags",
+           "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
            "scenario_name", "scenario_for", "SCENARIO_HELP"]
@@ -107,7 +108,16 @@ def add_run_arguments(p) -> None:
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
+    add_result_arguments(p)
     add_output_arguments(p, DEFAULT_OUT)
+
+
+def add_result_arguments(p) -> None:
+    """What ``run`` adds to its outputs: the RTS-smoothed trajectory."""
+    p.add_argument("--smooth", action="store_true",
+                   help="also a forward-backward (Rauch-Tung-Striebel) pass over the run: "
+                        "smoothed.csv (+ smoothed_errors.csv with a truth) and summary.json "
+                        "'smoothed' (one track; keeps every filter step in memory)")
 
 
 def add_file_arguments(p) -> None:
@@ -173,6 +183,7 @@ def check_flags(args: argparse.Namespace) -> None:
         raise ConfigError("--base-position needs --base")
     if not several and args.crossing_rate_per_s is not None:
         raise ConfigError("--crossing-rate-per-s: only with several tracks")
+    _check_result_flags(args, several)
     if several and not kind.banks:
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
         raise ConfigError(f"several tracks run the {banked} filter, not --filter "
@@ -201,6 +212,13 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
     if args.truth_quality is not None and args.truth is None:
         raise ConfigError("--truth-quality: only with --truth (a fix file)")
     fix_sigmas(args)
+
+
+def _check_result_flags(args: argparse.Namespace, several: bool) -> None:
+    """--smooth against the inputs (part of `check_flags`)."""
+    if args.smooth and several:
+        raise ConfigError("--smooth works with one track (the track bank keeps no smoother "
+                          "data)")
 
 
 def measurement(systems: str | None):

@@ -149,20 +149,16 @@ def read_augmentation(args: argparse.Namespace, obs, nav, measurement):
     railnav.errors.ConfigError
         ``--base-position`` without ``--base``.
     """
-    from gnss_obs.dgps import DgpsConfig, augment
-    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.dgps import augment_files
     from gnss_obs.smoothing import SmoothingConfig
-    from gnss_obs.sp3 import read_sp3
 
     if args.base_position is not None and not args.base:
         raise ConfigError("--base-position needs --base")
-    dgps = DgpsConfig() if args.max_age_s is None else DgpsConfig(max_age_s=args.max_age_s)
-    return augment(
-        obs, nav, measurement, base_obs=read_rinex_obs(args.base) if args.base else None,
-        base_lat_lon_h=args.base_position, dgps=dgps,
+    return augment_files(
+        obs, nav, measurement, base_path=args.base or None,
+        base_lat_lon_h=args.base_position, max_age_s=args.max_age_s,
         smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
-                   if args.smooth_window_s else None),
-        sp3=[read_sp3(p) for p in args.sp3])
+                   if args.smooth_window_s else None), sp3_paths=args.sp3)
 
 
 def output_path(text: str) -> str:
