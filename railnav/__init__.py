@@ -21,6 +21,7 @@ command                                function(s)
 ``railnav run TRACK --smooth``         ``run_simulated``/``run_files(smooth=True)``
                                        (`smooth_result`, `smooth_outcome`;
                                        ``NavigatorConfig(rts_smoothing=True)``)
+``railnav run TRACK --export F,...``    + `write_exports` (GeoJSON, KML, GPX, NMEA)
 ``--out DIR [--overwrite]``            `trackmodel.files.output_directory` (every
                                        command: written whole or not at all)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
@@ -68,6 +69,7 @@ _EXPORTS = {
     "reference_errors": "evaluation.reference",
     "screen_fix_reference": "evaluation.reference",
     "smooth_result": "navigation.smoothing", "smooth_outcome": "jobs.smoothed",
+    "write_exports": "jobs.export",
 }
 
 __all__ = sorted(_EXPORTS)   # and __version__, from the package metadata

@@ -102,7 +102,20 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     written = write_run(outcome, tmp, plots=not args.no_plots)
     if baro_check is not None:
         written += _write_baro(baro_check, tmp)
-    return report(outcome, Path(args.out)), written
+    return report(outcome, Path(args.out)), written + _exports(args, outcome, tmp)
+
+
+def _exports(args: argparse.Namespace, outcome, tmp: Path) -> list[Path]:
+    """--export: the trajectory (and the smoothed one) in the formats asked for."""
+    if args.export is None:
+        return []
+    from railnav.jobs.export import parse_export_formats, write_exports
+    formats = parse_export_formats(args.export)
+    written = write_exports(outcome.result.estimates, tmp, formats)
+    if outcome.smoothed is not None:
+        written += write_exports(outcome.smoothed.result.estimates, tmp, formats,
+                                 name="smoothed")
+    return written
 
 
 def _baro_check(outcome, baro):
@@ -154,7 +167,8 @@ def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path
                                        config=navigator_config_for(scenario, systems=systems),
                                        seed=seed(args), systems=systems, bank=bank,
                                        window=args.window, progress=progress)
-    written = write_track_run(run, tmp, plots=not args.no_plots)
+    written = write_track_run(run, tmp, plots=not args.no_plots) + _exports(args, run.outcome,
+                                                                            tmp)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
     return (report(run.outcome, Path(args.out)) + f"\n  track probabilities at the end: {probs}",
             written)

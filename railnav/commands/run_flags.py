@@ -113,11 +113,15 @@ def add_run_arguments(p) -> None:
 
 
 def add_result_arguments(p) -> None:
-    """What ``run`` adds to its outputs: the RTS-smoothed trajectory."""
+    """What ``run`` adds to its outputs: the RTS-smoothed trajectory, exports."""
     p.add_argument("--smooth", action="store_true",
                    help="also a forward-backward (Rauch-Tung-Striebel) pass over the run: "
                         "smoothed.csv (+ smoothed_errors.csv with a truth) and summary.json "
                         "'smoothed' (one track; keeps every filter step in memory)")
+    p.add_argument("--export", metavar="FORMATS", default=None,
+                   help="also write the estimated trajectory with its σ (and any optional "
+                        "columns) as trajectory.FORMAT for each of geojson, kml, gpx, nmea "
+                        "(comma-separated; with --smooth also smoothed.FORMAT)")
 
 
 def add_file_arguments(p) -> None:
@@ -215,7 +219,10 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
 
 
 def _check_result_flags(args: argparse.Namespace, several: bool) -> None:
-    """--smooth against the inputs (part of `check_flags`)."""
+    """--smooth and --export against the inputs (part of `check_flags`)."""
+    if args.export is not None:
+        from railnav.jobs.export import parse_export_formats  # light: no engine
+        parse_export_formats(args.export)
     if args.smooth and several:
         raise ConfigError("--smooth works with one track (the track bank keeps no smoother "
                           "data)")
