@@ -85,8 +85,8 @@ def test_perfect_imu_matches_truth_csv_derivation(request, tmp_path, capsys, whi
     code = main(["-q", "simulate", str(track), "--scenario", scenario, "--imu-grade", "perfect",
                  "--duration-s", "600", "--seed", "3", "--out", str(out), "--no-gnss"])
     assert code == 0
-    truth = pd.read_csv(out / "truth.csv", float_precision="round_trip")
-    imu = pd.read_csv(out / "imu.csv", float_precision="round_trip")
+    truth = pd.read_csv(out / "truth.csv")
+    imu = pd.read_csv(out / "imu.csv")
     assert tuple(truth.columns) == TRUTH_COLUMNS and tuple(imu.columns) == IMU_COLUMNS
     f_ref, w_ref = derive_imu_from_truth(truth, earth)
     f = imu[list(IMU_COLUMNS[1:4])].to_numpy()[2:-2]
@@ -104,8 +104,8 @@ def test_overrides_outages_and_measured_imu(tmp_path, paper_file):
                  "10", "--duration-s", "20", "--outage", "5:2", "--outage", "10:1.5",
                  "--imu-grade", "mems", "--seed", "1", "--out", str(out)])
     assert code == 0
-    truth = pd.read_csv(out / "truth.csv", float_precision="round_trip")
-    imu = pd.read_csv(out / "imu.csv", float_precision="round_trip")
+    truth = pd.read_csv(out / "truth.csv")
+    imu = pd.read_csv(out / "imu.csv")
     assert len(truth) == 2001 and truth["time_s"].iloc[-1] == pytest.approx(20.0)
     np.testing.assert_allclose(truth["speed_mps"], 10.0)
     assert truth["s_m"].iloc[-1] == pytest.approx(200.0, abs=1e-9)
