@@ -33,7 +33,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from railnav.errors import ConfigError
 from railnav.studies.runs import RunSpec, run_one
 
-__all__ = ["execute", "Rows", "default_workers", "LOCAL_SCHEDULER", "CONNECT_TIMEOUT_S"]
+__all__ = ["execute", "Rows", "default_workers", "sigint_blocked", "LOCAL_SCHEDULER",
+           "CONNECT_TIMEOUT_S"]
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +113,7 @@ class _PoolRows(Rows):
         context = multiprocessing.get_context("spawn")
         self.pool = ProcessPoolExecutor(max_workers=min(workers, len(specs)),
                                         mp_context=context, initializer=_ignore_interrupts)
-        with _interrupts_ignored_by_children():         # workers start in submit
+        with sigint_blocked():         # workers start in submit
             self.futures = [self.pool.submit(run_one, spec) for spec in specs]
         self.taken: set = set()
         super().__init__(as_completed(self.futures))
@@ -152,10 +153,10 @@ def _worker_log_level() -> int:
 
 
 @contextlib.contextmanager
-def _interrupts_ignored_by_children() -> Iterator[None]:
-    """Processes started in the block never see Ctrl-C: SIGINT is blocked in this thread
-    meanwhile, and threads and processes started then inherit the blocked mask (kept
-    across exec). A Ctrl-C pressed meanwhile is delivered here when the block ends."""
+def sigint_blocked() -> Iterator[None]:
+    """Hold Ctrl-C off in the block (in the main thread; elsewhere a no-op): SIGINT is
+    blocked, and delivered when the block ends. Threads and processes started in the
+    block inherit the blocked mask (kept across exec): they never see Ctrl-C."""
     if not hasattr(signal, "pthread_sigmask") or \
             threading.current_thread() is not threading.main_thread():
         yield
@@ -211,7 +212,7 @@ def _dask_client(scheduler, workers: int):
     if isinstance(scheduler, Client):
         return scheduler, None, False
     if scheduler == LOCAL_SCHEDULER:
-        with _interrupts_ignored_by_children():
+        with sigint_blocked():
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=_worker_log_level())
         return Client(cluster), cluster, True

@@ -16,11 +16,8 @@ number of workers (up to ``runtime_s``). Summary plots are drawn by
 """
 from __future__ import annotations
 
-import contextlib
 import json
 import logging
-import signal
-import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,7 +26,7 @@ import pandas as pd
 
 from railnav.errors import ConfigError
 from railnav.studies.config import StudyConfig
-from railnav.studies.execution import execute
+from railnav.studies.execution import execute, sigint_blocked
 from railnav.studies.runs import STATUS_COLUMNS, expand_grid, metric_columns
 from railnav.studies.store import PartStore
 from trackmodel.files import atomic_write_text, directory_lock
@@ -170,22 +167,8 @@ def _execute(todo, store: PartStore, chunk_runs: int, *, done: int, total: int, 
                 buffer = []
             tick(done, total)
     finally:
-        with _interrupts_held():
+        with sigint_blocked():         # a second Ctrl-C waits until the rows are saved
             store.write(buffer + rows.stop())
-
-
-@contextlib.contextmanager
-def _interrupts_held():
-    """Ctrl-C pressed again while finished rows are saved waits until they are."""
-    if not hasattr(signal, "pthread_sigmask") or \
-            threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 class StudyInterrupted(KeyboardInterrupt):

@@ -27,7 +27,7 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from gnss_obs.sp3 import read_sp3
 from tests.conftest import GNSS_DATA
-from tests.support.fuzz import FUZZ, mutated, time_limit
+from tests.support.fuzz import FUZZ, mutated, read_fuzzed
 
 PEERS = GNSS_DATA / "peers"
 
@@ -92,19 +92,8 @@ FIX_GPX = b"""<?xml version="1.0" encoding="UTF-8"?>
 """
 
 
-def _read(data: bytes, reader, name: str = "input"):
-    """`reader` of `data` written to a file: its result, or None after a located
-    `GnssInputError` on one line; anything else fails the test."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / name
-        path.write_bytes(data)
-        with time_limit():
-            try:
-                return reader(path)
-            except GnssInputError as exc:
-                text = str(exc)
-                assert "\n" not in text and text.startswith(str(path)), text
-                return None
+def _read(data: bytes, reader):
+    return read_fuzzed(data, reader, (GnssInputError,), name="input")
 
 
 def test_originals_are_read():

@@ -17,12 +17,15 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import tempfile
 from collections.abc import Iterator
+from pathlib import Path
 
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
-__all__ = ["FUZZ", "CASE_LIMIT_S", "time_limit", "mutated", "csv_cells", "FuzzTimeout"]
+__all__ = ["FUZZ", "CASE_LIMIT_S", "time_limit", "mutated", "csv_cells", "FuzzTimeout",
+           "read_fuzzed"]
 
 CI_EXAMPLES = 40
 LOCAL_EXAMPLES = 1000
@@ -61,6 +64,22 @@ def time_limit(seconds: float = CASE_LIMIT_S) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         signal.signal(signal.SIGALRM, previous)
+
+
+def read_fuzzed(data: bytes, reader, errors: tuple[type, ...], *, name: str = "input.csv"):
+    """`reader` of `data` written to a file: its result, or None after one of `errors`
+    (one line, starting with the file's path); anything else fails the test, and so does
+    a case longer than `CASE_LIMIT_S`."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_bytes(data)
+        with time_limit():
+            try:
+                return reader(path)
+            except errors as exc:
+                text = str(exc)
+                assert "\n" not in text and text.startswith(str(path)), text
+                return None
 
 
 #: Bytes a damaged or hand-edited CSV/TOML file tends to contain.

@@ -20,33 +20,16 @@ import pytest
 
 import railnav.studies.runs
 from railnav.cli import main
-from railnav.studies.file import load_study_config
 from railnav.studies.store import PartStore
 from railnav.studies.study import StudyInterrupted, run_study
-from tests.conftest import DATA, REPO
+from tests.conftest import REPO
+from tests.railnav.studies.conftest import PART_WAIT_S, TINY
+from tests.railnav.studies.conftest import same_table as _same
 from trackmodel.files import directory_lock
 
-TINY = DATA / "studies" / "tiny.toml"
-TIMING = ["runtime_s"]
-PART_WAIT_S = 120.0
 #: Kills of the study: SIGINT and SIGKILL at seeded random times, on one --out.
 KILLS = 2
 KILL_SEED = 1818
-
-
-@pytest.fixture(scope="module")
-def config():
-    return load_study_config(TINY)
-
-
-@pytest.fixture(scope="module")
-def reference(config, tmp_path_factory):
-    return run_study(config, tmp_path_factory.mktemp("serial"), workers=1, plots=False)
-
-
-def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
-    pd.testing.assert_frame_equal(a.drop(columns=TIMING), b.drop(columns=TIMING),
-                                  check_exact=True)
 
 
 def _each_once(out, reference) -> None:
