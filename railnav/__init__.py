@@ -24,6 +24,15 @@ command                                function(s)
 ``railnav run TRACK --export F,...``    + `write_exports` (GeoJSON, KML, GPX, NMEA)
 ``--out DIR [--overwrite]``            `trackmodel.files.output_directory` (every
                                        command: written whole or not at all)
+``railnav run ... --imu-spec S``       `run_files(imu_spec=)` (`strapdown.read_imu_log`,
+                                       `strapdown.ImuSpec`), `read_sensor_files`
+``railnav run ... --odometer O``       `run_files(odometer_path=)` (`read_odometer_csv`,
+``--balises B --lever-arm F,L,U``      `OdometerConfig`, `read_balises_csv`,
+                                       `BaliseModelConfig`, `LeverArms`)
+``railnav simulate --odometer``        + `simulate_odometer` (`OdometerSimConfig`,
+``--balises --imu-jitter-s S``         `SlipEpisode`), `simulate_balises`
+                                       (`BaliseSimConfig`), `simulate_imu_log`
+                                       (`ImuLogSimConfig`)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
                                        (`baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
@@ -33,6 +42,11 @@ command                                function(s)
 ``railnav spp``                        `gnss_obs.solve_spp`, `spp_errors`,
                                        `accuracy_summary`
 ``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
+``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
+                                       `check_network` (`read_osm`, GeoJSON readers)
+``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
+                                       `Network.routes`; `plot_network_map`
+``railnav simulate --network --route`` `simulate_trip` on `trackmodel.route_track`
 (no command yet)                       `run_simulated_network`, `run_files_network`,
                                        `route_candidates` (track networks:
                                        `trackmodel.network`)
@@ -70,6 +84,15 @@ _EXPORTS = {
     "screen_fix_reference": "evaluation.reference",
     "smooth_result": "navigation.smoothing", "smooth_outcome": "jobs.smoothed",
     "write_exports": "jobs.export",
+    "plot_network_map": "evaluation.network_map",
+    "read_sensor_files": "jobs.sensor_files", "read_odometer_csv": "sensors.odometer",
+    "read_balises_csv": "sensors.balises", "OdometerConfig": "filters.odometer_epochs",
+    "BaliseModelConfig": "filters.balise_epochs", "LeverArms": "filters.track_frame",
+    "simulate_odometer": "simulation.track_sensors",
+    "OdometerSimConfig": "simulation.track_sensors", "SlipEpisode": "simulation.track_sensors",
+    "simulate_balises": "simulation.track_sensors",
+    "BaliseSimConfig": "simulation.track_sensors", "simulate_imu_log": "simulation.imu_logs",
+    "ImuLogSimConfig": "simulation.imu_logs",
 }
 
 __all__ = sorted(_EXPORTS)   # and __version__, from the package metadata

@@ -22,6 +22,7 @@ from railnav.commands.run_flags import (
     files_given,
     fix_model,
     fix_sigmas,
+    real_inputs,
     scenario_name,
     seed,
     time_window,
@@ -87,7 +88,7 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
                                 window=args.window, smooth=args.smooth, progress=progress,
-                                **augmentation(args))
+                                **augmentation(args), **real_inputs(args))
         else:
             scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,

@@ -18,7 +18,7 @@ import contextlib
 import os
 import signal
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from hypothesis import HealthCheck, settings
@@ -66,22 +66,6 @@ def time_limit(seconds: float = CASE_LIMIT_S) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
-def read_fuzzed(data: bytes, reader, errors: tuple[type, ...], *, name: str = "input.csv"):
-    """`reader` of `data` written to a file: its result, or None after one of `errors`
-    (one line, starting with the file's path); anything else fails the test, and so does
-    a case longer than `CASE_LIMIT_S`."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / name
-        path.write_bytes(data)
-        with time_limit():
-            try:
-                return reader(path)
-            except errors as exc:
-                text = str(exc)
-                assert "\n" not in text and text.startswith(str(path)), text
-                return None
-
-
 #: Bytes a damaged or hand-edited CSV/TOML file tends to contain.
 _NOISE = st.sampled_from([b",", b"\n", b"\r\n", b"#", b"\"", b"'", b" ", b"-", b".", b"e",
                           b"nan", b"inf", b"-inf", b"1e308", b"1e-320", b"0", b"9", b"=",
@@ -124,3 +108,19 @@ def csv_cells() -> st.SearchStrategy[str]:
                      st.sampled_from(["", " ", "nan", "NaN", "inf", "-", "1e", "abc",
                                       "0x10", "1,5", "\"1\"", "1e999", "True"]),
                      st.text(max_size=6))
+
+
+def read_fuzzed(data: bytes, reader: Callable, errors: tuple[type, ...], *,
+                name: str = "input.csv"):
+    """`reader` of `data` written to a file `name`: its result, or None after one of
+    `errors` (one line, starting with the file's path); anything else fails the test."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_bytes(data)
+        with time_limit():
+            try:
+                return reader(path)
+            except errors as exc:
+                text = str(exc)
+                assert "\n" not in text and text.startswith(str(path)), text
+                return None
