@@ -17,7 +17,14 @@ from railnav.commands.network_data import (
     register_data_commands,
     start_position,
 )
-from railnav.commands.support import nonnegative_int, positive_float, progress_bar
+from railnav.commands.support import (
+    add_output_arguments,
+    nonnegative_int,
+    output_dir,
+    positive_float,
+    progress_bar,
+    written_line,
+)
 from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError
 
@@ -99,8 +106,7 @@ def register(subparsers) -> None:
     run.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     run.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
     run.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
-    run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                     help=f"output directory (default {DEFAULT_OUT})")
+    add_output_arguments(run, DEFAULT_OUT)
     run.set_defaults(func=_run)
 
 
@@ -159,18 +165,21 @@ def _run(args: argparse.Namespace) -> int:
         raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "
                           "files there is none to shape")
     out = Path(args.out)
-    with progress_bar("filters", enabled=not args.quiet) as progress:
-        if files:
-            run = run_files_network(network, args.start, horizon_m=args.horizon_m,
-                                    imu_path=args.imu, obs_path=args.obs, nav_path=args.nav,
-                                    progress=progress)
-        else:
-            scenario = _scenario(network, args)
-            run = run_simulated_network(network, args.start, scenario,
-                                        true_route=args.true_route, horizon_m=args.horizon_m,
-                                        seed=args.seed, progress=progress)
-    write_track_run(run, out, plots=not args.no_plots)
+    with output_dir(args, [args.network, args.imu, args.obs, args.nav]) as tmp:
+        with progress_bar("filters", enabled=not args.quiet) as progress:
+            if files:
+                run = run_files_network(network, args.start, horizon_m=args.horizon_m,
+                                        imu_path=args.imu, obs_path=args.obs,
+                                        nav_path=args.nav, progress=progress)
+            else:
+                scenario = _scenario(network, args)
+                run = run_simulated_network(network, args.start, scenario,
+                                            true_route=args.true_route,
+                                            horizon_m=args.horizon_m, seed=args.seed,
+                                            progress=progress)
+        written = write_track_run(run, tmp, plots=not args.no_plots)
     final = run.outcome.summary["track_probabilities"]
     best = max(final, key=final.get)
     print(f"{len(final)} routes -> {out}/; most probable at the end ({final[best]:.4f}): {best}")
+    print(written_line(out, written, tmp))
     return 0
