@@ -18,7 +18,12 @@ On this machine, in one invocation (the load average is recorded before and afte
   line and its parallels every 4.5 m (`trackmodel.offset.offset_track`), 300 s of the
   ``curvy`` scenario on one of them; × real time = 300 s / wall;
 * ``streaming``: the 10-hour streamed trip of `bench_studies` in a subprocess, its peak
-  resident memory (``--no-streaming`` skips it: about 2 minutes on a quiet machine).
+  resident memory (``--no-streaming`` skips it: about 2 minutes on a quiet machine);
+* ``stages``: where a ``railnav run data/tracks/paper2017.csv`` goes, in a fresh
+  subprocess with a warm cache: importing what the command imports, simulating the trip,
+  the filter (`railnav.navigate`), the errors and summary, writing the CSVs, importing
+  matplotlib, drawing the plots (the same calls as `railnav.jobs.run`, timed one by one;
+  the best of ``--repeats`` processes for each stage).
 
 Writes ``benchmarks/results/speed.json``. Run from the repository root:
 ``python benchmarks/bench_speed.py`` (``--quick`` for a smoke run).
@@ -26,6 +31,7 @@ Writes ``benchmarks/results/speed.json``. Run from the repository root:
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import platform
@@ -40,10 +46,8 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
 sys.path[:0] = [str(REPO), str(HERE)]       # this checkout, then the sibling benchmarks
-import bench_ekf_engine  # noqa: E402  (the plain NumPy loop)
-import bench_navigator  # noqa: E402  (the 2017 trip, the filter timing)
-import bench_studies  # noqa: E402  (the 10-h streamed trip)
-import numpy as np  # noqa: E402
+# the sibling benchmarks (NumPy loop, filter timing, streamed trip) import the package: they
+# are imported in `main`, after `--stages-child` (a fresh process that times the imports)
 
 RESULTS = HERE / "results" / "speed.json"
 TRACK = REPO / "data" / "tracks" / "paper2017.csv"
@@ -136,6 +140,66 @@ def _bank(repeats: int) -> dict:
             "true_track_probability_at_end": float(final[true_index])}
 
 
+#: What ``railnav run`` (no plots) imports, at its top modules (the rest follows).
+_RUN_MODULES = ("railnav.commands.run", "railnav.jobs.run", "railnav.navigation.navigator",
+                "railnav.filters.constrained", "railnav.simulation.trip",
+                "railnav.simulation.truth", "gnss_obs.simulate", "gnss_obs.spp",
+                "railnav.evaluation.metrics", "trackmodel.csv_table", "trackmodel.track")
+
+
+def _stages_child() -> None:
+    """In a fresh process: each stage of ``railnav run paper2017.csv`` timed (JSON line)."""
+    import importlib
+    t = {}
+    start = time.perf_counter()
+    for name in _RUN_MODULES:       # the packages import their modules on first use
+        importlib.import_module(name)
+    from railnav.evaluation.metrics import error_series
+    from railnav.jobs.run import run_summary, truth_start, write_run
+    from railnav.navigation.navigator import navigate
+    from railnav.simulation.scenarios import get_scenario
+    from railnav.simulation.trip import navigator_config_for, simulate_trip
+    from trackmodel.io import read_track
+    t["imports_s"] = time.perf_counter() - start
+    mark = time.perf_counter()
+    scenario = get_scenario("paper2017")
+    config = navigator_config_for(scenario, filter="constrained", systems="G")
+    trip = simulate_trip(scenario, track=read_track(TRACK), seed=1, systems="G")
+    t["simulate_s"] = time.perf_counter() - mark
+    mark = time.perf_counter()
+    result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
+                      initial=functools.partial(truth_start, trip=trip, config=config))
+    t["filter_s"] = time.perf_counter() - mark
+    mark = time.perf_counter()
+    errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
+    summary = run_summary(result, trip.track, errors, None, scenario.outages, {})
+    t["errors_summary_s"] = time.perf_counter() - mark
+    from railnav.jobs.run import RunOutcome
+    outcome = RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+    with tempfile.TemporaryDirectory() as tmp:
+        mark = time.perf_counter()
+        write_run(outcome, tmp, plots=False)
+        t["write_csv_s"] = time.perf_counter() - mark
+        mark = time.perf_counter()
+        import matplotlib.figure  # noqa: F401
+        t["import_matplotlib_s"] = time.perf_counter() - mark
+        mark = time.perf_counter()
+        write_run(outcome, tmp, plots=True)
+        t["plots_s"] = time.perf_counter() - mark - t["write_csv_s"]
+    print(json.dumps(t))
+
+
+def _stages(repeats: int) -> dict:
+    """Best of `repeats` fresh processes for each stage (`_stages_child`)."""
+    runs = []
+    for _ in range(repeats):
+        done = subprocess.run([sys.executable, __file__, "--stages-child"], check=True,
+                              env=_env(), capture_output=True, text=True, cwd=REPO)
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    best = {key: min(r[key] for r in runs) for key in runs[0]}
+    return {"best_s": best, "runs": runs, "sum_of_best_s": sum(best.values())}
+
+
 def _meets(doc: dict) -> dict:
     e2e = doc["end_to_end"]
     meets = {
@@ -166,14 +230,23 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--quick", action="store_true",
                         help="1 repeat, 5 %% of the NumPy loop, no streaming (smoke run)")
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--stages-child", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.stages_child:
+        _stages_child()
+        return {}
+    import bench_ekf_engine  # the plain NumPy loop
+    import bench_navigator  # the 2017 trip, the filter timing
+    import bench_studies  # the 10-h streamed trip
+    import numpy as np
     if args.quick:
         args.repeats, args.numpy_fraction, args.no_streaming = 1, 0.05, True
     doc = {"machine": {"python": platform.python_version(),
                        "processor": platform.processor() or platform.machine(),
                        "cpus": os.cpu_count(), "load_average_before": list(os.getloadavg())},
            "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
-           "filter": bench_navigator._time_filter(args.repeats)}
+           "filter": bench_navigator._time_filter(args.repeats),
+           "stages": _stages(args.repeats)}
     samples, epochs = bench_ekf_engine._scenario(np.random.default_rng(7))
     doc["numpy_loop"] = bench_ekf_engine._time_numpy(samples, epochs, args.numpy_fraction)
     doc["numpy_loop"]["real_time_factor"] = TRIP_S / doc["numpy_loop"]["run_s"]
@@ -206,6 +279,8 @@ def _print(doc: dict) -> None:
     if doc["bank"]:
         print(f"bank of 8             {doc['bank']['best_s']:.2f} s = "
               f"{doc['bank']['real_time_factor']:.0f}x")
+    print("stages (best of runs) " + ", ".join(f"{k.removesuffix('_s')} {v:.2f}"
+                                                for k, v in doc["stages"]["best_s"].items()))
     if doc["streaming"]:
         print(f"10-h streamed trip    peak RSS {doc['streaming']['peak_rss_mb']:.0f} MB, "
               f"{doc['streaming']['wall_s']:.0f} s")
@@ -215,4 +290,6 @@ def _print(doc: dict) -> None:
 
 
 if __name__ == "__main__":
-    _print(main())
+    _doc = main()
+    if _doc:
+        _print(_doc)

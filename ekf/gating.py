@@ -116,8 +116,10 @@ class Gate:
         """
         if self.scope == "vector":
             return np.full(innov.size, self.passes(innov, S)[0])
-        ids, counts = np.unique(groups, return_counts=True)
-        if ids.size == innov.size:   # scalar rows: the same test, vectorized
+        increasing = groups.size < 2 or bool(np.all(groups[1:] > groups[:-1]))
+        if increasing and groups.size == innov.size or np.unique(groups).size == innov.size:
+            # scalar rows (distinct ids: increasing ones need no np.unique): the same test,
+            # vectorized
             var = np.diagonal(S)
             if self.kind == "trace":
                 return innov * innov <= self.trace_factor * var

@@ -81,7 +81,8 @@ _GPS_EPOCH_DOY = 6.0
 
 
 def look_angles(r_rx_e: npt.ArrayLike, r_sat_e: npt.ArrayLike, *,
-                earth: Ellipsoid = WGS84) -> tuple[Array, Array]:
+                earth: Ellipsoid = WGS84, geodetic: tuple | None = None
+                ) -> tuple[Array, Array]:
     """Elevation and azimuth of satellites seen from a receiver.
 
     Parameters
@@ -91,6 +92,9 @@ def look_angles(r_rx_e: npt.ArrayLike, r_sat_e: npt.ArrayLike, *,
     r_sat_e : array_like, shape (N, 3)
         Satellite positions, ECEF, m.
     earth : Ellipsoid
+    geodetic : (lat, lon), optional
+        The receiver's geodetic latitude and longitude, rad, when the caller has them
+        (``ecef_to_geodetic(r_rx_e, earth=earth)[:2]``; not computed again).
 
     Returns
     -------
@@ -100,7 +104,7 @@ def look_angles(r_rx_e: npt.ArrayLike, r_sat_e: npt.ArrayLike, *,
     """
     r_rx_e = np.asarray(r_rx_e, dtype=float)
     r_sat_e = np.asarray(r_sat_e, dtype=float)
-    lat, lon, _ = ecef_to_geodetic(r_rx_e, earth=earth)
+    lat, lon = ecef_to_geodetic(r_rx_e, earth=earth)[:2] if geodetic is None else geodetic
     los_e = r_sat_e - r_rx_e
     los_n = np.einsum("...ji,...j->...i", C_n_e(lat, lon), los_e)
     horizontal = np.hypot(los_n[..., 0], los_n[..., 1])
@@ -255,7 +259,8 @@ def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, 
     el_sc = np.asarray(elevation, dtype=float) / _SEMICIRCLE_RAD
     az = np.asarray(azimuth, dtype=float)
     psi = 0.0137 / (el_sc + 0.11) - 0.022
-    phi_i = np.clip(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC, _MAX_IPP_LAT_SC)
+    phi_i = np.minimum(np.maximum(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC),
+                       _MAX_IPP_LAT_SC)
     lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
     phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
     sow = np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)

@@ -304,7 +304,7 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     tropo = np.zeros(n)
     elevation = azimuth = np.full(n, np.nan)
     if known:
-        elevation, azimuth = look_angles(r_rx_e, sat_pos_e)
+        elevation, azimuth = look_angles(r_rx_e, sat_pos_e, geodetic=(lat, lon))
         if config.troposphere:
             tropo = troposphere_delay_m(elevation, lat, h, gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:
@@ -322,4 +322,4 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
         iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
         pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
         cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
-    return prepared.subset(np.isfinite(clock_m))
+    return prepared if np.isfinite(clock_m).all() else prepared.subset(np.isfinite(clock_m))

@@ -12,6 +12,7 @@ NumPy twin and a CasADi twin.
 """
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 import casadi as ca
@@ -134,7 +135,9 @@ def batch_call(fn: ca.Function, *args: npt.ArrayLike) -> tuple[np.ndarray, ...]:
     Returns
     -------
     tuple of ndarray, each shape (N, m_j)
-        One array per output, rows in the order of the input rows.
+        One array per output, rows in the order of the input rows (evaluated by CasADi's
+        map through a function buffer: the arrays are its memory, no ``casadi.DM``
+        conversion, which took 0.23 s for 100 000 rows of 18).
     """
     arrays = []
     n_rows = None
@@ -151,8 +154,36 @@ def batch_call(fn: ca.Function, *args: npt.ArrayLike) -> tuple[np.ndarray, ...]:
             n_rows = a.shape[0]
         arrays.append(a)
     n_rows = 1 if n_rows is None else n_rows
-    cols = [a.T if a.ndim == 2 else a[:, None] for a in arrays]
-    out = fn.map(n_rows)(*cols) if n_rows > 1 else fn(*cols)
-    if not isinstance(out, (list, tuple)):
-        out = [out]
-    return tuple(np.asarray(o, dtype=float).T.reshape(n_rows, -1) for o in out)
+    block = min(n_rows, _MAP_BLOCK)
+    padded = -(-n_rows // block) * block
+    # a (N, k) C-ordered array is the (k, N) column-major input of the map: each block of
+    # rows is a contiguous slice, and the outputs are written straight into (N, m) arrays
+    # (no casadi.DM in between); the last block is padded with copies of the last row
+    inputs = [np.ascontiguousarray(np.broadcast_to(a, (n_rows, a.shape[-1]))) for a in arrays]
+    inputs = [np.concatenate([a, np.repeat(a[-1:], padded - n_rows, axis=0)])
+              if padded > n_rows else a for a in inputs]
+    outputs = [np.empty((padded, fn.numel_out(j))) for j in range(fn.n_out())]
+    buffer, evaluate = _dense_map(fn, block).buffer()
+    for start in range(0, padded, block):
+        for i, a in enumerate(inputs):
+            buffer.set_arg(i, memoryview(a[start:start + block]))
+        for j, o in enumerate(outputs):
+            buffer.set_res(j, memoryview(o[start:start + block]))
+        evaluate()
+    return tuple(o[:n_rows] for o in outputs)
+
+
+#: Rows per evaluation of `batch_call` (building a CasADi map costs ~1 µs per column).
+_MAP_BLOCK = 2048
+
+
+@functools.lru_cache(maxsize=64)
+def _dense_map(fn: ca.Function, n_rows: int) -> ca.Function:
+    """``fn`` with dense outputs, mapped over `n_rows` columns (kept for repeated calls)."""
+    if all(fn.sparsity_out(j).is_dense() for j in range(fn.n_out())):
+        return fn.map(n_rows)
+    sym = ca.SX.sym if fn.is_a("SXFunction") else ca.MX.sym
+    ins = [sym(fn.name_in(i), fn.sparsity_in(i)) for i in range(fn.n_in())]
+    outs = fn.call(ins)
+    dense = ca.Function(f"{fn.name()}_dense", ins, [ca.densify(o) for o in outs])
+    return dense.map(n_rows)

@@ -232,7 +232,11 @@ def C_n_e(lat: npt.ArrayLike, lon: npt.ArrayLike) -> Array:
     C_n_e : ndarray, shape (..., 3, 3)
         ``v_e = C_n_e @ v_n``; columns are east, north, up in ECEF.
     """
-    lat, lon = np.broadcast_arrays(np.asarray(lat, dtype=float), np.asarray(lon, dtype=float))
+    lat, lon = np.asarray(lat, dtype=float), np.asarray(lon, dtype=float)
+    if lat.ndim == 0 and lon.ndim == 0:     # one point (every GNSS epoch): no stacking
+        sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+        return np.array([[-so, -sl * co, cl * co], [co, -sl * so, cl * so], [0.0, cl, sl]])
+    lat, lon = np.broadcast_arrays(lat, lon)
     sl, cl = np.sin(lat), np.cos(lat)
     so, co = np.sin(lon), np.cos(lon)
     zero = np.zeros_like(lat)

@@ -92,7 +92,8 @@ class EpochRowBuilder:
             sv.append(prepared.sv)
             kind.append(np.full(len(prepared), ROW_KINDS[0], dtype=object))
         if self.config.use_doppler and len(prepared):
-            dop = prepared.subset(np.isfinite(prepared.range_rate_mps))
+            finite = np.isfinite(prepared.range_rate_mps)
+            dop = prepared if finite.all() else prepared.subset(finite)
             if len(dop):
                 obs.append(Observation(self.rows.range_rate, dop.range_rate_mps[:, None],
                                        dop.sigma_rr_mps ** 2, range_rate_parameters(part, dop)))

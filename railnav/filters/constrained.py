@@ -151,7 +151,7 @@ class ConstrainedFilter:
         v = x_prev[i["v"]] + np.cumsum(accel * dt)
         v_mid = 0.5 * (np.concatenate([[x_prev[i["v"]]], v[:-1]]) + v)
         s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
-        return np.clip(s, 0.0, self.track.length_m)
+        return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
 
     def _gravity_near(self, s: float) -> float:
         """|g| (m/s²) at the track point nearest `s`, cached per kilometre of track."""

@@ -35,6 +35,14 @@ Rows are screened by their mode (`SCREEN_MODES`): ``channel`` as above; ``row``,
 test alone (GNSS fixes: a fix's error is no satellite's history); ``pass``, recorded and
 used. Rows of one group (a fix's rows) are used together: one failing rejects them all.
 
+**Evaluated once.** The screen evaluates every row at the prior (each `ekf.Observation`'s
+model: its compiled rows) and hands the used ones to the update as an
+`ekf.update.EvaluatedObservations`, which the update takes as they are. A new kind of row
+(odometer, balise, attitude, zero speed) needs nothing more than its `ekf.MeasurementModel`
+(scalar rows, variances ``R``) and its place in `railnav.filters.fix_rows.stack_epoch_rows`
+with a label, a kind and a screen mode: it is then evaluated, screened and updated on the
+same path as the GNSS rows.
+
 Each row gets a status, ``used``, ``rejected`` or ``excluded`` (the row on which a channel
 becomes excluded is marked ``excluded``), and its fault probability, written to
 ``innovations.csv`` (`railnav.navigation.result`). `RowScreen.last` keeps the latest epoch's
@@ -64,7 +72,7 @@ import pandas as pd
 from ekf.gating import chi2_threshold
 from ekf.outliers import common_offset, fault_probability, fault_threshold
 from ekf.series import EpochRows
-from ekf.update import Observation
+from ekf.update import EvaluatedObservations, Observation
 from railnav.errors import ConfigError
 from railnav.filters.fault_channels import Channel
 from railnav.filters.row_sets import (
@@ -245,8 +253,9 @@ class RowScreen:
         Returns
         -------
         list of ekf.Observation, or ekf.EpochRows
-            The used rows; an `ekf.EpochRows` with the clock-jump covariance when a jump
-            was declared.
+            The used rows (an `ekf.update.EvaluatedObservations`: evaluated at ``x``, so
+            the update does not evaluate them again); an `ekf.EpochRows` with the
+            clock-jump covariance when a jump was declared.
         """
         self._n_states = x.size
         nu, H, R = evaluate_rows(observations, x)
@@ -274,7 +283,8 @@ class RowScreen:
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
-        rows = subset_rows(observations, used)
+        rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
+                                     H=H[used], R=R[used], groups=np.arange(int(used.sum())))
         return EpochRows(rows, Q) if Q.any() else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array

@@ -98,7 +98,7 @@ def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: 
         vector about the linearization used, (m/s²)².
     """
     m = params.shape[0]
-    offsets = np.clip(sigma_s_m * _XI, -MAX_OFFSET_M, MAX_OFFSET_M)
+    offsets = np.minimum(np.maximum(sigma_s_m * _XI, -MAX_OFFSET_M), MAX_OFFSET_M)
     s_ref = params[:, 0]
     if _inside_one_loxodrome(grid.track, s_ref.min() + offsets[0], s_ref.max() + offsets[-1]):
         return params, np.zeros((m, 2))
@@ -126,7 +126,7 @@ def _nodes(grid, params: Array, offsets: Array) -> tuple[Array, Array]:
     """Curvature vectors (M, K, 3), 1/m, at the grid nodes nearest ``s_ref + offsets``, and
     the nodes' distances from ``s_ref`` (M, K), m."""
     m, s_ref = params.shape[0], params[:, 0]
-    s_q = np.clip(s_ref[:, None] + offsets[None, :], 0.0, grid.track.length_m)
+    s_q = np.minimum(np.maximum(s_ref[:, None] + offsets[None, :], 0.0), grid.track.length_m)
     at_q, _ = grid.parameters(s_q.ravel())
     at_q = at_q.reshape(m, offsets.size, -1)
     return at_q[:, :, _DU], at_q[:, :, 0] - s_ref[:, None]

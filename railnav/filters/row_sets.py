@@ -22,6 +22,8 @@ ROW_STATUSES = ("used", "rejected", "excluded")
 def group_status(status: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Rows of a group with a row not used are rejected (`RowScreen.screen`)."""
     out = status.copy()
+    if not np.any(groups >= 0):          # no group (GNSS rows only): nothing to tie
+        return out
     bad = np.unique(groups[(groups >= 0) & (status != ROW_STATUSES[0])])
     out[np.isin(groups, bad) & (status == ROW_STATUSES[0])] = ROW_STATUSES[1]
     return out

@@ -26,7 +26,7 @@ Array = npt.NDArray[np.float64]
 #: Grid spacing, m.
 GRID_STEP_M = 0.5
 #: Length of track sampled per window, m (re-sampled when the vehicle leaves it).
-GRID_WINDOW_M = 400.0
+GRID_WINDOW_M = 2000.0
 
 
 class TrackParameterGrid:
@@ -64,7 +64,7 @@ class TrackParameterGrid:
         s = np.asarray(s, dtype=float)
         if not (self._lo <= s.min() and s.max() <= self._hi):
             self._open(float(s.min()), float(s.max()))
-        j = np.clip(np.searchsorted(self._s, s), 1, self._s.size - 1)
+        j = np.minimum(np.maximum(np.searchsorted(self._s, s), 1), self._s.size - 1)
         return np.where(s - self._s[j - 1] <= self._s[j] - s, j - 1, j)
 
     def parameters(self, s: Array) -> tuple[Array, npt.NDArray[np.intp]]:

@@ -23,7 +23,6 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-from scipy.signal import lfilter
 
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
@@ -35,7 +34,7 @@ from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import gnss_sim_config_for
 from railnav.simulation.truth import Truth, ideal_imu, iter_truth
 from strapdown.imu import Imu
-from strapdown.imu_errors import ImuErrors, TriadErrors, imu_grade
+from strapdown.imu_errors import ImuErrors, TriadErrors, gauss_markov_recursion, imu_grade
 
 __all__ = ["ImuErrorStream", "TripSegment", "trip_segments", "concat_truth", "epoch_step"]
 
@@ -91,7 +90,7 @@ class ImuErrorStream:
         phi = math.exp(-self.dt / p.tau_s)
         gain = p.instability * math.sqrt(-math.expm1(-2.0 * self.dt / p.tau_s))
         drive = self.rng.standard_normal((len(true), 3))
-        drift = lfilter([gain], [1.0, -phi], drive, axis=0, zi=(phi * state["gm"])[None, :])[0]
+        drift = gauss_markov_recursion(drive, gain=gain, phi=phi, start=state["gm"])
         state["gm"] = drift[-1].copy()
         noise = p.noise_density / math.sqrt(self.dt) * self.rng.standard_normal(true.shape)
         return true @ state["matrix"].T + state["bias"] + drift + noise

@@ -62,6 +62,63 @@ def test_a_cache_hit_generates_no_code(tmp_path, monkeypatch):
         CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O1",)))
 
 
+@pytest.mark.skipif(not compiled.has_avx2(), reason="no AVX2 on this processor")
+def test_native_flags_change_no_bit(tmp_path, rng):
+    """`NATIVE_FLAGS` are for speed only: the same outputs, to the bit, as ``-O2`` alone
+    (a step with trigonometry, Cholesky solves and congruences, over random inputs)."""
+    model = attitude_speed_clock_toy("nativecheck")
+    step = build_step(model)
+    n_steps = 50
+    u = np.tile([0.1, 0.0, 9.81, 0.0, 0.0, 1e-3], (n_steps + 1, 1)) \
+        + 1e-2 * rng.normal(size=(n_steps + 1, 6))
+    d = StepData.of(model).assemble(u=u, p=np.zeros((n_steps, 0)),
+                                    z_c=1e-3 * rng.normal(size=(n_steps, 2)),
+                                    dt=np.full(n_steps, 0.01), q_c=np.full((n_steps, 6), 1e-8),
+                                    r_c=np.full((n_steps, 2), 1e-6))
+    x0 = np.concatenate([rng.normal(0, 0.1, 3), rng.normal(0, 1, 4)])
+    P0 = pack_sym(np.diag(rng.uniform(1e-6, 1.0, 7)))
+    native = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path),
+                                               flags=("-O2", *compiled.NATIVE_FLAGS)))
+    plain = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
+    assert len(list(tmp_path.glob("*.so"))) == 2
+    for a, b in zip(native.run(x0, P0, d), plain.run(x0, P0, d)):
+        assert np.all(np.isfinite(a)) and np.array_equal(a, b)
+
+
+@pytest.mark.skipif(not compiled.has_avx2(), reason="no AVX2 on this processor")
+def test_native_flags_change_no_bit_of_geodetic_rows(tmp_path, rng):
+    """The unconstrained filter's range-rate rows (where ``-march=native`` formed a
+    ``vfmaddsub`` on AVX-512 and changed the Jacobian's last bit): equal to ``-O2``."""
+    from ekf.compiled import CompiledRows
+    from ekf.model import _row_function
+    from railnav.config import NavigatorConfig
+    from railnav.filters.protocol import make_filter
+    from trackmodel.io import read_track
+    track = read_track(REPO / "data" / "tracks" / "paper2017.csv")
+    rows = make_filter(track, NavigatorConfig(filter="unconstrained"), None).rows.rows
+    x = np.zeros(rows.range_rate.n)
+    x[:9] = [0.1, 0.01, 0.02, 20.0, 1.0, 0.1, 0.7, 0.1, 100.0]
+    for model in (rows.pseudorange, rows.range_rate):
+        fun = _row_function(model.h)
+        p = np.column_stack([rng.normal(2e7, 5e6, (40, 3)),
+                             rng.normal(0, 1e3, (40, model.n_p - 3))])
+        native = CompiledRows(fun, CompileOptions(cache_dir=str(tmp_path),
+                                                  flags=("-O2", *compiled.NATIVE_FLAGS)))
+        plain = CompiledRows(fun, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
+        for a, b in zip(native.run(x, p), plain.run(x, p)):
+            assert np.array_equal(a, b)
+
+
+def test_native_flags_only_with_avx2_and_never_fma():
+    """The default flags are the portable ``-O2`` unless the processor has AVX2; no flag
+    may enable fused multiply-adds (other bits) or tune for the compiling machine."""
+    expected = ("-O2", *compiled.NATIVE_FLAGS) if compiled.has_avx2() else ("-O2",)
+    assert CompileOptions().flags == expected
+    assert not any(f.startswith(("-march", "-mfma", "-mavx512", "-ffast-math"))
+                   for f in compiled.NATIVE_FLAGS)
+    assert "-ffp-contract=off" in compiled.NATIVE_FLAGS
+
+
 def test_cache_directory_from_the_environment(tmp_path, monkeypatch):
     monkeypatch.setenv("RAILNAV_CACHE_DIR", str(tmp_path / "root"))
     assert CompileOptions().directory() == tmp_path / "root" / "ekf"

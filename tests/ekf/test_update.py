@@ -99,3 +99,42 @@ def test_discrete_update_stacks_observations_and_validates(rng):
         Observation(pos, z=np.ones((1, 2)), R=np.ones(3), p=np.zeros((1, 0)))
     with pytest.raises(FilterDivergedError):
         kalman_update(x0, -np.eye(2), np.ones(2), np.eye(2), np.zeros(2))
+
+
+def test_evaluated_observations_are_used_at_their_state_only(rng, monkeypatch):
+    """Rows stacked at the prior give the update of the observations themselves, to the
+    bit (same innovation, Jacobian, variances and row ids); at another state the
+    observations are evaluated again (reference: the plain list)."""
+    from ekf.update import EvaluatedObservations
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 3)
+    model = MeasurementModel.from_expression(x, p, ca.norm_2(x - p), "range")
+    sats = rng.normal(0, 100, (6, 3))
+    x0 = rng.normal(size=3)
+    A = rng.normal(size=(3, 3))
+    P0 = A @ A.T + np.eye(3)
+    obs = [Observation(model, z=np.linalg.norm(x0 - sats[:4], axis=1) + 0.3, R=np.full(4, 0.5),
+                       p=sats[:4]),
+           Observation(model, z=np.linalg.norm(x0 - sats[4:], axis=1) - 0.2, R=np.full(2, 2.0),
+                       p=sats[4:])]
+    z_pred = np.concatenate([model.evaluate(x0, o.p)[0] for o in obs])
+    H = np.vstack([model.evaluate(x0, o.p)[1] for o in obs])
+    stacked = EvaluatedObservations(obs, x=x0, innov=np.concatenate([o.z.reshape(-1) for o in obs])
+                                    - z_pred, H=H, R=np.concatenate([o.R for o in obs]),
+                                    groups=np.arange(6))
+    assert list(stacked) == obs
+    gate = Gate(0.9999, scope="rows")
+    for x_at in (x0, x0 + 0.5):
+        a = discrete_update(x_at, P0, stacked, gate=gate)
+        b = discrete_update(x_at, P0, obs, gate=gate)
+        assert all(np.array_equal(u, v) for u, v in zip(a[:2], b[:2]))
+        assert np.array_equal(a[2].innov, b[2].innov) and a[2].nis == b[2].nis
+    with pytest.raises(ModelError):
+        EvaluatedObservations(obs, x=x0, innov=np.zeros(5), H=H, R=np.ones(6),
+                              groups=np.arange(6))
+
+    def no_evaluation(*args):
+        raise AssertionError("evaluated again")
+    monkeypatch.setattr(MeasurementModel, "evaluate", no_evaluation)
+    discrete_update(x0.copy(), P0, stacked)            # the same state: not evaluated
+    with pytest.raises(AssertionError, match="evaluated again"):
+        discrete_update(x0 + 0.5, P0, stacked)

@@ -132,3 +132,11 @@ def test_huber_keeps_excluding_gross_faults(rng):
     fde = fault_detection_exclusion(H, z, np.ones(10), p_false_alarm=1e-3, max_exclusions=2,
                                     huber_k=1.5)
     assert not fde.kept[2] and fde.n_excluded == 1
+
+
+def test_chi2_threshold_is_scipy_stats_to_the_bit():
+    """Reference: ``scipy.stats.chi2.isf`` (the threshold no longer imports scipy.stats)."""
+    from scipy import stats
+    for dof in (1, 2, 5, 11, 30):
+        for p_fa in (1e-7, 1e-5, 1e-3, 0.05):
+            assert chi2_threshold(dof, p_fa) == float(stats.chi2.isf(p_fa, dof))

@@ -26,3 +26,17 @@ def test_shape_errors():
         batch_call(fn, np.zeros((4, 3)), np.zeros(2))
     with pytest.raises(ValueError, match="rows"):
         batch_call(fn, np.zeros((4, 2)), np.zeros((5, 2)))
+
+
+def test_many_rows_and_sparse_outputs(rng):
+    """Several evaluation blocks, the last one partial, and an output with structural
+    zeros: each row equals the function evaluated on that row alone (the CasADi VM)."""
+    from strapdown.backend import _MAP_BLOCK
+    a = ca.SX.sym("a", 3)
+    fn = ca.Function("f", [a], [ca.jacobian(ca.vertcat(ca.sin(a[0]) * a[1], a[2] ** 2), a)])
+    assert not fn.sparsity_out(0).is_dense()
+    A = rng.normal(size=(2 * _MAP_BLOCK + 5, 3))
+    (out,) = batch_call(fn, A)
+    assert out.shape == (A.shape[0], 6)
+    for i in (0, _MAP_BLOCK - 1, _MAP_BLOCK, A.shape[0] - 1):
+        assert np.array_equal(out[i], np.asarray(ca.densify(fn(A[i]))).T.reshape(-1))

@@ -117,3 +117,14 @@ def test_draw_order_of_a_noise_only_grade():
         expected.append(density * math.sqrt(RATE_HZ) * rng.standard_normal((n, 3)))
     np.testing.assert_array_equal(out.f_b, expected[0])
     np.testing.assert_array_equal(out.omega_ib_b, expected[1])
+
+
+def test_gauss_markov_recursion_is_lfilter_to_the_bit(rng):
+    """Reference: ``scipy.signal.lfilter`` of the same first-order filter and state."""
+    from scipy.signal import lfilter
+    from strapdown.imu_errors import gauss_markov_recursion
+    drive = rng.standard_normal((5000, 3))
+    phi, gain = math.exp(-0.01 / 300.0), 3e-4
+    start = 1e-3 * rng.standard_normal(3)
+    ref = lfilter([gain], [1.0, -phi], drive, axis=0, zi=(phi * start)[None, :])[0]
+    assert np.array_equal(gauss_markov_recursion(drive, gain=gain, phi=phi, start=start), ref)
