@@ -155,6 +155,8 @@ def _moved(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
     lay = filt.layout
     out = np.array(x, dtype=float)
     out[lay.index("s")] = s_new
+    if "yaw" not in lay.names:              # no attitude (the GNSS-only filter)
+        return out
     turn = (float(p_tgt.azimuth) - float(p_src.azimuth) + math.pi) % (2 * math.pi) - math.pi
     out[lay.index("yaw")] += turn
     out[lay.index("pitch")] += float(p_tgt.elevation) - float(p_src.elevation)

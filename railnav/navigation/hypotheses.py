@@ -1,0 +1,266 @@
+r"""The hypotheses of the network navigator and what happens to them between cycles.
+
+A `Hypothesis` is "the train is on netelement ``element``, in ``orientation``, with the
+along-track state ``x`` (covariance ``P``)": one track-constrained filter of the run's
+kind on that element's oriented track (`railnav.navigation.net_tracks`), with a log
+weight. After each cycle of the lockstep (`railnav.navigation.network_navigator`):
+
+* **Branching** (`branch`): a hypothesis whose ``s`` has left its element (past its end,
+  or before its start when the train backs) is replaced by one child per navigable
+  passage there, the state carried across the joint (`carried_state`: ``s`` continued along
+  the route, the attitude turned by the joint's kink so that it stays relative to the
+  track), the weight split evenly among the children (the prior of a switch's ways:
+  equal, the evidence decides). A hypothesis at a buffer stop has no passage: it runs on
+  (its filter extrapolates the track) until `railnav.navigation.loop.beyond_track` says
+  the vehicle has left the track, and then dies.
+* **Merging** (`merge_coinciding`, GPB1, the seed's "pulsating" filter): hypotheses on one
+  element and orientation whose ``(s, v)`` differ by less than
+  `NetworkNavConfig.merge_mahalanobis` in the metric of their summed covariances are one
+  Gaussian, moment-matched (`ekf.bank.merge_gaussians`); the heavier one's filter and
+  history are kept. Two routes that join, and components of a Gaussian sum along ``s``
+  that the data brought together, merge so.
+* **Pruning** (`prune`): hypotheses whose probability falls below
+  `NetworkNavConfig.prune_probability` are dropped, then the lightest beyond
+  `NetworkNavConfig.max_hypotheses`. The probability thrown away is recorded per cycle
+  (`NetworkResult.pruned_probability`): it bounds what the limits cost. A dropped
+  hypothesis never comes back (the static bank's flaw, a weight floored at
+  ``log(tiny)`` and revived by one cycle, cannot occur: weights are kept in log space,
+  `ekf.bank.log_predict`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from itertools import count
+
+import numpy as np
+import numpy.typing as npt
+from ekf.bank import logsumexp, merge_gaussians
+from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
+from railnav.errors import ConfigError
+from railnav.navigation.net_tracks import OrientedTracks
+
+__all__ = ["NetworkNavConfig", "Hypothesis", "branch", "merge_coinciding", "prune",
+           "carried_state", "normalized_weights"]
+
+Array = npt.NDArray[np.float64]
+
+_IDS = count()
+
+
+@dataclass(frozen=True)
+class NetworkNavConfig:
+    """The multiple-hypothesis part of a network run (module docstring).
+
+    Parameters
+    ----------
+    max_hypotheses : int
+        Most live hypotheses after a cycle (>= 1).
+    prune_probability : float
+        Hypotheses below this probability are dropped, in [0, 1).
+    merge_mahalanobis : float
+        Hypotheses on one element and orientation closer than this in ``(s, v)`` (in σ of
+        their summed covariances) are merged, >= 0 (0: never).
+    crossing_rate_per_s : float
+        ε >= 0: the rate at which the train leaves its track for a track abreast (a
+        crossover the map lacks, or the map's own error), 1/s
+        (`railnav.navigation.network_weights`).
+    crossing_radius_m : float
+        Hypotheses whose positions are within this horizontally (and that travel the same
+        way) are abreast: the Markov prior moves probability between them, m > 0.
+    min_mixing_weight : float
+        IMM mixing weights below this are skipped, in [0, 1).
+    start_radius_m : float
+        A start without a known netelement takes every netelement within this of the
+        first fix, m > 0.
+    continuous_evidence : bool
+        Count the accelerometer pseudo-observation's likelihood in the weights (the
+        curvature a switch's branch or a wrong ``s`` puts on it is the evidence inertial
+        filters have before GNSS tells the branches apart).
+    hypotheses_every_s : float
+        ``hypotheses.csv`` keeps the live hypotheses of one cycle per this interval, s > 0.
+    """
+
+    max_hypotheses: int = 16
+    prune_probability: float = 1e-7
+    merge_mahalanobis: float = 1.0
+    crossing_rate_per_s: float = DEFAULT_CROSSING_RATE_PER_S
+    crossing_radius_m: float = 10.0
+    min_mixing_weight: float = 1e-6
+    start_radius_m: float = 30.0
+    continuous_evidence: bool = True
+    hypotheses_every_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.max_hypotheses, int) and self.max_hypotheses >= 1):
+            raise ConfigError(f"max_hypotheses must be an integer >= 1, got "
+                              f"{self.max_hypotheses!r}")
+        checks = {"prune_probability": lambda v: 0.0 <= v < 1.0,
+                  "merge_mahalanobis": lambda v: v >= 0.0,
+                  "crossing_rate_per_s": lambda v: v >= 0.0,
+                  "crossing_radius_m": lambda v: v > 0.0,
+                  "min_mixing_weight": lambda v: 0.0 <= v < 1.0,
+                  "start_radius_m": lambda v: v > 0.0,
+                  "hypotheses_every_s": lambda v: v > 0.0}
+        for name, ok in checks.items():
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and ok(value)):
+                raise ConfigError(f"{name}: invalid value {value!r}")
+
+
+@dataclass(eq=False)
+class Hypothesis:
+    """One hypothesis (module docstring).
+
+    Attributes
+    ----------
+    element : str
+    orientation : int
+        +1: on the element's own track; -1: on its reversal.
+    x : ndarray, shape (n,)
+        Filter state on the oriented track (posterior after the latest cycle).
+    P : ndarray, shape (n, n)
+    log_weight : float
+        Unnormalized log probability.
+    filt : railnav.filters.protocol.Filter
+        The hypothesis's own filter object (rows, fault screen with its channel memory).
+    path : tuple of (str, int, float)
+        ``(element, orientation, entry time s)`` of every element it went through, the
+        current last (inherited from its ancestors).
+    id, parent : int
+        Unique id, and the id it branched, split or was started from (-1: a start).
+    """
+
+    element: str
+    orientation: int
+    x: Array
+    P: Array
+    log_weight: float
+    filt: object
+    path: tuple = ()
+    parent: int = -1
+    id: int = field(default_factory=lambda: next(_IDS))
+
+    def index(self, name: str) -> int:
+        """Position of state `name` in the filter's layout."""
+        return self.filt.layout.index(name)
+
+    @property
+    def s_m(self) -> float:
+        """``s`` on the oriented track, m."""
+        return float(self.x[self.index("s")])
+
+
+def normalized_weights(hyps) -> Array:
+    """Probabilities of the hypotheses (their weights normalized), shape (K,)."""
+    log_w = np.array([h.log_weight for h in hyps], dtype=float)
+    if log_w.size == 0:
+        return log_w
+    return np.exp(log_w - logsumexp(log_w))
+
+
+def carried_state(filt, x: Array, s_new: float, source_track, s_source: float,
+                  target_track, s_target: float) -> Array:
+    """``x`` moved to ``s = s_new`` on another track: with attitude states, yaw and pitch
+    turned by the change of the tracks' azimuth and elevation between ``source_track`` at
+    ``s_source`` and ``target_track`` at ``s_target`` (the attitude stays relative to the
+    track, as `railnav.navigation.bank.convert_state` keeps it)."""
+    out = np.array(x, dtype=float)
+    names = filt.layout.names
+    out[filt.layout.index("s")] = s_new
+    if "yaw" not in names:
+        return out
+    a = source_track.at(min(max(s_source, 0.0), source_track.length_m))
+    b = target_track.at(min(max(s_target, 0.0), target_track.length_m))
+    turn = (float(b.azimuth) - float(a.azimuth) + math.pi) % (2 * math.pi) - math.pi
+    out[filt.layout.index("yaw")] += turn
+    out[filt.layout.index("pitch")] += float(b.elevation) - float(a.elevation)
+    return out
+
+
+def branch(hyp: Hypothesis, tracks: OrientedTracks, make_child, time_s: float
+           ) -> list[Hypothesis] | None:
+    """The children of a hypothesis that has left its element (module docstring), or None
+    while it has not (or at a buffer stop).
+
+    Parameters
+    ----------
+    hyp : Hypothesis
+    tracks : OrientedTracks
+    make_child : callable(parent, element, orientation) -> filter object
+        The child's filter on the element's oriented track (its fault screen's channel
+        memory carried from the parent's).
+    time_s : float
+        Time of the crossing (the cycle's end), s.
+    """
+    s = hyp.s_m
+    passages = tracks.leaving(hyp.element, hyp.orientation, s)
+    if not passages:
+        return None
+    source = tracks.track(hyp.element, hyp.orientation)
+    joint_s = source.length_m if s > 0.0 else 0.0
+    log_share = -math.log(len(passages))
+    children = []
+    for p in passages:
+        target = tracks.track(p.element, p.orientation)
+        filt = make_child(hyp, p.element, p.orientation)
+        x = carried_state(filt, hyp.x, p.s_m, source, joint_s, target,
+                          0.0 if s > 0.0 else target.length_m)
+        children.append(Hypothesis(p.element, p.orientation, x, hyp.P.copy(),
+                                   hyp.log_weight + log_share, filt,
+                                   hyp.path + ((p.element, p.orientation, time_s),),
+                                   parent=hyp.id))
+    return children
+
+
+def _sv_block(hyp: Hypothesis) -> tuple[Array, Array]:
+    idx = [hyp.index("s"), hyp.index("v")]
+    return hyp.x[idx], hyp.P[np.ix_(idx, idx)]
+
+
+def _coincide(a: Hypothesis, b: Hypothesis, threshold: float) -> bool:
+    xa, Pa = _sv_block(a)
+    xb, Pb = _sv_block(b)
+    d = xa - xb
+    return float(d @ np.linalg.solve(Pa + Pb, d)) < threshold ** 2
+
+
+def merge_coinciding(hyps: list[Hypothesis], threshold: float) -> tuple[list[Hypothesis], int]:
+    """Hypotheses with coinciding states merged (module docstring); the merged list and
+    how many merges were made."""
+    if threshold <= 0.0 or len(hyps) < 2:
+        return hyps, 0
+    order = sorted(hyps, key=lambda h: -h.log_weight)
+    groups: list[list[Hypothesis]] = []
+    for h in order:
+        for g in groups:
+            head = g[0]
+            if (head.element, head.orientation) == (h.element, h.orientation) and \
+                    head.x.shape == h.x.shape and _coincide(head, h, threshold):
+                g.append(h)
+                break
+        else:
+            groups.append([h])
+    out, merges = [], 0
+    for g in groups:
+        if len(g) > 1:
+            log_w = np.array([h.log_weight for h in g])
+            total = float(logsumexp(log_w))
+            x, P = merge_gaussians(np.exp(log_w - total), np.array([h.x for h in g]),
+                                   np.array([h.P for h in g]))
+            g[0].x, g[0].P, g[0].log_weight = x, P, total
+            merges += len(g) - 1
+        out.append(g[0])
+    return out, merges
+
+
+def prune(hyps: list[Hypothesis], config: NetworkNavConfig) -> tuple[list[Hypothesis], float]:
+    """Hypotheses below the probability limit dropped, then the lightest beyond the count
+    limit; the kept ones (heaviest first) and the probability dropped."""
+    if not hyps:
+        return hyps, 0.0
+    w = normalized_weights(hyps)
+    order = np.argsort(-w, kind="stable")
+    keep = [int(k) for k in order if w[k] >= config.prune_probability]
+    keep = keep[:config.max_hypotheses] or [int(order[0])]
+    return [hyps[k] for k in keep], float(1.0 - w[keep].sum())

@@ -1,0 +1,233 @@
+r"""The multiple-hypothesis navigator on a track network: which netelement, where on it.
+
+`navigate_network` follows a train through a network (`trackmodel.network.Network`)
+with a changing set of hypotheses (`railnav.navigation.hypotheses.Hypothesis`): each is
+"on netelement E in orientation o, with this along-track state", one track-constrained
+filter of the run's kind (constrained INS/GNSS, GNSS-only, fix-only) on E's oriented
+track (`railnav.navigation.net_tracks`). They start where the first fix or single-point
+solution is (`railnav.navigation.network_start`) and are stepped in lockstep, cycle by
+cycle: a cycle ends at each measurement epoch, or after `railnav.navigation.loop.MAX_CHUNK_S`
+without one. After each cycle:
+
+1. every hypothesis's filter has propagated and taken the epoch's rows
+   (`railnav.navigation.hypothesis_step.EngineStepper`);
+2. the weights take the cycle's evidence on a common basis and the Markov prior of
+   leaving the track for one abreast; abreast filters restart from their IMM mixture
+   (`railnav.navigation.network_weights`);
+3. hypotheses that have left their element branch into its navigable successors, those
+   that coincide merge, the improbable ones are pruned and the count is capped
+   (`railnav.navigation.hypotheses`); a hypothesis at a buffer stop whose vehicle has
+   left the track (`railnav.navigation.loop.beyond_track`) dies;
+4. the cycle is recorded (`railnav.navigation.network_result.NetworkRecorder`).
+
+Hypotheses live on netelements, not on whole routes: two ways through a switch share the
+geometry of everything before it exactly (the per-route refits of `railnav.jobs.network`'s
+first version differed there by up to 0.15 m and leaked evidence before the switch).
+
+If every hypothesis dies (all beyond buffer stops), a run on fixes starts again from the
+next fix near the network (`start_hypotheses` after that time) and says so in
+`NetworkResult.restarts`; a run on GNSS observations stops with an error.
+
+Time: ``time_s`` is seconds from the trip start.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from railnav.config import NavigatorConfig, SensorData
+from railnav.errors import ConfigError
+from railnav.filters.fault_detection import RowScreen
+from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.navigation.hypotheses import (
+    NetworkNavConfig,
+    branch,
+    merge_coinciding,
+    normalized_weights,
+    prune,
+)
+from railnav.navigation.hypothesis_step import EngineStepper
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, MAX_CHUNK_S, beyond_track
+from railnav.navigation.navigator import trip_samples
+from railnav.navigation.net_tracks import OrientedTracks
+from railnav.navigation.network_result import NetworkRecorder, NetworkResult
+from railnav.navigation.network_start import NetworkStart, start_hypotheses
+from railnav.navigation.network_weights import (
+    abreast,
+    crossing_matrix,
+    cycle_evidence,
+    hypothesis_points,
+    mix_states,
+    reweight,
+)
+
+__all__ = ["navigate_network", "FilterFactory", "cycle_ends"]
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[int, int], None]
+
+
+class FilterFactory:
+    """Filter objects of the run's kind on oriented netelements.
+
+    Each hypothesis gets its own (its fault screen keeps per-channel memory); a child
+    inherits its parent's channels (`child`). `template` is one shared object per oriented
+    track for outputs (its ``estimates``), never stepped.
+    """
+
+    def __init__(self, tracks: OrientedTracks, config: NavigatorConfig, trip) -> None:
+        self.tracks, self.config, self.trip = tracks, config, trip
+        self._templates: dict[tuple[str, int], object] = {}
+
+    def __call__(self, element: str, orientation: int):
+        trip = self.trip
+        return make_filter(self.tracks.track(element, orientation), self.config, trip.gnss,
+                           fixes=trip.fixes,
+                           schedule=trip.schedule if trip.fixes is not None else None)
+
+    def child(self, parent, element: str, orientation: int):
+        """A filter for `parent`'s child on ``(element, orientation)``."""
+        filt = self(element, orientation)
+        screen = getattr(parent.filt, "screen", None)
+        if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
+                                                        RowScreen):
+            filt.screen = parent_screen_copy(screen)
+        return filt
+
+    def template(self, element: str, orientation: int):
+        key = (element, orientation)
+        if key not in self._templates:
+            self._templates[key] = self(element, orientation)
+        return self._templates[key]
+
+
+def parent_screen_copy(screen: RowScreen) -> RowScreen:
+    """A fault screen with `screen`'s channel states and no records."""
+    import copy
+    out = RowScreen(screen.config, screen.clock_index)
+    out._channels = copy.deepcopy(screen._channels)
+    out._n_states = screen._n_states
+    return out
+
+
+def cycle_ends(n_samples: int, epoch_samples: np.ndarray, max_len: int) -> list[int]:
+    """Sample indices where cycles end: every epoch sample, and within longer gaps every
+    `max_len` samples; the last sample always."""
+    ends = set(int(k) for k in epoch_samples if 0 < k < n_samples)
+    marks = sorted(ends | {n_samples - 1})
+    out, prev = [], 0
+    for m in marks:
+        while m - prev > max_len:
+            prev += max_len
+            out.append(prev)
+        out.append(m)
+        prev = m
+    return out
+
+
+def _check_inputs(config: NavigatorConfig, data: SensorData) -> None:
+    kind = filter_kind(config.filter)
+    if not (kind.banks or (kind.fixes and data.fixes is not None)):
+        raise ConfigError(f"a network run needs a filter that screens its rows "
+                          f"({', '.join(k for k in FILTER_KINDS if filter_kind(k).banks)}, "
+                          f"or any filter with fixes), not {config.filter!r}")
+
+
+def navigate_network(network, data: SensorData, config: NavigatorConfig = NavigatorConfig(),
+                     *, nav: NetworkNavConfig = NetworkNavConfig(),
+                     start: NetworkStart | None = None, outages=(), initial=None,
+                     progress: Progress | None = None) -> NetworkResult:
+    """Navigate on a network with hypotheses that branch, merge and die (module docstring).
+
+    Parameters
+    ----------
+    network : trackmodel.network.Network
+    data : SensorData
+    config : NavigatorConfig
+    nav : NetworkNavConfig
+    start : NetworkStart, optional
+        A known start netelement (default: every netelement near the first fix).
+    outages : sequence of (start_s, duration_s)
+    initial : callable(filter object, element, orientation) -> InitialState or None, optional
+        Each start candidate's own initial state (simulations).
+    progress : callable(done, total), optional
+        Cycles done of all.
+
+    Returns
+    -------
+    NetworkResult
+    """
+    started = time.perf_counter()
+    _check_inputs(config, data)
+    trip = trip_samples(data, config, outages=outages)
+    tracks = OrientedTracks(network)
+    factory = FilterFactory(tracks, config, trip)
+    t0, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
+                                start=start, initial=initial)
+    t, u, epoch_idx = trip.from_time(t0)
+    at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
+    epoch_of = dict(zip(at_sample.tolist(), epoch_idx.tolist()))
+    dt = float(np.median(np.diff(t)))
+    ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
+    stepper = EngineStepper(config, t, u)
+    recorder = NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s)
+    a = 0
+    if 0 in epoch_of:       # the start epoch is used, as `railnav.navigate` uses it
+        ends = [0] + ends
+    for c, b in enumerate(ends):
+        if b < a:                                   # before a restart's first epoch
+            continue
+        outcome = stepper.step(hyps, a, b, epoch_of.get(b))
+        hyps = _after_cycle(hyps, outcome, tracks, factory, nav, float(t[b]),
+                            float(t[b] - t[a]), recorder)
+        a = b
+        if not hyps:                                # every hypothesis left the network
+            log.warning("every hypothesis left the network at t=%.1f s: starting again "
+                        "from the next fix near it", t[b])
+            t_new, hyps = start_hypotheses(network, tracks, factory, trip, data, config,
+                                           nav, start=None, after_s=float(t[b]))
+            recorder.restarts.append(float(t[b]))
+            a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
+            hyps = _restart_cycle(stepper, hyps, a, epoch_of, tracks, factory, nav, t,
+                                  recorder)
+        if progress is not None:
+            progress(c + 1, len(ends))
+    return recorder.result(network, config, nav, hyps, outages=outages,
+                           runtime_s=time.perf_counter() - started)
+
+
+def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float,
+                 recorder) -> list:
+    """Steps 2–4 of the module docstring."""
+    log_lik, rows = cycle_evidence(outcome, continuous=nav.continuous_evidence)
+    r_e, u_e = hypothesis_points(hyps, tracks)
+    neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
+    transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
+    reweight(hyps, log_lik, transition)
+    mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight)
+    recorder.epoch(time_s, hyps, outcome)
+    out = []
+    for h in hyps:
+        children = branch(h, tracks, factory.child, time_s)
+        if children is not None:
+            out.extend(children)
+        elif beyond_track(h.filt, h.x, h.P, time_s) is None:
+            out.append(h)
+        else:
+            log.debug("hypothesis %d left %s at its buffer stop", h.id, h.element)
+    out, merges = merge_coinciding(out, nav.merge_mahalanobis)
+    out, dropped = prune(out, nav)
+    if out:
+        recorder.cycle(time_s, out, evidence_rows=rows, merges=merges, pruned=dropped)
+    return out
+
+
+def _restart_cycle(stepper, hyps, a: int, epoch_of, tracks, factory, nav, t, recorder
+                   ) -> list:
+    """The restart's first epoch, used as a start's is."""
+    outcome = stepper.step(hyps, a, a, epoch_of.get(a))
+    return _after_cycle(hyps, outcome, tracks, factory, nav, float(t[a]), 0.0, recorder)

@@ -1,0 +1,167 @@
+"""Where a network run starts: its first hypotheses.
+
+* **Known netelement** (`NetworkStart`, ``railnav run --network N --start E[:OFFSET_M]``):
+  hypotheses on that element only; at the given offset from its first coordinate, else
+  where the start fix projects on it.
+* **Unknown** (no start): every netelement within `NetworkNavConfig.start_radius_m` of the
+  start fix (`trackmodel.network.Network.project`). The start fix is the first position
+  fix with a netelement that near (a fix far off every track, a wrong flag or a jump, is
+  never a start), or without fixes the first single-point GNSS solution
+  (`railnav.navigation.initialization.first_fix`).
+
+Directions: a filter with attitude states (the inertial filters) knows which way the
+vehicle faces, so each element gets one hypothesis per orientation; the GNSS-only filter's
+speed is signed, so one hypothesis per element covers both ways (its direction of travel
+is the sign of ``v``). Each hypothesis starts from the fix projected on its own track
+(`Filter.initial_from_fix`; from fixes, `railnav.navigation.fix_start.initial_at_fix`,
+whose speed comes from the next fix that agrees with that track), with equal weights.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from railnav.errors import ConfigError, RailnavError
+from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
+from railnav.navigation.hypotheses import Hypothesis
+from railnav.navigation.initialization import InitialState, first_fix
+from trackmodel.earth import ecef_to_geodetic
+
+__all__ = ["NetworkStart", "start_hypotheses", "orientations_of"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class NetworkStart:
+    """A known start: the netelement, optionally the offset from its first coordinate (m)
+    and the direction of travel on it (+1 towards its last coordinate, -1 back; None:
+    either)."""
+
+    element: str
+    offset_m: float | None = None
+    direction: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.direction not in (None, 1, -1):
+            raise ConfigError(f"start direction must be +1, -1 or None, got {self.direction!r}")
+
+
+def orientations_of(filt, direction: int | None) -> tuple[int, ...]:
+    """The orientations a start on one element needs (module docstring)."""
+    if "yaw" not in filt.layout.names:
+        return (1,)
+    return (1, -1) if direction is None else (direction,)
+
+
+def _start_fix_index(network, fixes, radius_m: float, element: str | None,
+                     after_s: float | None) -> int:
+    """The first fix (after `after_s`) with a netelement (`element`, if given) within
+    `radius_m`."""
+    first = 0 if after_s is None else int(np.searchsorted(fixes.time_s, after_s,
+                                                          side="right"))
+    n = min(len(fixes) - first, MAX_INITIAL_FIXES)
+    if n <= 0:
+        raise RailnavError(f"no fix after t={after_s:.1f} s to start again from")
+    part = slice(first, first + n)
+    near = network.project(fixes.lat[part], fixes.lon[part], radius_m=radius_m)
+    if element is not None:
+        near = near[near["element"] == element]
+    if len(near) == 0:
+        where = "a netelement" if element is None else f"netelement {element}"
+        raise ConfigError(f"none of the first {n} fixes is within {radius_m:g} m of "
+                          f"{where}: are the fixes on this network?")
+    return first + int(near["point"].min())
+
+
+def _candidates(network, lat: float, lon: float, radius_m: float,
+                start: NetworkStart | None) -> list[str]:
+    if start is not None:
+        return [start.element]
+    near = network.project(np.array([lat]), np.array([lon]), radius_m=radius_m)
+    if len(near) == 0:
+        raise ConfigError(f"the start fix is not within {radius_m:g} m of a netelement: "
+                          "is it on this network?")
+    return list(dict.fromkeys(near["element"]))
+
+
+def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
+                     start: NetworkStart | None = None, initial=None,
+                     after_s: float | None = None) -> tuple[float, list[Hypothesis]]:
+    """The start time (s from the trip start) and the first hypotheses (module docstring).
+
+    Parameters
+    ----------
+    network : trackmodel.network.Network
+    tracks : railnav.navigation.net_tracks.OrientedTracks
+    factory : callable(element, orientation) -> filter object
+    trip : railnav.navigation.navigator.TripSamples
+    data : railnav.SensorData
+    config : railnav.NavigatorConfig
+    nav : railnav.navigation.hypotheses.NetworkNavConfig
+    start : NetworkStart, optional
+    initial : callable(filter object, element, orientation) -> InitialState or None, optional
+        A start of its own for each candidate (simulations: the truth brought onto it);
+        None for a candidate leaves it out.
+    after_s : float, optional
+        Start from the first fix after this time (a restart, s from the trip start; with
+        fixes only).
+
+    Raises
+    ------
+    ConfigError
+        A start netelement not in the network; no fix near the network.
+    """
+    if start is not None and start.element not in network.elements:
+        raise ConfigError(f"start netelement {start.element!r} is not in the network")
+    if trip.fixes is not None and len(trip.fixes):
+        k = _start_fix_index(network, trip.fixes, nav.start_radius_m,
+                             None if start is None or start.offset_m is not None
+                             else start.element, after_s)
+        lat, lon = float(trip.fixes.lat[k]), float(trip.fixes.lon[k])
+
+        def begin(filt):
+            return initial_at_fix(filt, trip.fixes, k, config)
+    elif after_s is not None:
+        raise RailnavError(f"every hypothesis left the network at t={after_s:.1f} s (a "
+                           "restart needs position fixes)")
+    elif trip.gnss is not None:
+        fix = first_fix(data, config)
+        lat, lon, _ = ecef_to_geodetic(fix.r_e)
+
+        def begin(filt):
+            return InitialState(fix.time_s, *filt.initial_from_fix(fix))
+    else:
+        raise RailnavError("a network run needs GNSS observations or fixes to start from")
+    hyps, time_s = [], None
+    for element in _candidates(network, float(lat), float(lon), nav.start_radius_m, start):
+        probe = factory(element, 1)
+        for orientation in orientations_of(probe, None if start is None else start.direction):
+            filt = probe if orientation == 1 else factory(element, orientation)
+            init = begin(filt) if initial is None else initial(filt, element, orientation)
+            if init is None:
+                continue
+            if start is not None and start.offset_m is not None:
+                init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
+            time_s = init.time_s if time_s is None else time_s
+            hyps.append(Hypothesis(element, orientation, np.array(init.x0, dtype=float),
+                                   np.array(init.P0, dtype=float), 0.0, filt,
+                                   ((element, orientation, float(init.time_s)),)))
+    if not hyps:
+        raise RailnavError("no start hypothesis")
+    log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),
+             ", ".join(sorted({h.element for h in hyps})))
+    return float(time_s), hyps
+
+
+def _at_offset(init: InitialState, filt, tracks, element: str, orientation: int,
+               offset_m: float) -> InitialState:
+    length = tracks.length_m(element)
+    if not 0.0 <= offset_m <= length:
+        raise ConfigError(f"start offset {offset_m:g} m is not on netelement {element} "
+                          f"(length {length:.1f} m)")
+    x0 = np.array(init.x0, dtype=float)
+    x0[filt.layout.index("s")] = tracks.s_of_offset(element, orientation, offset_m)
+    return replace(init, x0=x0)

@@ -1,0 +1,156 @@
+r"""The weights of the network navigator's hypotheses: evidence, Markov prior, mixing.
+
+After each cycle:
+
+1. **Evidence on a common basis.** The epoch's GNSS rows and fix rows are scored for
+   every hypothesis over one set of rows, those that some hypothesis's fault screen used
+   (`railnav.navigation.bank.common_log_likelihoods`, the track bank's rule carried over:
+   a row that the hypothesis on the wrong track rejects because the wrong geometry biases
+   it is evidence against that track; a row every filter refuses is no evidence). The
+   continuous measurement (the inertial filters' accelerometer pseudo-observation) is the
+   same for all hypotheses, so its log-likelihood over the cycle is added as it is
+   (`NetworkNavConfig.continuous_evidence`): a branch's curvature, or a wrong ``s`` in a
+   curvy stretch, shows there first.
+2. **Markov prior for leaving the track model.** A train may be on a track abreast of the
+   one a hypothesis says (a crossover the map lacks, a map error): each hypothesis gives
+   ``1 − e^{−εΔt}`` of its probability to the hypotheses *abreast* of it, alike
+   (`abreast`: positions within `NetworkNavConfig.crossing_radius_m`, travelling the
+   same way, on another element), and keeps the rest: ``μ_j ∝ L_j Σ_i Π_ij μ_i``
+   computed in log space (`ekf.bank.log_predict`, no floor under a weight). Hypotheses
+   with nothing abreast keep their probability (a switch's branches that have parted,
+   Gaussian-sum components along one element).
+3. **IMM restarts** (`mix_states`): each hypothesis restarts from the mixture of the
+   abreast estimates brought onto its own track (`railnav.navigation.bank.convert_state`),
+   weighted ``μ_{i|j} = Π_ij μ_i / c_j`` (`ekf.bank.imm_starts`), so that the filter on an
+   unlikely parallel track follows the likely one instead of drifting on its own wrong
+   geometry, ready if the train does cross.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.bank import imm_starts, log_predict
+from railnav.navigation.bank import common_log_likelihoods, convert_state, evidence_rows
+from trackmodel.earth import C_n_e
+
+__all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
+           "reweight", "mix_states", "converted"]
+
+Array = npt.NDArray[np.float64]
+
+
+def cycle_evidence(outcome, *, continuous: bool) -> tuple[Array, int]:
+    """Each hypothesis's log-likelihood of the cycle (module docstring, 1) and the number
+    of rows the evidence used.
+
+    Parameters
+    ----------
+    outcome : railnav.navigation.hypothesis_step.CycleOutcome
+    continuous : bool
+        Add the continuous measurement's log-likelihood.
+    """
+    log_lik = np.array(outcome.continuous_log_lik, dtype=float) if continuous else \
+        np.zeros(len(outcome.continuous_log_lik))
+    rows = 0
+    if outcome.screens:
+        log_lik = log_lik + common_log_likelihoods(outcome.screens)
+        rows = len(evidence_rows(outcome.screens))
+    return log_lik, rows
+
+
+def hypothesis_points(hyps, tracks) -> tuple[Array, Array]:
+    """ECEF position (m) and ECEF unit tangent of the oriented track at each hypothesis's
+    ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis)."""
+    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
+    if len(hyps) < 2:                       # nothing to be abreast of
+        return r, u
+    for k, h in enumerate(hyps):
+        track = tracks.track(h.element, h.orientation)
+        p = track.at(min(max(h.s_m, 0.0), track.length_m))
+        r[k] = p.r_e
+        u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
+    return r, u
+
+
+def _signed_speed(filt) -> bool:
+    """Whether a filter's travel direction is its speed's sign (no attitude states)."""
+    return "yaw" not in filt.layout.names
+
+
+def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[int]]:
+    """For each hypothesis, the others abreast of it (module docstring, 2): on another
+    element or orientation, within `radius_m` (3-D distance of the track points), with
+    tangents pointing the same way (either way for filters whose speed is signed)."""
+    K = len(hyps)
+    out: list[list[int]] = [[] for _ in range(K)]
+    if K < 2:
+        return out
+    d = np.linalg.norm(r_e[:, None, :] - r_e[None, :, :], axis=2)
+    same_way = (tangent_e @ tangent_e.T > 0.0) | _signed_speed(hyps[0].filt)
+    for i in range(K):
+        for j in range(K):
+            if i != j and d[i, j] <= radius_m and same_way[i, j] and \
+                    (hyps[i].element, hyps[i].orientation) != (hyps[j].element,
+                                                              hyps[j].orientation):
+                out[i].append(j)
+    return out
+
+
+def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
+    """``Π[i, j]``: hypothesis i keeps ``e^{−εΔt}`` and gives the rest to its abreast
+    hypotheses alike (none abreast: it keeps all); rows sum to 1."""
+    K = len(neighbours)
+    Pi = np.eye(K)
+    leave = -math.expm1(-rate_per_s * max(dt_s, 0.0))
+    if leave == 0.0:
+        return Pi
+    for i, nb in enumerate(neighbours):
+        if nb:
+            Pi[i, i] = 1.0 - leave
+            Pi[i, nb] = leave / len(nb)
+    return Pi
+
+
+def reweight(hyps, log_lik: Array, transition: Array) -> None:
+    """``log w_j ← log Σ_i Π_ij w_i + log L_j`` for every hypothesis, in place."""
+    log_w = np.array([h.log_weight for h in hyps], dtype=float)
+    log_w = log_predict(log_w, transition) + log_lik
+    top = float(np.max(log_w)) if np.isfinite(log_w).any() else 0.0
+    for h, lw in zip(hyps, log_w - top):                  # kept near 0: no overflow
+        h.log_weight = float(lw)
+
+
+def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
+    """IMM restarts of the hypotheses that have something abreast (module docstring, 3)."""
+    K = len(hyps)
+    if K < 2 or np.allclose(transition, np.eye(K)):
+        return
+
+    def convert(i: int, j: int, x: Array, P: Array):
+        return converted(hyps[i].filt, hyps[j].filt, x, P)
+
+    x0, P0 = imm_starts(mu, transition, [h.x for h in hyps], [h.P for h in hyps],
+                        convert=convert, min_weight=min_weight)
+    for h, x, P in zip(hyps, x0, P0):
+        h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+
+
+def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
+    """`railnav.navigation.bank.convert_state`, and for filters whose speed is signed
+    also between tracks that run opposite ways there: ``s`` from the projection, ``v``
+    (and its covariances) negated."""
+    lay = source.layout
+    s_src = min(max(float(x[lay.index("s")]), 0.0), source.track.length_m)
+    p_src = source.track.at(s_src)
+    s_tgt = float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
+    p_tgt = target.track.at(s_tgt)
+    if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0 or not _signed_speed(source):
+        return convert_state(source, target, x, P)
+    flip = np.ones(x.size)
+    flip[lay.index("v")] = -1.0
+    out = x * flip
+    out[lay.index("s")] = s_tgt + (float(x[lay.index("s")]) - s_src) * -1.0
+    return out, P * np.outer(flip, flip)
