@@ -11,7 +11,12 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from railnav.commands.support import nonnegative_int, positive_float, progress_bar
+from railnav.commands.support import (
+    nonnegative_int,
+    positive_float,
+    positive_int,
+    progress_bar,
+)
 from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError
 
@@ -83,10 +88,14 @@ def register(subparsers) -> None:
     _add_start(r)
     r.set_defaults(func=_routes)
     run = sub.add_parser("run", help="which route did the train take",
-                         description="One constrained filter per route ahead of the start "
-                                     "(a static bank): on a simulated trip along route "
-                                     "--true-route, or on sensor files (--imu, --obs "
-                                     "--nav). Writes what 'railnav run A.csv B.csv' writes.")
+                         description="The network navigator from a known start "
+                                     "(hypotheses that branch at every switch, merge and "
+                                     "are pruned): on a trip simulated along route "
+                                     "--true-route (of 'network routes'), or on sensor "
+                                     "files (--imu, --obs --nav). Writes what 'railnav run "
+                                     "--network' writes: estimates.csv with the netelement "
+                                     "columns, hypotheses.csv, route.csv, summary.json "
+                                     "'route', network.png.")
     _add_start(run)
     run.add_argument("--true-route", type=nonnegative_int, default=0, metavar="N",
                      help="simulated trip: the route it takes, 0 = the first listed "
@@ -101,6 +110,8 @@ def register(subparsers) -> None:
     run.add_argument("--imu", metavar="IMU.csv", help="IMU samples (sensor files)")
     run.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     run.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
+    run.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
+                     help="most live hypotheses (default 16)")
     run.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                      help=f"output directory (default {DEFAULT_OUT})")
@@ -155,8 +166,16 @@ def _routes(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from railnav.jobs.network import run_files_network, run_simulated_network
-    from railnav.jobs.tracks import write_track_run
+    """``network run``: the network navigator (`railnav.commands.network_run`) from a known
+    start, on a trip simulated along route --true-route or on sensor files."""
+    from railnav.commands.network_run import nav_config, network_report
+    from railnav.jobs.network import (
+        route_candidates,
+        run_files_network,
+        run_simulated_network,
+        write_network_run,
+    )
+    from railnav.navigation.network_start import NetworkStart
     from trackmodel.network_io import read_network
     network = read_network(args.network)
     files = args.imu is not None or args.obs is not None
@@ -164,18 +183,22 @@ def _run(args: argparse.Namespace) -> int:
         raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "
                           "files there is none to shape")
     out = Path(args.out)
-    with progress_bar("filters", enabled=not args.quiet) as progress:
+    start = NetworkStart(args.start.element, args.start.s_m, args.start.direction)
+    with progress_bar("network", enabled=not args.quiet) as progress:
         if files:
-            run = run_files_network(network, args.start, horizon_m=args.horizon_m,
-                                    imu_path=args.imu, obs_path=args.obs, nav_path=args.nav,
+            run = run_files_network(network, imu_path=args.imu, obs_path=args.obs,
+                                    nav_path=args.nav, start=start, nav=nav_config(args),
                                     progress=progress)
         else:
-            scenario = _scenario(network, args)
-            run = run_simulated_network(network, args.start, scenario,
-                                        true_route=args.true_route, horizon_m=args.horizon_m,
-                                        seed=args.seed, progress=progress)
-    write_track_run(run, out, plots=not args.no_plots)
-    final = run.outcome.summary["track_probabilities"]
-    best = max(final, key=final.get)
-    print(f"{len(final)} routes -> {out}/; most probable at the end ({final[best]:.4f}): {best}")
+            names, routes, start_s = route_candidates(network, args.start,
+                                                      horizon_m=args.horizon_m)
+            if not 0 <= args.true_route < len(routes):
+                raise ConfigError(f"--true-route {args.true_route}: only {len(routes)} "
+                                  "route(s) ahead of the start")
+            scenario = replace(_scenario(network, args), start_s=start_s)
+            run = run_simulated_network(network, routes[args.true_route].legs, scenario,
+                                        seed=args.seed, nav=nav_config(args),
+                                        known_start=True, progress=progress)
+    write_network_run(run, out, plots=not args.no_plots)
+    print(network_report(run, out))
     return 0

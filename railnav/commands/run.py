@@ -63,6 +63,8 @@ def handler(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
+    if args.network is not None:
+        return _network(args, out)
     if len(args.tracks) > 1:
         return _several_tracks(args, out)
     baro = None
@@ -148,4 +150,15 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
     write_track_run(run, out, plots=not args.no_plots)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
     print(report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
+    return 0
+
+
+def _network(args: argparse.Namespace, out: Path) -> int:
+    """``railnav run --network NETWORK ...`` (`railnav.commands.network_run`)."""
+    from railnav.commands.network_run import network_report, run_network
+    from railnav.jobs.network import write_network_run
+    with progress_bar("network", enabled=not args.quiet) as progress:
+        run = run_network(args, out, progress=progress)
+    write_network_run(run, out, plots=not args.no_plots)
+    print(network_report(run, out))
     return 0

@@ -31,7 +31,9 @@ from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.simulation.scenarios import SCENARIOS
 from strapdown.imu_errors import IMU_GRADES
 
-__all__ = ["add_run_arguments", "add_file_arguments", "check_flags", "time_window",
+__all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "parse_start",
+           "check_flags",
+           "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
            "scenario_name"]
@@ -61,8 +63,9 @@ def time_window(text: str) -> tuple[float, float]:
 
 def add_run_arguments(p) -> None:
     """Every argument of ``run`` (`register` builds the parser around them)."""
-    p.add_argument("tracks", metavar="TRACK", nargs="+",
-                   help="track file(s) (.csv); several: candidate tracks named by file stem")
+    p.add_argument("tracks", metavar="TRACK", nargs="*",
+                   help="track file(s) (.csv); several: candidate tracks named by file stem "
+                        "(none with --network)")
     p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
@@ -104,9 +107,75 @@ def add_run_arguments(p) -> None:
                         "checked against the calibrated baro (baro.csv, baro_gnss.csv, "
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
+    add_network_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
+
+
+def add_network_arguments(p) -> None:
+    """The flags of a run on a track network (`railnav.commands.network_run`)."""
+    p.add_argument("--network", metavar="NETWORK", default=None,
+                   help="a track network (a folder of railnav network build, or GeoJSON "
+                        "netelements + netrelations) instead of TRACK: follow the train "
+                        "through it with hypotheses that branch at switches (sensor files "
+                        "only); writes hypotheses.csv, route.csv, network.png, and "
+                        "estimates.csv gains netelement, netelement_offset_m, direction, "
+                        "netelement_probability")
+    p.add_argument("--start", metavar="NETELEMENT[:OFFSET_M[:+|-]]", default=None,
+                   help="--network: the netelement the train starts on, optionally the "
+                        "offset from its first coordinate (m) and the direction (+ towards "
+                        "its last coordinate); default: every netelement near the first fix")
+    p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
+                   help="--network: most live hypotheses (default 16)")
+
+
+def _check_network_flags(args: argparse.Namespace) -> None:
+    """The network flags against the others (part of `check_flags`)."""
+    if args.network is None:
+        mine = [flag for flag, value in (("--start", args.start),
+                                         ("--max-hypotheses", args.max_hypotheses))
+                if value is not None]
+        if mine:
+            raise ConfigError(f"{', '.join(mine)}: only with --network")
+        if not args.tracks:
+            raise ConfigError("give a TRACK file (or several), or --network NETWORK")
+        return
+    if args.tracks:
+        raise ConfigError("--network replaces TRACK: give one or the other")
+    if not files_given(args):
+        raise ConfigError("--network: needs sensor files (--fixes, --imu, --obs/--nav); a "
+                          "simulated trip on a network: railnav network run")
+    others = [flag for flag, given in (("--baro", args.baro is not None),
+                                       ("--true-track", args.true_track is not None),
+                                       ("--window", args.window is not None),
+                                       ("--base/--sp3/--smooth-window-s",
+                                        augmentation_requested(args))) if given]
+    if others:
+        raise ConfigError(f"{', '.join(others)}: not with --network")
+    parse_start(args.start)
+
+
+def parse_start(text: str | None) -> tuple[str, float | None, int | None] | None:
+    """``NETELEMENT[:OFFSET_M[:+|-]]`` as ``(element, offset_m, direction)`` (None for
+    None): the netelement, the offset from its first coordinate (m) and the direction of
+    travel (``+`` towards its last coordinate); the keywords of
+    `railnav.navigation.network_start.NetworkStart` (no import here: argument errors stay
+    fast)."""
+    if text is None:
+        return None
+    parts = text.split(":")
+    try:
+        if not 1 <= len(parts) <= 3 or not parts[0]:
+            raise ValueError
+        offset = float(parts[1]) if len(parts) > 1 and parts[1] != "" else None
+        direction = {"+": 1, "-": -1}[parts[2]] if len(parts) == 3 else None
+        if offset is not None and not offset >= 0.0:
+            raise ValueError
+    except (ValueError, KeyError):
+        raise ConfigError(f"--start {text!r}: expected NETELEMENT[:OFFSET_M[:+|-]] with "
+                          "OFFSET_M >= 0 (e.g. 88_L_111:250)") from None
+    return parts[0], offset, direction
 
 
 def add_file_arguments(p) -> None:
@@ -143,6 +212,7 @@ def check_flags(args: argparse.Namespace) -> None:
     inputs given: a flag that cannot apply is an error that says why, never ignored
     (single values are checked by their argparse types)."""
     measurement(args.systems)   # validates --systems before any work
+    _check_network_flags(args)
     files = files_given(args)
     kind = filter_kind(args.filter)
     given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
@@ -170,8 +240,8 @@ def check_flags(args: argparse.Namespace) -> None:
                           "track")
     if args.base_position is not None and args.base is None:
         raise ConfigError("--base-position needs --base")
-    if not several and args.crossing_rate_per_s is not None:
-        raise ConfigError("--crossing-rate-per-s: only with several tracks")
+    if not several and args.crossing_rate_per_s is not None and args.network is None:
+        raise ConfigError("--crossing-rate-per-s: only with several tracks or --network")
     if several and not kind.banks:
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
         raise ConfigError(f"several tracks run the {banked} filter, not --filter "

@@ -8,8 +8,8 @@ weight. After each cycle of the lockstep (`railnav.navigation.network_navigator`
 * **Branching** (`branch`): a hypothesis whose ``s`` has left its element (past its end,
   or before its start when the train backs) is replaced by one child per navigable
   passage there, the state carried across the joint (`carried_state`: ``s`` continued along
-  the route, the attitude turned by the joint's kink so that it stays relative to the
-  track), the weight split evenly among the children (the prior of a switch's ways:
+  the route, everything else as it is), the weight split evenly among the children (the
+  prior of a switch's ways:
   equal, the evidence decides). A hypothesis at a buffer stop has no passage: it runs on
   (its filter extrapolates the track) until `railnav.navigation.loop.beyond_track` says
   the vehicle has left the track, and then dies.
@@ -38,12 +38,19 @@ import numpy.typing as npt
 from ekf.bank import logsumexp, merge_gaussians
 from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
 from railnav.errors import ConfigError
-from railnav.navigation.net_tracks import OrientedTracks
+from railnav.navigation.net_tracks import OrientedTracks, bare
 
-__all__ = ["NetworkNavConfig", "Hypothesis", "branch", "merge_coinciding", "prune",
-           "carried_state", "normalized_weights"]
+__all__ = ["NetworkNavConfig", "Hypothesis", "hypothesis", "branch", "branch_ahead",
+           "rebased", "entered", "tail_pieces", "merge_coinciding", "prune", "carried_state",
+           "normalized_weights", "LEAD_MARGIN_M", "CYCLE_REACH_S"]
 
 Array = npt.NDArray[np.float64]
+
+#: Stretch beyond 3σ_s that a child's track takes in before and after the joint ahead, m.
+LEAD_MARGIN_M = 20.0
+#: A joint is taken in once it is within this much travel time (plus the lead), s (a
+#: cycle is at most `railnav.navigation.loop.MAX_CHUNK_S`).
+CYCLE_REACH_S = 1.0
 
 _IDS = count()
 
@@ -114,11 +121,13 @@ class Hypothesis:
 
     Attributes
     ----------
-    element : str
-    orientation : int
-        +1: on the element's own track; -1: on its reversal.
+    pieces : tuple of (str, int, float)
+        Its track (`railnav.navigation.net_tracks`): ``(element, orientation, start_m)``
+        of each oriented netelement stretch, chained.
+    ends : tuple of float
+        ``s`` of each piece's end along that track, m.
     x : ndarray, shape (n,)
-        Filter state on the oriented track (posterior after the latest cycle).
+        Filter state on that track (posterior after the latest cycle).
     P : ndarray, shape (n, n)
     log_weight : float
         Unnormalized log probability.
@@ -128,11 +137,11 @@ class Hypothesis:
         ``(element, orientation, entry time s)`` of every element it went through, the
         current last (inherited from its ancestors).
     id, parent : int
-        Unique id, and the id it branched, split or was started from (-1: a start).
+        Unique id, and the id it branched from (-1: a start).
     """
 
-    element: str
-    orientation: int
+    pieces: tuple
+    ends: tuple
     x: Array
     P: Array
     log_weight: float
@@ -147,8 +156,38 @@ class Hypothesis:
 
     @property
     def s_m(self) -> float:
-        """``s`` on the oriented track, m."""
+        """``s`` on its track, m."""
         return float(self.x[self.index("s")])
+
+    @property
+    def length_m(self) -> float:
+        """Length of its track, m."""
+        return float(self.ends[-1])
+
+    def where(self) -> tuple[str, int, float]:
+        """The element and orientation the hypothesis is on, and its ``s`` on that
+        oriented element (`railnav.navigation.net_tracks.OrientedTracks.locate`)."""
+        s = self.s_m
+        j = int(min(np.searchsorted(self.ends, s), len(self.pieces) - 1))
+        element, orientation, start = self.pieces[j]
+        return element, orientation, start + s - (self.ends[j - 1] if j else 0.0)
+
+    @property
+    def element(self) -> str:
+        return self.where()[0]
+
+    @property
+    def orientation(self) -> int:
+        return self.where()[1]
+
+
+def hypothesis(tracks: OrientedTracks, pieces, x: Array, P: Array, log_weight: float, filt,
+               path: tuple = (), parent: int = -1) -> Hypothesis:
+    """A `Hypothesis` on `pieces` (its piece ends from the network)."""
+    pieces = tuple((e, int(o), float(st)) for e, o, st in pieces)
+    return Hypothesis(pieces, tuple(float(v) for v in tracks.piece_ends(pieces)),
+                      np.asarray(x, dtype=float), np.asarray(P, dtype=float),
+                      float(log_weight), filt, tuple(path), parent)
 
 
 def normalized_weights(hyps) -> Array:
@@ -159,58 +198,104 @@ def normalized_weights(hyps) -> Array:
     return np.exp(log_w - logsumexp(log_w))
 
 
-def carried_state(filt, x: Array, s_new: float, source_track, s_source: float,
-                  target_track, s_target: float) -> Array:
-    """``x`` moved to ``s = s_new`` on another track: with attitude states, yaw and pitch
-    turned by the change of the tracks' azimuth and elevation between ``source_track`` at
-    ``s_source`` and ``target_track`` at ``s_target`` (the attitude stays relative to the
-    track, as `railnav.navigation.bank.convert_state` keeps it)."""
+def carried_state(filt, x: Array, s_new: float) -> Array:
+    """``x`` carried across a joint: ``s = s_new`` on the track entered, every other state
+    as it is (the attitude states are the body's, absolute: the vehicle does not turn
+    because the map's tangent kinks at a joint; what a kink costs the inertial filters is
+    `railnav.navigation.hypothesis_step`'s business)."""
     out = np.array(x, dtype=float)
-    names = filt.layout.names
     out[filt.layout.index("s")] = s_new
-    if "yaw" not in names:
-        return out
-    a = source_track.at(min(max(s_source, 0.0), source_track.length_m))
-    b = target_track.at(min(max(s_target, 0.0), target_track.length_m))
-    turn = (float(b.azimuth) - float(a.azimuth) + math.pi) % (2 * math.pi) - math.pi
-    out[filt.layout.index("yaw")] += turn
-    out[filt.layout.index("pitch")] += float(b.elevation) - float(a.elevation)
     return out
 
 
 def branch(hyp: Hypothesis, tracks: OrientedTracks, make_child, time_s: float
            ) -> list[Hypothesis] | None:
-    """The children of a hypothesis that has left its element (module docstring), or None
+    """The children of a hypothesis that has left its track (module docstring), or None
     while it has not (or at a buffer stop).
 
     Parameters
     ----------
     hyp : Hypothesis
     tracks : OrientedTracks
-    make_child : callable(parent, element, orientation) -> filter object
-        The child's filter on the element's oriented track (its fault screen's channel
-        memory carried from the parent's).
+    make_child : callable(parent, pieces) -> filter object
+        The child's filter on the pieces' track (its fault screen's channel memory carried
+        from the parent's).
     time_s : float
         Time of the crossing (the cycle's end), s.
     """
-    s = hyp.s_m
-    passages = tracks.leaving(hyp.element, hyp.orientation, s)
+    passages = tracks.leaving(hyp.pieces, hyp.s_m)
     if not passages:
         return None
-    source = tracks.track(hyp.element, hyp.orientation)
-    joint_s = source.length_m if s > 0.0 else 0.0
     log_share = -math.log(len(passages))
     children = []
     for p in passages:
-        target = tracks.track(p.element, p.orientation)
-        filt = make_child(hyp, p.element, p.orientation)
-        x = carried_state(filt, hyp.x, p.s_m, source, joint_s, target,
-                          0.0 if s > 0.0 else target.length_m)
-        children.append(Hypothesis(p.element, p.orientation, x, hyp.P.copy(),
-                                   hyp.log_weight + log_share, filt,
-                                   hyp.path + ((p.element, p.orientation, time_s),),
-                                   parent=hyp.id))
+        pieces = bare(p.element, p.orientation)
+        filt = make_child(hyp, pieces)
+        children.append(hypothesis(tracks, pieces, carried_state(filt, hyp.x, p.s_m),
+                                   hyp.P.copy(), hyp.log_weight + log_share, filt,
+                                   hyp.path, hyp.id))
     return children
+
+
+def tail_pieces(hyp: Hypothesis, s0: float) -> tuple:
+    """The pieces of `hyp`'s track from ``s0`` on (the first one cut there)."""
+    j = int(min(np.searchsorted(hyp.ends, s0, side="right"), len(hyp.pieces) - 1))
+    element, orientation, start = hyp.pieces[j]
+    into = s0 - (hyp.ends[j - 1] if j else 0.0)
+    return ((element, orientation, start + into),) + hyp.pieces[j + 1:]
+
+
+def _lead_m(hyp: Hypothesis) -> float:
+    """How far ahead (and behind) a joint is taken into a child's track: 3σ_s plus
+    `LEAD_MARGIN_M` plus a cycle's travel."""
+    i_s, i_v = hyp.index("s"), hyp.index("v")
+    return 3.0 * math.sqrt(max(hyp.P[i_s, i_s], 0.0)) + LEAD_MARGIN_M + \
+        abs(float(hyp.x[i_v])) * CYCLE_REACH_S
+
+
+def branch_ahead(hyp: Hypothesis, tracks: OrientedTracks, make_child
+                 ) -> list[Hypothesis] | None:
+    """Children that chain the joint ahead into their tracks (module docstring), for a
+    hypothesis travelling forwards within `_lead_m` of the end of its track; None when it
+    is not (or at a buffer stop)."""
+    s, lead = hyp.s_m, _lead_m(hyp)
+    if float(hyp.x[hyp.index("v")]) <= 0.0 or hyp.length_m - s > lead:
+        return None
+    element, orientation, _ = hyp.pieces[-1]
+    ways = tracks.network.successors(element, orientation)
+    if not ways:
+        return None
+    s0 = max(0.0, s - lead)
+    head = tail_pieces(hyp, s0)
+    log_share = -math.log(len(ways))
+    children = []
+    for e, o in ways:
+        pieces = head + bare(e, o)
+        filt = make_child(hyp, pieces)
+        children.append(hypothesis(tracks, pieces, carried_state(filt, hyp.x, s - s0),
+                                   hyp.P.copy(), hyp.log_weight + log_share, filt,
+                                   hyp.path, hyp.id))
+    return children
+
+
+def rebased(hyp: Hypothesis, tracks: OrientedTracks, make_child) -> Hypothesis:
+    """`hyp` without the pieces its vehicle left more than `_lead_m` behind (a new filter
+    on the shorter track, ``s`` shifted; the same hypothesis otherwise)."""
+    if len(hyp.pieces) < 2 or hyp.s_m - hyp.ends[0] < _lead_m(hyp):
+        return hyp
+    pieces = hyp.pieces[1:]
+    filt = make_child(hyp, pieces)
+    out = hypothesis(tracks, pieces, carried_state(filt, hyp.x, hyp.s_m - hyp.ends[0]),
+                     hyp.P, hyp.log_weight, filt, hyp.path, hyp.parent)
+    out.id = hyp.id
+    return rebased(out, tracks, make_child)
+
+
+def entered(hyp: Hypothesis, time_s: float) -> None:
+    """Append to `hyp`'s path the element it is on when that is a new one."""
+    element, orientation, _ = hyp.where()
+    if not hyp.path or hyp.path[-1][:2] != (element, orientation):
+        hyp.path = hyp.path + ((element, orientation, float(time_s)),)
 
 
 def _sv_block(hyp: Hypothesis) -> tuple[Array, Array]:
@@ -235,8 +320,8 @@ def merge_coinciding(hyps: list[Hypothesis], threshold: float) -> tuple[list[Hyp
     for h in order:
         for g in groups:
             head = g[0]
-            if (head.element, head.orientation) == (h.element, h.orientation) and \
-                    head.x.shape == h.x.shape and _coincide(head, h, threshold):
+            if head.pieces == h.pieces and head.x.shape == h.x.shape and \
+                    _coincide(head, h, threshold):
                 g.append(h)
                 break
         else:

@@ -1,28 +1,42 @@
-"""Netelements as the tracks the hypotheses of a network run live on.
+"""The tracks the hypotheses of a network run live on: netelements, oriented, and chained
+across a joint ahead.
 
-A hypothesis of the network navigator (`railnav.navigation.network_navigator`) runs on one
-netelement in one *orientation*: ``+1`` on the element's own track (``s`` from its first
-coordinate), ``-1`` on its reversal (`trackmodel.network.reversed_track`: ``s' = L − s``,
-exact in the track model). Its filter's ``s`` is along that oriented track and its speed
-is signed, so the train's direction of travel on the element is ``orientation ×
-sign(v)``. `OrientedTracks` builds each oriented track once and converts between a
-hypothesis's ``s`` and the offset from the element's first coordinate (what
-``estimates.csv`` reports as ``netelement_offset_m``).
+A hypothesis of the network navigator (`railnav.navigation.network_navigator`) runs one
+filter on one track, made of *pieces*: ``(element, orientation, start_m)``, the oriented
+netelement from ``start_m`` to its end (orientation ``+1``: the element's own track, ``s``
+from its first coordinate; ``-1``: its reversal, `trackmodel.network.reversed_track`,
+``s' = L − s``, exact in the track model). Usually one whole piece (``start_m = 0``): the
+hypothesis is on that element. An inertial hypothesis nearing a switch branches *before*
+it (`railnav.navigation.hypotheses.branch_ahead`): each child then runs on the parent's
+remaining stretch chained to one of the ways (`trackmodel.network.chain_tracks`; the
+siblings share that stretch exactly), so the curvature of its way is in its track model
+before the vehicle gets there; once past the joint it drops the stretch behind
+(`railnav.navigation.hypotheses.rebased`).
 
-Where a hypothesis leaves its element (`leaving`): past the end of its oriented track
-(``s > L``) it enters each successor of ``(element, orientation)`` at that successor's
-start, ``s − L`` along it; before the start (``s < 0``, a train backing) it enters each
-predecessor at its end, ``L_pred + s`` along it (`trackmodel.network.Network.successors`
-/ ``predecessors``: the navigable passages only).
+The filter's ``s`` is along the chained track and its speed is signed, so the direction of
+travel on an element is ``orientation × sign(v)``. `OrientedTracks` builds each track once,
+locates a hypothesis's ``s`` on its netelement (`locate`: the element, orientation and
+``s`` on the oriented element; ``offset_m`` from the element's first coordinate is what
+``estimates.csv`` reports as ``netelement_offset_m``), lists the kinked joints along a
+track (`joints`) and where a hypothesis continues past the end of its track (`leaving`:
+each navigable successor of the last piece, ``s − L`` along it; before its start, a train
+backing, each predecessor of the first piece at its end, ``L_pred + s``).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from trackmodel.network import Network, reversed_track
+import numpy as np
+
+from trackmodel.network import END, START, Network, chain_tracks, reversed_track
+from trackmodel.sections import Section
 from trackmodel.track import Track
 
-__all__ = ["OrientedTracks", "Passage"]
+__all__ = ["OrientedTracks", "Passage", "track_tail", "bare"]
+
+#: A tail shorter than this is no piece, m.
+MIN_PIECE_M = 1e-6
 
 
 @dataclass(frozen=True)
@@ -35,8 +49,39 @@ class Passage:
     s_m: float
 
 
+def bare(element: str, orientation: int) -> tuple[tuple[str, int, float], ...]:
+    """The pieces of a hypothesis on the whole of one oriented element."""
+    return ((element, int(orientation), 0.0),)
+
+
+def track_tail(track: Track, s0: float) -> Track:
+    """The part of `track` from ``s0`` to its end, as a track of its own (its sections from
+    the one holding ``s0``, the first shortened, starting at the point, azimuth, elevation
+    and curvature of ``s0``)."""
+    if s0 <= 0.0:
+        return track
+    table = track.table
+    k = int(track.section_of(np.array([s0]))[0])
+    p = track.at(s0)
+    sec = track.sections[k]
+    into = s0 - float(table.s_start[k])
+    length = float(table.length[k]) - into
+    rest = list(track.sections[k + 1:])
+    k0, k1 = float(table.curvature0[k]), float(table.curvature1[k])
+    kappa = k0 + (k1 - k0) * into / float(table.length[k])
+    if length < MIN_PIECE_M and rest:
+        return track_tail(track, float(table.s_start[k + 1]))
+    head = Section(max(length, MIN_PIECE_M), math.degrees(float(p.azimuth)) % 360.0,
+                   math.degrees(float(p.elevation)), kappa,
+                   None if k0 == k1 else k1,
+                   None if sec.elevation_end_deg is None else
+                   math.degrees(float(table.elevation1[k])))
+    return Track.from_sections([head, *rest], lat=float(p.lat), lon=float(p.lon),
+                               h=float(p.h), earth=track.earth)
+
+
 class OrientedTracks:
-    """The oriented tracks of a network, built on first use.
+    """The tracks of a network's hypotheses, built on first use (module docstring).
 
     Parameters
     ----------
@@ -45,7 +90,8 @@ class OrientedTracks:
 
     def __init__(self, network: Network) -> None:
         self.network = network
-        self._tracks: dict[tuple[str, int], Track] = {}
+        self._tracks: dict[tuple, Track] = {}
+        self._kinks: dict[tuple[str, int], float] | None = None
 
     def track(self, element: str, orientation: int) -> Track:
         """The track of `element` travelled in `orientation` (+1 its own, -1 reversed)."""
@@ -55,9 +101,32 @@ class OrientedTracks:
             self._tracks[key] = own if orientation == 1 else reversed_track(own)
         return self._tracks[key]
 
+    def placed(self, pieces) -> Track:
+        """The chained track of a hypothesis's pieces (module docstring)."""
+        pieces = tuple(pieces)
+        if len(pieces) == 1 and pieces[0][2] == 0.0:
+            return self.track(pieces[0][0], pieces[0][1])
+        if pieces not in self._tracks:
+            parts = [track_tail(self.track(e, o), start) for e, o, start in pieces]
+            self._tracks[pieces] = chain_tracks(parts)
+        return self._tracks[pieces]
+
     def length_m(self, element: str) -> float:
         """Length of `element`, m."""
         return self.network.length_m(element)
+
+    def piece_ends(self, pieces) -> np.ndarray:
+        """``s`` of the end of each piece along the chained track, m."""
+        return np.cumsum([self.length_m(e) - start for e, _, start in pieces])
+
+    def locate(self, pieces, s_m: float) -> tuple[str, int, float]:
+        """The piece a point ``s_m`` of the chained track is on: its element, orientation
+        and ``s`` on the oriented element (beyond either end: on the first or last)."""
+        ends = self.piece_ends(pieces)
+        j = int(min(np.searchsorted(ends, s_m), len(pieces) - 1))
+        element, orientation, start = pieces[j]
+        before = float(ends[j - 1]) if j else 0.0
+        return element, orientation, start + s_m - before
 
     def offset_m(self, element: str, orientation: int, s_m):
         """Distance from the element's first coordinate of the point ``s_m`` along its
@@ -69,14 +138,41 @@ class OrientedTracks:
         coordinate, m (the inverse of `offset_m`)."""
         return offset_m if orientation == 1 else self.length_m(element) - offset_m
 
-    def leaving(self, element: str, orientation: int, s_m: float) -> list[Passage] | None:
-        """Where a hypothesis at ``s_m`` continues (module docstring): None while
-        ``0 <= s_m <= L``; an empty list at a buffer stop (no navigable passage)."""
-        length = self.length_m(element)
+    def _end_kink(self, element: str, end: int) -> float:
+        if self._kinks is None:
+            self._kinks = {}
+            for c in self.network.connections:
+                if c.navigability == "none" or not np.isfinite(c.kink_rad):
+                    continue
+                for key in ((c.a, c.a_end), (c.b, c.b_end)):
+                    self._kinks[key] = max(self._kinks.get(key, 0.0), float(c.kink_rad))
+        return self._kinks.get((element, end), 0.0)
+
+    def joints(self, pieces) -> list[tuple[float, float]]:
+        """``(s_m, kink_rad)`` of the joints along a chained track: its start (a whole
+        first piece), between its pieces, and its end; the largest kink of the navigable
+        connections at each."""
+        out = []
+        ends = self.piece_ends(pieces)
+        e0, o0, start0 = pieces[0]
+        if start0 == 0.0:
+            out.append((0.0, self._end_kink(e0, START if o0 == 1 else END)))
+        for (e, o, _), s_end in zip(pieces, ends):
+            out.append((float(s_end), self._end_kink(e, END if o == 1 else START)))
+        return out
+
+    def leaving(self, pieces, s_m: float) -> list[Passage] | None:
+        """Where a hypothesis at ``s_m`` continues (module docstring): None while on its
+        track; an empty list at a buffer stop (no navigable passage)."""
+        length = float(self.piece_ends(pieces)[-1])
         if 0.0 <= s_m <= length:
             return None
         if s_m > length:
+            element, orientation, _ = pieces[-1]
             return [Passage(e, d, s_m - length)
                     for e, d in self.network.successors(element, orientation)]
+        element, orientation, start = pieces[0]
+        if start > 0.0:                       # backing off a chained stretch's start
+            return [Passage(element, orientation, start + s_m)]
         return [Passage(e, d, self.length_m(e) + s_m)
                 for e, d in self.network.predecessors(element, orientation)]

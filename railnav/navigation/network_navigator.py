@@ -7,7 +7,9 @@ filter of the run's kind (constrained INS/GNSS, GNSS-only, fix-only) on E's orie
 track (`railnav.navigation.net_tracks`). They start where the first fix or single-point
 solution is (`railnav.navigation.network_start`) and are stepped in lockstep, cycle by
 cycle: a cycle ends at each measurement epoch, or after `railnav.navigation.loop.MAX_CHUNK_S`
-without one. After each cycle:
+without one, and at the first sample where a hypothesis reaches the end of its element
+(`crossing_sample`: it branches there, not up to a cycle later on geometry extrapolated
+past its element). After each cycle:
 
 1. every hypothesis's filter has propagated and taken the epoch's rows
    (`railnav.navigation.hypothesis_step.EngineStepper`);
@@ -45,9 +47,12 @@ from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.hypotheses import (
     NetworkNavConfig,
     branch,
+    branch_ahead,
+    entered,
     merge_coinciding,
     normalized_weights,
     prune,
+    rebased,
 )
 from railnav.navigation.hypothesis_step import EngineStepper
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, MAX_CHUNK_S, beyond_track
@@ -64,7 +69,7 @@ from railnav.navigation.network_weights import (
     reweight,
 )
 
-__all__ = ["navigate_network", "FilterFactory", "cycle_ends"]
+__all__ = ["navigate_network", "FilterFactory", "cycle_ends", "crossing_sample"]
 
 log = logging.getLogger(__name__)
 
@@ -72,36 +77,38 @@ Progress = Callable[[int, int], None]
 
 
 class FilterFactory:
-    """Filter objects of the run's kind on oriented netelements.
+    """Filter objects of the run's kind on the tracks of hypotheses (pieces,
+    `railnav.navigation.net_tracks`).
 
     Each hypothesis gets its own (its fault screen keeps per-channel memory); a child
-    inherits its parent's channels (`child`). `template` is one shared object per oriented
-    track for outputs (its ``estimates``), never stepped.
+    inherits its parent's channels (`child`). `template` is one shared object per track for
+    outputs (its ``estimates``), never stepped.
     """
 
     def __init__(self, tracks: OrientedTracks, config: NavigatorConfig, trip) -> None:
         self.tracks, self.config, self.trip = tracks, config, trip
-        self._templates: dict[tuple[str, int], object] = {}
+        self._templates: dict[tuple, object] = {}
 
-    def __call__(self, element: str, orientation: int):
+    def __call__(self, pieces):
         trip = self.trip
-        return make_filter(self.tracks.track(element, orientation), self.config, trip.gnss,
+        return make_filter(self.tracks.placed(pieces), self.config, trip.gnss,
                            fixes=trip.fixes,
                            schedule=trip.schedule if trip.fixes is not None else None)
 
-    def child(self, parent, element: str, orientation: int):
-        """A filter for `parent`'s child on ``(element, orientation)``."""
-        filt = self(element, orientation)
+    def child(self, parent, pieces):
+        """A filter for `parent`'s child (or rebased self) on `pieces`."""
+        filt = self(pieces)
         screen = getattr(parent.filt, "screen", None)
         if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
                                                         RowScreen):
             filt.screen = parent_screen_copy(screen)
         return filt
 
-    def template(self, element: str, orientation: int):
-        key = (element, orientation)
+    def template(self, pieces):
+        """The shared output filter object of `pieces`' track."""
+        key = tuple(pieces)
         if key not in self._templates:
-            self._templates[key] = self(element, orientation)
+            self._templates[key] = self(key)
         return self._templates[key]
 
 
@@ -127,6 +134,23 @@ def cycle_ends(n_samples: int, epoch_samples: np.ndarray, max_len: int) -> list[
         out.append(m)
         prev = m
     return out
+
+
+def crossing_sample(hyps, tracks, t, a: int, b: int) -> int:
+    """The first sample after `a`, up to `b`, at which a hypothesis is predicted to reach
+    an end of its element (``s + v Δt``; `b` when none does): a cycle ends there, so that
+    it branches within a sample of its joint instead of running on past its element's end
+    (module docstring)."""
+    span = float(t[b] - t[a])
+    first = span
+    for h in hyps:
+        s, v = h.s_m, float(h.x[h.index("v")])
+        gone = (h.length_m - s) / v if v > 0 else (-s / v if v < 0 else np.inf)
+        if 0.0 < gone < first:
+            first = gone
+    if first >= span:
+        return b
+    return int(min(max(np.searchsorted(t, t[a] + first), a + 1), b))
 
 
 def _check_inputs(config: NavigatorConfig, data: SensorData) -> None:
@@ -173,18 +197,24 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     epoch_of = dict(zip(at_sample.tolist(), epoch_idx.tolist()))
     dt = float(np.median(np.diff(t)))
     ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
-    stepper = EngineStepper(config, t, u)
+    stepper = EngineStepper(config, t, u, tracks)
     recorder = NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s)
-    a = 0
+    a, c = 0, 0
     if 0 in epoch_of:       # the start epoch is used, as `railnav.navigate` uses it
         ends = [0] + ends
-    for c, b in enumerate(ends):
+    while c < len(ends):
+        b = ends[c]
         if b < a:                                   # before a restart's first epoch
+            c += 1
             continue
-        outcome = stepper.step(hyps, a, b, epoch_of.get(b))
-        hyps = _after_cycle(hyps, outcome, tracks, factory, nav, float(t[b]),
-                            float(t[b] - t[a]), recorder)
-        a = b
+        stop = crossing_sample(hyps, tracks, t, a, b)
+        outcome = stepper.step(hyps, a, stop, epoch_of.get(b) if stop == b else None)
+        hyps = _after_cycle(hyps, outcome, tracks, factory, nav, float(t[stop]),
+                            float(t[stop] - t[a]), recorder)
+        a = stop
+        if stop < b:                                # a joint reached within the cycle
+            continue
+        c += 1
         if not hyps:                                # every hypothesis left the network
             log.warning("every hypothesis left the network at t=%.1f s: starting again "
                         "from the next fix near it", t[b])
@@ -195,7 +225,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
             hyps = _restart_cycle(stepper, hyps, a, epoch_of, tracks, factory, nav, t,
                                   recorder)
         if progress is not None:
-            progress(c + 1, len(ends))
+            progress(c, len(ends))
     return recorder.result(network, config, nav, hyps, outages=outages,
                            runtime_s=time.perf_counter() - started)
 
@@ -213,12 +243,16 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     out = []
     for h in hyps:
         children = branch(h, tracks, factory.child, time_s)
+        if children is None and outcome.continuous:
+            children = branch_ahead(h, tracks, factory.child)
         if children is not None:
             out.extend(children)
         elif beyond_track(h.filt, h.x, h.P, time_s) is None:
-            out.append(h)
+            out.append(rebased(h, tracks, factory.child))
         else:
             log.debug("hypothesis %d left %s at its buffer stop", h.id, h.element)
+    for h in out:
+        entered(h, time_s)
     out, merges = merge_coinciding(out, nav.merge_mahalanobis)
     out, dropped = prune(out, nav)
     if out:

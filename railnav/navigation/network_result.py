@@ -46,12 +46,18 @@ NETWORK_COLUMNS = ("netelement", "netelement_offset_m", "direction",
                    "hypotheses")
 
 
+def _offset(tracks, h) -> float:
+    """The hypothesis's offset from its element's first coordinate, m."""
+    element, orientation, s = h.where()
+    return float(tracks.offset_m(element, orientation, s))
+
+
 def _mixture_offset(hyps, w: Array, tracks, element: str) -> tuple[float, float]:
     """Moment-matched offset (m, from the element's first coordinate) and σ of the
     hypotheses on `element`."""
     on = [k for k, h in enumerate(hyps) if h.element == element]
     ww = w[on] / w[on].sum()
-    off = np.array([tracks.offset_m(element, hyps[k].orientation, hyps[k].s_m) for k in on])
+    off = np.array([_offset(tracks, hyps[k]) for k in on])
     var = np.array([hyps[k].P[hyps[k].index("s"), hyps[k].index("s")] for k in on])
     mean = float(ww @ off)
     return mean, float(np.sqrt(ww @ (var + (off - mean) ** 2)))
@@ -96,8 +102,7 @@ class NetworkRecorder:
         mean, sigma = _mixture_offset(hyps, w, self.tracks, element)
         v = float(h.x[h.index("v")])
         self.rows.append({"time_s": time_s, "netelement": element,
-                          "netelement_offset_m": float(self.tracks.offset_m(
-                              element, h.orientation, h.s_m)),
+                          "netelement_offset_m": _offset(self.tracks, h),
                           "direction": int(h.orientation * (1 if v >= 0 else -1)),
                           "netelement_probability": per_element[element],
                           "mixture_offset_m": mean, "mixture_sigma_m": sigma,
@@ -105,7 +110,7 @@ class NetworkRecorder:
                           "merges": merges, "pruned_probability": pruned})
         self.x.append(h.x.copy())
         self.P.append(pack_sym(h.P))
-        self.keys.append((h.element, h.orientation))
+        self.keys.append(h.pieces)
         self.element_probability.append(per_element)
         if time_s >= self._next_hyp_s:
             self._next_hyp_s = time_s + self.nav.hypotheses_every_s
@@ -134,11 +139,11 @@ def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:
     for h, wk in zip(hyps, w):
         i_s, i_v = h.index("s"), h.index("v")
         v = float(h.x[i_v])
-        out.append({"time_s": time_s, "id": h.id, "parent": h.parent, "netelement": h.element,
-                    "orientation": h.orientation,
-                    "direction": int(h.orientation * (1 if v >= 0 else -1)),
-                    "netelement_offset_m": float(tracks.offset_m(h.element, h.orientation,
-                                                                 h.s_m)),
+        element, orientation, _ = h.where()
+        out.append({"time_s": time_s, "id": h.id, "parent": h.parent, "netelement": element,
+                    "orientation": orientation,
+                    "direction": int(orientation * (1 if v >= 0 else -1)),
+                    "netelement_offset_m": _offset(tracks, h),
                     "s_m": h.s_m, "sigma_s_m": float(np.sqrt(h.P[i_s, i_s])),
                     "speed_mps": v, "sigma_speed_mps": float(np.sqrt(h.P[i_v, i_v])),
                     "probability": float(wk)})
@@ -171,9 +176,9 @@ def _innovation_frame(epochs: list, start_gps_time_s: float) -> pd.DataFrame:
 class NetworkResult:
     """A network run (module docstring). ``cycles`` has one row per cycle (the network
     columns, ``evidence_rows``, ``merges``, ``pruned_probability``); ``x``
-    and ``P`` (packed) the most probable hypothesis's state there, ``keys`` its element
-    and orientation; ``final`` the last hypotheses (``id, element, orientation,
-    probability, path``)."""
+    and ``P`` (packed) the most probable hypothesis's state there (``s`` along its own
+    track), ``keys`` the pieces of that track; ``final`` the last hypotheses (``id,
+    element, orientation, probability, path``)."""
 
     network: object
     tracks: object
@@ -210,11 +215,11 @@ class NetworkResult:
     def _estimates(self) -> pd.DataFrame:
         t = self.time_s
         parts = []
-        keys = np.array([f"{e}\0{o}" for e, o in self.keys], dtype=object)
-        for key in dict.fromkeys(keys):
-            element, orientation = key.split("\0")
-            rows = np.flatnonzero(keys == key)
-            filt = self.factory.template(element, int(orientation))
+        index = {key: k for k, key in enumerate(dict.fromkeys(self.keys))}
+        code = np.array([index[key] for key in self.keys])
+        for key, k in index.items():
+            rows = np.flatnonzero(code == k)
+            filt = self.factory.template(key)
             frame = estimates_frame(filt, t[rows], self.x[rows], self.P[rows],
                                     start_gps_time_s=self.start_gps_time_s)
             parts.append(frame.set_index(rows))
@@ -230,8 +235,9 @@ class NetworkResult:
         rows = []
         for k, (element, orientation, entry) in enumerate(best["path"]):
             leave = best["path"][k + 1][2] if k + 1 < len(best["path"]) else float(t[-1])
+            last = k + 1 == len(best["path"])
             share = [p.get(element, 0.0) for p, tk in zip(self.element_probability, t)
-                     if entry + 1e-9 < tk <= leave + 1e-9]
+                     if entry - 1e-9 <= tk and (tk < leave - 1e-9 or last)]
             passed = sum(f["probability"] for f in self.final
                          if element in {e for e, _, _ in f["path"]})
             rows.append({"netelement": element, "orientation": orientation,
@@ -266,8 +272,7 @@ class NetworkResult:
         filter ran the whole trip; ``filter_object`` the last most probable one's
         template, whose ``s`` is along its own element)."""
         est = self.estimates
-        element, orientation = self.keys[-1]
-        filt = self.factory.template(element, orientation)
+        filt = self.factory.template(self.keys[-1])
         return NavigationResult(
             filter=self.config.filter, layout=filt.layout,
             start_gps_time_s=self.start_gps_time_s, time_s=self.time_s, x=self.x, P=self.P,

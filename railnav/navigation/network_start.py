@@ -25,7 +25,8 @@ import numpy as np
 
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
-from railnav.navigation.hypotheses import Hypothesis
+from railnav.navigation.hypotheses import Hypothesis, hypothesis
+from railnav.navigation.net_tracks import bare
 from railnav.navigation.initialization import InitialState, first_fix
 from trackmodel.earth import ecef_to_geodetic
 
@@ -96,7 +97,7 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     ----------
     network : trackmodel.network.Network
     tracks : railnav.navigation.net_tracks.OrientedTracks
-    factory : callable(element, orientation) -> filter object
+    factory : callable(pieces) -> filter object
     trip : railnav.navigation.navigator.TripSamples
     data : railnav.SensorData
     config : railnav.NavigatorConfig
@@ -137,18 +138,17 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
         raise RailnavError("a network run needs GNSS observations or fixes to start from")
     hyps, time_s = [], None
     for element in _candidates(network, float(lat), float(lon), nav.start_radius_m, start):
-        probe = factory(element, 1)
+        probe = factory(bare(element, 1))
         for orientation in orientations_of(probe, None if start is None else start.direction):
-            filt = probe if orientation == 1 else factory(element, orientation)
+            filt = probe if orientation == 1 else factory(bare(element, orientation))
             init = begin(filt) if initial is None else initial(filt, element, orientation)
             if init is None:
                 continue
             if start is not None and start.offset_m is not None:
                 init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
             time_s = init.time_s if time_s is None else time_s
-            hyps.append(Hypothesis(element, orientation, np.array(init.x0, dtype=float),
-                                   np.array(init.P0, dtype=float), 0.0, filt,
-                                   ((element, orientation, float(init.time_s)),)))
+            hyps.append(hypothesis(tracks, bare(element, orientation), init.x0, init.P0,
+                                   0.0, filt, ((element, orientation, float(init.time_s)),)))
     if not hyps:
         raise RailnavError("no start hypothesis")
     log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),

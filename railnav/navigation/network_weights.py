@@ -52,7 +52,9 @@ def cycle_evidence(outcome, *, continuous: bool) -> tuple[Array, int]:
     continuous : bool
         Add the continuous measurement's log-likelihood.
     """
-    log_lik = np.array(outcome.continuous_log_lik, dtype=float) if continuous else \
+    # near a kinked joint or a curvature change: none for anyone (hypothesis_step)
+    use = continuous and not (outcome.joint or outcome.geometry)
+    log_lik = np.array(outcome.continuous_log_lik, dtype=float) if use else \
         np.zeros(len(outcome.continuous_log_lik))
     rows = 0
     if outcome.screens:
@@ -68,7 +70,7 @@ def hypothesis_points(hyps, tracks) -> tuple[Array, Array]:
     if len(hyps) < 2:                       # nothing to be abreast of
         return r, u
     for k, h in enumerate(hyps):
-        track = tracks.track(h.element, h.orientation)
+        track = h.filt.track
         p = track.at(min(max(h.s_m, 0.0), track.length_m))
         r[k] = p.r_e
         u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
@@ -90,11 +92,10 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
         return out
     d = np.linalg.norm(r_e[:, None, :] - r_e[None, :, :], axis=2)
     same_way = (tangent_e @ tangent_e.T > 0.0) | _signed_speed(hyps[0].filt)
+    on = [h.where()[:2] for h in hyps]
     for i in range(K):
         for j in range(K):
-            if i != j and d[i, j] <= radius_m and same_way[i, j] and \
-                    (hyps[i].element, hyps[i].orientation) != (hyps[j].element,
-                                                              hyps[j].orientation):
+            if i != j and d[i, j] <= radius_m and same_way[i, j] and on[i] != on[j]:
                 out[i].append(j)
     return out
 

@@ -23,10 +23,14 @@ from railnav.navigation.hypotheses import (
     Hypothesis,
     NetworkNavConfig,
     branch,
+    branch_ahead,
+    entered,
+    hypothesis,
     merge_coinciding,
     prune,
+    rebased,
 )
-from railnav.navigation.net_tracks import OrientedTracks
+from railnav.navigation.net_tracks import OrientedTracks, bare, track_tail
 from railnav.simulation.switch_network import SwitchNetworkSpec, switch_network
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
@@ -39,19 +43,20 @@ CONFIG = NavigatorConfig(filter="gnss-only")
 
 
 def _hyp(element: str, s: float, *, v: float = 10.0, log_weight: float = 0.0,
-         P=None, orientation: int = 1) -> Hypothesis:
-    filt = GnssOnlyFilter(TRACKS.track(element, orientation), CONFIG)
+         P=None, orientation: int = 1, pieces=None) -> Hypothesis:
+    pieces = bare(element, orientation) if pieces is None else pieces
+    filt = GnssOnlyFilter(TRACKS.placed(pieces), CONFIG)
     x = np.zeros(filt.layout.size)
     x[filt.layout.index("s")], x[filt.layout.index("v")] = s, v
     full = np.eye(filt.layout.size)
     if P is not None:
         full[:2, :2] = P                    # the layout starts with s, v
-    return Hypothesis(element, orientation, x, full, log_weight, filt,
+    return hypothesis(TRACKS, pieces, x, full, log_weight, filt,
                       ((element, orientation, 0.0),))
 
 
-def _make_child(parent, element, orientation):
-    return GnssOnlyFilter(TRACKS.track(element, orientation), CONFIG)
+def _make_child(parent, pieces):
+    return GnssOnlyFilter(TRACKS.placed(pieces), CONFIG)
 
 
 def test_branch_spawns_one_child_per_way_with_s_carried_across():
@@ -65,6 +70,7 @@ def test_branch_spawns_one_child_per_way_with_s_carried_across():
     for k in kids:
         assert k.s_m == pytest.approx(2.0)
         assert k.log_weight == pytest.approx(-1.0 - math.log(2.0))
+        entered(k, 5.0)
         assert k.path == (("A0", 1, 0.0), (k.element, 1, 5.0)) and k.parent == h.id
     assert branch(_hyp("A0", L - 1.0), TRACKS, _make_child, 5.0) is None
     back = branch(_hyp("A1", -3.0, v=-5.0), TRACKS, _make_child, 5.0)
@@ -80,8 +86,47 @@ def test_reversed_orientation_offsets_count_from_the_first_coordinate():
     assert TRACKS.offset_m("A1", -1, 100.0) == pytest.approx(L - 100.0)
     own, rev = TRACKS.track("A1", 1).at(L - 100.0), TRACKS.track("A1", -1).at(100.0)
     assert np.linalg.norm(np.asarray(own.r_e) - np.asarray(rev.r_e)) < 1e-3
-    past_start = TRACKS.leaving("A1", -1, L + 1.0)      # reversed: its end is A1's start
+    past_start = TRACKS.leaving(bare("A1", -1), L + 1.0)  # reversed: its end is A1's start
     assert {(p.element, p.orientation) for p in past_start} == {("A0", -1)}
+
+
+def test_a_tail_of_a_track_is_the_same_line():
+    """`track_tail` from 123.4 m of the loop (inside its first arc) follows the loop
+    within a millimetre, and a stretch chained to a way locates its points on both."""
+    loop = NET.elements["L0"]
+    tail = track_tail(loop, 123.4)
+    for x in (0.0, 10.0, 200.0, tail.length_m):
+        a, b = tail.at(x), loop.at(123.4 + x)
+        assert np.linalg.norm(np.asarray(a.r_e) - np.asarray(b.r_e)) < 1e-3
+    assert tail.length_m == pytest.approx(loop.length_m - 123.4, abs=1e-9)
+    pieces = (("A0", 1, 150.0),) + bare("L0", 1)
+    joined = TRACKS.placed(pieces)
+    assert joined.length_m == pytest.approx(NET.length_m("A0") - 150.0 + loop.length_m)
+    assert TRACKS.locate(pieces, 10.0) == ("A0", 1, pytest.approx(160.0))
+    assert TRACKS.locate(pieces, 160.0)[:2] == ("L0", 1)
+    p, q = joined.at(160.0), loop.at(160.0 - (NET.length_m("A0") - 150.0))
+    assert np.linalg.norm(np.asarray(p.r_e) - np.asarray(q.r_e)) < 1e-3
+
+
+def test_an_inertial_hypothesis_branches_ahead_of_the_switch_and_rebases_after():
+    """Within reach of A0's end, each way's child runs on A0's remaining stretch chained
+    to its way (so its track has the way's curvature before the vehicle gets there); it
+    still reports A0 until the joint, and drops the stretch once well past it."""
+    L = NET.length_m("A0")
+    h = _hyp("A0", L - 5.0, v=20.0)
+    kids = branch_ahead(h, TRACKS, _make_child)
+    assert sorted(k.pieces[-1][0] for k in kids) == ["A1", "L0"]
+    for k in kids:
+        assert k.pieces[0][0] == "A0" and k.element == "A0"
+        assert k.where()[2] == pytest.approx(L - 5.0)
+    assert branch_ahead(_hyp("A0", 10.0, v=20.0), TRACKS, _make_child) is None
+    assert branch_ahead(_hyp("A0", L - 5.0, v=-20.0), TRACKS, _make_child) is None
+    kid = kids[0]
+    lead = kid.ends[0]
+    kid.x[kid.index("s")] = lead + 200.0                 # far past the joint
+    moved = rebased(kid, TRACKS, _make_child)
+    assert moved.pieces == bare(kid.pieces[-1][0], 1) and moved.id == kid.id
+    assert moved.s_m == pytest.approx(200.0)
 
 
 def test_merge_moment_matches_coinciding_hypotheses_and_keeps_others():
