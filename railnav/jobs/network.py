@@ -254,6 +254,7 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
                               start=NetworkStart(legs[0][0]) if known_start else None,
                               outages=scenario.outages,
                               initial=_candidate_starts(trip, config, route_filter),
+                              near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])),
                               progress=progress)
     combined = result.combined()
     errors = error_series(combined, trip.truth, trip.track, clock_truth=trip.clock_truth)

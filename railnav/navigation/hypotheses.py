@@ -86,17 +86,25 @@ class NetworkNavConfig:
         filters have before GNSS tells the branches apart).
     hypotheses_every_s : float
         ``hypotheses.csv`` keeps the live hypotheses of one cycle per this interval, s > 0.
+    split_sigma_m : float
+        A hypothesis whose σ_s exceeds this may split into a Gaussian sum along ``s``
+        (`railnav.navigation.s_split`), m > 0 (inf: never).
+    split_accel_mps2 : float
+        ... when the lateral acceleration its track would cause spreads by more than
+        this over ``s ± 3σ_s``, m/s² >= 0.
     """
 
     max_hypotheses: int = 16
     prune_probability: float = 1e-7
-    merge_mahalanobis: float = 1.0
+    merge_mahalanobis: float = 0.5
     crossing_rate_per_s: float = DEFAULT_CROSSING_RATE_PER_S
     crossing_radius_m: float = 10.0
     min_mixing_weight: float = 1e-6
     start_radius_m: float = 30.0
     continuous_evidence: bool = True
     hypotheses_every_s: float = 1.0
+    split_sigma_m: float = 5.0
+    split_accel_mps2: float = 0.02
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_hypotheses, int) and self.max_hypotheses >= 1):
@@ -108,10 +116,13 @@ class NetworkNavConfig:
                   "crossing_radius_m": lambda v: v > 0.0,
                   "min_mixing_weight": lambda v: 0.0 <= v < 1.0,
                   "start_radius_m": lambda v: v > 0.0,
-                  "hypotheses_every_s": lambda v: v > 0.0}
+                  "hypotheses_every_s": lambda v: v > 0.0,
+                  "split_sigma_m": lambda v: v > 0.0,
+                  "split_accel_mps2": lambda v: v >= 0.0}
         for name, ok in checks.items():
             value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and ok(value)):
+            finite = math.isfinite(value) or name == "split_sigma_m"
+            if not (isinstance(value, (int, float)) and finite and ok(value)):
                 raise ConfigError(f"{name}: invalid value {value!r}")
 
 

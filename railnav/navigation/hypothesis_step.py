@@ -14,27 +14,27 @@ of the samples ``t[a..b]`` from that posterior (`Filter.inputs`), the engine pro
 **Kinked joints.** A map's netelements may meet at a kink (a switch digitized as a corner:
 5–11° in the Brussels network) where the vehicle runs a curve; the accelerometer
 pseudo-observation of the inertial filters would take the curve's lateral acceleration for
-an error of the state. Within `KINK_WINDOW_M` (plus 3σ_s) of an end of its track whose
-joint kinks by more than `trackmodel.network.CONTINUOUS_KINK_RAD`, a hypothesis's
+an error of the state. Within `KINK_WINDOW_M` (plus 3σ_s) of a joint of its track that
+kinks by more than `trackmodel.network.CONTINUOUS_KINK_RAD`, a hypothesis's
 pseudo-observation noise density gets the curve a train would run there,
 ``(v²θ/w)² · w/|v|`` (θ the kink, ``w`` the window): the filter then leans on its IMU
-through the joint. Such a cycle's continuous evidence is left out for every hypothesis
-(`CycleOutcome.joint`), so that no hypothesis pays for the map's corner.
+through the joint.
 
-**Geometry noise.** Where a curvature change lies within a hypothesis's σ_s (a switch's
-way leaving the straight, a curve's entry), its filter's pseudo-observation carries the
-variance of the geometry over that window (`railnav.filters.geometry_noise`): a Gaussian
-stand-in for "straight or curved". Scored as a likelihood it would penalize that
-hypothesis for its wider Gaussian, though the vehicle may well be on the straight part; so
-a cycle in which any hypothesis's geometry variance exceeds `GEOMETRY_VARIANCE_LIMIT` brings
-no continuous evidence for anyone (`CycleOutcome.geometry`). Once the vehicle is clearly in
-the curve (or clearly not), the evidence flows again, and it is strong.
+**Continuous evidence on a common covariance** (`common_continuous_log_likelihoods`). Each
+step's pseudo-observation innovation ``ν_j`` of hypothesis j is scored against one
+covariance for all: at each step, the innovation covariance ``S`` of the hypothesis with
+the largest ``det S``. A hypothesis whose own ``S`` is wide — near a kinked joint (above),
+or with a curvature change within its σ_s, where the geometry noise of
+`railnav.filters.geometry_noise` stands in for "on the straight or already in the curve" —
+then pays nothing for that width (its own ``log det S`` would penalize it while the vehicle
+may well be where its mean says), and the innovations decide: small for the hypothesis
+whose geometry the vehicle follows, large (0.8 m/s² in a 500-m curve at 20 m/s) for the
+others.
 
-What the weights need comes back per hypothesis: the epoch's screen (innovations at the
-prior and their covariance, for the common evidence of `railnav.navigation.bank`'s
-`common_log_likelihoods`) and the log-likelihood of the continuous measurement over the
-cycle (the accelerometer pseudo-observation of the inertial filters: each step's
-``−½(νᵀS⁻¹ν + log det S + n_c log 2π)`` from the step outputs, `ekf.propagate.StepOutputs`).
+What the weights need comes back per hypothesis (`CycleOutcome`): the epoch's screen
+(innovations at the prior and their covariance, for the common evidence of
+`railnav.navigation.bank.common_log_likelihoods`) and the continuous measurement's
+innovations and covariances of every step (`ekf.propagate.StepOutputs`).
 """
 from __future__ import annotations
 
@@ -45,21 +45,17 @@ import numpy.typing as npt
 
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
-from ekf.update import LOG_2PI
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
 
-__all__ = ["EngineStepper", "CycleOutcome", "continuous_log_likelihood", "KINK_WINDOW_M",
-           "joint_allowance"]
+__all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
+           "KINK_WINDOW_M", "joint_allowance"]
 
 Array = npt.NDArray[np.float64]
 
 #: Half-width of the stretch around a kinked joint where the map's geometry is not
 #: trusted by the pseudo-observation, m.
 KINK_WINDOW_M = 10.0
-#: A cycle's continuous evidence counts only while the geometry noise of every
-#: hypothesis's pseudo-observation stays below this variance, (m/s²)² (module docstring).
-GEOMETRY_VARIANCE_LIMIT = 1e-4
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,41 +65,44 @@ class CycleOutcome:
     Attributes
     ----------
     screens : list of EpochScreen or None
-        Each filter's screened epoch (None for all when the cycle had no epoch).
-    continuous_log_lik : ndarray, shape (K,)
-        Log-likelihood of the continuous measurement over the cycle (0 without one).
+        Each filter's screened epoch (None when the cycle had no epoch).
+    innov_c : list of ndarray (N, n_c) or None
+        Each filter's continuous-measurement innovations of the cycle's N steps (None:
+        no continuous measurement, or no step).
+    S_c : list of ndarray (N, n_c, n_c) or None
+        Their covariances.
     steps : int
         Filter steps made (summed over the hypotheses).
-    joint : bool
-        Some hypothesis ran near a kinked joint (module docstring).
     continuous : bool
         The filters have a continuous measurement (the inertial ones).
-    geometry : bool
-        Some hypothesis's geometry variance exceeded `GEOMETRY_VARIANCE_LIMIT`.
     """
 
     screens: list | None
-    continuous_log_lik: Array
+    innov_c: list | None
+    S_c: list | None
     steps: int
-    joint: bool = False
     continuous: bool = False
-    geometry: bool = False
 
 
-def continuous_log_likelihood(outputs) -> float:
-    """``Σ_k log N(ν_k; 0, S_k)`` of a span's continuous-measurement innovations.
+def common_continuous_log_likelihoods(innov: list, S: list) -> Array:
+    """``−½ Σ_k ν_jkᵀ S̄_k⁻¹ ν_jk`` of each hypothesis j, ``S̄_k`` the innovation covariance
+    of step k with the largest determinant over the hypotheses (module docstring; the
+    terms common to all are left out).
 
     Parameters
     ----------
-    outputs : ekf.propagate.StepOutputs
-        With ``innov`` (N, n_c) and packed ``S`` (N, n_c(n_c+1)/2); n_c = 0 gives 0.
+    innov : list of ndarray, shape (N, n_c)
+    S : list of ndarray, shape (N, n_c, n_c)
+
+    Returns
+    -------
+    ndarray, shape (K,)
     """
-    nu = np.asarray(outputs.innov)
-    if nu.ndim != 2 or nu.shape[1] == 0 or nu.shape[0] == 0:
-        return 0.0
-    S = unpack_sym(outputs.S)
-    _, logdet = np.linalg.slogdet(S)
-    return float(-0.5 * np.sum(outputs.nis + logdet + nu.shape[1] * LOG_2PI))
+    nu, cov = np.stack(innov), np.stack(S)                   # (K, N, c), (K, N, c, c)
+    widest = np.argmax(np.linalg.det(cov), axis=0)            # (N,)
+    common = cov[widest, np.arange(cov.shape[1])]             # (N, c, c)
+    white = np.linalg.solve(common[None], nu[..., None])[..., 0]
+    return -0.5 * np.einsum("knc,knc->k", nu, white)
 
 
 def joint_allowance(h, tracks, t: Array) -> Array | None:
@@ -137,6 +136,8 @@ class EngineStepper:
         Sample times, s from the trip start.
     u : ndarray, shape (M, n_u)
         Raw inputs of the samples.
+    tracks : railnav.navigation.net_tracks.OrientedTracks, optional
+        For the joints' kinks.
     """
 
     def __init__(self, config, t: Array, u: Array, tracks=None) -> None:
@@ -154,35 +155,42 @@ class EngineStepper:
         """Propagate every hypothesis from sample `a` to sample `b` and update it there
         with epoch `epoch` (an index of the trip's epoch schedule; None: no epoch)."""
         screens = [] if epoch is not None else None
-        log_lik = np.zeros(len(hyps))
+        innov, cov = [], []
         t, u = self.t[a:b + 1], self.u[a:b + 1]
-        joint = continuous = geometry = False
-        dt = np.diff(t)
-        for k, h in enumerate(hyps):
+        continuous = False
+        for h in hyps:
             engine = self._engine(h.filt)
             engine.reset(h.x, h.P)
             if b > a:
-                u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0]))
-                continuous = continuous or r_c is not None
-                if r_c is not None and dt.size and not geometry:
-                    variance = np.max(r_c[1:], axis=1) / np.maximum(dt, 1e-12)
-                    geometry = bool(np.max(variance) > GEOMETRY_VARIANCE_LIMIT)
-                extra = None if r_c is None else joint_allowance(h, self.tracks, t)
-                if extra is not None:
-                    r_c = r_c + extra[:, None]
-                    joint = True
-                out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c, q_c=h.filt.q_c,
-                                                   r_c=r_c))
-                log_lik[k] = continuous_log_likelihood(out)
+                out, has = self._propagate(h, engine, t, u)
+                continuous = continuous or has
+                if has and out.innov.shape[0]:
+                    innov.append(out.innov)
+                    cov.append(unpack_sym(out.S))
             if epoch is not None:
-                rows = h.filt.observations(epoch, engine.x, engine.P)
-                if isinstance(rows, EpochRows):
-                    if rows.jump_covariance is not None:
-                        engine.P = engine.P + rows.jump_covariance
-                    rows = rows.observations
-                engine.update(rows)
+                self._update(h, engine, epoch)
                 screens.append(h.filt.screen.last)
                 h.filt.screen.clear_records()
             h.x, h.P = engine.x.copy(), engine.P.copy()
-        return CycleOutcome(screens, log_lik, (b - a) * len(hyps), joint, continuous,
-                            geometry)
+        full = bool(innov) and len(innov) == len(hyps)
+        return CycleOutcome(screens, innov if full else None, cov if full else None,
+                            (b - a) * len(hyps), continuous)
+
+    def _propagate(self, h, engine, t: Array, u: Array):
+        """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
+        and whether the filter has a continuous measurement."""
+        u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0]))
+        extra = None if r_c is None else joint_allowance(h, self.tracks, t)
+        if extra is not None:
+            r_c = r_c + extra[:, None]
+        out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c, q_c=h.filt.q_c, r_c=r_c))
+        return out, r_c is not None
+
+    @staticmethod
+    def _update(h, engine, epoch: int) -> None:
+        rows = h.filt.observations(epoch, engine.x, engine.P)
+        if isinstance(rows, EpochRows):
+            if rows.jump_covariance is not None:
+                engine.P = engine.P + rows.jump_covariance
+            rows = rows.observations
+        engine.update(rows)

@@ -60,6 +60,7 @@ from railnav.navigation.navigator import trip_samples
 from railnav.navigation.net_tracks import OrientedTracks
 from railnav.navigation.network_result import NetworkRecorder, NetworkResult
 from railnav.navigation.network_start import NetworkStart, start_hypotheses
+from railnav.navigation.s_split import needs_split, split
 from railnav.navigation.network_weights import (
     abreast,
     crossing_matrix,
@@ -164,7 +165,7 @@ def _check_inputs(config: NavigatorConfig, data: SensorData) -> None:
 def navigate_network(network, data: SensorData, config: NavigatorConfig = NavigatorConfig(),
                      *, nav: NetworkNavConfig = NetworkNavConfig(),
                      start: NetworkStart | None = None, outages=(), initial=None,
-                     progress: Progress | None = None) -> NetworkResult:
+                     near=None, progress: Progress | None = None) -> NetworkResult:
     """Navigate on a network with hypotheses that branch, merge and die (module docstring).
 
     Parameters
@@ -178,6 +179,8 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     outages : sequence of (start_s, duration_s)
     initial : callable(filter object, element, orientation) -> InitialState or None, optional
         Each start candidate's own initial state (simulations).
+    near : (lat, lon), optional
+        With `initial`: the candidates are the netelements near this point (rad).
     progress : callable(done, total), optional
         Cycles done of all.
 
@@ -191,7 +194,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     tracks = OrientedTracks(network)
     factory = FilterFactory(tracks, config, trip)
     t0, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
-                                start=start, initial=initial)
+                                start=start, initial=initial, near=near)
     t, u, epoch_idx = trip.from_time(t0)
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
     epoch_of = dict(zip(at_sample.tolist(), epoch_idx.tolist()))
@@ -233,7 +236,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
 def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float,
                  recorder) -> list:
     """Steps 2–4 of the module docstring."""
-    log_lik, rows = cycle_evidence(outcome, continuous=nav.continuous_evidence)
+    log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence)
     r_e, u_e = hypothesis_points(hyps, tracks)
     neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
     transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
@@ -247,10 +250,12 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
             children = branch_ahead(h, tracks, factory.child)
         if children is not None:
             out.extend(children)
-        elif beyond_track(h.filt, h.x, h.P, time_s) is None:
-            out.append(rebased(h, tracks, factory.child))
-        else:
+        elif beyond_track(h.filt, h.x, h.P, time_s) is not None:
             log.debug("hypothesis %d left %s at its buffer stop", h.id, h.element)
+        elif outcome.continuous and needs_split(h, nav):
+            out.extend(split(h, tracks, factory.child))
+        else:
+            out.append(rebased(h, tracks, factory.child))
     for h in out:
         entered(h, time_s)
     out, merges = merge_coinciding(out, nav.merge_mahalanobis)

@@ -90,7 +90,8 @@ def _candidates(network, lat: float, lon: float, radius_m: float,
 
 def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                      start: NetworkStart | None = None, initial=None,
-                     after_s: float | None = None) -> tuple[float, list[Hypothesis]]:
+                     after_s: float | None = None, near=None
+                     ) -> tuple[float, list[Hypothesis]]:
     """The start time (s from the trip start) and the first hypotheses (module docstring).
 
     Parameters
@@ -109,6 +110,9 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     after_s : float, optional
         Start from the first fix after this time (a restart, s from the trip start; with
         fixes only).
+    near : (lat, lon), optional
+        Look for candidates near this point (rad) instead of near the start fix (a
+        simulation's true start, with `initial`).
 
     Raises
     ------
@@ -117,7 +121,10 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     """
     if start is not None and start.element not in network.elements:
         raise ConfigError(f"start netelement {start.element!r} is not in the network")
-    if trip.fixes is not None and len(trip.fixes):
+    if near is not None and initial is not None:
+        def begin(filt):                       # never called: `initial` starts each
+            raise RailnavError("no start")
+    elif trip.fixes is not None and len(trip.fixes):
         k = _start_fix_index(network, trip.fixes, nav.start_radius_m,
                              None if start is None or start.offset_m is not None
                              else start.element, after_s)
@@ -136,6 +143,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
             return InitialState(fix.time_s, *filt.initial_from_fix(fix))
     else:
         raise RailnavError("a network run needs GNSS observations or fixes to start from")
+    if near is not None:
+        lat, lon = near
     hyps, time_s = [], None
     for element in _candidates(network, float(lat), float(lon), nav.start_radius_m, start):
         probe = factory(bare(element, 1))

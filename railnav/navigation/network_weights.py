@@ -8,8 +8,9 @@ After each cycle:
    a row that the hypothesis on the wrong track rejects because the wrong geometry biases
    it is evidence against that track; a row every filter refuses is no evidence). The
    continuous measurement (the inertial filters' accelerometer pseudo-observation) is the
-   same for all hypotheses, so its log-likelihood over the cycle is added as it is
-   (`NetworkNavConfig.continuous_evidence`): a branch's curvature, or a wrong ``s`` in a
+   same for all hypotheses; its innovations are scored on one covariance per step
+   (`railnav.navigation.hypothesis_step.common_continuous_log_likelihoods`,
+   `NetworkNavConfig.continuous_evidence`): a branch's curvature, or a wrong ``s`` in a
    curvy stretch, shows there first.
 2. **Markov prior for leaving the track model.** A train may be on a track abreast of the
    one a hypothesis says (a crossover the map lacks, a map error): each hypothesis gives
@@ -34,6 +35,7 @@ import numpy.typing as npt
 
 from ekf.bank import imm_starts, log_predict
 from railnav.navigation.bank import common_log_likelihoods, convert_state, evidence_rows
+from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
 
 __all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
@@ -42,20 +44,21 @@ __all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
 Array = npt.NDArray[np.float64]
 
 
-def cycle_evidence(outcome, *, continuous: bool) -> tuple[Array, int]:
+def cycle_evidence(outcome, count: int, *, continuous: bool) -> tuple[Array, int]:
     """Each hypothesis's log-likelihood of the cycle (module docstring, 1) and the number
     of rows the evidence used.
 
     Parameters
     ----------
     outcome : railnav.navigation.hypothesis_step.CycleOutcome
+    count : int
+        Hypotheses stepped.
     continuous : bool
-        Add the continuous measurement's log-likelihood.
+        Add the continuous measurement's evidence.
     """
-    # near a kinked joint or a curvature change: none for anyone (hypothesis_step)
-    use = continuous and not (outcome.joint or outcome.geometry)
-    log_lik = np.array(outcome.continuous_log_lik, dtype=float) if use else \
-        np.zeros(len(outcome.continuous_log_lik))
+    log_lik = np.zeros(count)
+    if continuous and outcome.innov_c is not None:
+        log_lik = common_continuous_log_likelihoods(outcome.innov_c, outcome.S_c)
     rows = 0
     if outcome.screens:
         log_lik = log_lik + common_log_likelihoods(outcome.screens)

@@ -248,3 +248,29 @@ def test_a_one_element_network_runs_the_single_track_filter(brussels_run):
                                    atol=tol)
     assert (mine["netelement"] == element).all()
     assert (mine["netelement_probability"] == 1.0).all()
+
+
+def test_split_keeps_the_mixture_moments_and_needs_curvature_within_reach():
+    """The Gaussian sum along s (railnav.navigation.s_split): the components' mixture has
+    the parent's mean and covariance exactly (every state, through its regression on s);
+    a wide σ_s splits near the loop's first curve and not on A0's straight far from it."""
+    from railnav.navigation.s_split import needs_split, split
+    rng = np.random.default_rng(5)
+    A = rng.normal(size=(4, 4))
+    P = A @ A.T + np.diag([400.0, 1.0, 1.0, 1.0])
+    h = _hyp("L0", 60.0, v=20.0)
+    h.P = P
+    parts = split(h, TRACKS, _make_child)
+    w = np.exp([c.log_weight for c in parts])
+    assert w.sum() == pytest.approx(1.0, rel=1e-9)
+    x, Pm = merge_gaussians(w / w.sum(), np.array([c.x for c in parts]),
+                            np.array([c.P for c in parts]))
+    np.testing.assert_allclose(x, h.x, atol=1e-9)
+    np.testing.assert_allclose(Pm, P, rtol=1e-9, atol=1e-9)
+    nav = NetworkNavConfig()
+    wide = np.diag([30.0 ** 2, 1.0, 1.0, 1.0])
+    near_curve = _hyp("L0", 30.0, v=20.0, P=wide[:2, :2])
+    far = _hyp("A0", 60.0, v=20.0, P=wide[:2, :2])
+    assert needs_split(near_curve, nav) and not needs_split(far, nav)
+    narrow = _hyp("L0", 30.0, v=20.0, P=np.diag([4.0, 1.0]))
+    assert not needs_split(narrow, nav)
