@@ -42,7 +42,7 @@ from railnav.navigation.net_tracks import OrientedTracks, bare
 
 __all__ = ["NetworkNavConfig", "Hypothesis", "hypothesis", "branch", "branch_ahead",
            "rebased", "entered", "tail_pieces", "merge_coinciding", "prune", "carried_state",
-           "normalized_weights", "LEAD_MARGIN_M", "CYCLE_REACH_S"]
+           "normalized_weights", "evidence_share", "LEAD_MARGIN_M", "CYCLE_REACH_S"]
 
 Array = npt.NDArray[np.float64]
 
@@ -92,6 +92,12 @@ class NetworkNavConfig:
     split_accel_mps2 : float
         ... when the lateral acceleration its track would cause spreads by more than
         this over ``s ± 3σ_s``, m/s² >= 0.
+    evidence_correlation_s : float
+        τ >= 0 of the errors of the epochs' measurements (fixes from a receiver without
+        corrections: a bias wandering over a minute): each epoch's evidence counts
+        ``(1 − ρ)/(1 + ρ)``, ``ρ = e^{−Δt/τ}`` (Δt since the previous epoch), the share of
+        an independent epoch that such a sequence brings over its correlation time; 0:
+        white errors, every epoch counts whole.
     """
 
     max_hypotheses: int = 16
@@ -105,6 +111,7 @@ class NetworkNavConfig:
     hypotheses_every_s: float = 1.0
     split_sigma_m: float = 5.0
     split_accel_mps2: float = 0.02
+    evidence_correlation_s: float = 0.0
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_hypotheses, int) and self.max_hypotheses >= 1):
@@ -118,7 +125,8 @@ class NetworkNavConfig:
                   "start_radius_m": lambda v: v > 0.0,
                   "hypotheses_every_s": lambda v: v > 0.0,
                   "split_sigma_m": lambda v: v > 0.0,
-                  "split_accel_mps2": lambda v: v >= 0.0}
+                  "split_accel_mps2": lambda v: v >= 0.0,
+                  "evidence_correlation_s": lambda v: v >= 0.0}
         for name, ok in checks.items():
             value = getattr(self, name)
             finite = math.isfinite(value) or name == "split_sigma_m"
@@ -199,6 +207,14 @@ def hypothesis(tracks: OrientedTracks, pieces, x: Array, P: Array, log_weight: f
     return Hypothesis(pieces, tuple(float(v) for v in tracks.piece_ends(pieces)),
                       np.asarray(x, dtype=float), np.asarray(P, dtype=float),
                       float(log_weight), filt, tuple(path), parent)
+
+
+def evidence_share(nav: NetworkNavConfig, since_epoch_s: float) -> float:
+    """What one epoch's evidence counts (`NetworkNavConfig.evidence_correlation_s`)."""
+    if nav.evidence_correlation_s <= 0.0:
+        return 1.0
+    rho = math.exp(-max(since_epoch_s, 0.0) / nav.evidence_correlation_s)
+    return (1.0 - rho) / (1.0 + rho)
 
 
 def normalized_weights(hyps) -> Array:

@@ -41,7 +41,7 @@ from collections.abc import Callable
 import numpy as np
 
 from railnav.config import NavigatorConfig, SensorData
-from railnav.errors import ConfigError
+from railnav.errors import ConfigError, RailnavError
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.hypotheses import (
@@ -49,6 +49,7 @@ from railnav.navigation.hypotheses import (
     branch,
     branch_ahead,
     entered,
+    evidence_share,
     merge_coinciding,
     normalized_weights,
     prune,
@@ -202,7 +203,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
     stepper = EngineStepper(config, t, u, tracks)
     recorder = NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s)
-    a, c = 0, 0
+    a, c, last_epoch = 0, 0, -np.inf
     if 0 in epoch_of:       # the start epoch is used, as `railnav.navigate` uses it
         ends = [0] + ends
     while c < len(ends):
@@ -211,22 +212,22 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
             c += 1
             continue
         stop = crossing_sample(hyps, tracks, t, a, b)
-        outcome = stepper.step(hyps, a, stop, epoch_of.get(b) if stop == b else None)
+        epoch = epoch_of.get(b) if stop == b else None
+        outcome = stepper.step(hyps, a, stop, epoch)
+        share = 1.0
+        if epoch is not None:
+            share, last_epoch = evidence_share(nav, float(t[stop]) - last_epoch), float(t[stop])
         hyps = _after_cycle(hyps, outcome, tracks, factory, nav, float(t[stop]),
-                            float(t[stop] - t[a]), recorder)
+                            float(t[stop] - t[a]), recorder, share)
         a = stop
-        if stop < b:                                # a joint reached within the cycle
-            continue
-        c += 1
-        if not hyps:                                # every hypothesis left the network
-            log.warning("every hypothesis left the network at t=%.1f s: starting again "
-                        "from the next fix near it", t[b])
-            t_new, hyps = start_hypotheses(network, tracks, factory, trip, data, config,
-                                           nav, start=None, after_s=float(t[b]))
-            recorder.restarts.append(float(t[b]))
-            a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
-            hyps = _restart_cycle(stepper, hyps, a, epoch_of, tracks, factory, nav, t,
-                                  recorder)
+        c += stop == b                              # else a joint reached within it
+        while not hyps:                             # every hypothesis left the network
+            a, hyps = _start_again(network, tracks, factory, trip, data, config, nav,
+                                   stepper, epoch_of, t, a, recorder)
+            if a is None:
+                break
+        if a is None:
+            break
         if progress is not None:
             progress(c, len(ends))
     return recorder.result(network, config, nav, hyps, outages=outages,
@@ -234,9 +235,10 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
 
 
 def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float,
-                 recorder) -> list:
-    """Steps 2–4 of the module docstring."""
-    log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence)
+                 recorder, share: float = 1.0) -> list:
+    """Steps 2–4 of the module docstring (`share`: what the epoch's evidence counts)."""
+    log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence,
+                                   share=share)
     r_e, u_e = hypothesis_points(hyps, tracks)
     neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
     transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
@@ -265,8 +267,20 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     return out
 
 
-def _restart_cycle(stepper, hyps, a: int, epoch_of, tracks, factory, nav, t, recorder
-                   ) -> list:
-    """The restart's first epoch, used as a start's is."""
+def _start_again(network, tracks, factory, trip, data, config, nav, stepper, epoch_of, t,
+                 a: int, recorder):
+    """New hypotheses from the next fix near the network after every one died (module
+    docstring), their first epoch used as a start's is: the sample index and the
+    hypotheses, or ``(None, [])`` when no fix is left."""
+    log.warning("every hypothesis left the network at t=%.1f s: starting again from the "
+                "next fix near it", t[a])
+    recorder.restarts.append(float(t[a]))
+    try:
+        t_new, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
+                                       after_s=float(t[a]))
+    except (ConfigError, RailnavError) as exc:
+        log.warning("no start again: %s", exc)
+        return None, []
+    a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
     outcome = stepper.step(hyps, a, a, epoch_of.get(a))
-    return _after_cycle(hyps, outcome, tracks, factory, nav, float(t[a]), 0.0, recorder)
+    return a, _after_cycle(hyps, outcome, tracks, factory, nav, float(t[a]), 0.0, recorder)

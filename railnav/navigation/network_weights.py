@@ -44,7 +44,8 @@ __all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
 Array = npt.NDArray[np.float64]
 
 
-def cycle_evidence(outcome, count: int, *, continuous: bool) -> tuple[Array, int]:
+def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
+                   ) -> tuple[Array, int]:
     """Each hypothesis's log-likelihood of the cycle (module docstring, 1) and the number
     of rows the evidence used.
 
@@ -55,13 +56,15 @@ def cycle_evidence(outcome, count: int, *, continuous: bool) -> tuple[Array, int
         Hypotheses stepped.
     continuous : bool
         Add the continuous measurement's evidence.
+    share : float
+        What the epoch's evidence counts (`railnav.navigation.hypotheses.evidence_share`).
     """
     log_lik = np.zeros(count)
     if continuous and outcome.innov_c is not None:
         log_lik = common_continuous_log_likelihoods(outcome.innov_c, outcome.S_c)
     rows = 0
     if outcome.screens:
-        log_lik = log_lik + common_log_likelihoods(outcome.screens)
+        log_lik = log_lik + share * common_log_likelihoods(outcome.screens)
         rows = len(evidence_rows(outcome.screens))
     return log_lik, rows
 
