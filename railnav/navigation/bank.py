@@ -80,8 +80,9 @@ from railnav.navigation.navigator import trip_samples
 from railnav.navigation.result import NavigationResult
 from trackmodel.earth import C_n_e
 
-__all__ = ["TrackBankConfig", "navigate_tracks", "convert_state", "Correspondence",
-           "common_log_likelihoods", "evidence_rows", "DEFAULT_CROSSING_RATE_PER_S"]
+__all__ = ["TrackBankConfig", "navigate_tracks", "convert_state", "moved_state",
+           "Correspondence", "common_log_likelihoods", "evidence_rows",
+           "DEFAULT_CROSSING_RATE_PER_S"]
 
 log = logging.getLogger(__name__)
 
@@ -146,10 +147,10 @@ def convert_state(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     if float(np.dot(p_src.u_n, p_tgt.u_n)) <= 0.0:
         raise RailnavError(f"candidate tracks must run in the same direction (not so at "
                            f"s = {s_src:.1f} m)")
-    return _moved(source, x, s_tgt, p_src, p_tgt), P
+    return moved_state(source, x, s_tgt, p_src, p_tgt), P
 
 
-def _moved(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
+def moved_state(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
     """``x`` with ``s = s_new`` and the attitude turned from track point `p_src`'s
     azimuth and elevation to `p_tgt`'s."""
     lay = filt.layout
@@ -202,7 +203,7 @@ class Correspondence:
             return out
         s_tgt = guess + step
         self._offset[(i, j)] = s_tgt - s_src
-        return _moved(src, x, s_tgt + (s_raw - s_src), p_src,
+        return moved_state(src, x, s_tgt + (s_raw - s_src), p_src,
                       tgt.track.at(min(max(s_tgt, 0.0), tgt.track.length_m))), P
 
 

@@ -75,6 +75,14 @@ class CycleOutcome:
         Filter steps made (summed over the hypotheses).
     continuous : bool
         The filters have a continuous measurement (the inertial ones).
+    evidence : ndarray, shape (K,), optional
+        The epoch's evidence when the stepper computed it on the common basis itself
+        (`railnav.navigation.stacked_fixes`); None: from `screens`.
+    evidence_rows : int
+        Rows of that evidence.
+    points : (ndarray (K, 3), ndarray (K, 3)), optional
+        ECEF position and unit tangent of each hypothesis's point, when the stepper has
+        them.
     """
 
     screens: list | None
@@ -82,6 +90,9 @@ class CycleOutcome:
     S_c: list | None
     steps: int
     continuous: bool = False
+    evidence: Array | None = None
+    evidence_rows: int = 0
+    points: tuple | None = None
 
 
 def common_continuous_log_likelihoods(innov: list, S: list) -> Array:

@@ -62,6 +62,7 @@ from railnav.navigation.net_tracks import OrientedTracks
 from railnav.navigation.network_result import NetworkRecorder, NetworkResult
 from railnav.navigation.network_start import NetworkStart, start_hypotheses
 from railnav.navigation.s_split import needs_split, split
+from railnav.navigation.stacked_fixes import StackedFixStepper, stackable
 from railnav.navigation.network_weights import (
     abreast,
     crossing_matrix,
@@ -201,7 +202,8 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     epoch_of = dict(zip(at_sample.tolist(), epoch_idx.tolist()))
     dt = float(np.median(np.diff(t)))
     ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
-    stepper = EngineStepper(config, t, u, tracks)
+    stepper = StackedFixStepper(config, trip, tracks, t) if nav.stacked and \
+        stackable(config, trip) else EngineStepper(config, t, u, tracks)
     recorder = NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s)
     a, c, last_epoch = 0, 0, -np.inf
     if 0 in epoch_of:       # the start epoch is used, as `railnav.navigate` uses it
@@ -239,7 +241,7 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     """Steps 2–4 of the module docstring (`share`: what the epoch's evidence counts)."""
     log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence,
                                    share=share)
-    r_e, u_e = hypothesis_points(hyps, tracks)
+    r_e, u_e = hypothesis_points(hyps, tracks, outcome)
     neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
     transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
     reweight(hyps, log_lik, transition)

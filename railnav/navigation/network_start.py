@@ -34,6 +34,9 @@ __all__ = ["NetworkStart", "start_hypotheses", "orientations_of"]
 
 log = logging.getLogger(__name__)
 
+#: Fixes projected on the network at a time while looking for a start.
+START_CHUNK = 25
+
 
 @dataclass(frozen=True)
 class NetworkStart:
@@ -66,15 +69,16 @@ def _start_fix_index(network, fixes, radius_m: float, element: str | None,
     n = min(len(fixes) - first, MAX_INITIAL_FIXES)
     if n <= 0:
         raise RailnavError(f"no fix after t={after_s:.1f} s to start again from")
-    part = slice(first, first + n)
-    near = network.project(fixes.lat[part], fixes.lon[part], radius_m=radius_m)
-    if element is not None:
-        near = near[near["element"] == element]
-    if len(near) == 0:
-        where = "a netelement" if element is None else f"netelement {element}"
-        raise ConfigError(f"none of the first {n} fixes is within {radius_m:g} m of "
-                          f"{where}: are the fixes on this network?")
-    return first + int(near["point"].min())
+    for k in range(first, first + n, START_CHUNK):    # usually the first chunk has one
+        part = slice(k, min(k + START_CHUNK, first + n))
+        near = network.project(fixes.lat[part], fixes.lon[part], radius_m=radius_m)
+        if element is not None:
+            near = near[near["element"] == element]
+        if len(near):
+            return k + int(near["point"].min())
+    where = "a netelement" if element is None else f"netelement {element}"
+    raise ConfigError(f"none of the first {n} fixes is within {radius_m:g} m of {where}: "
+                      "are the fixes on this network?")
 
 
 def _candidates(network, lat: float, lon: float, radius_m: float,

@@ -34,7 +34,8 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.bank import imm_starts, log_predict
-from railnav.navigation.bank import common_log_likelihoods, convert_state, evidence_rows
+from railnav.errors import RailnavError
+from railnav.navigation.bank import common_log_likelihoods, evidence_rows, moved_state
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
 
@@ -63,18 +64,23 @@ def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
     if continuous and outcome.innov_c is not None:
         log_lik = common_continuous_log_likelihoods(outcome.innov_c, outcome.S_c)
     rows = 0
-    if outcome.screens:
+    if outcome.evidence is not None:
+        log_lik, rows = log_lik + share * outcome.evidence, outcome.evidence_rows
+    elif outcome.screens:
         log_lik = log_lik + share * common_log_likelihoods(outcome.screens)
         rows = len(evidence_rows(outcome.screens))
     return log_lik, rows
 
 
-def hypothesis_points(hyps, tracks) -> tuple[Array, Array]:
+def hypothesis_points(hyps, tracks, outcome=None) -> tuple[Array, Array]:
     """ECEF position (m) and ECEF unit tangent of the oriented track at each hypothesis's
-    ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis)."""
+    ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis); those of
+    the cycle's `outcome` when its stepper gave them."""
     r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
     if len(hyps) < 2:                       # nothing to be abreast of
         return r, u
+    if outcome is not None and outcome.points is not None:
+        return outcome.points
     for k, h in enumerate(hyps):
         track = h.filt.track
         p = track.at(min(max(h.s_m, 0.0), track.length_m))
@@ -123,6 +129,9 @@ def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float)
 
 def reweight(hyps, log_lik: Array, transition: Array) -> None:
     """``log w_j ← log Σ_i Π_ij w_i + log L_j`` for every hypothesis, in place."""
+    if len(hyps) == 1:                        # one hypothesis: its weight is all there is
+        hyps[0].log_weight = 0.0
+        return
     log_w = np.array([h.log_weight for h in hyps], dtype=float)
     log_w = log_predict(log_w, transition) + log_lik
     top = float(np.max(log_w)) if np.isfinite(log_w).any() else 0.0
@@ -145,17 +154,51 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
         h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
 
 
+#: Offsets ``s_target − s_source`` found for pairs of tracks, for the next conversion.
+_OFFSETS: dict[tuple[int, int], float] = {}
+#: A Newton step longer than this (m) means the guess was poor: project instead.
+NEWTON_MAX_STEP_M = 1.0
+#: Pairs remembered at most (then forgotten together).
+MAX_OFFSETS = 10_000
+
+
+def _target_s(source, target, p_src, s_src: float) -> float:
+    """``s`` of the point of `target`'s track nearest `source`'s point at ``s_src``: one
+    Newton step along the target's tangent from the offset last found for the pair
+    (`railnav.navigation.bank.Correspondence`'s shortcut), else the projection."""
+    key = (id(source.track), id(target.track))
+    guess = _OFFSETS.get(key)
+    if guess is not None:
+        s_g = min(max(s_src + guess, 0.0), target.track.length_m)
+        p_g = target.track.at(s_g)
+        tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
+        step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
+        if abs(step) <= NEWTON_MAX_STEP_M:
+            _OFFSETS[key] = s_g + step - s_src
+            return s_g + step
+    s_tgt = float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
+    if len(_OFFSETS) > MAX_OFFSETS:
+        _OFFSETS.clear()
+    _OFFSETS[key] = s_tgt - s_src
+    return s_tgt
+
+
 def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
-    """`railnav.navigation.bank.convert_state`, and for filters whose speed is signed
-    also between tracks that run opposite ways there: ``s`` from the projection, ``v``
-    (and its covariances) negated."""
+    """`railnav.navigation.bank.convert_state` (``s`` by `_target_s`), and for filters
+    whose speed is signed also between tracks that run opposite ways there: ``s`` from the
+    projection, ``v`` (and its covariances) negated."""
     lay = source.layout
     s_src = min(max(float(x[lay.index("s")]), 0.0), source.track.length_m)
     p_src = source.track.at(s_src)
-    s_tgt = float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
-    p_tgt = target.track.at(s_tgt)
-    if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0 or not _signed_speed(source):
-        return convert_state(source, target, x, P)
+    s_tgt = _target_s(source, target, p_src, s_src)
+    p_tgt = target.track.at(min(max(s_tgt, 0.0), target.track.length_m))
+    if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0:
+        out = moved_state(source, x, s_tgt + (float(x[lay.index("s")]) - s_src), p_src,
+                          p_tgt)
+        return out, P
+    if not _signed_speed(source):
+        raise RailnavError(f"the tracks run opposite ways at s = {s_src:.1f} m: an "
+                           "inertial filter's state cannot be brought across")
     flip = np.ones(x.size)
     flip[lay.index("v")] = -1.0
     out = x * flip
