@@ -3,8 +3,7 @@ r"""Parallel-track identification: one constrained filter per candidate track, i
 The hypotheses are "the train is on track j" (the tracks of a double line, the routes
 after a switch). `navigate_tracks` runs one constrained INS/GNSS filter per candidate
 track over the same data, chunk by chunk in lockstep (`railnav.navigation.loop.ChunkLoop`:
-every chunk ends at a GNSS epoch or after `railnav.navigation.loop.MAX_CHUNK_S`), and after each
-chunk (a *cycle*):
+every chunk ends at a GNSS epoch or after `MAX_CHUNK_S`), and after each chunk (a *cycle*):
 
 1. **Evidence.** Each filter's fault screen (`railnav.filters.fault_detection.RowScreen.last`)
    holds the epoch's GNSS innovations at its prior and their full covariance
@@ -151,13 +150,13 @@ def convert_state(source, target, x: Array, P: Array) -> tuple[Array, Array]:
 
 
 def moved_state(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
-    """``x`` with ``s = s_new`` and the attitude turned from track point `p_src`'s
-    azimuth and elevation to `p_tgt`'s."""
+    """``x`` with ``s = s_new``, the attitude turned from `p_src`'s azimuth/elevation to
+    `p_tgt`'s."""
     lay = filt.layout
     out = np.array(x, dtype=float)
     out[lay.index("s")] = s_new
-    if "yaw" not in lay.names:              # no attitude (the GNSS-only filter)
-        return out
+    if "yaw" not in lay.names:
+        return out                          # no attitude (the GNSS-only filter)
     turn = (float(p_tgt.azimuth) - float(p_src.azimuth) + math.pi) % (2 * math.pi) - math.pi
     out[lay.index("yaw")] += turn
     out[lay.index("pitch")] += float(p_tgt.elevation) - float(p_src.elevation)

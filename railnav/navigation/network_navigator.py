@@ -37,6 +37,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -77,6 +78,9 @@ __all__ = ["navigate_network", "FilterFactory", "cycle_ends", "crossing_sample"]
 log = logging.getLogger(__name__)
 
 Progress = Callable[[int, int], None]
+
+#: How often the live hypotheses are logged (INFO, ``railnav -v``), s of trip time.
+REPORT_EVERY_S = 10.0
 
 
 class FilterFactory:
@@ -139,6 +143,15 @@ def cycle_ends(n_samples: int, epoch_samples: np.ndarray, max_len: int) -> list[
     return out
 
 
+def _report(recorder, time_s: float) -> None:
+    """The live hypotheses in the log (``railnav -v``)."""
+    if recorder.rows:
+        row = recorder.rows[-1]
+        log.info("t=%.0f s: %d live hypotheses; most probable %s (%.4f) at %.1f m", time_s,
+                 row["hypotheses"], row["netelement"], row["netelement_probability"],
+                 row["netelement_offset_m"])
+
+
 def crossing_sample(hyps, tracks, t, a: int, b: int) -> int:
     """The first sample after `a`, up to `b`, at which a hypothesis is predicted to reach
     an end of its element (``s + v Δt``; `b` when none does): a cycle ends there, so that
@@ -199,41 +212,86 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                                 start=start, initial=initial, near=near)
     t, u, epoch_idx = trip.from_time(t0)
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
-    epoch_of = dict(zip(at_sample.tolist(), epoch_idx.tolist()))
-    dt = float(np.median(np.diff(t)))
-    ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
     stepper = StackedFixStepper(config, trip, tracks, t) if nav.stacked and \
         stackable(config, trip) else EngineStepper(config, t, u, tracks)
-    recorder = NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s)
-    a, c, last_epoch = 0, 0, -np.inf
-    if 0 in epoch_of:       # the start epoch is used, as `railnav.navigate` uses it
+    run = _Run(network, tracks, factory, trip, data, config, nav, stepper,
+               NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s),
+               t, dict(zip(at_sample.tolist(), epoch_idx.tolist())))
+    dt = float(np.median(np.diff(t)))
+    ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
+    if 0 in run.epoch_of:   # the start epoch is used, as `railnav.navigate` uses it
         ends = [0] + ends
-    while c < len(ends):
-        b = ends[c]
-        if b < a:                                   # before a restart's first epoch
-            c += 1
-            continue
-        stop = crossing_sample(hyps, tracks, t, a, b)
-        epoch = epoch_of.get(b) if stop == b else None
-        outcome = stepper.step(hyps, a, stop, epoch)
-        share = 1.0
-        if epoch is not None:
-            share, last_epoch = evidence_share(nav, float(t[stop]) - last_epoch), float(t[stop])
-        hyps = _after_cycle(hyps, outcome, tracks, factory, nav, float(t[stop]),
-                            float(t[stop] - t[a]), recorder, share)
-        a = stop
-        c += stop == b                              # else a joint reached within it
-        while not hyps:                             # every hypothesis left the network
-            a, hyps = _start_again(network, tracks, factory, trip, data, config, nav,
-                                   stepper, epoch_of, t, a, recorder)
+    hyps = run.cycles(hyps, ends, progress)
+    return run.recorder.result(network, config, nav, hyps, outages=outages,
+                               runtime_s=time.perf_counter() - started)
+
+
+@dataclass
+class _Run:
+    """What the cycles of a run share."""
+
+    network: object
+    tracks: OrientedTracks
+    factory: FilterFactory
+    trip: object
+    data: SensorData
+    config: NavigatorConfig
+    nav: NetworkNavConfig
+    stepper: object
+    recorder: NetworkRecorder
+    t: np.ndarray
+    epoch_of: dict
+
+    def cycles(self, hyps, ends: list[int], progress) -> list:
+        """Every cycle (module docstring); the last hypotheses."""
+        t, nav = self.t, self.nav
+        a, c, last_epoch, next_report = 0, 0, -np.inf, -np.inf
+        while c < len(ends):
+            b = ends[c]
+            if b < a:                               # before a restart's first epoch
+                c += 1
+                continue
+            stop = crossing_sample(hyps, self.tracks, t, a, b)
+            epoch = self.epoch_of.get(b) if stop == b else None
+            outcome = self.stepper.step(hyps, a, stop, epoch)
+            share = 1.0
+            if epoch is not None:
+                share, last_epoch = evidence_share(nav, float(t[stop]) - last_epoch), \
+                    float(t[stop])
+            hyps = _after_cycle(hyps, outcome, self.tracks, self.factory, nav,
+                                float(t[stop]), float(t[stop] - t[a]), self.recorder, share)
+            a = stop
+            c += stop == b                          # else a joint reached within it
+            while not hyps and a is not None:       # every hypothesis left the network
+                a, hyps = self.start_again(a)
             if a is None:
                 break
-        if a is None:
-            break
-        if progress is not None:
-            progress(c, len(ends))
-    return recorder.result(network, config, nav, hyps, outages=outages,
-                           runtime_s=time.perf_counter() - started)
+            if progress is not None:
+                progress(c, len(ends))
+            if t[a] >= next_report:
+                next_report = float(t[a]) + REPORT_EVERY_S
+                _report(self.recorder, float(t[a]))
+        return hyps
+
+    def start_again(self, a: int):
+        """New hypotheses from the next fix near the network after every one died (module
+        docstring), their first epoch used as a start's is: the sample index and the
+        hypotheses, or ``(None, [])`` when no fix is left."""
+        t = self.t
+        log.warning("every hypothesis left the network at t=%.1f s: starting again from "
+                    "the next fix near it", t[a])
+        self.recorder.restarts.append(float(t[a]))
+        try:
+            t_new, hyps = start_hypotheses(self.network, self.tracks, self.factory, self.trip,
+                                           self.data, self.config, self.nav,
+                                           after_s=float(t[a]))
+        except (ConfigError, RailnavError) as exc:
+            log.warning("no start again: %s", exc)
+            return None, []
+        a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
+        outcome = self.stepper.step(hyps, a, a, self.epoch_of.get(a))
+        return a, _after_cycle(hyps, outcome, self.tracks, self.factory, self.nav,
+                               float(t[a]), 0.0, self.recorder)
 
 
 def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float,
@@ -267,22 +325,3 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     if out:
         recorder.cycle(time_s, out, evidence_rows=rows, merges=merges, pruned=dropped)
     return out
-
-
-def _start_again(network, tracks, factory, trip, data, config, nav, stepper, epoch_of, t,
-                 a: int, recorder):
-    """New hypotheses from the next fix near the network after every one died (module
-    docstring), their first epoch used as a start's is: the sample index and the
-    hypotheses, or ``(None, [])`` when no fix is left."""
-    log.warning("every hypothesis left the network at t=%.1f s: starting again from the "
-                "next fix near it", t[a])
-    recorder.restarts.append(float(t[a]))
-    try:
-        t_new, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
-                                       after_s=float(t[a]))
-    except (ConfigError, RailnavError) as exc:
-        log.warning("no start again: %s", exc)
-        return None, []
-    a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
-    outcome = stepper.step(hyps, a, a, epoch_of.get(a))
-    return a, _after_cycle(hyps, outcome, tracks, factory, nav, float(t[a]), 0.0, recorder)

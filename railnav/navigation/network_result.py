@@ -79,6 +79,7 @@ class NetworkRecorder:
         self.restarts: list[float] = []
         self.steps = 0
         self._next_hyp_s = -np.inf
+        self._last: list = []
 
     def epoch(self, time_s: float, hyps, outcome) -> None:
         """Record a cycle's screened epoch, of the most probable hypothesis (after the
@@ -112,13 +113,16 @@ class NetworkRecorder:
         self.P.append(pack_sym(h.P))
         self.keys.append(h.pieces)
         self.element_probability.append(per_element)
+        self._last = list(hyps)
         if time_s >= self._next_hyp_s:
             self._next_hyp_s = time_s + self.nav.hypotheses_every_s
             self.hyp_rows.extend(_hypothesis_rows(hyps, w, time_s, self.tracks))
 
     def result(self, network, config, nav, hyps, *, outages, runtime_s: float
                ) -> "NetworkResult":
-        """The finished run."""
+        """The finished run (`hyps` empty when every hypothesis died with no fix left to
+        start again from: the last recorded ones stand for the end)."""
+        hyps = hyps or self._last
         w = normalized_weights(hyps)
         final = [{"id": h.id, "element": h.element, "orientation": h.orientation,
                   "probability": float(wk), "path": h.path} for h, wk in zip(hyps, w)]

@@ -125,28 +125,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     """
     if start is not None and start.element not in network.elements:
         raise ConfigError(f"start netelement {start.element!r} is not in the network")
-    if near is not None and initial is not None:
-        def begin(filt):                       # never called: `initial` starts each
-            raise RailnavError("no start")
-    elif trip.fixes is not None and len(trip.fixes):
-        k = _start_fix_index(network, trip.fixes, nav.start_radius_m,
-                             None if start is None or start.offset_m is not None
-                             else start.element, after_s)
-        lat, lon = float(trip.fixes.lat[k]), float(trip.fixes.lon[k])
-
-        def begin(filt):
-            return initial_at_fix(filt, trip.fixes, k, config)
-    elif after_s is not None:
-        raise RailnavError(f"every hypothesis left the network at t={after_s:.1f} s (a "
-                           "restart needs position fixes)")
-    elif trip.gnss is not None:
-        fix = first_fix(data, config)
-        lat, lon, _ = ecef_to_geodetic(fix.r_e)
-
-        def begin(filt):
-            return InitialState(fix.time_s, *filt.initial_from_fix(fix))
-    else:
-        raise RailnavError("a network run needs GNSS observations or fixes to start from")
+    lat, lon, begin = _start_point(network, trip, data, config, nav, start,
+                                   near is not None and initial is not None, after_s)
     if near is not None:
         lat, lon = near
     hyps, time_s = [], None
@@ -167,6 +147,35 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),
              ", ".join(sorted({h.element for h in hyps})))
     return float(time_s), hyps
+
+
+def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
+    """Where the candidates are looked for (lat, lon, rad) and how a candidate's filter
+    starts there (``begin(filt) -> InitialState``); `told`: every candidate's start is
+    given (a simulation)."""
+    if told:
+        def begin(filt):                       # never called: the starts are given
+            raise RailnavError("no start")
+        return 0.0, 0.0, begin
+    if trip.fixes is not None and len(trip.fixes):
+        k = _start_fix_index(network, trip.fixes, nav.start_radius_m,
+                             None if start is None or start.offset_m is not None
+                             else start.element, after_s)
+
+        def begin(filt):
+            return initial_at_fix(filt, trip.fixes, k, config)
+        return float(trip.fixes.lat[k]), float(trip.fixes.lon[k]), begin
+    if after_s is not None:
+        raise RailnavError(f"every hypothesis left the network at t={after_s:.1f} s (a "
+                           "restart needs position fixes)")
+    if trip.gnss is not None:
+        fix = first_fix(data, config)
+        lat, lon, _ = ecef_to_geodetic(fix.r_e)
+
+        def begin(filt):
+            return InitialState(fix.time_s, *filt.initial_from_fix(fix))
+        return float(lat), float(lon), begin
+    raise RailnavError("a network run needs GNSS observations or fixes to start from")
 
 
 def _at_offset(init: InitialState, filt, tracks, element: str, orientation: int,

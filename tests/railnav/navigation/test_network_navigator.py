@@ -274,3 +274,22 @@ def test_split_keeps_the_mixture_moments_and_needs_curvature_within_reach():
     assert needs_split(near_curve, nav) and not needs_split(far, nav)
     narrow = _hyp("L0", 30.0, v=20.0, P=np.diag([4.0, 1.0]))
     assert not needs_split(narrow, nav)
+
+
+def test_a_run_starts_again_where_every_hypothesis_left_the_network(brussels_run):
+    """The excerpt runs from 88_L_3842 onto 88_L_5900 at 22 s. With the joint between them
+    missing from the network, the hypothesis dies at 3842's end (a buffer stop now), and
+    the run starts again from the next fix near the network: on 5900, right to the end.
+    With 5900 missing too, no fix is near any more: the run ends there, not in error."""
+    from railnav.navigation.network_navigator import navigate_network
+    from trackmodel.network import Network
+    network, data, run = brussels_run
+    cut = Network({e: network.elements[e] for e in ("88_L_3842", "88_L_5900")}, [])
+    again = navigate_network(cut, data, run.config)
+    assert len(again.restarts) == 1 and 20.0 < again.restarts[0] < 40.0
+    assert again.cycles["netelement"].iloc[-1] == "88_L_5900"
+    assert again.cycles["time_s"].iloc[-1] > 59.0
+    alone = navigate_network(Network({"88_L_3842": network.elements["88_L_3842"]}, []), data,
+                             run.config)
+    assert len(alone.restarts) == 1 and alone.cycles["time_s"].iloc[-1] < 40.0
+    assert alone.route_frame()["netelement"].tolist() == ["88_L_3842"]
