@@ -27,6 +27,11 @@ command                                function(s)
 ``railnav spp``                        `gnss_obs.solve_spp`, `spp_errors`,
                                        `accuracy_summary`
 ``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
+``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
+                                       `check_network` (`read_osm`, GeoJSON readers)
+``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
+                                       `Network.routes`; `plot_network_map`
+``railnav simulate --network --route`` `simulate_trip` on `trackmodel.route_track`
 ``railnav run --network N ...``        `run_files_network`, `write_network_run`
                                        (`navigate_network` underneath, `NetworkNavConfig`,
                                        `NetworkStart`; track networks: `trackmodel.network`)
@@ -65,6 +70,7 @@ _EXPORTS = {
     "score_run": "jobs.scoring", "read_reference": "evaluation.reference",
     "reference_errors": "evaluation.reference",
     "screen_fix_reference": "evaluation.reference",
+    "plot_network_map": "evaluation.network_map",
 }
 
 __all__ = sorted(_EXPORTS)

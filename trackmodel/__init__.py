@@ -6,8 +6,10 @@ tables of straights (the 2017 paper's loxodrome with exponential height), circul
 and clothoid transitions; queries ``s -> (φ, λ, h, r_e, u_n, du/ds)``; projection of
 points onto the track; fitting of surveyed polylines; the track file format; track
 networks of netelements joined by switches (`trackmodel.network`: successors, routes,
-distances, projection onto candidates, kinks; `trackmodel.network_io`: GeoJSON/RINF import
-and the network folder format).
+distances, projection onto candidates, kinks; `trackmodel.network_lines`: route lines;
+`trackmodel.network_io`: GeoJSON/RINF in and out and the network folder format;
+`trackmodel.osm`: OpenStreetMap; `trackmodel.network_check`: defects;
+`trackmodel.network_routes`: routes named by their netelements, `load_network`).
 
 Conventions (ARCHITECTURE.md): ``s`` in metres from the track start; azimuth ``A``
 clockwise from north, elevation ``ϑ`` positive uphill, both radians inside;
@@ -29,7 +31,12 @@ _EXPORTS = {
     "Ellipsoid": "earth", "WGS84": "earth", "sphere": "earth", "InputError": "errors",
     "TrackError": "errors", "TrackFileError": "errors", "Section": "sections",
     "Origin": "origin", "Track": "track", "TrackPoint": "track", "read_track": "io",
-    "write_track": "io",
+    "write_track": "io", "Network": "network", "NetPosition": "network",
+    "Connection": "network", "read_network": "network_io", "write_network": "network_io",
+    "read_network_geojson": "network_io", "write_network_geojson": "network_io",
+    "build_network": "network_io", "read_osm": "osm", "check_network": "network_check",
+    "load_network": "network_routes", "route_legs": "network_routes",
+    "route_track": "network_routes",
 }
 
 __all__ = sorted(_EXPORTS)

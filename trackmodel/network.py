@@ -34,12 +34,19 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.errors import TrackError
-from trackmodel.fit import fit_track
-from trackmodel.sections import Section
+from trackmodel.network_lines import (
+    ROUTE_MIN_RADIUS_M,
+    ROUTE_REFIT_TOL_M,
+    RouteLine,
+    chain_tracks,
+    reversed_track,
+    route_line,
+)
 from trackmodel.track import Track
 
 __all__ = ["Network", "Connection", "NetPosition", "Route", "START", "END", "NAVIGABILITY",
-           "CONTINUOUS_KINK_RAD", "reversed_track", "chain_tracks"]
+           "CONTINUOUS_KINK_RAD", "reversed_track", "chain_tracks", "RouteLine",
+           "ROUTE_MIN_RADIUS_M", "ROUTE_REFIT_TOL_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -49,12 +56,6 @@ log = logging.getLogger(__name__)
 START, END = 0, 1
 #: Navigability of a connection: which way a train may pass from ``a`` to ``b``.
 NAVIGABILITY = ("both", "AB", "BA", "none")
-#: Sampling of a route line before its refit, m.
-ROUTE_SAMPLE_M = 2.0
-#: Tolerance of a route line's refit, m: the netelements' own fit tolerance.
-ROUTE_REFIT_TOL_M = 0.5
-#: Smallest radius of a refitted route line, m: below any railway's (tram loops ~15-20 m).
-ROUTE_MIN_RADIUS_M = 15.0
 #: A kink below this is taken as a continuous tangent, rad (0.5°: a 0.5-m fit tolerance
 #: over the last ~60 m of an element; switches diverge by 1/9–1/20 rad, i.e. 3–6°).
 CONTINUOUS_KINK_RAD = math.radians(0.5)
@@ -124,6 +125,9 @@ class Network:
         The netelements by id.
     connections : sequence of Connection
         Their joints (kink and gap are measured here from the tracks).
+    attributes : mapping of str to mapping of str to str, optional
+        Each netelement's attributes from its source (e.g. OpenStreetMap's ``railway``,
+        ``gauge``, ``service``, ``usage``); kept and written, not interpreted.
 
     Raises
     ------
@@ -132,15 +136,19 @@ class Network:
         unknown navigability, or an empty network.
     """
 
-    def __init__(self, elements: Mapping[str, Track], connections: Sequence[Connection]
-                 ) -> None:
+    def __init__(self, elements: Mapping[str, Track], connections: Sequence[Connection],
+                 attributes: Mapping[str, Mapping[str, str]] | None = None) -> None:
         if not elements:
             raise TrackError("a network needs at least one netelement")
         self.elements: dict[str, Track] = dict(elements)
+        self.attributes: dict[str, dict[str, str]] = {
+            name: dict(values) for name, values in (attributes or {}).items()
+            if name in self.elements and values}
         for c in connections:
             _check_connection(c, self.elements)
         self.connections = tuple(_measured(c, self.elements) for c in connections)
         self.graph = _travel_graph(self.elements, self.connections)
+        self._reversed: dict[str, Track] = {}
 
     def length_m(self, element: str) -> float:
         """Length of a netelement, m."""
@@ -221,7 +229,8 @@ class Network:
 
     def project(self, lat: npt.ArrayLike, lon: npt.ArrayLike, *, radius_m: float
                 ) -> pd.DataFrame:
-        """Candidate netelements within `radius_m` of each point (horizontal distance).
+        """Candidate netelements within `radius_m` of each point (horizontal distance;
+        `trackmodel.network_project.project_onto`).
 
         Parameters
         ----------
@@ -235,65 +244,60 @@ class Network:
             ``point, element, s_m, cross_track_m, distance_m``, one row per candidate,
             sorted by point then distance.
         """
-        lat, lon = np.atleast_1d(np.asarray(lat, float)), np.atleast_1d(np.asarray(lon, float))
-        rows = []
-        for element, track in self.elements.items():
-            near = _near_element(track, lat, lon, radius_m)
-            if not near.any():
-                continue
-            proj = track.project(lat[near], lon[near])
-            inside = (np.abs(proj.along_m) < 1e-6) & (np.abs(proj.cross_track_m) <= radius_m)
-            idx = np.flatnonzero(near)[inside]
-            rows.append(pd.DataFrame({"point": idx, "element": element,
-                                      "s_m": proj.s[inside],
-                                      "cross_track_m": proj.cross_track_m[inside],
-                                      "distance_m": np.abs(proj.cross_track_m[inside])}))
-        columns = ["point", "element", "s_m", "cross_track_m", "distance_m"]
-        if not rows:
-            return pd.DataFrame(columns=columns)
-        out = pd.concat(rows, ignore_index=True)[columns]
-        return out.sort_values(["point", "distance_m"], ignore_index=True)
+        from trackmodel.network_project import project_onto
+        return project_onto(self.elements, lat, lon, radius_m=radius_m)
 
     def route_track(self, legs: Sequence[tuple[str, int]], *,
                     refit_tol_m: float | None = ROUTE_REFIT_TOL_M) -> Track:
         """One `Track` along a route's legs: the line a train on that route runs on, with
-        ``s`` from the start of the first leg.
+        ``s`` from the start of the first leg (`route_line`'s track).
 
-        The legs' tracks (each reversed where travelled ``-1``) meet at joints that are not
-        tangent-continuous (a switch's measured kink): chained as they are, the line would
-        take an instant turn, which no vehicle makes and which an inertial filter cannot
-        follow. So the legs are sampled every `ROUTE_SAMPLE_M` and the route is refitted
-        within `refit_tol_m` (`trackmodel.fit.fit_track`): each kink becomes the curve the
-        map's tolerance allows. ``refit_tol_m=None``: the legs chained as they are
-        (`chain_tracks`; a kink above the track model's limit is then an error).
+        ``refit_tol_m=None``: the legs chained as they are (`chain_tracks`; a kink above
+        the track model's limit is then an error).
 
         Raises
         ------
         TrackError
-            A leg that does not lead to the next, or a route whose kinks no curve of radius
-            >= `ROUTE_MIN_RADIUS_M` can follow within the tolerance.
+            A leg that does not lead to the next, or a joint no transition can follow.
         """
-        for (a, da), (b, db) in zip(legs[:-1], legs[1:]):
-            if (b, db) not in self.graph.successors((a, da)):
-                raise TrackError(f"route: no passage from {a} to {b}")
-        tracks = [self._track(e) if d == 1 else reversed_track(self._track(e))
-                  for e, d in legs]
-        if refit_tol_m is None or len(tracks) == 1:
-            return chain_tracks(tracks)
-        lat, lon, h = _route_points(tracks)
-        try:
-            return fit_track(lat, lon, h, tol_m=refit_tol_m, min_radius_m=ROUTE_MIN_RADIUS_M,
-                             earth=tracks[0].earth).track
-        except TrackError as exc:
-            raise TrackError(f"route {'>'.join(e for e, _ in legs)}: its joints (kinks up to "
-                             f"{self._max_kink_deg(legs):.1f}°) cannot be refitted within "
-                             f"{refit_tol_m:g} m: {exc}") from None
+        if refit_tol_m is None:
+            return chain_tracks(self._leg_tracks(legs))
+        return self.route_line(legs, tol_m=refit_tol_m).track
 
-    def _max_kink_deg(self, legs) -> float:
-        names = {e for e, _ in legs}
-        kinks = [c.kink_rad for c in self.connections if c.a in names and c.b in names
-                 and c.navigability != "none"]
-        return math.degrees(max(kinks)) if kinks else 0.0
+    def route_line(self, legs: Sequence[tuple[str, int]], *,
+                   tol_m: float = ROUTE_REFIT_TOL_M) -> RouteLine:
+        """The line along a route's legs with its joint transitions, and where each leg
+        lies on it (`trackmodel.network_lines`: two routes that share their first legs
+        share the line's geometry on them exactly).
+
+        Raises
+        ------
+        TrackError
+            A leg that does not lead to the next, or a joint no transition within `tol_m`
+            can follow.
+        """
+        tracks = self._leg_tracks(legs)
+        try:
+            return route_line(tuple(legs), tracks, tol_m=tol_m, min_radius_m=ROUTE_MIN_RADIUS_M)
+        except TrackError as exc:
+            raise TrackError(f"route {'>'.join(e for e, _ in legs)}: {exc}") from None
+
+    def _leg_tracks(self, legs: Sequence[tuple[str, int]]) -> list[Track]:
+        """Each leg's track oriented in its direction of travel, the passages checked."""
+        if not legs:
+            raise TrackError("a route needs at least one netelement")
+        for (a, da), (b, db) in zip(legs[:-1], legs[1:]):
+            if (b, db) not in self.graph.successors((self._check(a), da)):
+                raise TrackError(f"route: no passage from {a} to {b}")
+        return [self._oriented(e, d) for e, d in legs]
+
+    def _oriented(self, element: str, direction: int) -> Track:
+        """`element`'s track in `direction` (reversed tracks cached)."""
+        if direction == 1:
+            return self._track(element)
+        if element not in self._reversed:
+            self._reversed[element] = reversed_track(self._track(element))
+        return self._reversed[element]
 
     def kinks(self) -> pd.DataFrame:
         """Every navigable connection with its kink (deg), gap (m) and whether the tangent
@@ -320,60 +324,6 @@ class Network:
     def _behind(self, element: str, direction: int, s_m: float) -> float:
         """Distance from the end a train travelling `direction` enters by to `s_m`, m."""
         return float(s_m if direction == 1 else self.length_m(element) - s_m)
-
-
-def reversed_track(track: Track) -> Track:
-    """The same line travelled the other way: ``s' = L - s``, sections in reverse order
-    with curvature and elevation negated (and swapped end for start), from the old end.
-
-    Exact in the track model: the azimuth of the reversed line is ``A + π`` and its
-    ``dA/ds'`` is ``-dA/ds``; the loxodrome's exponential height law runs back into itself.
-    """
-    table, length = track.table, float(track.length_m)
-    end = track.at(np.array([length]))
-    sections = []
-    for k in range(len(track.sections) - 1, -1, -1):
-        k0, k1 = float(table.curvature0[k]), float(table.curvature1[k])
-        e0, e1 = float(table.elevation0[k]), float(table.elevation1[k])
-        sections.append(Section(float(table.length[k]), None, math.degrees(-e1), -k1,
-                                None if k0 == k1 else -k0,
-                                None if e0 == e1 else math.degrees(-e0)))
-    first = sections[0]
-    sections[0] = Section(first.length_m, math.degrees(float(end.azimuth[0]) + math.pi) % 360.0,
-                          first.elevation_deg, first.curvature_1pm, first.curvature_end_1pm,
-                          first.elevation_end_deg)
-    return Track.from_sections(sections, lat=float(end.lat[0]), lon=float(end.lon[0]),
-                               h=float(end.h[0]), earth=track.earth)
-
-
-def chain_tracks(tracks: Sequence[Track]) -> Track:
-    """Tracks joined end to start into one: each after the first starts where the previous
-    ends (the joint's gap is dropped) with its own start azimuth and elevation (a kink is
-    kept)."""
-    if not tracks:
-        raise TrackError("nothing to chain")
-    sections = []
-    for track in tracks:
-        start = track.at(np.array([0.0]))
-        head = track.sections[0]
-        sections.append(Section(head.length_m, math.degrees(float(start.azimuth[0])),
-                                math.degrees(float(start.elevation[0])), head.curvature_1pm,
-                                head.curvature_end_1pm, head.elevation_end_deg))
-        sections.extend(track.sections[1:])
-    first = tracks[0].origin
-    return Track(tuple(sections), first, tracks[0].earth)
-
-
-def _route_points(tracks: Sequence[Track]) -> tuple[Array, Array, Array]:
-    """Points every <= `ROUTE_SAMPLE_M` along each track in turn, each joint's point once."""
-    parts = []
-    for k, track in enumerate(tracks):
-        n = int(math.ceil(track.length_m / ROUTE_SAMPLE_M)) + 1
-        lat, lon, h = track.geodetic(np.linspace(0.0, track.length_m, n))
-        start = 0 if k == 0 else 1                      # the previous track ended there
-        parts.append(np.column_stack([lat[start:], lon[start:], h[start:]]))
-    points = np.vstack(parts)
-    return points[:, 0], points[:, 1], points[:, 2]
 
 
 def _check_connection(c: Connection, elements: Mapping[str, Track]) -> None:
@@ -428,22 +378,3 @@ def _travel_graph(elements: Mapping[str, Track], connections: Iterable[Connectio
 
 def _path_length(graph: nx.DiGraph, path: list) -> float:
     return float(sum(graph[u][v]["weight"] for u, v in zip(path[:-1], path[1:])))
-
-
-def _near_element(track: Track, lat: Array, lon: Array, radius_m: float
-                  ) -> npt.NDArray[np.bool_]:
-    """Points horizontally within `radius_m` (plus the sampling step and 1 %) of points
-    sampled every <= 50 m along `track`: a cheap prefilter before the exact projection
-    (equirectangular distances on the mean Earth radius)."""
-    n = max(2, int(math.ceil(track.length_m / 50.0)) + 1)
-    t_lat, t_lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
-    step = track.length_m / (n - 1)
-    north = _MEAN_RADIUS_M * (lat[:, None] - t_lat[None, :])
-    dlon = (lon[:, None] - t_lon[None, :] + math.pi) % (2 * math.pi) - math.pi
-    east = _MEAN_RADIUS_M * np.cos(lat)[:, None] * dlon
-    reach = 1.01 * (radius_m + step)
-    return np.min(north ** 2 + east ** 2, axis=1) <= reach ** 2
-
-
-#: Mean Earth radius for the prefilter's distances, m (IUGG).
-_MEAN_RADIUS_M = 6_371_008.8

@@ -18,8 +18,10 @@ import json
 import logging
 import os
 import re
+import shutil
+import tempfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,27 +29,33 @@ import numpy.typing as npt
 import pandas as pd
 
 from trackmodel.errors import TrackError, TrackFileError
-from trackmodel.files import atomic_write_csv
+from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.fit import fit_track
 from trackmodel.io import read_track, write_track
 from trackmodel.network import (
-    END,
     NAVIGABILITY,
     ROUTE_MIN_RADIUS_M,
     START,
     Connection,
     Network,
 )
+from trackmodel.track import Track
 
-__all__ = ["NetworkSource", "read_network_geojson", "build_network", "write_network",
-           "read_network", "NETWORK_MIN_RADIUS_M"]
+__all__ = ["NetworkSource", "read_network_geojson", "write_network_geojson", "build_network",
+           "write_network", "read_network", "network_from_track", "NETWORK_MIN_RADIUS_M",
+           "GEOJSON_STEP_M"]
 
 Array = npt.NDArray[np.float64]
 
 log = logging.getLogger(__name__)
 
-#: Smallest radius of a fitted netelement, m (that of a refitted route line).
+#: Smallest radius of a fitted netelement, m (that of a route line's transitions).
 NETWORK_MIN_RADIUS_M = ROUTE_MIN_RADIUS_M
+#: Spacing of the points of an exported netelement, m: the chord of a 300-m radius
+#: over 5 m is 1 cm from the arc, a 15-m radius's 21 cm (within the fit tolerance).
+GEOJSON_STEP_M = 5.0
+#: Decimal places of exported degrees (1e-8 degree is ~1 mm).
+GEOJSON_DECIMALS = 8
 
 
 @dataclass(frozen=True)
@@ -59,10 +67,13 @@ class NetworkSource:
     polylines : dict of str to (lat, lon)
         Each netelement's points in its order, rad, shape (N,) each.
     connections : tuple of Connection
+    attributes : dict of str to dict of str to str
+        Each netelement's other properties (GeoJSON) or tags (OpenStreetMap), as text.
     """
 
     polylines: dict[str, tuple[Array, Array]]
     connections: tuple[Connection, ...]
+    attributes: dict[str, dict[str, str]] = field(default_factory=dict)
 
 
 def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
@@ -80,20 +91,41 @@ def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
         raise TrackFileError(f"not a readable GeoJSON file ({exc})", path=path) from None
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise TrackFileError("expected a GeoJSON FeatureCollection", path=path)
-    polylines, relations = {}, []
-    for k, feature in enumerate(data.get("features") or []):
-        kind = (feature.get("geometry") or {}).get("type") if isinstance(feature, dict) else None
+    polylines, relations, attributes = {}, [], {}
+    features = data.get("features")
+    if not isinstance(features, list):
+        raise TrackFileError("the FeatureCollection has no list of features", path=path)
+    for k, feature in enumerate(features):
+        geometry = feature.get("geometry") if isinstance(feature, dict) else None
+        kind = geometry.get("type") if isinstance(geometry, dict) else None
         if kind == "LineString":
             name, lat_lon = _netelement(feature, k, path)
             if name in polylines:
                 raise TrackFileError(f"feature {k}: netelement {name!r} given twice", path=path)
             polylines[name] = lat_lon
-        elif kind == "Point" and "netelementA" in (feature.get("properties") or {}):
+            attributes[name] = _attributes(feature["properties"])
+        elif kind == "Point" and "netelementA" in _properties(feature):
             relations.append((k, feature["properties"]))
     if not polylines:
         raise TrackFileError("no LineString netelement in the file", path=path)
     connections = [_relation(k, props, polylines, path) for k, props in relations]
-    return NetworkSource(polylines, _merged(connections, path))
+    return NetworkSource(polylines, _merged(connections, path), attributes)
+
+
+def _properties(feature: dict) -> dict:
+    props = feature.get("properties")
+    return props if isinstance(props, dict) else {}
+
+
+#: Netelement properties that are the format's own, not attributes.
+_OWN_PROPERTIES = {"id", "type"}
+
+
+def _attributes(props: dict) -> dict[str, str]:
+    """A netelement's other scalar properties, as text."""
+    return {str(k): str(v) for k, v in props.items()
+            if k not in _OWN_PROPERTIES and isinstance(v, (str, int, float, bool))
+            and str(v) != ""}
 
 
 #: Navigability as the set of passages it allows, and back.
@@ -125,13 +157,16 @@ def _merged(connections: list[Connection], path) -> tuple[Connection, ...]:
 
 
 def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array]]:
-    name = (feature.get("properties") or {}).get("id")
+    name = _properties(feature).get("id")
     if not isinstance(name, str) or not name:
         raise TrackFileError(f"feature {k}: a netelement needs a string properties.id",
                              path=path)
     try:
-        xy = np.array(feature["geometry"]["coordinates"], dtype=float)[:, :2]
-    except (KeyError, TypeError, ValueError, IndexError):
+        xy = np.array(feature["geometry"]["coordinates"], dtype=float)
+        if xy.ndim != 2 or xy.shape[1] not in (2, 3):
+            raise ValueError
+        xy = xy[:, :2]
+    except (KeyError, TypeError, ValueError, IndexError, OverflowError):
         raise TrackFileError(f"feature {k} ({name}): coordinates are not [lon, lat] pairs",
                              path=path) from None
     if xy.shape[0] < 2 or not np.all(np.isfinite(xy)):
@@ -144,22 +179,23 @@ def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array]]:
 
 def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
     try:
-        a, b = str(props["netelementA"]), str(props["netelementB"])
-        a_end, b_end = int(props["positionOnA"]), int(props["positionOnB"])
-        navigability = str(props.get("navigability", "both"))
-    except (KeyError, TypeError, ValueError):
+        a, b = props["netelementA"], props["netelementB"]
+        ends = props["positionOnA"], props["positionOnB"]
+    except KeyError:
         raise TrackFileError(f"feature {k}: a netrelation needs netelementA/B and "
                              "positionOnA/B", path=path) from None
+    navigability = props.get("navigability", "both")
     for name in (a, b):
-        if name not in polylines:
+        if not isinstance(name, str) or name not in polylines:
             raise TrackFileError(f"feature {k}: netrelation names netelement {name!r}, which "
                                  "the file does not have", path=path)
-    if a_end not in (START, END) or b_end not in (START, END):
-        raise TrackFileError(f"feature {k}: positionOnA/B must be 0 or 1", path=path)
+    if any(isinstance(e, bool) or str(e) not in ("0", "1", "0.0", "1.0") for e in ends):
+        raise TrackFileError(f"feature {k}: positionOnA/B must be 0 or 1, got "
+                             f"{ends[0]!r}, {ends[1]!r}", path=path)
     if navigability not in NAVIGABILITY:
         raise TrackFileError(f"feature {k}: navigability must be one of "
                              f"{', '.join(NAVIGABILITY)}, got {navigability!r}", path=path)
-    return Connection(a, a_end, b, b_end, navigability)
+    return Connection(a, int(float(ends[0])), b, int(float(ends[1])), navigability)
 
 
 def build_network(source: NetworkSource, *, tol_m: float = 0.5,
@@ -191,7 +227,7 @@ def build_network(source: NetworkSource, *, tol_m: float = 0.5,
             raise TrackError(f"netelement {name}: {exc}") from None
         if progress is not None:
             progress(i + 1, total)
-    return Network(elements, source.connections)
+    return Network(elements, source.connections, source.attributes)
 
 
 def _file_name(element: str) -> str:
@@ -199,16 +235,49 @@ def _file_name(element: str) -> str:
 
 
 def write_network(network: Network, folder: str | os.PathLike) -> None:
-    """Write a fitted network as a folder (module docstring); the folder is created."""
+    """Write a fitted network as a folder (module docstring). The folder is written
+    beside the target and moved into place at the end, so an error leaves nothing
+    half-written; an existing network folder there is replaced.
+
+    Raises
+    ------
+    TrackError
+        `folder` exists and is neither empty nor a network folder, or two netelement ids
+        map to one file name.
+    """
     out = Path(folder)
-    (out / "elements").mkdir(parents=True, exist_ok=True)
+    if out.exists() and not (out.is_dir() and (not any(out.iterdir())
+                                               or (out / "elements.csv").is_file())):
+        raise TrackError(f"{out}: exists and is not a network folder")
     files = {name: _file_name(name) for name in network.elements}
     if len(set(files.values())) != len(files):
         raise TrackError("two netelement ids map to one file name")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        _write_folder(network, tmp, files)
+        if out.exists():
+            old = out.with_name(f".{out.name}.old-{tmp.name}")
+            out.rename(old)
+            tmp.rename(out)
+            shutil.rmtree(old)
+        else:
+            tmp.rename(out)
+    finally:
+        if tmp.exists():
+            shutil.rmtree(tmp)
+
+
+def _write_folder(network: Network, out: Path, files: dict[str, str]) -> None:
+    (out / "elements").mkdir()
     for name, track in network.elements.items():
         write_track(track, out / "elements" / files[name], comments=[f"netelement {name}"])
-    atomic_write_csv(out / "elements.csv", pd.DataFrame(
-        {"element": list(files), "file": [f"elements/{f}" for f in files.values()]}))
+    index = pd.DataFrame({"element": list(files),
+                          "file": [f"elements/{f}" for f in files.values()]})
+    keys = sorted({k for values in network.attributes.values() for k in values} - {*index})
+    for key in keys:
+        index[key] = [network.attributes.get(name, {}).get(key, "") for name in files]
+    atomic_write_csv(out / "elements.csv", index)
     atomic_write_csv(out / "connections.csv", pd.DataFrame(
         [{"a": c.a, "a_end": c.a_end, "b": c.b, "b_end": c.b_end,
           "navigability": c.navigability} for c in network.connections],
@@ -225,8 +294,22 @@ def read_network(folder: str | os.PathLike) -> Network:
     """
     root = Path(folder)
     index = _csv(root / "elements.csv", ("element", "file"))
-    elements = {str(row.element): read_track(root / str(row.file))
-                for row in index.itertuples()}
+    elements, attributes = {}, {}
+    for i, row in enumerate(index.to_dict("records"), start=1):
+        name, file = row.pop("element"), row.pop("file")
+        if not name or name in elements:
+            raise TrackFileError(f"netelement {name!r} empty or given twice",
+                                 path=root / "elements.csv", row=i)
+        try:
+            target = (root / file).resolve()
+            inside = root.resolve() in target.parents and target.is_file()
+        except (OSError, ValueError):                 # a NUL byte, a loop of links
+            inside = False
+        if not inside:
+            raise TrackFileError(f"file {file!r} is not a file inside the network folder",
+                                 path=root / "elements.csv", row=i)
+        elements[name] = read_track(target)
+        attributes[name] = {k: v for k, v in row.items() if v != ""}
     table = _csv(root / "connections.csv", ("a", "a_end", "b", "b_end", "navigability"))
     connections = []
     for i, row in enumerate(table.itertuples(), start=1):
@@ -238,7 +321,7 @@ def read_network(folder: str | os.PathLike) -> Network:
         connections.append(Connection(str(row.a), a_end, str(row.b), b_end,
                                       str(row.navigability)))
     try:
-        return Network(elements, connections)
+        return Network(elements, connections, attributes)
     except TrackError as exc:
         raise TrackFileError(str(exc), path=root / "connections.csv") from None
 
@@ -252,3 +335,37 @@ def _csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     if missing:
         raise TrackFileError(f"missing column(s) {', '.join(missing)}", path=path)
     return frame
+
+
+def write_network_geojson(network: Network, path: str | os.PathLike, *,
+                          step_m: float = GEOJSON_STEP_M) -> None:
+    """Write `network` as GeoJSON netelements + netrelations (the layout
+    `read_network_geojson` reads): each netelement its fitted track sampled every
+    <= `step_m` (WGS-84 lon/lat, degrees) with its attributes as properties; each
+    connection a Point at its ``a`` end. Written atomically."""
+    features = []
+    for name, track in network.elements.items():
+        n = max(2, int(np.ceil(track.length_m / step_m)) + 1)
+        lat, lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
+        coords = np.round(np.column_stack([np.degrees(lon), np.degrees(lat)]),
+                          GEOJSON_DECIMALS).tolist()
+        features.append({"type": "Feature",
+                         "properties": {**network.attributes.get(name, {}), "id": name},
+                         "geometry": {"type": "LineString", "coordinates": coords}})
+    for c in network.connections:
+        track = network.elements[c.a]
+        lat, lon, _ = track.geodetic(0.0 if c.a_end == START else track.length_m)
+        point = np.round([float(np.degrees(lon).item()), float(np.degrees(lat).item())],
+                         GEOJSON_DECIMALS)
+        features.append({"type": "Feature", "properties": {
+            "id": f"{c.a}[{c.a_end}]-{c.b}[{c.b_end}]", "type": "netrelation",
+            "netelementA": c.a, "positionOnA": c.a_end, "netelementB": c.b,
+            "positionOnB": c.b_end, "navigability": c.navigability},
+            "geometry": {"type": "Point", "coordinates": point.tolist()}})
+    atomic_write_text(path, json.dumps({"type": "FeatureCollection", "features": features})
+                      + "\n")
+
+
+def network_from_track(track: Track, name: str) -> Network:
+    """A one-element network: `track` as netelement `name`, no connections."""
+    return Network({name: track}, [])

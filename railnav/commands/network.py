@@ -1,9 +1,9 @@
-"""``railnav network build|info|routes|run``: track networks from the command line.
+"""``railnav network import|build|info|check|plot|route|routes|run``: track networks.
 
-Thin layer over `trackmodel.network_io` (``build``: GeoJSON netelements + netrelations
-fitted into a network folder; ``info``) and `railnav.jobs.network` (``routes``: the ways a
-train may take from a start; ``run``: which of them it took, on a simulated trip or on
-sensor files, written like ``railnav run A.csv B.csv``).
+``import``/``build``, ``check``, ``plot`` and ``route`` are `railnav.commands.network_data`
+(network files: `trackmodel.network_routes.load_network`, `trackmodel.network_check`);
+``info`` and ``routes`` (the ways a train may take from a start) are here, over
+`trackmodel`; ``run`` (which way the train took) over `railnav.jobs.network`.
 """
 from __future__ import annotations
 
@@ -11,6 +11,12 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
+from railnav.commands.network_data import (
+    import_handler,
+    load,
+    register_data_commands,
+    start_position,
+)
 from railnav.commands.support import (
     nonnegative_int,
     positive_float,
@@ -44,43 +50,34 @@ def _scenario(network, args):
                    duration_s=duration, outages=())
 
 
-def start_position(text: str):
-    """argparse type for ``ELEMENT:S_M[:+|-]``: a netelement, the distance along it (m) and
-    the direction of travel (``+``: increasing s, the default; ``-``: decreasing)."""
-    from trackmodel.network import NetPosition
-    parts = text.split(":")
-    try:
-        if len(parts) not in (2, 3) or not parts[0]:
-            raise ValueError
-        direction = {"+": 1, "-": -1}[parts[2] if len(parts) == 3 else "+"]
-        return NetPosition(parts[0], float(parts[1]), direction)
-    except (ValueError, KeyError):
-        raise argparse.ArgumentTypeError(
-            f"{text!r} is not ELEMENT:S_M[:+|-] (e.g. 88_L_111:250:-)") from None
-
-
 def register(subparsers) -> None:
     """Add the ``network`` subcommand and its own subcommands."""
     p = subparsers.add_parser(
-        "network", help="track networks: build from GeoJSON, inspect, routes, which way",
-        description="Track networks of netelements joined by switches: fit a GeoJSON "
-                    "network (RINF topology layout) into a network folder, list it, list "
-                    "the routes a train may take from a start, and find the route it took.")
+        "network", help="track networks: import (GeoJSON, OpenStreetMap), check, plot, "
+                        "routes, which way",
+        description="Track networks of netelements joined by switches: import a GeoJSON "
+                    "(RINF topology layout), OpenStreetMap or track file into a network "
+                    "folder, check and plot it, give routes between positions or through "
+                    "named netelements (as track files), list the routes a train may take "
+                    "from a start, and find the route it took.")
     sub = p.add_subparsers(dest="network_command", metavar="ACTION", required=True)
-    b = sub.add_parser("build", help="fit a GeoJSON network into a network folder",
+    register_data_commands(sub)
+    b = sub.add_parser("build", help="fit a GeoJSON network into a network folder (= import)",
                        description="Fit every netelement of a GeoJSON FeatureCollection "
                                    "(LineString netelements, Point netrelations) and write "
                                    "a network folder (elements.csv, connections.csv, "
-                                   "elements/*.csv).")
+                                   "elements/*.csv); the same as 'network import'.")
     b.add_argument("geojson", metavar="NETWORK.geojson")
     b.add_argument("--tol-m", type=positive_float, default=0.5,
                    help="largest deviation of a netelement's points from its track, m "
                         "(default 0.5)")
     b.add_argument("--out", required=True, metavar="DIR", help="network folder to write")
-    b.set_defaults(func=_build)
-    i = sub.add_parser("info", help="netelements, joints and kinks of a network folder",
-                       description="Print the size of a network and its largest kinks.")
-    i.add_argument("network", metavar="DIR")
+    b.set_defaults(func=import_handler)
+    i = sub.add_parser("info", help="netelements, joints, kinks and checks of a network",
+                       description="Print the size of a network, its netelements by kind, "
+                                   "its largest kinks and the count of its check findings.")
+    i.add_argument("network", metavar="NETWORK",
+                   help="network folder, GeoJSON, OpenStreetMap or track .csv")
     i.set_defaults(func=_info)
     r = sub.add_parser("routes", help="the routes a train may take from a start",
                        description="List every route through the switches ahead of a "
@@ -129,29 +126,27 @@ def _add_start(p) -> None:
                         f"{DEFAULT_HORIZON_M:g})")
 
 
-def _build(args: argparse.Namespace) -> int:
-    from trackmodel.network_io import build_network, read_network_geojson, write_network
-    source = read_network_geojson(args.geojson)
-    with progress_bar("fitting netelements", enabled=not args.quiet) as progress:
-        network = build_network(source, tol_m=args.tol_m, progress=progress)
-    write_network(network, args.out)
-    print(f"{args.out}/: {len(network.elements)} netelements, "
-          f"{sum(network.length_m(e) for e in network.elements) / 1000:.1f} km, "
-          f"{len(network.connections)} joints")
-    return 0
-
-
 def _info(args: argparse.Namespace) -> int:
-    from trackmodel.network_io import read_network
-    network = read_network(args.network)
+    from collections import Counter
+
+    from trackmodel.network_check import check_network
+    network = load(args.network, args)
     kinks = network.kinks()
     print(f"{args.network}: {len(network.elements)} netelements, "
           f"{sum(network.length_m(e) for e in network.elements) / 1000:.1f} km; "
           f"{len(network.connections)} joints, {len(kinks)} navigable "
           f"({int(kinks['continuous'].sum()) if len(kinks) else 0} with a continuous tangent)")
+    kinds = Counter(network.attributes.get(e, {}).get("railway") for e in network.elements)
+    if set(kinds) - {None}:
+        print("  netelements by railway=: " + ", ".join(
+            f"{k or 'unknown'} {n}" for k, n in sorted(kinds.items(), key=lambda x: str(x[0]))))
     for row in kinks.sort_values("kink_deg", ascending=False).head(5).itertuples():
         print(f"  kink {row.kink_deg:6.2f} deg, gap {row.gap_m:.2f} m: {row.a}[{row.a_end}] "
               f"- {row.b}[{row.b_end}]")
+    findings = check_network(network)
+    errors = sum(f.level == "error" for f in findings)
+    print(f"  checks: {errors} error(s), {len(findings) - errors} warning(s) "
+          f"('railnav network check' lists them)")
     return 0
 
 

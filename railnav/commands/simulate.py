@@ -1,6 +1,7 @@
 """``railnav simulate TRACK --scenario NAME ...``: truth.csv, imu.csv and scenario.json.
 
-Thin layer over `railnav.simulation.trip.simulate_trip` (STYLE.md §2.11), and with
+Thin layer over `railnav.simulation.trip.simulate_trip` (STYLE.md §2.11) on a track file or,
+with ``--network N --route E1,E2``, on the route's line (`trackmodel.route_track`); with
 ``--fixes-format`` over `railnav.simulation.fixes.simulate_fixes` and the fix writers of
 `gnss_obs.fixes.writers`.
 """
@@ -36,6 +37,8 @@ log = logging.getLogger(__name__)
 
 #: CSV float format: 17 significant digits round-trip every float64 exactly.
 FLOAT_FORMAT = "%.17g"
+#: With --network/--route: the route's line, a track file for ``railnav run``.
+ROUTE_TRACK_FILE = "route_track.csv"
 
 
 def register(subparsers) -> None:
@@ -45,7 +48,9 @@ def register(subparsers) -> None:
         description="Simulate a scenario (speed profile + sensors) on a track and write "
                     "truth.csv, imu.csv and scenario.json to DIR (+ GNSS observations, "
                     "and fixes with --fixes-format).")
-    p.add_argument("track", metavar="TRACK", help="track file (.csv)")
+    p.add_argument("track", metavar="TRACK", nargs="?", default=None,
+                   help="track file (.csv); or --network with --route")
+    add_network_route_arguments(p)
     p.add_argument("--scenario", default="paper2017", choices=sorted(SCENARIOS),
                    help="named scenario (default: paper2017)")
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
@@ -78,6 +83,34 @@ def register(subparsers) -> None:
     p.set_defaults(func=handler)
 
 
+def add_network_route_arguments(p) -> None:
+    """``--network NETWORK --route E1,E2,...``: simulate on a route through a network."""
+    p.add_argument("--network", metavar="NETWORK", default=None,
+                   help="a network (folder, GeoJSON, OpenStreetMap) to simulate on, along "
+                        "--route, instead of TRACK")
+    p.add_argument("--route", metavar="E1,E2,...", default=None,
+                   help="with --network: the netelements in order (',' or '>'; '-E' "
+                        "backwards); the route's line is written as route_track.csv")
+
+
+def _check_network_flags(args: argparse.Namespace) -> None:
+    if (args.network is None) != (args.route is None):
+        raise ConfigError("--network and --route go together")
+    if (args.track is None) == (args.network is None):
+        raise ConfigError("give a TRACK file, or --network with --route (not both)")
+
+
+def _track_of(args: argparse.Namespace):
+    """The track simulated on, and its name in scenario.json and the report."""
+    if args.network is None:
+        from trackmodel.io import read_track
+        return read_track(args.track), str(Path(args.track))
+    from trackmodel.network_routes import load_network, route_legs, route_text
+    network = load_network(args.network)
+    legs = route_legs(network, args.route)
+    return network.route_track(legs), f"{args.network}:{route_text(legs)}"
+
+
 def _fix_config(args: argparse.Namespace) -> FixSimConfig | None:
     """The fix simulation of the flags (None without --fixes-format)."""
     given = [f for f, v in (("--fixes-rate-hz", args.fixes_rate_hz),
@@ -105,12 +138,12 @@ def handler(args: argparse.Namespace) -> int:
     from gnss_obs.sim_files import write_simulation
     from railnav.simulation.fixes import trip_fixes
     from railnav.simulation.trip import simulate_trip
-    from trackmodel.io import read_track
+    _check_network_flags(args)
     fix_config = _fix_config(args)
     scenario = get_scenario(args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
-    track = read_track(args.track)
+    track, track_name = _track_of(args)
     with progress_bar("simulate", enabled=not args.quiet) as progress:
         trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
                              systems=args.systems, progress=progress)
@@ -119,9 +152,13 @@ def handler(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
+    if args.network is not None:
+        from trackmodel.io import write_track
+        write_track(track, out / ROUTE_TRACK_FILE, comments=[f"route {track_name}"])
+        written.append(out / ROUTE_TRACK_FILE)
     atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
     atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
-    meta = {"scenario": scenario_to_dict(scenario), "track": str(Path(args.track)),
+    meta = {"scenario": scenario_to_dict(scenario), "track": track_name,
             "seed": args.seed, "gnss_written": trip.gnss is not None,
             "gnss_systems": args.systems if trip.gnss is not None else None,
             "n_samples": int(len(result.truth.time_s)),
@@ -132,5 +169,5 @@ def handler(args: argparse.Namespace) -> int:
     written = [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"]
     print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
           f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
-          f"{args.track})")
+          f"{track_name})")
     return 0

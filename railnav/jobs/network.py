@@ -74,15 +74,13 @@ class NetworkRunOutcome:
 
 
 def load_network(path) -> Network:
-    """A network folder (`trackmodel.network_io.read_network`) or a GeoJSON file of
-    netelements and netrelations (fitted on reading: ~30 s for Brussels' 74 elements)."""
-    from trackmodel.network_io import build_network, read_network, read_network_geojson
+    """A network folder, a GeoJSON or OpenStreetMap file or a track file
+    (`trackmodel.network_routes.load_network`)."""
+    from trackmodel.network_routes import load_network as load
     path = Path(path)
-    if path.is_dir():
-        return read_network(path)
-    if not path.is_file():
+    if not path.exists():
         raise ConfigError(f"{path}: no such network folder or file")
-    return build_network(read_network_geojson(path))
+    return load(path)
 
 
 def route_name(route: Route) -> str:

@@ -24,20 +24,15 @@ backing, each predecessor of the first piece at its end, ``L_pred + s``).
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from trackmodel.network import END, START, Network, chain_tracks, reversed_track
-from trackmodel.sections import Section
+from trackmodel.network_lines import tail_sections
 from trackmodel.track import Track
 
 __all__ = ["OrientedTracks", "Passage", "track_tail", "bare"]
-
-#: A tail shorter than this is no piece, m.
-MIN_PIECE_M = 1e-6
-
 
 @dataclass(frozen=True)
 class Passage:
@@ -55,28 +50,12 @@ def bare(element: str, orientation: int) -> tuple[tuple[str, int, float], ...]:
 
 
 def track_tail(track: Track, s0: float) -> Track:
-    """The part of `track` from ``s0`` to its end, as a track of its own (its sections from
-    the one holding ``s0``, the first shortened, starting at the point, azimuth, elevation
-    and curvature of ``s0``)."""
+    """The part of `track` from ``s0`` to its end, as a track of its own
+    (`trackmodel.network_lines.tail_sections`, from the point at ``s0``)."""
     if s0 <= 0.0:
         return track
-    table = track.table
-    k = int(track.section_of(np.array([s0]))[0])
     p = track.at(s0)
-    sec = track.sections[k]
-    into = s0 - float(table.s_start[k])
-    length = float(table.length[k]) - into
-    rest = list(track.sections[k + 1:])
-    k0, k1 = float(table.curvature0[k]), float(table.curvature1[k])
-    kappa = k0 + (k1 - k0) * into / float(table.length[k])
-    if length < MIN_PIECE_M and rest:
-        return track_tail(track, float(table.s_start[k + 1]))
-    head = Section(max(length, MIN_PIECE_M), math.degrees(float(p.azimuth)) % 360.0,
-                   math.degrees(float(p.elevation)), kappa,
-                   None if k0 == k1 else k1,
-                   None if sec.elevation_end_deg is None else
-                   math.degrees(float(table.elevation1[k])))
-    return Track.from_sections([head, *rest], lat=float(p.lat), lon=float(p.lon),
+    return Track.from_sections(tail_sections(track, s0), lat=float(p.lat), lon=float(p.lon),
                                h=float(p.h), earth=track.earth)
 
 

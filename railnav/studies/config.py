@@ -15,6 +15,7 @@ from gnss_obs.errors import GnssError
 from gnss_obs.measurements import MeasurementConfig
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, FILTERS
+from railnav.simulation.route_tracks import route_spec_text, split_route_spec
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from strapdown.imu_errors import IMU_GRADES
 
@@ -56,7 +57,8 @@ class StudyConfig:
     segment_s : float
         Streaming mode: segment length, s.
     tracks : tuple of str
-        Track files as written in the configuration.
+        Track files as written in the configuration, or network routes
+        ``NETWORK:E1,E2,...`` (`railnav.simulation.route_tracks`).
     imu_grades : tuple of str
         IMU grade presets (`strapdown.imu_errors.IMU_GRADES`), simulated and assumed.
     speeds_mps : tuple of float
@@ -104,6 +106,17 @@ class StudyConfig:
             If neither ``base_dir/track`` nor ``data/tracks/track`` exists.
         """
         return _track_file(track, Path(self.base_dir))
+
+    def track_text(self, track: str) -> str:
+        """The track-file text of a track named in the configuration: a file's content,
+        or a network route's line (`railnav.simulation.route_tracks`)."""
+        from trackmodel.textfile import read_text
+        try:
+            return read_text(self.track_path(track), error=ConfigError)
+        except ConfigError:
+            if split_route_spec(track) is None:
+                raise
+        return route_spec_text(track, Path(self.base_dir))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready settings (``study.json``)."""
@@ -178,7 +191,13 @@ def _check_outages(windows, values) -> None:
 
 
 def _check_track(value, values) -> None:
-    _track_file(value, Path(values.get("base_dir", ".")))
+    base_dir = Path(values.get("base_dir", "."))
+    try:
+        _track_file(value, base_dir)
+    except ConfigError:
+        if split_route_spec(value) is None:
+            raise
+        route_spec_text(value, base_dir)
 
 
 def _track_file(track: str, base_dir: Path) -> Path:

@@ -14,7 +14,8 @@ Three tables (example: ``data/studies/outages.toml``)::
     common_random_numbers = true  # replicate r uses the same seed in every cell
 
     [grid]                        # each key a value or a list; absent: the scenario's
-    track = ["paper2017.csv"]     # file in data/tracks/, or a path relative to this file
+    track = ["paper2017.csv"]     # file in data/tracks/, a path relative to this file, or a
+                                  # network route NETWORK:E1,E2,... (simulation.route_tracks)
     imu_grade = ["navigation", "tactical", "mems"]
     speed_mps = [20.0]            # top speed (the scenario's profile scaled)
     filter = ["constrained", "unconstrained"]

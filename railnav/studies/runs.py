@@ -36,10 +36,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from railnav.errors import ConfigError
 from railnav.simulation.scenarios import get_scenario
 from railnav.studies.config import StudyConfig
-from trackmodel.textfile import read_text
 
 __all__ = ["RunSpec", "expand_grid", "derive_seed", "run_one", "metric_columns",
            "SUMMARY_QUANTITIES", "OUTAGE_END_QUANTITIES", "STATUS_COLUMNS", "ROW_VERSION"]
@@ -131,7 +129,7 @@ def _digest_words(payload: dict) -> tuple[int, ...]:
 def expand_grid(config: StudyConfig) -> list[RunSpec]:
     """Every run of the study, in the module's order (module docstring)."""
     specs = []
-    texts = {t: read_text(config.track_path(t), error=ConfigError) for t in config.tracks}
+    texts = {t: config.track_text(t) for t in config.tracks}
     digests = {t: hashlib.sha256(text.encode()).hexdigest() for t, text in texts.items()}
     axes = itertools.product(config.tracks, config.imu_grades, config.speeds_mps,
                              config.sigma_pseudorange_m, config.sigma_range_rate_mps,

@@ -260,10 +260,9 @@ def test_route_track_chains_the_legs(switch):
 
 
 def test_route_track_refit_smooths_the_switch_kink(switch):
-    """Through the diverging branch the chained line turns 0.1 rad at once; the refitted
-    one stays within its tolerance of it and turns over several metres (measured: ~4 m,
-    a 42-m radius, the shortest curve the fitter finds within 0.5 m; a turnout's radius,
-    ~400 m here, would also fit)."""
+    """Through the diverging branch the chained line turns 0.1 rad at once; the route line
+    (a joint transition on D, `trackmodel.network_lines`) stays within its tolerance of
+    both legs and turns over tens of metres."""
     legs = (("T", 1), ("D", 1))
     with pytest.raises(TrackError, match="joint"):         # 5.7°: beyond the track model's
         switch.route_track(legs, refit_tol_m=None)         # limit on an instant turn
