@@ -14,7 +14,7 @@ errors):
 * ``tactical``: the tactical IMU, an outage of 20 min from 60 s, ``--seeds`` seeds;
 * ``mems``: the MEMS IMU, an outage of 300 s from 60 s.
 
-Per run, at the outage's end: the truth's ``s``; the mixture's 99 % interval (the 0.5 %
+Per run, at the outage's end (the last record before GNSS is back): the truth's ``s``; the mixture's 99 % interval (the 0.5 %
 and 99.5 % quantiles of the Gaussian mixture of all live hypotheses) and whether the
 truth lies in it; the most probable hypothesis's error and σ; the single filter's error
 and σ. Over the run, from ``hypotheses.csv`` (once a second): the largest ``|error|/σ``
@@ -69,7 +69,9 @@ def mixture_interval(w, mean, sigma, level: float = 0.99) -> tuple[float, float]
 
 
 def _at(h, time_s: float):
-    near = h["time_s"].to_numpy()[np.argmin(np.abs(h["time_s"].to_numpy() - time_s))]
+    """The hypotheses of the last record before `time_s` (before GNSS is back)."""
+    times = h["time_s"].to_numpy()
+    near = times[times < time_s - 1e-6].max()
     return h[h["time_s"] == near]
 
 
@@ -93,7 +95,7 @@ def _run(track, grade: str, outage_s: float, seed: int, nav) -> dict:
     sure = h["probability"].to_numpy() > 0.99
     single = run_simulated(track, scenario, seed=seed)
     est = single.result.estimates
-    k = int(np.argmin(np.abs(est["time_s"].to_numpy() - end)))
+    k = int(np.flatnonzero(est["time_s"].to_numpy() < end - 1e-6)[-1])   # before GNSS
     return {"seed": seed, "truth_s_m": s_true, "interval_m": [lo, hi],
             "truth_inside_99": bool(lo <= s_true <= hi),
             "components_at_end": int(len(last)), "best_error_m": float(best["s_m"] - s_true),

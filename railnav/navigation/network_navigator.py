@@ -26,9 +26,9 @@ Hypotheses live on netelements, not on whole routes: two ways through a switch s
 geometry of everything before it exactly (the per-route refits of `railnav.jobs.network`'s
 first version differed there by up to 0.15 m and leaked evidence before the switch).
 
-If every hypothesis dies (all beyond buffer stops), a run on fixes starts again from the
-next fix near the network (`start_hypotheses` after that time) and says so in
-`NetworkResult.restarts`; a run on GNSS observations stops with an error.
+If every hypothesis dies (all beyond buffer stops, or lost), the run starts again from the
+next fix or single-point solution near the network (`start_hypotheses` after that time)
+and says so in `NetworkResult.restarts`; with none left, it ends there.
 
 Time: ``time_s`` is seconds from the trip start.
 """

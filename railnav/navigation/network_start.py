@@ -112,8 +112,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
         A start of its own for each candidate (simulations: the truth brought onto it);
         None for a candidate leaves it out.
     after_s : float, optional
-        Start from the first fix after this time (a restart, s from the trip start; with
-        fixes only).
+        Start from the first fix (or single-point solution) after this time (a restart, s
+        from the trip start).
     near : (lat, lon), optional
         Look for candidates near this point (rad) instead of near the start fix (a
         simulation's true start, with `initial`).
@@ -165,17 +165,28 @@ def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
         def begin(filt):
             return initial_at_fix(filt, trip.fixes, k, config)
         return float(trip.fixes.lat[k]), float(trip.fixes.lon[k]), begin
-    if after_s is not None:
-        raise RailnavError(f"every hypothesis left the network at t={after_s:.1f} s (a "
-                           "restart needs position fixes)")
     if trip.gnss is not None:
-        fix = first_fix(data, config)
+        fix = first_fix(_after(data, trip.gnss, after_s), config)
         lat, lon, _ = ecef_to_geodetic(fix.r_e)
 
         def begin(filt):
             return InitialState(fix.time_s, *filt.initial_from_fix(fix))
         return float(lat), float(lon), begin
     raise RailnavError("a network run needs GNSS observations or fixes to start from")
+
+
+def _after(data, gnss, after_s: float | None):
+    """`data` with the GNSS observations from the run's first usable epoch after `after_s`
+    on (s from the trip start; usable: outside the outages, `gnss`'s epochs)."""
+    if after_s is None:
+        return data
+    usable = np.asarray(gnss.time_s, dtype=float)
+    usable = usable[usable > after_s]
+    if usable.size == 0:
+        raise RailnavError(f"no GNSS epoch after t={after_s:.1f} s to start again from")
+    table = data.obs.table
+    keep = table["gps_time_s"].to_numpy() >= data.start_gps_time_s + usable[0] - 1e-6
+    return replace(data, obs=replace(data.obs, table=table[keep]))
 
 
 def _at_offset(init: InitialState, filt, tracks, element: str, orientation: int,
