@@ -172,15 +172,12 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
 
 
 def simulation_line(network: Network, legs):
-    """The line a simulated trip along `legs` runs on: the netelements chained as they are
-    (`Network.route_track` without a refit: the truth on exactly the map's geometry, a
-    joint's kink kept), or where a kink is beyond what the track model accepts as an
-    instant turn, the route refitted (its curvature then differs from the netelements'
-    near the joints: an inertial filter on the netelements sees that as a map error)."""
-    try:
-        return network.route_track(legs, refit_tol_m=None)
-    except TrackError:
-        return network.route_track(legs)
+    """The line a simulated trip along `legs` runs on: `Network.route_track`, the
+    netelements with a tangent-continuous transition into each leg at its joint
+    (`trackmodel.network_lines`: within the fit tolerance of the legs, a real turnout's
+    curve where the map has a corner); for tangent-continuous joints the netelements as
+    they are."""
+    return network.route_track(legs)
 
 
 def true_netelements(network: Network, legs, s_m) -> np.ndarray:

@@ -47,6 +47,7 @@ from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
+from trackmodel.network_lines import TRANSITION_MAX_M
 
 __all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
            "KINK_WINDOW_M", "joint_allowance"]
@@ -54,8 +55,9 @@ __all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
 Array = npt.NDArray[np.float64]
 
 #: Half-width of the stretch around a kinked joint where the map's geometry is not
-#: trusted by the pseudo-observation, m.
-KINK_WINDOW_M = 10.0
+#: trusted by the pseudo-observation, m: the longest transition a route line puts after
+#: a joint (`trackmodel.network_lines.TRANSITION_MAX_M`, a 1:9 turnout's curve).
+KINK_WINDOW_M = TRANSITION_MAX_M
 
 
 @dataclass(frozen=True, eq=False)

@@ -29,10 +29,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from trackmodel.network import END, START, Network, chain_tracks, reversed_track
-from trackmodel.network_lines import tail_sections
+from trackmodel.network_lines import TRANSITION_MAX_M, tail_sections
 from trackmodel.track import Track
 
-__all__ = ["OrientedTracks", "Passage", "track_tail", "bare"]
+__all__ = ["OrientedTracks", "Passage", "track_tail", "bare", "GAP_CURVE_M"]
+
+#: The stretch over which a joint's gap is taken to be closed by the real track, m (a
+#: route line's transition: `trackmodel.network_lines.TRANSITION_MAX_M`).
+GAP_CURVE_M = TRANSITION_MAX_M
 
 @dataclass(frozen=True)
 class Passage:
@@ -118,19 +122,22 @@ class OrientedTracks:
         return offset_m if orientation == 1 else self.length_m(element) - offset_m
 
     def _end_kink(self, element: str, end: int) -> float:
+        """The largest kink at an element's end, rad; a joint's gap counts as the kink of
+        the S-curve that closes it over `GAP_CURVE_M` (``4 g / l``)."""
         if self._kinks is None:
             self._kinks = {}
             for c in self.network.connections:
                 if c.navigability == "none" or not np.isfinite(c.kink_rad):
                     continue
+                kink = max(float(c.kink_rad), 4.0 * float(np.nan_to_num(c.gap_m)) / GAP_CURVE_M)
                 for key in ((c.a, c.a_end), (c.b, c.b_end)):
-                    self._kinks[key] = max(self._kinks.get(key, 0.0), float(c.kink_rad))
+                    self._kinks[key] = max(self._kinks.get(key, 0.0), kink)
         return self._kinks.get((element, end), 0.0)
 
     def joints(self, pieces) -> list[tuple[float, float]]:
         """``(s_m, kink_rad)`` of the joints along a chained track: its start (a whole
         first piece), between its pieces, and its end; the largest kink of the navigable
-        connections at each."""
+        connections at each (`_end_kink`)."""
         out = []
         ends = self.piece_ends(pieces)
         e0, o0, start0 = pieces[0]

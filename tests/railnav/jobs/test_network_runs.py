@@ -83,6 +83,6 @@ def test_route_candidates_on_the_real_network():
     assert len(names) == 2 and all(n.startswith("-88_L_111>") for n in names)
     assert start_s == pytest.approx(50.0)
     assert [r.legs[0] for r in routes] == [("88_L_111", -1)] * 2
-    line = simulation_line(network, routes[0].legs)          # chained as they are
+    line = simulation_line(network, routes[0].legs)      # the legs, with their transitions
     assert line.length_m == pytest.approx(sum(network.length_m(e) for e, _ in routes[0].legs),
-                                          abs=1e-6)
+                                          abs=2.0)
