@@ -18,6 +18,15 @@ command                                function(s)
 ``railnav run TRACK --fixes F``        `run_files` (`gnss_obs.read_fixes`, `FixModelConfig`)
 ``railnav run ... --truth R``          `score_run` (`read_reference`, `reference_errors`,
                                        `screen_fix_reference`)
+``railnav run ... --imu-spec S``       `run_files(imu_spec=)` (`strapdown.read_imu_log`,
+                                       `strapdown.ImuSpec`), `read_sensor_files`
+``railnav run ... --odometer O``       `run_files(odometer_path=)` (`read_odometer_csv`,
+``--balises B --lever-arm F,L,U``      `OdometerConfig`, `read_balises_csv`,
+                                       `BaliseModelConfig`, `LeverArms`)
+``railnav simulate --odometer``        + `simulate_odometer` (`OdometerSimConfig`,
+``--balises --imu-jitter-s S``         `SlipEpisode`), `simulate_balises`
+                                       (`BaliseSimConfig`), `simulate_imu_log`
+                                       (`ImuLogSimConfig`)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
                                        (`baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
@@ -71,6 +80,14 @@ _EXPORTS = {
     "reference_errors": "evaluation.reference",
     "screen_fix_reference": "evaluation.reference",
     "plot_network_map": "evaluation.network_map",
+    "read_sensor_files": "jobs.sensor_files", "read_odometer_csv": "sensors.odometer",
+    "read_balises_csv": "sensors.balises", "OdometerConfig": "filters.odometer_epochs",
+    "BaliseModelConfig": "filters.balise_epochs", "LeverArms": "filters.track_frame",
+    "simulate_odometer": "simulation.track_sensors",
+    "OdometerSimConfig": "simulation.track_sensors", "SlipEpisode": "simulation.track_sensors",
+    "simulate_balises": "simulation.track_sensors",
+    "BaliseSimConfig": "simulation.track_sensors", "simulate_imu_log": "simulation.imu_logs",
+    "ImuLogSimConfig": "simulation.imu_logs",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -26,9 +26,12 @@ from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_IMU_GRADE, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
+from railnav.filters.balise_epochs import BaliseModelConfig
 from railnav.filters.fault_detection import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
+from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
+from railnav.filters.track_frame import LeverArms
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
@@ -109,6 +112,14 @@ class NavigatorConfig:
     fix_model : railnav.filters.fix_epochs.FixModelConfig
         What the GNSS fix rows assume beyond each fix's σ (track centre-line σ, heights,
         speed; `railnav.filters.fix_rows`).
+    odometer_model : railnav.filters.odometer_epochs.OdometerConfig
+        What the odometer rows assume (noise, scale-factor state, standstill;
+        `railnav.filters.odometer_rows`), with odometer readings.
+    balise_model : railnav.filters.balise_epochs.BaliseModelConfig
+        What the balise rows assume (`railnav.filters.balise_rows`), with balise passages.
+    lever_arms : railnav.filters.track_frame.LeverArms
+        Antenna, IMU and balise-reader offsets from the reference point (default none;
+        the constrained and GNSS-only filters).
     """
 
     filter: str = DEFAULT_FILTER
@@ -131,6 +142,9 @@ class NavigatorConfig:
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
     fix_model: FixModelConfig = FixModelConfig()
     _imu: ImuErrors = field(init=False, repr=False, compare=False)
+    odometer_model: OdometerConfig = OdometerConfig()
+    balise_model: BaliseModelConfig = BaliseModelConfig()
+    lever_arms: LeverArms = LeverArms()
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)
@@ -158,8 +172,11 @@ class NavigatorConfig:
                 or isinstance(self.fault_detection, FaultDetectionConfig)):
             raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
                               f"{self.fault_detection!r}")
-        if not isinstance(self.fix_model, FixModelConfig):
-            raise ConfigError(f"fix_model must be a FixModelConfig, got {self.fix_model!r}")
+        for name, cls in (("fix_model", FixModelConfig), ("odometer_model", OdometerConfig),
+                          ("balise_model", BaliseModelConfig), ("lever_arms", LeverArms)):
+            if not isinstance(getattr(self, name), cls):
+                raise ConfigError(f"{name} must be a {cls.__name__}, got "
+                                  f"{getattr(self, name)!r}")
         tau = self.pseudorange_correlation_s
         if not (isinstance(tau, (int, float)) and math.isfinite(tau) and tau >= 0):
             raise ConfigError(f"pseudorange_correlation_s must be a finite number >= 0, "
@@ -200,6 +217,12 @@ class SensorData:
         (`gnss_obs.augment`; its carrier-smoothed observations are `obs`).
     fixes : gnss_obs.fixes.table.FixLog or None
         GNSS position fixes with every σ (`gnss_obs.fixes.read_fixes`).
+    odometer : railnav.sensors.odometer.OdometerLog or None
+        Odometer readings (`railnav.sensors.odometer.read_odometer_csv`).
+    balises : railnav.sensors.balises.BaliseLog or None
+        Balise passages (`railnav.sensors.balises.read_balises_csv`).
+    imu_log : strapdown.imu_log.ImuLog or None
+        How the IMU file was read (its timing, gaps: ``summary.json``), for file runs.
     """
 
     start_gps_time_s: float
@@ -208,6 +231,9 @@ class SensorData:
     nav: RinexNav | None = None
     augmentation: object = None
     fixes: FixLog | None = None
+    odometer: object = None
+    balises: object = None
+    imu_log: object = None
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.start_gps_time_s):

@@ -11,7 +11,8 @@ time) are its scenario's (`railnav.simulation.scenarios`).
 from __future__ import annotations
 
 __all__ = ["DEFAULT_FILTER", "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS",
-           "DEFAULT_CROSSING_RATE_PER_S", "DEFAULT_HORIZON_M"]
+           "DEFAULT_CROSSING_RATE_PER_S", "DEFAULT_HORIZON_M", "DEFAULT_ODOMETER_SIGMA_MPS",
+           "DEFAULT_BALISE_SIGMA_M"]
 
 #: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
 DEFAULT_FILTER = "constrained"
@@ -26,3 +27,9 @@ DEFAULT_CROSSING_RATE_PER_S = 1e-5
 #: Track networks: how far ahead of a start the routes through the switches are followed,
 #: m (`railnav.jobs.network`).
 DEFAULT_HORIZON_M = 5_000.0
+#: 1σ white noise of an odometer reading without a σ of its own, m/s
+#: (`railnav.filters.odometer_epochs.OdometerConfig`, which explains it).
+DEFAULT_ODOMETER_SIGMA_MPS = 0.05
+#: 1σ of a balise passage without a σ of its own, m
+#: (`railnav.filters.balise_epochs.BaliseModelConfig`, which explains it).
+DEFAULT_BALISE_SIGMA_M = 1.0

@@ -15,6 +15,9 @@ The public names, importable from the package itself::
 topic                       names (owning module)
 ==========================  =======================================================
 IMU samples                 `Imu`, `read_imu_csv`, `IMU_COLUMNS` (``imu``)
+recorded IMU logs           `ImuSpec`, `read_imu_spec`, `imu_spec_from_dict`
+                            (``imu_spec``), `read_imu_log`, `ImuLog` (``imu_log``),
+                            `check_imu_plausible` (``imu_checks``)
 IMU errors                  `ImuErrors`, `TriadErrors`, `IMU_GRADES` (the grade
                             presets), `imu_grade`, `apply_imu_errors`,
                             `STANDARD_GRAVITY_MPS2` (``imu_errors``)
@@ -43,6 +46,8 @@ import importlib
 #: Public name -> the module that owns it.
 _EXPORTS = {
     "Imu": "imu", "read_imu_csv": "imu", "IMU_COLUMNS": "imu",
+    "ImuSpec": "imu_spec", "read_imu_spec": "imu_spec", "imu_spec_from_dict": "imu_spec",
+    "read_imu_log": "imu_log", "ImuLog": "imu_log", "check_imu_plausible": "imu_checks",
     "ImuErrors": "imu_errors", "TriadErrors": "imu_errors", "IMU_GRADES": "imu_errors",
     "imu_grade": "imu_errors", "apply_imu_errors": "imu_errors",
     "STANDARD_GRAVITY_MPS2": "imu_errors",

@@ -4,7 +4,9 @@
 wx_radps, wy_radps, wz_radps`` — the specific force (m/s²) and the angular rate of the
 body with respect to inertial space (rad/s), both in body axes (x forward, y left,
 z up), *instantaneous* values at ``time_s`` (see `strapdown.rk4` for how integration
-uses them). Samples are uniformly spaced.
+uses them). Times increase strictly; they may jitter and have gaps (every integrator of the
+navigator steps on the actual intervals). Recorded logs in other layouts and units are read
+by `strapdown.imu_log.read_imu_log` with an `strapdown.imu_spec.ImuSpec`.
 """
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ from strapdown.errors import ImuInputError
 from trackmodel.errors import finite_column
 from trackmodel.textfile import read_csv_table
 
-__all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "RATE_TOLERANCE"]
+__all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "read_imu_columns"]
 
 #: Read CSV floats exactly (pandas < 3 needs "round_trip"; pandas 3 does it by default and
 #: deprecates the argument).
@@ -32,8 +34,6 @@ _ACCEL_COLUMNS = ("ax_mps2", "ay_mps2", "az_mps2")
 _GYRO_COLUMNS = ("wx_radps", "wy_radps", "wz_radps")
 #: Column names of imu.csv, in order.
 IMU_COLUMNS = ("time_s",) + _ACCEL_COLUMNS + _GYRO_COLUMNS
-#: Relative spread of the sample intervals accepted as "uniform".
-RATE_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -43,7 +43,7 @@ class Imu:
     Attributes
     ----------
     time_s : ndarray, shape (N,)
-        Sample times, s (uniform spacing).
+        Sample times, s (strictly increasing).
     f_b : ndarray, shape (N, 3)
         Specific force in body axes, m/s².
     omega_ib_b : ndarray, shape (N, 3)
@@ -63,7 +63,8 @@ class Imu:
 
     @property
     def dt(self) -> float:
-        """Sample interval, s (from the first and last sample)."""
+        """Mean sample interval, s (from the first and last sample; the interval of a
+        uniform record)."""
         return float((self.time_s[-1] - self.time_s[0]) / (len(self.time_s) - 1))
 
     @property
@@ -78,31 +79,53 @@ class Imu:
 
 
 def read_imu_csv(path: str | os.PathLike) -> Imu:
-    """Read an imu.csv file.
+    """Read an imu.csv file (railnav's layout, `IMU_COLUMNS`: SI rates, times from the trip
+    start). Jitter and gaps are kept as they are; `strapdown.imu_log.read_imu_log` reads
+    the same file with its timing checked and reported and the data's plausibility tested.
 
     Raises
     ------
     ImuInputError
         Missing columns, non-numeric or non-finite values (located by row and column),
-        fewer than 2 rows, or non-uniform / non-increasing time; an empty file, a byte that
-        is not UTF-8 or a row with more fields than the header (located by line).
+        fewer than 2 rows, times that do not increase (their row); an empty file, a byte
+        that is not UTF-8 or a row with more fields than the header (located by line).
     """
-    frame = read_csv_table(path, error=ImuInputError, **_EXACT_FLOATS)
-    missing = [c for c in IMU_COLUMNS if c not in frame.columns]
+    v = read_imu_columns(path, IMU_COLUMNS, layout="imu.csv")
+    return Imu(time_s=v[IMU_COLUMNS[0]],
+               f_b=np.column_stack([v[c] for c in _ACCEL_COLUMNS]),
+               omega_ib_b=np.column_stack([v[c] for c in _GYRO_COLUMNS]))
+
+
+def read_imu_columns(path: str | os.PathLike, columns, *, layout: str) -> dict:
+    """The named columns of an IMU table as floats, the first one (time) increasing.
+
+    Parameters
+    ----------
+    path : path
+        CSV file (``#`` lines are comments).
+    columns : sequence of str
+        Time column first.
+    layout : str
+        Who names the columns, for the message (``"imu.csv"``, a spec file).
+
+    Raises
+    ------
+    ImuInputError
+        As `read_imu_csv`.
+    """
+    frame = read_csv_table(path, error=ImuInputError, comment="#", **_EXACT_FLOATS)
+    missing = [c for c in columns if c not in frame.columns]
     if missing:
         raise ImuInputError(f"missing column{'s' if len(missing) > 1 else ''} "
-                            f"{', '.join(missing)} (imu.csv has {', '.join(IMU_COLUMNS)})",
+                            f"{', '.join(missing)} ({layout} has {', '.join(columns)})",
                             path=path)
-    for col in IMU_COLUMNS:
-        frame[col] = finite_column(frame, col, path=path, error=ImuInputError)
+    values = {c: finite_column(frame, c, path=path, error=ImuInputError) for c in columns}
     if len(frame) < 2:
         raise ImuInputError("needs at least 2 samples", path=path)
-    t = frame["time_s"].to_numpy()
-    step = np.diff(t)
-    if np.any(step <= 0) or np.ptp(step) > RATE_TOLERANCE * np.mean(step):
-        row = int(np.argmax(np.abs(step - np.median(step)))) + 2
-        raise ImuInputError("time_s must increase with a uniform step", path=path, row=row,
-                            column="time_s")
-    return Imu(time_s=frame["time_s"].to_numpy(dtype=float),
-               f_b=frame[list(_ACCEL_COLUMNS)].to_numpy(dtype=float),
-               omega_ib_b=frame[list(_GYRO_COLUMNS)].to_numpy(dtype=float))
+    t = values[columns[0]]
+    bad = np.flatnonzero(~(np.diff(t) > 0.0))
+    if bad.size:
+        k = int(bad[0])
+        raise ImuInputError(f"time does not increase ({t[k + 1]!r} after {t[k]!r})",
+                            path=path, row=k + 2, column=columns[0])
+    return values

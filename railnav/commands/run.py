@@ -22,6 +22,7 @@ from railnav.commands.run_flags import (
     files_given,
     fix_model,
     fix_sigmas,
+    real_inputs,
     scenario_name,
     seed,
     time_window,
@@ -82,7 +83,8 @@ def handler(args: argparse.Namespace) -> int:
                                 imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
-                                window=args.window, progress=progress, **augmentation(args))
+                                window=args.window, progress=progress, **augmentation(args),
+                                **real_inputs(args))
         else:
             scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,

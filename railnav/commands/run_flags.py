@@ -22,9 +22,16 @@ from railnav.commands.support import (
     positive_int,
 )
 from railnav.defaults import (
+    DEFAULT_BALISE_SIGMA_M,
     DEFAULT_CROSSING_RATE_PER_S,
     DEFAULT_FILTER,
+    DEFAULT_ODOMETER_SIGMA_MPS,
     DEFAULT_SYSTEMS,
+)
+from railnav.commands.run_network_flags import (
+    _check_network_flags,
+    add_network_arguments,
+    parse_start,
 )
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
@@ -36,7 +43,8 @@ __all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "
            "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
-           "scenario_name"]
+           "scenario_name", "add_real_input_arguments", "real_inputs", "REAL_INPUT_FLAGS",
+           "lever_arm"]
 
 #: Output directory when --out is not given.
 DEFAULT_OUT = "railnav-run"
@@ -66,7 +74,9 @@ def add_run_arguments(p) -> None:
     p.add_argument("tracks", metavar="TRACK", nargs="*",
                    help="track file(s) (.csv); several: candidate tracks named by file stem "
                         "(none with --network)")
-    p.add_argument("--imu", metavar="IMU.csv", help="IMU samples (railnav simulate's imu.csv)")
+    p.add_argument("--imu", metavar="IMU.csv",
+                   help="IMU samples: railnav's imu.csv (railnav simulate's), or a logger's "
+                        "CSV read with --imu-spec")
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
     add_file_arguments(p)
@@ -75,8 +85,9 @@ def add_run_arguments(p) -> None:
                         f"scenario, else {DEFAULT_SCENARIO})")
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
                    help="the IMU grade the filter assumes (simulated trip: also the grade "
-                        "simulated; default the scenario's). A recorded IMU file needs it "
-                        "(files written by railnav simulate: default the simulated grade)")
+                        "simulated; default the scenario's). A recorded IMU file needs it, "
+                        "or an --imu-spec with a [noise] table (files written by railnav "
+                        "simulate: default the simulated grade)")
     p.add_argument("--speed-mps", type=positive_float, default=None,
                    help="top speed of the simulated trip, m/s")
     p.add_argument("--duration-s", type=positive_float, default=None,
@@ -108,74 +119,10 @@ def add_run_arguments(p) -> None:
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
     add_network_arguments(p)
+    add_real_input_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                    help=f"output directory (default: {DEFAULT_OUT})")
-
-
-def add_network_arguments(p) -> None:
-    """The flags of a run on a track network (`railnav.commands.network_run`)."""
-    p.add_argument("--network", metavar="NETWORK", default=None,
-                   help="a track network (a folder of railnav network build, or GeoJSON "
-                        "netelements + netrelations) instead of TRACK: follow the train "
-                        "through it with hypotheses that branch at switches (sensor files "
-                        "only); writes hypotheses.csv, route.csv, network.png, and "
-                        "estimates.csv gains netelement, netelement_offset_m, direction, "
-                        "netelement_probability")
-    p.add_argument("--start", metavar="NETELEMENT[:OFFSET_M[:+|-]]", default=None,
-                   help="--network: the netelement the train starts on, optionally the "
-                        "offset from its first coordinate (m) and the direction (+ towards "
-                        "its last coordinate); default: every netelement near the first fix")
-    p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
-                   help="--network: most live hypotheses (default 16)")
-
-
-def _check_network_flags(args: argparse.Namespace) -> None:
-    """The network flags against the others (part of `check_flags`)."""
-    if args.network is None:
-        mine = [flag for flag, value in (("--start", args.start),
-                                         ("--max-hypotheses", args.max_hypotheses))
-                if value is not None]
-        if mine:
-            raise ConfigError(f"{', '.join(mine)}: only with --network")
-        if not args.tracks:
-            raise ConfigError("give a TRACK file (or several), or --network NETWORK")
-        return
-    if args.tracks:
-        raise ConfigError("--network replaces TRACK: give one or the other")
-    if not files_given(args):
-        raise ConfigError("--network: needs sensor files (--fixes, --imu, --obs/--nav); a "
-                          "simulated trip on a network: railnav network run")
-    others = [flag for flag, given in (("--baro", args.baro is not None),
-                                       ("--true-track", args.true_track is not None),
-                                       ("--window", args.window is not None),
-                                       ("--base/--sp3/--smooth-window-s",
-                                        augmentation_requested(args))) if given]
-    if others:
-        raise ConfigError(f"{', '.join(others)}: not with --network")
-    parse_start(args.start)
-
-
-def parse_start(text: str | None) -> tuple[str, float | None, int | None] | None:
-    """``NETELEMENT[:OFFSET_M[:+|-]]`` as ``(element, offset_m, direction)`` (None for
-    None): the netelement, the offset from its first coordinate (m) and the direction of
-    travel (``+`` towards its last coordinate); the keywords of
-    `railnav.navigation.network_start.NetworkStart` (no import here: argument errors stay
-    fast)."""
-    if text is None:
-        return None
-    parts = text.split(":")
-    try:
-        if not 1 <= len(parts) <= 3 or not parts[0]:
-            raise ValueError
-        offset = float(parts[1]) if len(parts) > 1 and parts[1] != "" else None
-        direction = {"+": 1, "-": -1}[parts[2]] if len(parts) == 3 else None
-        if offset is not None and not offset >= 0.0:
-            raise ValueError
-    except (ValueError, KeyError):
-        raise ConfigError(f"--start {text!r}: expected NETELEMENT[:OFFSET_M[:+|-]] with "
-                          "OFFSET_M >= 0 (e.g. 88_L_111:250)") from None
-    return parts[0], offset, direction
 
 
 def add_file_arguments(p) -> None:
@@ -230,6 +177,7 @@ def check_flags(args: argparse.Namespace) -> None:
         raise ConfigError(f"{flag}: the {args.filter} filter uses no IMU")
     several = len(args.tracks) > 1
     _check_fix_flags(args, kind, several)
+    _check_real_input_flags(args, kind, several)
     if args.true_track is not None and args.true_track > len(args.tracks):
         raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
                           "given")
@@ -270,6 +218,106 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
     if args.truth_quality is not None and args.truth is None:
         raise ConfigError("--truth-quality: only with --truth (a fix file)")
     fix_sigmas(args)
+
+
+def lever_arm(text: str) -> tuple[float, float, float]:
+    """argparse type for ``F,L,U`` (m: forward, left, up)."""
+    from railnav.filters.track_frame import parse_lever_arm
+    try:
+        return parse_lever_arm(text)
+    except ConfigError as exc:
+        raise argparse.ArgumentTypeError(exc.message) from None
+
+
+def add_real_input_arguments(p) -> None:
+    """The IMU spec, odometer, balise and lever-arm flags of ``run`` (sensor files only)."""
+    p.add_argument("--imu-spec", metavar="SPEC.toml", default=None,
+                   help="how the --imu log is laid out (columns, units, increments, axes, "
+                        "mounting) and, in its [noise] table, what the filter assumes "
+                        "(instead of --imu-grade); docs/file-formats.md")
+    p.add_argument("--odometer", metavar="ODO.csv", default=None,
+                   help="odometer readings (time_s or gps_time_s; speed_mps, or pulses with "
+                        "--wheel-circumference-m and --pulses-per-rev): a speed row with a "
+                        "scale-factor state, slips flagged; constrained and gnss-only")
+    p.add_argument("--wheel-circumference-m", type=positive_float, default=None, metavar="M",
+                   help="nominal wheel circumference of an odometer of pulses, m")
+    p.add_argument("--pulses-per-rev", type=positive_float, default=None, metavar="N",
+                   help="pulses per wheel revolution of an odometer of pulses")
+    p.add_argument("--odometer-sigma-mps", type=positive_float, default=None, metavar="S",
+                   help="1σ of an odometer reading without its own, m/s (default "
+                        f"{DEFAULT_ODOMETER_SIGMA_MPS:g})")
+    p.add_argument("--balises", metavar="BALISES.csv", default=None,
+                   help="balise passages (time_s or gps_time_s; s_m, or lat_deg, lon_deg "
+                        "projected on the track): updates of s")
+    p.add_argument("--balise-sigma-m", type=positive_float, default=None, metavar="S",
+                   help=f"1σ of a passage without its own, m (default "
+                        f"{DEFAULT_BALISE_SIGMA_M:g})")
+    p.add_argument("--lever-arm", type=lever_arm, default=None, metavar="F,L,U",
+                   help="the GNSS antenna's offset from the reference point (the track "
+                        "centre-line point at s): forward (along +s), left, up from the "
+                        "rail, m")
+    p.add_argument("--imu-lever-arm", type=lever_arm, default=None, metavar="F,L,U",
+                   help="the IMU's offset from the reference point, m (its specific force "
+                        "is moved there)")
+    p.add_argument("--balise-reader-forward-m", type=float, default=None, metavar="F",
+                   help="the balise reader's forward offset from the reference point, m")
+
+
+#: The flags of `add_real_input_arguments` (attribute -> flag).
+REAL_INPUT_FLAGS = {"imu_spec": "--imu-spec", "odometer": "--odometer",
+                    "wheel_circumference_m": "--wheel-circumference-m",
+                    "pulses_per_rev": "--pulses-per-rev",
+                    "odometer_sigma_mps": "--odometer-sigma-mps", "balises": "--balises",
+                    "balise_sigma_m": "--balise-sigma-m", "lever_arm": "--lever-arm",
+                    "imu_lever_arm": "--imu-lever-arm",
+                    "balise_reader_forward_m": "--balise-reader-forward-m"}
+#: Each of these needs the flag it maps to.
+_NEEDS = {"imu_spec": "imu", "wheel_circumference_m": "odometer",
+          "pulses_per_rev": "odometer", "odometer_sigma_mps": "odometer",
+          "balise_sigma_m": "balises", "balise_reader_forward_m": "balises"}
+
+
+def _check_real_input_flags(args: argparse.Namespace, kind, several: bool) -> None:
+    """The IMU spec, odometer, balise and lever-arm flags against the inputs (part of
+    `check_flags`)."""
+    given = [a for a in REAL_INPUT_FLAGS if getattr(args, a, None) is not None]
+    for attr in given:
+        need = _NEEDS.get(attr)
+        if need is not None and getattr(args, need) is None:
+            raise ConfigError(f"{REAL_INPUT_FLAGS[attr]}: only with --{need}")
+    if not given:
+        return
+    flags = ", ".join(REAL_INPUT_FLAGS[a] for a in given)
+    if not files_given(args):
+        raise ConfigError(f"{flags}: go with sensor files (railnav simulate --odometer "
+                          "--balises writes them for a simulated trip)")
+    if several:
+        raise ConfigError(f"{flags}: work with one track")
+    track_flags = [REAL_INPUT_FLAGS[a] for a in given if a != "imu_spec"]
+    if track_flags and not kind.track_sensors:
+        takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).track_sensors)
+        raise ConfigError(f"{', '.join(track_flags)}: the {args.filter} filter takes no "
+                          f"odometer, balises or lever arms (the {takes} filters do)")
+
+
+def real_inputs(args: argparse.Namespace) -> dict:
+    """`run_files` keywords of `add_real_input_arguments`'s flags."""
+    out = {"imu_spec": args.imu_spec, "odometer_path": args.odometer,
+           "balises_path": args.balises, "wheel_circumference_m": args.wheel_circumference_m,
+           "pulses_per_rev": args.pulses_per_rev}
+    if args.odometer_sigma_mps is not None:
+        from railnav.filters.odometer_epochs import OdometerConfig
+        out["odometer_model"] = OdometerConfig(sigma_speed_mps=args.odometer_sigma_mps)
+    if args.balise_sigma_m is not None:
+        from railnav.filters.balise_epochs import BaliseModelConfig
+        out["balise_model"] = BaliseModelConfig(sigma_m=args.balise_sigma_m)
+    arms = {k: v for k, v in (("antenna_m", args.lever_arm), ("imu_m", args.imu_lever_arm),
+                              ("balise_reader_forward_m", args.balise_reader_forward_m))
+            if v is not None}
+    if arms:
+        from railnav.filters.track_frame import LeverArms
+        out["lever_arms"] = LeverArms(**arms)
+    return out
 
 
 def measurement(systems: str | None):

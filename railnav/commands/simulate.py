@@ -3,7 +3,8 @@
 Thin layer over `railnav.simulation.trip.simulate_trip` (STYLE.md §2.11) on a track file or,
 with ``--network N --route E1,E2``, on the route's line (`trackmodel.route_track`); with
 ``--fixes-format`` over `railnav.simulation.fixes.simulate_fixes` and the fix writers of
-`gnss_obs.fixes.writers`.
+`gnss_obs.fixes.writers`; with ``--odometer``, ``--balises``, ``--imu-jitter-s`` and
+``--lever-arm`` over `railnav.commands.simulate_sensors`.
 """
 from __future__ import annotations
 
@@ -11,8 +12,14 @@ import argparse
 import json
 import logging
 import os
+from dataclasses import replace
 from pathlib import Path
 
+from railnav.commands.simulate_sensors import (
+    add_sensor_arguments,
+    sensor_configs,
+    write_sensor_files,
+)
 from railnav.commands.support import (
     outage_window,
     output_path,
@@ -77,6 +84,7 @@ def register(subparsers) -> None:
                    help="mix of fix classes by share of 30-s segments, e.g. "
                         "rtk_fixed=0.5,single=0.5 (default "
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
+    add_sensor_arguments(p)
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     p.add_argument("--out", required=True, type=output_path, metavar="DIR",
                    help="output directory")
@@ -140,9 +148,12 @@ def handler(args: argparse.Namespace) -> int:
     from railnav.simulation.trip import simulate_trip
     _check_network_flags(args)
     fix_config = _fix_config(args)
+    sensors = sensor_configs(args)
     scenario = get_scenario(args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
+    if args.lever_arm is not None:
+        scenario = replace(scenario, antenna_m=args.lever_arm)
     track, track_name = _track_of(args)
     with progress_bar("simulate", enabled=not args.quiet) as progress:
         trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
@@ -165,8 +176,10 @@ def handler(args: argparse.Namespace) -> int:
             "end_time_s": float(result.truth.time_s[-1])}
     if fix_config is not None:
         meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
+    extra, entries = write_sensor_files(out, trip, sensors, float_format=FLOAT_FORMAT)
+    meta.update(entries)
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    written = [out / "truth.csv", out / "imu.csv", *written, out / "scenario.json"]
+    written = [out / "truth.csv", out / "imu.csv", *written, *extra, out / "scenario.json"]
     print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
           f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
           f"{track_name})")

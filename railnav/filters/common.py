@@ -28,6 +28,7 @@ from railnav.filters.gnss_rows import (
     range_rate_parameters,
     track_rows,
 )
+from railnav.filters.track_frame import antenna_track_part
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["EpochRowBuilder", "GnssRowBuilder", "track_estimates", "ROW_KINDS",
@@ -137,7 +138,11 @@ class GnssRowBuilder(EpochRowBuilder):
         point = reference
         if point is None or abs(float(point.s) - s) > REFERENCE_REUSE_M:
             point = self.track.at(s)
-        return self.rows_at(index, point.r_e, track_rows(point, earth=self.track.earth))
+        part = track_rows(point, earth=self.track.earth)
+        antenna = self.config.lever_arms.antenna_m
+        if any(antenna):             # the rows of the antenna (railnav.filters.track_frame)
+            part = antenna_track_part(self.track, part, antenna)
+        return self.rows_at(index, part[1:4], part)
 
 
 def scalar_point(points, i: int):
@@ -170,7 +175,8 @@ def state_columns(layout: StateLayout, x: Array, var: Array, names: dict[str, st
 _PLAIN_STATES = {"clock_bias": "clock_bias_m", "clock_drift": "clock_drift_mps",
                  "b_ax": "accel_bias_x_mps2", "b_ay": "accel_bias_y_mps2",
                  "b_az": "accel_bias_z_mps2", "b_gx": "gyro_bias_x_radps",
-                 "b_gy": "gyro_bias_y_radps", "b_gz": "gyro_bias_z_radps"}
+                 "b_gy": "gyro_bias_y_radps", "b_gz": "gyro_bias_z_radps",
+                 "odo_scale": "odometer_scale"}
 
 
 def track_estimates(track, layout: StateLayout, x: Array, var: Array) -> dict[str, Array]:

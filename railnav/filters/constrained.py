@@ -36,6 +36,7 @@ from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
+from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
 from trackmodel.track import Track
@@ -61,30 +62,40 @@ class ConstrainedFilter:
         GNSS position fixes (`railnav.filters.fix_rows`, ``config.fix_model``).
     schedule : railnav.filters.fix_epochs.EpochSchedule, optional
         The epochs of `observations` (default: the GNSS epochs).
+    odometer : railnav.filters.odometer_epochs.OdometerEpochs, optional
+        Odometer readings (`railnav.filters.odometer_rows`; with them the state may carry
+        the scale factor, `railnav.filters.sensor_rows.sensor_states`).
+    balises : railnav.filters.balise_rows.BaliseEpochs, optional
+        Balise passages (`railnav.filters.balise_rows`).
     """
 
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *, fixes=None,
-                 schedule=None) -> None:
+                 schedule=None, odometer=None, balises=None) -> None:
         self.track, self.config = track, config
+        extra = sensor_states(config, odometer)
         self.model = build_constrained_model(track.earth, estimate_biases=config.biases_estimated,
-                     isb_systems=tuple(config.measurement.systems[1:]))
+                     isb_systems=tuple(config.measurement.systems[1:]), extra_blocks=extra)
         # the noise densities of the IMU grade and oscillator the filter assumes
         self.q_c = self.model.process_noise_density(config.imu,
-                                                    oscillator_from_name(config.oscillator))
+                                                    oscillator_from_name(config.oscillator),
+                                                    sensor_densities(config, extra))
         self.layout, self.process = self.model.layout, self.model.process
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
         self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
-        self.fix_rows = None if fixes is None else FixRowBuilder(track, self.layout, fixes,
-                                                                 config.fix_model)
+        self.fix_rows = None if fixes is None else FixRowBuilder(
+            track, self.layout, fixes, config.fix_model, antenna_m=config.lever_arms.antenna_m)
+        self.sensors = SensorRows(self.layout, config, odometer=odometer, balises=balises)
         self.schedule = schedule
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
         self._gravity: dict[int, float] = {}
         self._chunk_end = None   # the track at the last sample of the latest chunk
         self._grid = TrackParameterGrid(track)
+        #: The run's nominal sample interval, s (`inputs`; set by the chunk loop).
+        self.sample_interval_s: float | None = None
 
     # -- inputs ----------------------------------------------------------------------------
     def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
@@ -111,7 +122,12 @@ class ConstrainedFilter:
             `strapdown.reduced.TRACK_PARAMETER_NAMES` at the predicted ``s``.
         r_c : ndarray, shape (M, 2)
             Density of the pseudo-observation noise that the uncertainty of ``s`` puts on
-            the track geometry (`railnav.filters.geometry_noise`), (m/s²)²·s.
+            the track geometry (`railnav.filters.geometry_noise`), (m/s²)²·s: its variance
+            per sample times the run's nominal sample interval (`sample_interval_s`, set by
+            the chunk loop; else the chunk's median step). A density, not a per-step
+            variance, so that jitter, dropped samples and the samples inserted at epochs
+            change the information per second of the pseudo-observation by nothing (a
+            chunk of one short inserted step would otherwise weigh as a full sample).
         """
         params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
         self._chunk_end = self._grid.point(int(nodes[-1]))
@@ -119,8 +135,10 @@ class ConstrainedFilter:
         params, variance = statistical_parameters(
             self._grid, params, sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
             speed_mps=abs(float(x_prev[i_v])))
-        step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
-            else float(t[0] - t_prev)
+        step = self.sample_interval_s
+        if step is None:
+            step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
+                else float(t[0] - t_prev)
         return u, params, variance * max(step, 0.0)
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
@@ -146,15 +164,17 @@ class ConstrainedFilter:
 
     # -- discrete updates ------------------------------------------------------------------
     def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:
-        """GNSS and fix rows of epoch `index` at the prior ``(x, P)`` (`GnssRowBuilder`,
-        `railnav.filters.fix_rows.FixRowBuilder`), those the fault screen lets through
+        """GNSS, fix, odometer and balise rows of epoch `index` at the prior ``(x, P)``
+        (`GnssRowBuilder`, `railnav.filters.fix_rows.FixRowBuilder`,
+        `railnav.filters.sensor_rows.SensorRows`), those the fault screen lets through
         (with a clock jump's covariance when it sees one)."""
         g, f = (index, -1) if self.schedule is None else self.schedule.split(index)
         gnss = None if g < 0 else (self.rows.observations(g, x, self._chunk_end),
                                    self.rows.rows_sv[-1], self.rows.rows_kind[-1])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
+        extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else ()
         rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="channel",
-                                                         fix_group=f)
+                                                         fix_group=f, extra=extra)
         return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
 
     # -- start -----------------------------------------------------------------------------

@@ -48,7 +48,8 @@ ConstrainedModel = InsClockModel
 
 @functools.lru_cache(maxsize=None)
 def build_constrained_model(earth: Ellipsoid, *, estimate_biases: bool = False,
-                            isb_systems: tuple[str, ...] = ()) -> InsClockModel:
+                            isb_systems: tuple[str, ...] = (),
+                            extra_blocks: tuple = ()) -> InsClockModel:
     """Build (once per argument set) the constrained filter's process model.
 
     Parameters
@@ -59,6 +60,8 @@ def build_constrained_model(earth: Ellipsoid, *, estimate_biases: bool = False,
         Add accelerometer and gyro bias states.
     isb_systems : tuple of str
         GNSS systems that get an inter-system bias state.
+    extra_blocks : tuple of (str, tuple of str)
+        Further random-walk states (`railnav.filters.sensor_rows.sensor_states`).
 
     Returns
     -------
@@ -72,4 +75,6 @@ def build_constrained_model(earth: Ellipsoid, *, estimate_biases: bool = False,
         [("attitude", REDUCED_STATE_NAMES[:3]), ("s", 1), ("v", 1)], reduced.f, reduced.G,
         ins_h_c=reduced.h_c, ins_D=reduced.D, earth=earth, estimate_biases=estimate_biases,
         isb_systems=tuple(isb_systems), n_p=len(TRACK_PARAMETER_NAMES),
-        name=model_name("railnav", earth, estimate_biases, tuple(isb_systems)))
+        extra_blocks=tuple(extra_blocks),
+        name=model_name("railnav", earth, estimate_biases, tuple(isb_systems),
+                        tuple(n for _, names in extra_blocks for n in names)))

@@ -6,14 +6,14 @@
   course; NaN where unknown);
 * `FixModelConfig`: what the fix rows (`railnav.filters.fix_rows`) assume beyond each
   fix's own σ: how far the track's centre-line may be from where the antenna is;
-* `EpochSchedule`: the run's measurement epochs, GNSS epochs (RINEX) and fix epochs merged
-  on time; an epoch may have both. The filters' ``observations(index, ...)`` take the
+* `EpochSchedule`: the run's measurement epochs, GNSS epochs (RINEX), fix epochs and other
+  streams (odometer, balises) merged on time; an epoch may have several. The filters' ``observations(index, ...)`` take the
   index of this schedule.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -152,11 +152,15 @@ class EpochSchedule:
     gnss_index, fix_index : ndarray of int, shape (E,)
         The GNSS epoch (`railnav.filters.gnss_epochs.GnssEpochs`) and the fix
         (`FixEpochs`) of each epoch, -1 where it has none.
+    extra : dict of str to ndarray of int, shape (E,)
+        The same for other measurement streams by name (``odometer``, ``balises``:
+        `railnav.filters.sensor_rows`).
     """
 
     time_s: Array
     gnss_index: Index
     fix_index: Index
+    extra: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return self.time_s.size
@@ -165,27 +169,38 @@ class EpochSchedule:
         """The GNSS epoch and the fix of epoch `index` (-1: none)."""
         return int(self.gnss_index[index]), int(self.fix_index[index])
 
+    def index(self, stream: str, index: int) -> int:
+        """The row of stream `stream` at epoch `index` (-1: none, or no such stream)."""
+        rows = self.extra.get(stream)
+        return -1 if rows is None else int(rows[index])
+
     @classmethod
     def merge(cls, gnss_time_s: npt.ArrayLike, fix_time_s: npt.ArrayLike, *,
-              tol_s: float = EPOCH_MATCH_S) -> "EpochSchedule":
-        """GNSS epochs and fixes merged on time (within `tol_s` they share an epoch).
+              tol_s: float = EPOCH_MATCH_S, extra: dict | None = None) -> "EpochSchedule":
+        """GNSS epochs, fixes and other streams merged on time (within `tol_s` they share
+        an epoch).
 
         Parameters
         ----------
         gnss_time_s, fix_time_s : array_like, shape (G,) and (F,)
             Increasing times, s.
+        extra : dict of str to array_like, optional
+            Increasing times of other streams, s.
         """
-        g = np.asarray(gnss_time_s, dtype=float).reshape(-1)
-        f = np.asarray(fix_time_s, dtype=float).reshape(-1)
-        times = np.concatenate([g, f])
-        order = np.argsort(times, kind="stable")
-        sorted_t = times[order]
-        new = np.concatenate([[True], np.diff(sorted_t) > tol_s]) if times.size else \
+        streams = {"gnss": gnss_time_s, "fix": fix_time_s, **(extra or {})}
+        times = {k: np.asarray(v, dtype=float).reshape(-1) for k, v in streams.items()}
+        every = np.concatenate(list(times.values()))
+        owner = np.concatenate([np.full(v.size, i) for i, v in enumerate(times.values())])
+        row = np.concatenate([np.arange(v.size) for v in times.values()])
+        order = np.argsort(every, kind="stable")
+        sorted_t = every[order]
+        new = np.concatenate([[True], np.diff(sorted_t) > tol_s]) if every.size else \
             np.zeros(0, dtype=bool)
         epoch_of = np.cumsum(new) - 1
         n = int(new.sum())
-        gnss_index, fix_index = np.full(n, -1, dtype=np.intp), np.full(n, -1, dtype=np.intp)
-        is_gnss = order < g.size
-        gnss_index[epoch_of[is_gnss]] = order[is_gnss]
-        fix_index[epoch_of[~is_gnss]] = order[~is_gnss] - g.size
-        return cls(sorted_t[new], gnss_index, fix_index)
+        index = {}
+        for i, name in enumerate(times):
+            mine = owner[order] == i
+            index[name] = np.full(n, -1, dtype=np.intp)
+            index[name][epoch_of[mine]] = row[order][mine]
+        return cls(sorted_t[new], index.pop("gnss"), index.pop("fix"), index)

@@ -44,6 +44,7 @@ from ekf.model import MeasurementModel
 from ekf.update import Observation
 from railnav.filters.fix_epochs import FixEpochs, FixModelConfig
 from railnav.filters.gnss_rows import TRACK_ROW_NAMES, track_position, track_rows
+from railnav.filters.track_frame import antenna_track_part, track_axes_n
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 __all__ = ["FixRows", "build_fix_rows", "FixRowBuilder", "FIX_ROW_KINDS", "track_axes_n",
@@ -91,22 +92,6 @@ def build_fix_rows(layout: StateLayout) -> FixRows:
                    speed=MeasurementModel.from_expression(x, p, speed, "fix_speed"))
 
 
-def track_axes_n(point) -> dict[str, Array]:
-    """Unit vectors of the track frame at a scalar track point, ENU.
-
-    Returns
-    -------
-    dict of str to ndarray (3,)
-        ``along`` (the tangent), ``along_h`` (its horizontal direction), ``cross`` (right
-        of +s) and ``up`` (the up-normal).
-    """
-    A, E = float(point.azimuth), float(point.elevation)
-    return {"along": np.asarray(point.u_n, dtype=float),
-            "along_h": np.array([np.sin(A), np.cos(A), 0.0]),
-            "cross": np.array([np.cos(A), -np.sin(A), 0.0]),
-            "up": np.array([-np.sin(E) * np.sin(A), -np.sin(E) * np.cos(A), np.cos(E)])}
-
-
 class FixRowBuilder:
     """The rows of each fix at the prior's point on the track.
 
@@ -117,11 +102,15 @@ class FixRowBuilder:
         With states ``s`` and ``v``.
     fixes : FixEpochs
     config : FixModelConfig
+    antenna_m : (float, float, float)
+        The antenna's lever arm (forward, left, up; `railnav.filters.track_frame`): the
+        rows are those of the antenna's point.
     """
 
     def __init__(self, track, layout: StateLayout, fixes: FixEpochs,
-                 config: FixModelConfig) -> None:
+                 config: FixModelConfig, *, antenna_m=(0.0, 0.0, 0.0)) -> None:
         self.track, self.fixes, self.config = track, fixes, config
+        self.antenna_m = tuple(antenna_m)
         self.rows = build_fix_rows(layout)
         self.i_s = layout.index("s")
 
@@ -139,12 +128,14 @@ class FixRowBuilder:
         s = min(max(float(x[self.i_s]), 0.0), self.track.length_m)
         point = self.track.at(s)
         part = track_rows(point, earth=self.track.earth)
+        if any(self.antenna_m):
+            part = antenna_track_part(self.track, part, self.antenna_m)
         C = C_n_e(point.lat, point.lon)
         f, cfg = self.fixes, self.config
         has_h = cfg.use_height and bool(np.isfinite(f.h_m[index]))
-        h = f.h_m[index] if has_h else float(point.h)
+        h = f.h_m[index] if has_h else float(point.h) + self.antenna_m[2]
         d_n = C.T @ (geodetic_to_ecef(f.lat[index], f.lon[index], h, earth=self.track.earth)
-                     - np.asarray(point.r_e, dtype=float))
+                     - part[1:4])
         axes = track_axes_n(point)
         cov = f.cov_n_m2[index]
         extra = {"fix_along": 0.0, "fix_cross": cfg.track_cross_sigma_m ** 2,
@@ -177,8 +168,9 @@ class FixRowBuilder:
                            np.concatenate([part, C @ a])[None, :])
 
 
-def stack_epoch_rows(gnss, fix, *, gnss_mode: str, fix_group: int):
-    """One epoch's GNSS rows and fix rows, stacked for the fault screen.
+def stack_epoch_rows(gnss, fix, *, gnss_mode: str, fix_group: int, extra=()):
+    """One epoch's GNSS rows and fix rows (and other sensors' rows), stacked for the fault
+    screen.
 
     Parameters
     ----------
@@ -190,6 +182,9 @@ def stack_epoch_rows(gnss, fix, *, gnss_mode: str, fix_group: int):
         the fix rows are screened ``row`` by row.
     fix_group : int
         Group of the fix rows (they are used together).
+    extra : sequence of ((list of ekf.Observation, sv, kind), mode)
+        Other rows with their screen mode, in no group (the odometer and balise rows,
+        `railnav.filters.sensor_rows.SensorRows.parts`).
 
     Returns
     -------
@@ -197,7 +192,9 @@ def stack_epoch_rows(gnss, fix, *, gnss_mode: str, fix_group: int):
         The arguments of `railnav.filters.fault_detection.RowScreen.screen`.
     """
     obs, sv, kind, modes, groups = [], [], [], [], []
-    for part, mode, group in ((gnss, gnss_mode, -1), (fix, "row", fix_group)):
+    parts = [(gnss, gnss_mode, -1), (fix, "row", fix_group)]
+    parts += [(part, mode, -1) for part, mode in extra]
+    for part, mode, group in parts:
         if part is None:
             continue
         rows, labels, kinds = part

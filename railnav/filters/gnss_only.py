@@ -38,7 +38,9 @@ from railnav.filters.constrained_model import isb_state_name
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.gnss_only_model import build_gnss_only_model
+from railnav.filters.odometer_epochs import SCALE_STATE
 from railnav.filters.robust_rows import huber_inflate
+from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from trackmodel.track import Track
 
 __all__ = ["GnssOnlyFilter", "correlation_inflation"]
@@ -94,6 +96,9 @@ class GnssOnlyFilter:
         is ``[s, v]``, no clock.
     schedule : railnav.filters.fix_epochs.EpochSchedule, optional
         The epochs of `observations` (default: the GNSS epochs).
+    odometer, balises : optional
+        Odometer readings and balise passages (`railnav.filters.sensor_rows`), screened
+        like the fixes.
 
     Attributes
     ----------
@@ -106,23 +111,28 @@ class GnssOnlyFilter:
 
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *,
-                 huber_k: float | None = None, fixes=None, schedule=None) -> None:
+                 huber_k: float | None = None, fixes=None, schedule=None, odometer=None,
+                 balises=None) -> None:
         self.track, self.config, self.huber_k = track, config, huber_k
         clock = gnss is not None or fixes is None
         self.isb_systems = tuple(config.measurement.systems[1:]) if clock else ()
-        self.model = build_gnss_only_model(self.isb_systems, clock=clock)
+        extra = sensor_states(config, odometer)
+        self.model = build_gnss_only_model(self.isb_systems, clock=clock, extra_blocks=extra)
         self.layout = self.model.layout
         self.process = self.model.process
         self.q_c = self.model.process_noise_density(
             along_accel_sigma_mps2=config.along_accel_sigma_mps2,
-            oscillator=oscillator_from_name(config.oscillator))
+            oscillator=oscillator_from_name(config.oscillator),
+            extra_q=sensor_densities(config, extra))
         self.isb_names = tuple(isb_state_name(s) for s in self.isb_systems)
         self.rows = GnssRowBuilder(track, self.layout, gnss, config, self.isb_names) \
             if clock else None
         self.schedule = schedule
-        self.fix_rows = None if fixes is None else FixRowBuilder(track, self.layout, fixes,
-                                                                 config.fix_model)
-        self.screen = None if fixes is None else RowScreen(config.fault_detection, None)
+        self.fix_rows = None if fixes is None else FixRowBuilder(
+            track, self.layout, fixes, config.fix_model, antenna_m=config.lever_arms.antenna_m)
+        self.sensors = SensorRows(self.layout, config, odometer=odometer, balises=balises)
+        self.screen = None if fixes is None and not self.sensors else \
+            RowScreen(config.fault_detection, None)
         interval = float(np.median(np.diff(gnss.time_s))) if gnss is not None and \
             len(gnss) > 1 else 1.0
         self.pseudorange_inflation = correlation_inflation(config.pseudorange_correlation_s,
@@ -154,8 +164,9 @@ class GnssOnlyFilter:
             return rows
         gnss = None if g < 0 else (rows, self.rows.rows_sv[-1], self.rows.rows_kind[-1])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
+        extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else ()
         rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="pass",
-                                                         fix_group=f)
+                                                         fix_group=f, extra=extra)
         return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
 
     def _gnss_rows(self, index: int, x: Array, P: Array) -> list[Observation]:
@@ -173,7 +184,8 @@ class GnssOnlyFilter:
         cfg = self.config
         var = {"s": sigma_s_m ** 2, "v": sigma_v_mps ** 2,
                "clock_bias": cfg.initial_clock_bias_sigma_m ** 2,
-               "clock_drift": cfg.initial_clock_drift_sigma_mps ** 2}
+               "clock_drift": cfg.initial_clock_drift_sigma_mps ** 2,
+               SCALE_STATE: cfg.odometer_model.scale_sigma ** 2}
         return np.diag([var.get(name, cfg.initial_isb_sigma_m ** 2)
                         for name in self.layout.names])
 
@@ -183,13 +195,14 @@ class GnssOnlyFilter:
         (`railnav.filters.common.start_on_track`)."""
         values, sigma_s, sigma_v = start_on_track(self.track, self.config, fix,
                                                   self.isb_names)
-        x0 = np.array([values[name] for name in self.layout.names])
+        x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
         return x0, self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v)
 
     def truth_states(self, truth, clock_bias_m: Array, clock_drift_mps: Array
                      ) -> tuple[Array, npt.NDArray[np.bool_]]:
         """True states at the truth's samples (``truth.s``, ``truth.v``, the clock); every
-        component is known (the simulator has one receiver clock: inter-system biases 0).
+        component is known (the simulator has one receiver clock: inter-system biases 0)
+        but an odometer's scale factor.
 
         Returns
         -------
@@ -201,7 +214,7 @@ class GnssOnlyFilter:
         x = np.zeros((np.size(truth.s), self.layout.size))
         for i, name in enumerate(self.layout.names):
             x[:, i] = values.get(name, 0.0)
-        return x, np.ones(self.layout.size, dtype=bool)
+        return x, np.array([name != SCALE_STATE for name in self.layout.names])
 
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
         """Estimate columns (`railnav.navigation.result`) of stored states."""

@@ -73,9 +73,10 @@ class GnssOnlyModel:
     layout: StateLayout
     isb_systems: tuple[str, ...]
     noise_names: tuple[str, ...]
+    extra_names: tuple[str, ...] = ()
 
     def process_noise_density(self, *, along_accel_sigma_mps2: float,
-                              oscillator: Oscillator) -> Array:
+                              oscillator: Oscillator, extra_q: tuple[float, ...] = ()) -> Array:
         """Diagonal spectral density ``q_c`` of ``w``.
 
         Parameters
@@ -85,22 +86,27 @@ class GnssOnlyModel:
             ((m/s²)²·s).
         oscillator : gnss_obs.oscillator.Oscillator
             The receiver clock the filter assumes.
+        extra_q : tuple of float
+            Densities of the extra random-walk states (`extra_names`), in order.
 
         Returns
         -------
         ndarray, shape (n_w,)
-            ``[(m/s²)²·s, m²/s, m²/s³, m²/s ...]``.
+            ``[(m/s²)²·s, m²/s, m²/s³, m²/s ..., extra ...]``.
         """
+        if len(extra_q) != len(self.extra_names):
+            raise ValueError(f"{len(self.extra_names)} extra states, {len(extra_q)} densities")
         q = [along_accel_sigma_mps2 ** 2]
         if "clock_bias" in self.layout.names:
             q += [oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
         q += [ISB_RANDOM_WALK_M2PS] * len(self.isb_systems)
+        q += [max(float(v), 1e-30) for v in extra_q]      # kept > 0: P stays definite
         return np.array(q, dtype=float)
 
 
 @functools.lru_cache(maxsize=None)
 def build_gnss_only_model(isb_systems: tuple[str, ...] = (), *,
-                          clock: bool = True) -> GnssOnlyModel:
+                          clock: bool = True, extra_blocks: tuple = ()) -> GnssOnlyModel:
     """Build (once per argument) the GNSS-only process model.
 
     Parameters
@@ -110,6 +116,8 @@ def build_gnss_only_model(isb_systems: tuple[str, ...] = (), *,
     clock : bool
         With the receiver clock states; without (position fixes only, no pseudorange) the
         state is ``[s, v]`` and the noise ``w_a`` alone.
+    extra_blocks : tuple of (str, tuple of str)
+        Further random-walk states, appended last (`railnav.filters.sensor_rows`).
 
     Returns
     -------
@@ -120,22 +128,25 @@ def build_gnss_only_model(isb_systems: tuple[str, ...] = (), *,
     blocks = [("s", 1), ("v", 1)] + ([("clock", CLOCK_STATE_NAMES)] if clock else [])
     if isb_systems:
         blocks.append(("isb", tuple(isb_state_name(s) for s in isb_systems)))
+    blocks += list(extra_blocks)
+    extra_names = tuple(n for _, names in extra_blocks for n in names)
     layout = StateLayout.from_blocks(blocks)
     x = ca.SX.sym("x", layout.size)
     u = ca.SX.sym("u", 0, 1)
     p = ca.SX.sym("p", 0, 1)
-    n_isb = len(isb_systems)
+    n_walk = len(isb_systems) + len(extra_names)
     clock_dot = [x[layout.index("clock_drift")], 0.0] if clock else []
-    xdot = ca.vertcat(x[layout.index("v")], 0.0, *clock_dot, ca.SX.zeros(n_isb))
+    xdot = ca.vertcat(x[layout.index("v")], 0.0, *clock_dot, ca.SX.zeros(n_walk))
     driven = [layout.index("v")] + ([layout.index("clock_bias"), layout.index("clock_drift")]
                                     if clock else []) + \
-        [layout.index(isb_state_name(s)) for s in isb_systems]
+        [layout.index(isb_state_name(s)) for s in isb_systems] + \
+        [layout.index(n) for n in extra_names]
     G = ca.SX.zeros(layout.size, len(driven))
     for col, row in enumerate(driven):
         G[row, col] = 1.0
     name = "railnav_gnss_only" + ("_isb" + "".join(isb_systems) if isb_systems else "") + \
-        ("" if clock else "_noclock")
+        ("" if clock else "_noclock") + "".join(f"_{n}" for n in extra_names)
     process = CdModel.from_expressions(layout, x, u, p, xdot, G=G, name=name)
     noise_names = ("w_a",) + tuple(f"w_{layout.names[i]}" for i in driven[1:])
     return GnssOnlyModel(process=process, layout=layout, isb_systems=tuple(isb_systems),
-                         noise_names=noise_names)
+                         noise_names=noise_names, extra_names=extra_names)

@@ -41,6 +41,7 @@ import numpy.typing as npt
 from ekf.layout import StateLayout
 from ekf.model import CdModel
 from gnss_obs.oscillator import Oscillator
+from railnav.filters.odometer_epochs import SCALE_STATE
 from strapdown.imu_errors import ImuErrors
 from strapdown.kinematics import BIAS_STATE_NAMES, INPUT_NAMES
 from trackmodel.earth import Ellipsoid
@@ -118,8 +119,10 @@ class InsClockModel:
     estimate_biases: bool
     isb_systems: tuple[str, ...]
     noise_names: tuple[str, ...]
+    extra_names: tuple[str, ...] = ()
 
-    def process_noise_density(self, imu: ImuErrors, oscillator: Oscillator) -> Array:
+    def process_noise_density(self, imu: ImuErrors, oscillator: Oscillator,
+                              extra_q: tuple[float, ...] = ()) -> Array:
         """Diagonal spectral density ``q_c`` of ``w`` (units in the module docstring).
 
         Parameters
@@ -129,11 +132,15 @@ class InsClockModel:
             ``IDEAL_*_NOISE_DENSITY`` figures).
         oscillator : Oscillator
             The receiver clock the filter assumes.
+        extra_q : tuple of float
+            Densities of the extra random-walk states (`extra_names`), in order.
 
         Returns
         -------
         ndarray, shape (n_w,)
         """
+        if len(extra_q) != len(self.extra_names):
+            raise ValueError(f"{len(self.extra_names)} extra states, {len(extra_q)} densities")
         accel = imu.accel_noise_density_mps2_rthz or IDEAL_ACCEL_NOISE_DENSITY_MPS2_RTHZ
         gyro = imu.gyro_noise_density_radps_rthz or IDEAL_GYRO_NOISE_DENSITY_RADPS_RTHZ
         q = [accel ** 2] * 3 + [gyro ** 2] * 3
@@ -144,6 +151,7 @@ class InsClockModel:
                                            imu.gyro_bias_tau_s)] * 3
         q += [oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
         q += [ISB_RANDOM_WALK_M2PS] * len(self.isb_systems)
+        q += [max(float(v), _MIN_BIAS_DENSITY) for v in extra_q]
         return np.array(q, dtype=float)
 
 
@@ -151,7 +159,8 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
                              *, earth: Ellipsoid, estimate_biases: bool,
                              isb_systems: tuple[str, ...], n_p: int, name: str,
                              ins_h_c: InsExpression | None = None,
-                             ins_D: InsExpression | None = None) -> InsClockModel:
+                             ins_D: InsExpression | None = None,
+                             extra_blocks: tuple = ()) -> InsClockModel:
     """Append bias, clock and inter-system-bias states to a mechanization.
 
     Parameters
@@ -172,6 +181,9 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
         Identifier of the generated code.
     ins_h_c, ins_D : callable(x_ins, u, p) -> casadi.SX, optional
         A continuous pseudo-observation (n_c) and its ``∂h_c/∂u`` (n_c x 6).
+    extra_blocks : tuple of (str, tuple of str)
+        Further random-walk states, appended last (the odometer's scale factor:
+        `railnav.filters.sensor_rows.sensor_states`).
 
     Returns
     -------
@@ -183,9 +195,11 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     blocks.append(("clock", CLOCK_STATE_NAMES))
     if isb_systems:
         blocks.append(("isb", tuple(isb_state_name(s) for s in isb_systems)))
+    blocks += list(extra_blocks)
+    extra_names = tuple(n for _, names in extra_blocks for n in names)
     layout = StateLayout.from_blocks(blocks)
     walk_names = (BIAS_STATE_NAMES if estimate_biases else ()) + CLOCK_STATE_NAMES + \
-        tuple(isb_state_name(s) for s in isb_systems)
+        tuple(isb_state_name(s) for s in isb_systems) + extra_names
     walk_states = [layout.index(n) for n in walk_names]
     n_ins = layout.index(CLOCK_STATE_NAMES[0])
 
@@ -209,7 +223,7 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     noise_names = IMU_NOISE_NAMES + tuple(f"w_{n}" for n in walk_names)
     return InsClockModel(process=process, layout=layout, earth=earth,
                          estimate_biases=estimate_biases, isb_systems=tuple(isb_systems),
-                         noise_names=noise_names)
+                         noise_names=noise_names, extra_names=extra_names)
 
 
 def initial_variances(config, layout: StateLayout) -> dict[str, float]:
@@ -226,7 +240,8 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     -------
     dict of str to float
         ``yaw, pitch, roll`` (rad²), the IMU biases ((m/s²)², (rad/s)²), ``clock_bias``
-        (m²), ``clock_drift`` (m²/s²) and the layout's ``isb_*`` (m²).
+        (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*`` (m²) and the odometer's
+        scale ``odo_scale`` (its prior, `railnav.filters.odometer_epochs.OdometerConfig`).
     """
     imu, attitude = config.imu, config.initial_attitude_sigma_rad ** 2
     accel = max(imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2,
@@ -240,11 +255,13 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     var.update({name: gyro for name in BIAS_STATE_NAMES[3:]})
     var.update({name: config.initial_isb_sigma_m ** 2 for name in layout.names
                 if name.startswith("isb_")})
+    var[SCALE_STATE] = config.odometer_model.scale_sigma ** 2
     return var
 
 
-def model_name(prefix: str, earth: Ellipsoid, biases: bool, isb: tuple[str, ...]) -> str:
+def model_name(prefix: str, earth: Ellipsoid, biases: bool, isb: tuple[str, ...],
+               extra: tuple[str, ...] = ()) -> str:
     """An identifier naming a model's generated code (its cache key includes the source)."""
     radius = f"{earth.a_m:.0f}".replace(".", "_")
     return f"{prefix}_{earth.name}_{radius}{'_bias' if biases else ''}" \
-           f"{'_isb' + ''.join(isb) if isb else ''}"
+           f"{'_isb' + ''.join(isb) if isb else ''}" + "".join(f"_{n}" for n in extra)

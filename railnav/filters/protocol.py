@@ -97,6 +97,10 @@ class FilterKind:
         ``fixes`` and ``schedule``.
     summary : str
         One line for help texts.
+    track_sensors : bool
+        It takes odometer readings, balise passages (`railnav.filters.sensor_rows`: its
+        class accepts ``odometer`` and ``balises``) and sensor lever arms
+        (`railnav.filters.track_frame.LeverArms`).
     """
 
     name: str
@@ -107,19 +111,21 @@ class FilterKind:
     banks: bool
     fixes: bool
     summary: str
+    track_sensors: bool = False
 
 
 #: Every filter kind, by name, in the order the help lists them.
 FILTERS: dict[str, FilterKind] = {k.name: k for k in (
     FilterKind("constrained", "railnav.filters.constrained", "ConstrainedFilter",
                needs_imu=True, streams=True, banks=True, fixes=True,
-               summary="track-constrained tightly coupled INS/GNSS (the 2017 paper's)"),
+               summary="track-constrained tightly coupled INS/GNSS (the 2017 paper's)",
+               track_sensors=True),
     FilterKind("unconstrained", "railnav.filters.unconstrained", "UnconstrainedFilter",
                needs_imu=True, streams=True, banks=False, fixes=False,
                summary="unconstrained 9-state tightly coupled INS/GNSS (baseline)"),
     FilterKind("gnss-only", "railnav.filters.gnss_only", "GnssOnlyFilter",
                needs_imu=False, streams=False, banks=False, fixes=True,
-               summary="GNSS-only on the track: [s, v, clock], no IMU"),
+               summary="GNSS-only on the track: [s, v, clock], no IMU", track_sensors=True),
 )}
 
 #: The names of `FILTERS`.
@@ -141,7 +147,8 @@ def filter_kind(name: str) -> FilterKind:
                           f"{name!r}") from None
 
 
-def make_filter(track, config, gnss, *, fixes=None, schedule=None) -> Filter:
+def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None,
+                balises=None) -> Filter:
     """Build the filter object of ``config.filter``.
 
     Parameters
@@ -154,16 +161,26 @@ def make_filter(track, config, gnss, *, fixes=None, schedule=None) -> Filter:
     fixes : railnav.filters.fix_epochs.FixEpochs, optional
         The trip's GNSS position fixes.
     schedule : railnav.filters.fix_epochs.EpochSchedule, optional
-        The epochs ``observations(index, ...)`` is called with (GNSS epochs and fixes
-        merged); default: the GNSS epochs in order.
+        The epochs ``observations(index, ...)`` is called with (GNSS epochs, fixes and the
+        other streams merged); default: the GNSS epochs in order.
+    odometer, balises : optional
+        Odometer readings and balise passages (`railnav.filters.sensor_rows`).
 
     Raises
     ------
     ConfigError
-        Fixes for a filter kind that takes none.
+        Fixes, odometer, balises or lever arms for a filter kind that takes none.
     """
     kind = filter_kind(config.filter)
     cls = getattr(importlib.import_module(kind.module), kind.class_name)
+    sensors = {k: v for k, v in (("odometer", odometer), ("balises", balises)) if v is not None}
+    lever = getattr(config, "lever_arms", None)
+    if (sensors or (lever is not None and lever != type(lever)())) and not kind.track_sensors:
+        takes = " or ".join(k.name for k in FILTERS.values() if k.track_sensors)
+        what = ", ".join(sensors) or "lever arms"
+        raise ConfigError(f"the {kind.name} filter takes no {what} (the {takes} filters do)")
+    if sensors:
+        return cls(track, config, gnss, fixes=fixes, schedule=schedule, **sensors)
     if fixes is None and schedule is None:
         return cls(track, config, gnss)
     if not kind.fixes:

@@ -23,21 +23,15 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from gnss_obs.fixes.read import read_fixes
-from gnss_obs.measurements import MeasurementConfig
-from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from railnav.config import (
-    DEFAULT_FILTER,
     DEFAULT_SYSTEMS,
     NavigatorConfig,
     SensorData,
-    check_gnss_pair,
 )
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
 from railnav.filters.fix_epochs import FixModelConfig
-from railnav.filters.protocol import filter_kind
 from railnav.jobs.scoring import (
     find_truth,
     scenario_outages,
@@ -45,6 +39,7 @@ from railnav.jobs.scoring import (
     simulation_meta,
     with_timestamps,
 )
+from railnav.jobs.sensor_files import read_sensor_files, sensor_summary
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, NavigationResult
@@ -52,11 +47,8 @@ from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import (
     SimulatedTrip,
     navigator_config_for,
-    navigator_config_from_simulation,
     simulate_trip,
 )
-from strapdown.imu import read_imu_csv
-from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
 __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT",
@@ -164,7 +156,10 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               fix_model: FixModelConfig | None = None, outages=None, window=None,
               base_path=None, base_lat_lon_h: tuple[float, float, float] | None = None,
               smoothing=None, sp3_paths=(), max_correction_age_s: float | None = None,
-              progress: Callable[[int, int], None] | None = None) -> RunOutcome:
+              progress: Callable[[int, int], None] | None = None, imu_spec=None,
+              odometer_path=None, balises_path=None, wheel_circumference_m=None,
+              pulses_per_rev=None, odometer_model=None, balise_model=None,
+              lever_arms=None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -216,12 +211,29 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         Precise orbit/clock files for the GNSS rows.
     max_correction_age_s : float, optional
         Oldest base correction applied (default `gnss_obs.DgpsConfig`'s).
+    imu_spec : strapdown.ImuSpec or path, optional
+        How the IMU file is laid out (columns, units, increments, mounting) and, in its
+        ``[noise]`` table, what the filter assumes (`strapdown.imu_spec`; instead of
+        `imu_grade`); default railnav's ``imu.csv``. The log's timing and plausibility are
+        checked (`strapdown.imu_log.read_imu_log`).
+    odometer_path, balises_path : path, optional
+        Odometer readings and balise passages (`railnav.sensors`); the constrained and
+        GNSS-only filters.
+    wheel_circumference_m, pulses_per_rev : float, optional
+        The wheel of an odometer file of pulse counts.
+    odometer_model, balise_model, lever_arms : optional
+        `NavigatorConfig` fields for the default configuration (default theirs).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
                                      config=config, filter=filter, systems=systems,
                                      imu_grade=imu_grade, fix_sigmas=fix_sigmas,
-                                     fix_model=fix_model)
+                                     fix_model=fix_model, imu_spec=imu_spec,
+                                     odometer_path=odometer_path, balises_path=balises_path,
+                                     wheel_circumference_m=wheel_circumference_m,
+                                     pulses_per_rev=pulses_per_rev,
+                                     odometer_model=odometer_model, balise_model=balise_model,
+                                     lever_arms=lever_arms)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,
@@ -246,6 +258,7 @@ def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, wi
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
+    extra.update(sensor_summary(data))
     summary = run_summary(result, track, errors, window, outages, extra)
     return RunOutcome(result, track, summary, errors, data=data)
 
@@ -265,77 +278,6 @@ def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat
                   base_lat_lon_h=base_lat_lon_h, dgps=dgps, smoothing=smoothing,
                   sp3=[read_sp3(p) for p in sp3_paths])
     return replace(data, obs=aug.obs, augmentation=aug)
-
-
-def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path=None,
-                      start_gps_time_s: float | None = None,
-                      config: NavigatorConfig | None = None, filter: str | None = None,
-                      systems: str | None = None, imu_grade: str | None = None,
-                      fix_sigmas=None, fix_model: FixModelConfig | None = None
-                      ) -> tuple[SensorData, NavigatorConfig]:
-    """The sensor data of `run_files` and the navigator configuration it uses (see there
-    for the parameters and the defaults).
-
-    Raises
-    ------
-    ConfigError
-        Observations without navigation data (or the reverse); a recorded IMU file
-        without the grade the filter should assume.
-    """
-    check_gnss_pair(obs_path, nav_path)
-    filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
-    imu = read_imu_csv(imu_path) if imu_path is not None else None
-    if config is None:
-        config = _default_file_config(imu_path, obs_path, fixes_path, filter, systems,
-                                      imu_grade)
-        if fix_model is not None:
-            config = replace(config, fix_model=fix_model)
-    obs = read_rinex_obs(obs_path) if obs_path is not None else None
-    nav = read_rinex_nav(nav_path) if nav_path is not None else None
-    fixes = read_fixes(fixes_path, sigmas=fix_sigmas) if fixes_path is not None else None
-    if start_gps_time_s is None:
-        start_gps_time_s = _start_time(imu_path, obs, fixes, fixes_path)
-    return SensorData(float(start_gps_time_s), imu=imu, obs=obs, nav=nav, fixes=fixes), config
-
-
-def _default_file_config(imu_path, obs_path, fixes_path, filter: str, systems: str | None,
-                         imu_grade: str | None) -> NavigatorConfig:
-    found = simulation_meta(imu_path, obs_path, fixes_path)
-    if found is not None:
-        meta = found[0]
-        extra = {} if systems is None else {"measurement": replace(
-            navigator_config_from_simulation(meta).measurement, systems=systems)}
-        if imu_grade is not None:
-            extra["imu_errors"] = imu_grade
-        log.info("sensor models from the simulation's scenario.json")
-        # the scenario's initial σ of s and v are those of a start drawn about the truth
-        # (run_simulated); a file run starts from its first fix, with that fix's σ
-        return navigator_config_from_simulation(meta, filter=filter, initial_s_sigma_m=None,
-                                                initial_v_sigma_mps=None, **extra)
-    if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
-        raise ConfigError(f"{imu_path}: a recorded IMU file needs the grade the filter "
-                          f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))})")
-    grade = {} if imu_grade is None else {"imu_errors": imu_grade}
-    return NavigatorConfig(filter=filter, **grade,
-                           measurement=MeasurementConfig(systems=systems or DEFAULT_SYSTEMS))
-
-
-def _start_time(imu_path, obs, fixes, fixes_path) -> float:
-    """The trip's start in GPS time when the user did not give it."""
-    found = simulation_meta(imu_path, fixes_path)
-    if found is not None:
-        try:
-            return float(found[0]["scenario"]["start_gps_time_s"])
-        except (KeyError, ValueError, TypeError) as exc:
-            raise ConfigError(f"scenario.json: no scenario.start_gps_time_s ({exc})") from None
-    starts = []
-    if obs is not None and len(obs.table):
-        starts.append(float(obs.table["gps_time_s"].iloc[0]))
-    if fixes is not None:
-        starts.append(float(fixes.table["gps_time_s"].iloc[0]))
-    if starts:
-        return min(starts)
-    raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")
 
 
 def run_summary(result: NavigationResult, track, errors, window, outages, extra: dict) -> dict:

@@ -66,6 +66,8 @@ class ChunkLoop:
         self.engine = filter_engine(filt, config, sample_interval_s=sample_interval_s)
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
+        if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
+            filt.sample_interval_s = float(sample_interval_s)
 
     def chunks(self, t: Array, u: Array, at_sample: npt.NDArray[np.intp]
                ) -> Iterator[InputSeries]:

@@ -4,7 +4,8 @@
 
 1. cuts the GNSS observations into epochs (`railnav.filters.gnss_epochs`) and the GNSS
    position fixes to the trip (`railnav.filters.fix_epochs.FixEpochs`), both without the
-   outage windows (the one place where a run skips GNSS data), and merges them into one
+   outage windows (the one place where a run skips GNSS data), the odometer readings and
+   balise passages to the run (`railnav.navigation.sensors`), and merges them into one
    epoch schedule (`railnav.filters.fix_epochs.EpochSchedule`);
 2. builds the sample grid: the IMU samples (a sample is inserted, its input interpolated,
    where an epoch falls between two), or for a filter that needs no IMU a grid at the
@@ -43,6 +44,7 @@ from railnav.navigation.fix_start import initial_from_fixes
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
 from railnav.navigation.result import NavigationResult
+from railnav.navigation.sensors import imu_at_reference, track_sensor_epochs
 
 __all__ = ["navigate", "TripSamples", "trip_samples", "Start"]
 
@@ -88,9 +90,11 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         If the covariance loses positive definiteness.
     """
     started = time.perf_counter()
-    trip = trip_samples(data, config, outages=outages)
+    trip = trip_samples(data, config, outages=outages, track=track)
+    others = trip.fixes is not None or trip.odometer is not None or trip.balises is not None
     filt = make_filter(track, config, trip.gnss, fixes=trip.fixes,
-                       schedule=trip.schedule if trip.fixes is not None else None)
+                       schedule=trip.schedule if others else None, odometer=trip.odometer,
+                       balises=trip.balises)
     if initial is None and trip.gnss is None and trip.fixes is not None:
         initial = initial_from_fixes(filt, trip.fixes, config)
     elif initial is None:
@@ -130,7 +134,9 @@ class TripSamples:
         Measurement epoch times (GNSS epochs and fixes), s from the trip start.
     fixes : railnav.filters.fix_epochs.FixEpochs or None
     schedule : railnav.filters.fix_epochs.EpochSchedule
-        Which GNSS epoch and which fix each epoch has.
+        Which GNSS epoch, fix, odometer reading and balise passage each epoch has.
+    odometer : railnav.filters.odometer_epochs.OdometerEpochs or None
+    balises : railnav.filters.balise_epochs.BaliseEpochs or None
     """
 
     t: Array
@@ -139,6 +145,8 @@ class TripSamples:
     epoch_times: Array
     fixes: FixEpochs | None = None
     schedule: EpochSchedule | None = None
+    odometer: object = None
+    balises: object = None
 
     def from_time(self, start_s: float) -> tuple[Array, Array, npt.NDArray[np.intp]]:
         """Samples ``t, u`` from `start_s` on and the indices of the epochs they reach.
@@ -156,9 +164,11 @@ class TripSamples:
         return t, u, np.flatnonzero(self.epoch_times >= t[0] - EPOCH_TIME_TOL_S)
 
 
-def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> TripSamples:
+def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=(),
+                 track=None) -> TripSamples:
     """The samples and GNSS epochs of a trip (steps 1–2 of `navigate`; also used to run
-    several filters over the same data, `railnav.navigation.bank`)."""
+    several filters over the same data, `railnav.navigation.bank`); `track` projects
+    balises given as coordinates."""
     samples_t, samples_u = _sample_times(data, config)
     gnss = fixes = None
     if data.obs is not None:
@@ -170,11 +180,15 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=()) -> Tr
     if data.fixes is not None:
         fixes = FixEpochs.from_table(data.fixes.table, start_gps_time_s=data.start_gps_time_s,
                                      end_s=float(samples_t[-1]), outages=outages)
+    sensors = track_sensor_epochs(data, config, track, span_s=(float(samples_t[0]),
+                                                               float(samples_t[-1])))
     schedule = EpochSchedule.merge(gnss.time_s if gnss is not None else [],
                                    fixes.time_s if fixes is not None else [],
-                                   tol_s=EPOCH_TIME_TOL_S)
+                                   tol_s=EPOCH_TIME_TOL_S,
+                                   extra={k: v.time_s for k, v in sensors.items()})
     samples_t, samples_u = _insert_samples(samples_t, samples_u, schedule.time_s)
-    return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule)
+    return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule,
+                       sensors.get("odometer"), sensors.get("balises"))
 
 
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
@@ -197,7 +211,7 @@ def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Arr
     t = np.asarray(data.imu.time_s, dtype=float)
     if t.size < 2 or not np.all(np.diff(t) > 0):
         raise RailnavError("IMU times must be increasing with at least two samples")
-    return t, data.imu.u
+    return t, imu_at_reference(data.imu, config).u
 
 
 def _insert_samples(t: Array, u: Array, epoch_times: Array) -> tuple[Array, Array]:

@@ -25,6 +25,7 @@ import pandas as pd
 from ekf.history import FilterResult
 from ekf.layout import StateLayout
 from railnav.filters.fix_rows import FIX_ROW_KINDS
+from railnav.filters.sensor_rows import sensor_statistics
 
 __all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
 
@@ -155,6 +156,7 @@ class NavigationResult:
             fix = inn[inn["kind"].isin(fix_kinds)]
             used = fix.groupby("epoch")["accepted"].all()
             out["fix_epochs"], out["fixes_rejected"] = int(used.size), int((~used).sum())
+        out.update(sensor_statistics(inn))      # odometer (slip episodes) and balises
         return out
 
 

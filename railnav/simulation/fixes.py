@@ -97,7 +97,8 @@ class FixSimConfig:
 
 
 def simulate_fixes(truth, *, start_gps_time_s: float, config: FixSimConfig = FixSimConfig(),
-                   rng: np.random.Generator, outages=(), earth=None) -> FixLog:
+                   rng: np.random.Generator, outages=(), earth=None,
+                   antenna=None) -> FixLog:
     """Fixes of a simulated trip (module docstring).
 
     Parameters
@@ -110,6 +111,9 @@ def simulate_fixes(truth, *, start_gps_time_s: float, config: FixSimConfig = Fix
     outages : sequence of gnss_obs.Outage or (start_s, duration_s)
     earth : trackmodel.Ellipsoid, optional
         The track's Earth model (default WGS-84).
+    antenna : (r_e, v_e), optional
+        The antenna's ECEF position and velocity at the truth's samples (a lever arm:
+        `railnav.simulation.track_sensors.antenna_track`; default the truth's point).
 
     Returns
     -------
@@ -135,8 +139,11 @@ def simulate_fixes(truth, *, start_gps_time_s: float, config: FixSimConfig = Fix
                      config.sigmas[q].speed_mps] for q in quality]).reshape(-1, 3)
     e_n = rng.standard_normal((t.size, 3)) * sig[:, [0, 0, 1]]
     C = C_n_e(truth.lat[k], truth.lon[k])
-    lat, lon, h = ecef_to_geodetic(truth.r_e[k] + np.einsum("kij,kj->ki", C, e_n), earth=earth)
-    v_h = truth.v_n[k, :2] + rng.standard_normal((t.size, 2)) * sig[:, 2:3]
+    r_e, v_n = truth.r_e, truth.v_n
+    if antenna is not None:
+        r_e, v_n = antenna[0], np.einsum("kji,kj->ki", C_n_e(truth.lat, truth.lon), antenna[1])
+    lat, lon, h = ecef_to_geodetic(r_e[k] + np.einsum("kij,kj->ki", C, e_n), earth=earth)
+    v_h = v_n[k, :2] + rng.standard_normal((t.size, 2)) * sig[:, 2:3]
     gps = start_gps_time_s + t
     columns = {"gps_time_s": gps,
                "timestamp": gps_time_s_to_utc_iso(gps, suffix="Z").astype(object),
@@ -160,10 +167,13 @@ def trip_fixes(trip, config: FixSimConfig = FixSimConfig()) -> FixLog:
     trip : railnav.simulation.trip.SimulatedTrip
     config : FixSimConfig
     """
+    from railnav.simulation.track_sensors import antenna_track
     rng = np.random.default_rng(trip.simulation.rng_streams[RNG_STREAMS["fixes"]])
+    arm = getattr(trip.scenario, "antenna_m", (0.0, 0.0, 0.0))
+    antenna = antenna_track(trip.track, trip.truth, arm) if any(arm) else None
     return simulate_fixes(trip.truth, start_gps_time_s=trip.scenario.start_gps_time_s,
                           config=config, rng=rng, outages=trip.scenario.outages,
-                          earth=trip.track.earth)
+                          earth=trip.track.earth, antenna=antenna)
 
 
 def _qualities(t: np.ndarray, config: FixSimConfig, rng: np.random.Generator) -> np.ndarray:

@@ -53,7 +53,8 @@ TRACKS_DIR = shipped_path(TRACKS)
 #: 2020-11-29 12:40:00 GPST: inside the validity of the shipped broadcast navigation file.
 #: Indices of the independent random streams spawned from the seed (a stream added at the
 #: end leaves the others' draws unchanged: ``SeedSequence.spawn`` children are numbered).
-RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2, "fixes": 3}
+RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2, "fixes": 3, "imu_log": 4, "odometer": 5,
+               "balises": 6}
 
 
 @dataclass(frozen=True)
@@ -87,6 +88,9 @@ class Scenario:
         GPS time of the trip start, s since 1980-01-06.
     clock : str
         Receiver clock preset name (GNSS simulator).
+    antenna_m : (float, float, float)
+        The GNSS antenna's lever arm from the reference point: forward, left, up, m
+        (`railnav.filters.track_frame`); the receiver is simulated there.
     """
 
     name: str
@@ -105,6 +109,7 @@ class Scenario:
     outages: tuple[Outage, ...] = ()
     start_gps_time_s: float = DEFAULT_START_GPS_TIME_S
     clock: str = "tcxo"
+    antenna_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         positive = ("duration_s", "imu_rate_hz", "gnss_rate_hz", "sigma_pseudorange_m",
@@ -127,6 +132,10 @@ class Scenario:
             raise ConfigError(f"outages must be (start_s >= 0, duration_s > 0), got "
                               f"{[tuple(o) for o in outages]}")
         object.__setattr__(self, "outages", outages)
+        arm = tuple(self.antenna_m)
+        if len(arm) != 3 or not all(math.isfinite(a) and abs(a) <= 100 for a in arm):
+            raise ConfigError(f"antenna_m must be 3 finite offsets within ±100 m, got {arm!r}")
+        object.__setattr__(self, "antenna_m", tuple(float(a) for a in arm))
         try:
             imu_grade(self.imu_errors)
         except StrapdownError as exc:

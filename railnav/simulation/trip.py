@@ -2,7 +2,8 @@
 
 `simulate_trip` is the one simulation path behind ``railnav simulate`` (which writes the
 files) and ``railnav run TRACK`` without sensor files (which filters them in memory). The
-GNSS receiver is at the track reference point (no lever arm); its epochs are IMU sample
+GNSS receiver is at the scenario's antenna lever arm from the track reference point
+(`Scenario.antenna_m`, default none); its epochs are IMU sample
 times at the scenario's GNSS rate, from GPS time `Scenario.start_gps_time_s`; outages are
 the scenario's (s from the trip start). Random streams are independent per sensor
 (`railnav.simulation.scenarios.RNG_STREAMS`).
@@ -27,11 +28,16 @@ from gnss_obs.simulate import (
 )
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
 from railnav.errors import ConfigError
+from railnav.filters.track_frame import LeverArms
 from railnav.simulation.scenarios import (
     RNG_STREAMS,
     Scenario,
     SimulationResult,
     simulate_scenario,
+)
+from railnav.simulation.track_sensors import (
+    antenna_track,
+    sensor_models_from_simulation,
 )
 from strapdown.imu_errors import ImuErrors
 
@@ -102,18 +108,22 @@ def gnss_sim_config_for(scenario: Scenario, *, systems: str = DEFAULT_SYSTEMS,
 
 def navigator_config_for(scenario: Scenario, *, filter: str = DEFAULT_FILTER,
                          systems: str = DEFAULT_SYSTEMS, **overrides) -> NavigatorConfig:
-    """A navigator that assumes what the scenario simulates (IMU grade, clock, GNSS σ).
+    """A navigator that assumes what the scenario simulates (IMU grade, clock, GNSS σ, the
+    antenna's lever arm).
 
     The GNSS σ are the simulator's constant ones (no elevation or C/N0 weighting); the
     initial σ of ``s`` and ``v`` are the scenario's initial errors. `overrides` replace
     any other `NavigatorConfig` field.
     """
-    return replace(_simulated_sensor_config(
+    config = _simulated_sensor_config(
         filter=filter, systems=systems, imu_errors=scenario.imu_errors,
         clock=scenario.clock, sigma_pr_m=scenario.sigma_pseudorange_m,
         sigma_rr_mps=scenario.sigma_range_rate_mps,
         initial=(scenario.initial_attitude_sigma_rad, scenario.initial_s_sigma_m,
-                 scenario.initial_v_sigma_mps)), **overrides)
+                 scenario.initial_v_sigma_mps))
+    if any(scenario.antenna_m):
+        config = replace(config, lever_arms=LeverArms(antenna_m=scenario.antenna_m))
+    return replace(config, **overrides)
 
 
 def navigator_config_from_simulation(meta: dict, *, filter: str = DEFAULT_FILTER,
@@ -144,7 +154,7 @@ def navigator_config_from_simulation(meta: dict, *, filter: str = DEFAULT_FILTER
                      float(sc["initial_v_sigma_mps"])))
     except (KeyError, TypeError, ValueError) as exc:
         raise ConfigError(f"scenario.json lacks the sensor settings: {exc}") from None
-    return replace(config, **overrides)
+    return replace(config, **{**sensor_models_from_simulation(meta), **overrides})
 
 
 def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: str,
@@ -203,7 +213,8 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
     truth = sim.truth
     k = np.arange(0, truth.time_s.size, step)
     rng = np.random.default_rng(sim.rng_streams[RNG_STREAMS["gnss"]])
-    obs = simulate_gnss(scenario.start_gps_time_s + truth.time_s[k], truth.r_e[k], truth.v_e[k],
+    r_e, v_e = antenna_track(sim.track, truth, scenario.antenna_m)
+    obs = simulate_gnss(scenario.start_gps_time_s + truth.time_s[k], r_e[k], v_e[k],
                         nav, gnss_sim_config_for(scenario, systems=systems, faults=faults),
                         rng=rng)
     return SimulatedTrip(scenario, sim, obs, nav, systems)

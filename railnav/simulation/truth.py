@@ -42,7 +42,7 @@ from strapdown.gravity import g_n
 from strapdown.imu import Imu
 from trackmodel.earth import C_n_e, radii
 
-__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "iter_truth", "ideal_imu"]
+__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "iter_truth", "truth_at", "ideal_imu"]
 
 Array = npt.NDArray[np.float64]
 
@@ -198,7 +198,15 @@ def _truth_block(track, profile: SpeedProfile, k0: int, k1: int, *, rate_hz: flo
                  start_s: float) -> tuple[Truth, bool]:
     """Samples ``k0 <= k < k1`` up to the first beyond the track end; and whether the trip
     ended there (a sample was beyond the end)."""
-    sample = profile.evaluate(np.arange(k0, k1) / rate_hz)
+    return truth_at(track, profile, np.arange(k0, k1) / rate_hz, start_s=start_s)
+
+
+def truth_at(track, profile: SpeedProfile, time_s: Array, *, start_s: float = 0.0
+             ) -> tuple[Truth, bool]:
+    """The trajectory at increasing times `time_s` (s), up to the first beyond the track
+    end; and whether the trip ended there (the sample grid of `simulate_truth`, or any
+    other: the jittered instants of a simulated IMU log, `railnav.simulation.imu_logs`)."""
+    sample = profile.evaluate(np.asarray(time_s, dtype=float))
     s = start_s + sample.s
     keep = s <= track.length_m
     keep = keep & (np.cumsum(~keep) == 0)  # stop at the first sample past the end

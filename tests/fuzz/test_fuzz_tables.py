@@ -7,7 +7,6 @@ dozen rows, an IMU and a baro file written here); `mutated` damages them.
 """
 from __future__ import annotations
 
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +21,7 @@ from railnav.jobs.baro import read_baro_csv
 from strapdown.errors import ImuInputError
 from strapdown.imu import IMU_COLUMNS, read_imu_csv
 from tests.conftest import GNSS_DATA, TRACKS
-from tests.support.fuzz import FUZZ, csv_cells, mutated, time_limit
+from tests.support.fuzz import FUZZ, csv_cells, mutated, read_fuzzed
 from trackmodel.errors import InputError, TrackFileError
 from trackmodel.polyline import read_polyline
 
@@ -46,18 +45,7 @@ BARO = pd.DataFrame({"time_s": np.arange(ROWS, dtype=float),
 
 
 def _read(data: bytes, reader, errors: tuple[type, ...]):
-    """`reader` of `data` written to a file: its result, or None after one of `errors`
-    (one line, starting with the file's path); anything else fails the test."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "input.csv"
-        path.write_bytes(data)
-        with time_limit():
-            try:
-                return reader(path)
-            except errors as exc:
-                text = str(exc)
-                assert "\n" not in text and text.startswith(str(path)), text
-                return None
+    return read_fuzzed(data, reader, errors)
 
 
 @FUZZ

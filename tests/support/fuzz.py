@@ -17,12 +17,15 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-from collections.abc import Iterator
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
 
 from hypothesis import HealthCheck, settings
 from hypothesis import strategies as st
 
-__all__ = ["FUZZ", "CASE_LIMIT_S", "time_limit", "mutated", "csv_cells", "FuzzTimeout"]
+__all__ = ["FUZZ", "CASE_LIMIT_S", "time_limit", "mutated", "csv_cells", "FuzzTimeout",
+           "read_fuzzed"]
 
 CI_EXAMPLES = 40
 LOCAL_EXAMPLES = 1000
@@ -105,3 +108,19 @@ def csv_cells() -> st.SearchStrategy[str]:
                      st.sampled_from(["", " ", "nan", "NaN", "inf", "-", "1e", "abc",
                                       "0x10", "1,5", "\"1\"", "1e999", "True"]),
                      st.text(max_size=6))
+
+
+def read_fuzzed(data: bytes, reader: Callable, errors: tuple[type, ...], *,
+                name: str = "input.csv"):
+    """`reader` of `data` written to a file `name`: its result, or None after one of
+    `errors` (one line, starting with the file's path); anything else fails the test."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / name
+        path.write_bytes(data)
+        with time_limit():
+            try:
+                return reader(path)
+            except errors as exc:
+                text = str(exc)
+                assert "\n" not in text and text.startswith(str(path)), text
+                return None
