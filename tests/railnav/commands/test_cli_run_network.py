@@ -52,6 +52,7 @@ def _far_fixes(tmp_path) -> Path:
     ("far", "within 30 m of a netelement"),
     (["data/tracks/curvy.csv"], "--network replaces TRACK"),
     (["--baro", "b.csv"], "--baro"),
+    (["--balises", "b.csv"], "--balises: not with --network"),
 ])
 def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, extra, message):
     out = tmp_path / "run"
