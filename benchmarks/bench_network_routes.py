@@ -51,7 +51,7 @@ def one_start(net, element: str, direction: int) -> list[dict]:
     gaps = np.max([np.linalg.norm(lines[0].at(grid).r_e - t.at(grid).r_e, axis=1)
                    for t in lines[1:]], axis=0)
     t_part = float((grid[np.argmax(gaps > 1.0)] - s0) / SPEED_MPS)
-    t_switch = BACK_M / SPEED_MPS                   # the start is BACK_M before it
+    t_switch = (length - BACK_M) / SPEED_MPS        # the start is BACK_M into its element
     scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
                        duration_s=DURATION_S, outages=(), start_s=s0)
     rows = []
