@@ -34,7 +34,8 @@ epochs and models           `EpochData`, `PreparedEpoch`, `split_epochs`,
                             `build_measurement_model` (``observables``);
                             `reissue_ephemerides` (``ephemeris_reissue``)
 differential, smoothing,    `augment`, `Augmentation`, `DgpsConfig`, `base_corrections`,
-precise orbits              `apply_corrections`, `base_position_e` (``dgps``);
+precise orbits              `apply_corrections`, `base_position_e`, `augment_files`
+                            (``dgps``);
                             `smooth_observations`, `SmoothingConfig`, `hatch_filter`
                             (``smoothing``); `PreciseOrbits` (``precise``)
 receiver clock              `Oscillator`, `oscillator_from_name` (``oscillator``)
@@ -75,7 +76,7 @@ _EXPORTS = {
     "prepare_epoch": "epoch", "transmit_states_batch": "epoch",
     "build_measurement_model": "observables",
     "reissue_ephemerides": "ephemeris_reissue",
-    "augment": "dgps", "Augmentation": "dgps", "DgpsConfig": "dgps",
+    "augment": "dgps", "augment_files": "dgps", "Augmentation": "dgps", "DgpsConfig": "dgps",
     "base_corrections": "dgps", "apply_corrections": "dgps", "base_position_e": "dgps",
     "smooth_observations": "smoothing", "SmoothingConfig": "smoothing",
     "hatch_filter": "smoothing", "PreciseOrbits": "precise",

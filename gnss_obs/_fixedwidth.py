@@ -18,14 +18,17 @@ import gzip
 import io
 import os
 import zipfile
+from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
 
 from gnss_obs.errors import GnssInputError
+from gnss_obs.gpstime import days_in_month
 
 __all__ = ["read_text_bytes", "split_lines", "char_table", "parse_floats", "parse_ints",
-           "field_text", "calendar_fields"]
+           "field_text", "calendar_fields", "check_calendar", "check_ascii",
+           "check_last_line"]
 
 _SPACE = ord(" ")
 _NAN = b"nan"
@@ -113,6 +116,67 @@ def split_lines(data: bytes) -> list[bytes]:
     if lines and lines[-1] == b"":
         lines.pop()
     return lines
+
+
+_ASCII_END = 0x80
+_NEWLINE = ord("\n")
+
+
+def check_ascii(lines: list[bytes], first_line: int, path, *,
+                free_text: Callable[[bytes], bool] | None = None) -> None:
+    """Raise at the first byte of `lines` outside 7-bit ASCII (RINEX and SP3 are ASCII).
+
+    Parameters
+    ----------
+    lines : list of bytes
+    first_line : int
+        1-based file line of ``lines[0]``.
+    path : str or os.PathLike
+        File name for the message.
+    free_text : callable(line) -> bool, optional
+        Lines where any byte is allowed (e.g. SP3 comments).
+
+    Raises
+    ------
+    GnssInputError
+        Naming the line, the column and the byte.
+    """
+    data = b"\n".join(lines)
+    codes = np.frombuffer(data, dtype=np.uint8)
+    high = np.flatnonzero(codes >= _ASCII_END)
+    if high.size == 0:
+        return
+    ends = np.flatnonzero(codes == _NEWLINE)
+    line_of = np.searchsorted(ends, high)
+    for k in np.unique(line_of):
+        if free_text is not None and free_text(lines[k]):
+            continue
+        pos = int(high[np.searchsorted(line_of, k)])
+        column = pos - (int(ends[k - 1]) + 1 if k else 0) + 1
+        raise GnssInputError(f"byte 0x{codes[pos]:02x} is not ASCII text: a corrupted or "
+                             "binary file?", path=path, line=first_line + int(k),
+                             column=f"column {column}")
+
+
+def check_last_line(data: bytes, lines: list[bytes], width: int, path) -> None:
+    """Raise when the file ends without a line end inside a line shorter than `width`.
+
+    A copy or download that stops in mid-line leaves a last line without its ``\n``;
+    when that line is shorter than a full record line the cut may have taken digits off
+    its last number (``1.2345`` of ``1.234567e-05``), which no field check can see.
+
+    Raises
+    ------
+    GnssInputError
+        Naming the last line and the column where it stops.
+    """
+    if not data or data.endswith(b"\n") or not lines:
+        return
+    used = len(lines[-1].rstrip())
+    if 0 < used < width:
+        raise GnssInputError(f"the file ends inside this line (no line end; it stops at "
+                             f"column {used} of {width}): truncated? (if the line is "
+                             "complete, add the missing line end)", path=path, line=len(lines))
 
 
 def char_table(lines: list[bytes], width: int) -> npt.NDArray[np.uint8]:
@@ -235,7 +299,48 @@ def calendar_fields(chars, columns: dict[str, tuple[int, int]], second: tuple[in
                              line=int(lines[np.flatnonzero(np.isnan(sec))[0]]),
                              column="epoch second")
     fields["second"] = sec
+    check_calendar(fields, lines, path)
     return fields
+
+
+#: Largest value of each time-of-day field; seconds up to 60.999... (a leap second).
+_CALENDAR_MAX = {"hour": 23, "minute": 59}
+_MONTHS = 12
+_SECOND_LIMIT = 61.0
+
+
+def check_calendar(fields: dict[str, np.ndarray], lines, path) -> None:
+    """Reject a calendar label that names no instant (month 13, day 45, hour 24...).
+
+    Parameters
+    ----------
+    fields : dict of str to ndarray, shape (n,)
+        ``year month day hour minute second`` as `calendar_fields` returns them.
+    lines : ndarray of int, shape (n,)
+        1-based file line of each label.
+
+    Raises
+    ------
+    GnssInputError
+        At the first label out of range, naming the field and its value.
+    """
+    month = np.asarray(fields["month"])
+    bad = {"month": (month < 1) | (month > _MONTHS)}
+    ok_month = np.clip(month, 1, _MONTHS)
+    day = np.asarray(fields["day"])
+    bad["day"] = (day < 1) | (day > days_in_month(fields["year"], ok_month))
+    for name, top in _CALENDAR_MAX.items():
+        bad[name] = np.asarray(fields[name]) > top
+    bad["second"] = ~(np.asarray(fields["second"]) < _SECOND_LIMIT)
+    for name, wrong in bad.items():
+        if wrong.any():
+            i = int(np.flatnonzero(wrong)[0])
+            label = (f"{fields['year'][i]:04d}-{month[i]:02d}-{day[i]:02d} "
+                     f"{fields['hour'][i]:02d}:{fields['minute'][i]:02d}:"
+                     f"{fields['second'][i]:06.3f}")
+            raise GnssInputError(f"{name} {fields[name][i]:g} out of range ({label} is no "
+                                 "date and time)", path=path, line=int(np.asarray(lines)[i]),
+                                 column=f"epoch {name}")
 
 
 def _first_bad(text: np.ndarray, convert) -> int:

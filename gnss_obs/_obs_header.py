@@ -5,6 +5,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gnss_obs._fixedwidth import check_calendar
 from gnss_obs._rinex2_obs import map_v2_types
 from gnss_obs._rinex_header import (
     HeaderLine,
@@ -41,6 +42,8 @@ class ParsedObsHeader:
     values: dict = field(default_factory=dict)
     scale: dict[str, dict[str, float]] = field(default_factory=dict)
     first_obs_labels: tuple | None = None
+    last_obs_labels: tuple | None = None
+    last_counted: str | None = None
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -88,10 +91,12 @@ def parse_obs_header(lines: list[bytes], path) -> ParsedObsHeader:
     if not any(head.obs_types.values()):
         raise GnssInputError("header declares no observation types", path=path,
                              line=start.body_start)
-    if head.first_obs_labels is not None:
-        head.values["first_obs_gps_time_s"] = float(to_gps_time_s(
-            calendar_to_gps_time_s(*head.first_obs_labels), head.time_system,
-            leap_seconds=head.leap_seconds))
+    for name, labels in (("first_obs_gps_time_s", head.first_obs_labels),
+                         ("last_obs_gps_time_s", head.last_obs_labels)):
+        if labels is not None:
+            head.values[name] = float(to_gps_time_s(calendar_to_gps_time_s(*labels),
+                                                    head.time_system,
+                                                    leap_seconds=head.leap_seconds))
     return head
 
 
@@ -114,17 +119,59 @@ def _simple_record(h: HeaderLine, head: ParsedObsHeader, path) -> None:
     elif h.label == "SIGNAL STRENGTH UNIT":
         head.values["signal_strength_unit"] = c[:20].strip()
     elif h.label == "TIME OF FIRST OBS":
-        labels = [int_field(h, 6 * k, 6 * k + 6, path=path, column="time of first obs")
-                  for k in range(5)]
-        second = float_field(h, 30, 43, path=path, column="time of first obs")
-        head.first_obs_labels = (*labels, second)
+        head.first_obs_labels = _time_of_obs(h, path)
         system = _time_system(h, head.notes, path)
         if system:
             head.values["time_system"] = system
+    elif h.label == "TIME OF LAST OBS":
+        head.last_obs_labels = _time_of_obs(h, path)
+    elif h.label == "# OF SATELLITES":
+        head.values["n_satellites"] = int_field(h, 0, 6, path=path, column="# of satellites")
+    elif h.label == "PRN / # OF OBS":
+        _obs_counts(h, head, path)
     elif h.label == "GLONASS SLOT / FRQ #":
         head.values.setdefault("glonass_slots", {}).update(_glonass_slots(h, head.notes, path))
     elif h.label == "SYS / SCALE FACTOR":
         _scale_factor(h, head, path)
+
+
+#: TIME OF FIRST/LAST OBS: five I6 calendar fields, then the seconds (F13.7, columns 31-43).
+_TIME_FIELDS = ("year", "month", "day", "hour", "minute")
+_TIME_SECOND_COLUMNS = (30, 43)
+#: PRN / # OF OBS: satellite (columns 4-6), then up to 9 counts I6 from column 7.
+_COUNT_SV_COLUMNS = (3, 6)
+_COUNTS_PER_LINE = 9
+_COUNT_WIDTH = 6
+
+
+def _time_of_obs(h: HeaderLine, path) -> tuple:
+    """Calendar labels ``(year, month, day, hour, minute, second)`` of a TIME OF ... OBS."""
+    column = h.label.lower()
+    labels = [int_field(h, 6 * k, 6 * k + 6, path=path, column=column)
+              for k in range(len(_TIME_FIELDS))]
+    second = float_field(h, *_TIME_SECOND_COLUMNS, path=path, column=column)
+    fields = {name: np.array([v]) for name, v in zip(_TIME_FIELDS, labels)}
+    check_calendar({**fields, "second": np.array([second])}, np.array([h.line]), path)
+    return (*labels, second)
+
+
+def _obs_counts(h: HeaderLine, head: ParsedObsHeader, path) -> None:
+    """``PRN / # OF OBS``: observations per type of one satellite (continuation lines
+    have a blank satellite and extend the previous one's list)."""
+    counts = head.values.setdefault("obs_counts", {})
+    sv = h.content[slice(*_COUNT_SV_COLUMNS)]
+    if sv.strip():
+        sv = sv[0].replace(" ", "G") + sv[1:].replace(" ", "0")
+        head.last_counted = sv
+    elif head.last_counted is None:
+        raise GnssInputError("continuation line without a satellite before it", path=path,
+                             line=h.line, column="PRN / # OF OBS")
+    first = _COUNT_SV_COLUMNS[1]
+    spans = [(first + _COUNT_WIDTH * k, first + _COUNT_WIDTH * (k + 1))
+             for k in range(_COUNTS_PER_LINE)]
+    values = [int_field(h, a, b, path=path, column="# of obs") for a, b in spans
+              if h.content[a:b].strip()]
+    counts.setdefault(head.last_counted, []).extend(values)
 
 
 #: Time-system identifier of TIME OF FIRST OBS: columns 49-51 (A3 after 5X).

@@ -92,14 +92,14 @@ def walk_epochs(body: list[bytes], first_line: int, obs_types: dict[str, list[st
         if flag in _EVENT_FLAGS:
             end = i + 1 + count
             _need(end, n, count, first_line + i, path)
-            events.append(_event(body, i, end, flag, count, first_line))
+            events.append(_event(body, i, end, flag, count, first_line, path))
             i = end
             continue
         sats, k = _satellites(body, i, count, first_line, path)
         end = k + count * lines_per_sat
         _need(end, n, count, first_line + i, path)
         if flag == _CYCLE_SLIP_FLAG:
-            events.append(_event(body, i, end, flag, count, first_line))
+            events.append(_event(body, i, end, flag, count, first_line, path))
         else:
             for s, sv in enumerate(sats):
                 j = k + s * lines_per_sat
@@ -111,8 +111,7 @@ def walk_epochs(body: list[bytes], first_line: int, obs_types: dict[str, list[st
         i = end
     chars = char_table([body[s] for s in starts], _COUNT[1])
     lines = first_line + np.asarray(starts, dtype=np.int64)
-    fields = calendar_fields(chars, _EPOCH_COLUMNS, _SECOND, lines, path)
-    fields["year"] = np.where(fields["year"] < _CENTURY_PIVOT, 2000, 1900) + fields["year"]
+    fields = _epoch_fields(chars, lines, path)
     flags = parse_ints(chars, *_FLAG, path=path, lines=lines, column="epoch flag")
     return EpochWalk(records, np.asarray(record_line, dtype=np.int64),
                      np.asarray(record_epoch, dtype=np.int64), fields, flags, events)
@@ -124,13 +123,19 @@ def _need(end: int, n: int, count: int, line: int, path) -> None:
                              "announced)", path=path, line=line)
 
 
-def _event(body, i, end, flag, count, first_line) -> dict:
+def _epoch_fields(chars, lines, path) -> dict[str, np.ndarray]:
+    """Calendar fields of epoch lines, the two-digit year made a full one."""
+    fields = calendar_fields(chars, _EPOCH_COLUMNS, _SECOND, lines, path)
+    fields["year"] = np.where(fields["year"] < _CENTURY_PIVOT, 2000, 1900) + fields["year"]
+    return fields
+
+
+def _event(body, i, end, flag, count, first_line, path) -> dict:
     line = body[i]
     label = float("nan")
     if line[1:_SECOND[1]].strip():
-        y, mo, d, h, mi = (int(line[a:b]) for a, b in _EPOCH_COLUMNS.values())
-        y += 2000 if y < _CENTURY_PIVOT else 1900
-        label = float(calendar_to_gps_time_s(y, mo, d, h, mi, float(line[slice(*_SECOND)])))
+        fields = _epoch_fields(char_table([line], _COUNT[1]), np.array([first_line + i]), path)
+        label = float(calendar_to_gps_time_s(**{k: v[0] for k, v in fields.items()}))
     return {"time_label_s": label, "epoch_flag": flag, "line": first_line + i,
             "n_records": count,
             "text": b"\n".join(body[i + 1:end]).decode("ascii", errors="replace")}

@@ -8,6 +8,7 @@ back ``(label, content, line_number)`` triples; each reader interprets its own l
 from __future__ import annotations
 
 import logging
+import math
 import os
 from dataclasses import dataclass
 
@@ -84,6 +85,8 @@ def split_header(lines: list[bytes], path: str | os.PathLike, *,
                              path=path, line=1)
     try:
         version = float(first[:9])
+        if not math.isfinite(version):       # 'inf', 'nan' convert, and int() fails
+            raise ValueError(version)
     except ValueError:
         raise GnssInputError(f"bad RINEX version {first[:9].strip()!r}",
                              path=path, line=1, column="version") from None

@@ -18,7 +18,7 @@ __all__ = [
     "SPEED_OF_LIGHT_MPS", "WEEK_S", "DAY_S", "GM_GPS", "OMEGA_E_GPS", "GM_GAL", "OMEGA_E_GAL",
     "GM_BDS", "OMEGA_E_BDS", "GM_GLO", "OMEGA_E_GLO", "A_GLO_M", "J2_GLO", "BDT_MINUS_GPST_S",
     "relativistic_constant", "carrier_frequency_hz", "wavelength_m",
-    "SYSTEMS", "FREQUENCY_HZ", "BDT_WEEK0_GPS_WEEK",
+    "SYSTEMS", "SYSTEM_NAMES", "FREQUENCY_HZ", "BDT_WEEK0_GPS_WEEK",
 ]
 
 #: Speed of light in vacuum, m/s (exact).
@@ -49,6 +49,9 @@ BDT_WEEK0_GPS_WEEK = 1356
 
 #: RINEX system letters: GPS, GLONASS, Galileo, BeiDou, QZSS, NavIC/IRNSS, SBAS.
 SYSTEMS = ("G", "R", "E", "C", "J", "I", "S")
+#: System letter -> name, for messages.
+SYSTEM_NAMES = {"G": "GPS", "R": "GLONASS", "E": "Galileo", "C": "BeiDou", "J": "QZSS",
+                "I": "NavIC", "S": "SBAS"}
 
 _MHZ = 1e6
 #: Carrier frequency (Hz) by system letter and RINEX 3 band number (the digit of e.g. ``C1C``).

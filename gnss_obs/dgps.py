@@ -45,7 +45,7 @@ from gnss_obs.observables import predict_pseudorange
 from trackmodel.earth import geodetic_to_ecef
 
 __all__ = ["DgpsConfig", "CORRECTION_COLUMNS", "base_corrections", "apply_corrections",
-           "base_position_e", "TIME_MATCH_S", "Augmentation", "augment"]
+           "base_position_e", "TIME_MATCH_S", "Augmentation", "augment", "augment_files"]
 
 log = logging.getLogger(__name__)
 
@@ -247,10 +247,12 @@ def augment(obs, nav, config: MeasurementConfig, *, base_obs=None,
     sp3 : sequence of Sp3
         Precise products; empty = broadcast orbits and clocks.
     """
+    from gnss_obs.coverage import check_sp3_coverage
     from gnss_obs.precise import PreciseOrbits
     from gnss_obs.smoothing import smooth_observations
 
     cfg = dgps or DgpsConfig()
+    check_sp3_coverage(obs, sp3)
     precise = PreciseOrbits.from_sp3(*sp3) if sp3 else None
     if smoothing is not None:
         obs = smooth_observations(obs, smoothing)
@@ -264,3 +266,29 @@ def augment(obs, nav, config: MeasurementConfig, *, base_obs=None,
     elif base_lat_lon_h is not None:
         raise GnssError("a base position was given without a base observation file")
     return Augmentation(obs, corrections, precise, cfg.max_age_s)
+
+
+def augment_files(obs, nav, config: MeasurementConfig, *, base_path=None,
+                  base_lat_lon_h: tuple[float, float, float] | None = None, smoothing=None,
+                  sp3_paths=(), max_age_s: float | None = None) -> Augmentation:
+    """`augment` with the base observations and SP3 products read from their files.
+
+    Parameters
+    ----------
+    obs, nav, config, base_lat_lon_h, smoothing
+        As for `augment`.
+    base_path : path, optional
+        Base-station RINEX observations.
+    sp3_paths : sequence of path
+        Precise orbit/clock files.
+    max_age_s : float, optional
+        Oldest base correction applied (default `DgpsConfig`'s).
+    """
+    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.sp3 import read_sp3
+
+    dgps = DgpsConfig() if max_age_s is None else DgpsConfig(max_age_s=max_age_s)
+    return augment(obs, nav, config,
+                   base_obs=read_rinex_obs(base_path) if base_path is not None else None,
+                   base_lat_lon_h=base_lat_lon_h, dgps=dgps, smoothing=smoothing,
+                   sp3=[read_sp3(p) for p in sp3_paths])

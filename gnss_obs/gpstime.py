@@ -28,7 +28,7 @@ __all__ = ["GPS_EPOCH", "calendar_to_gps_time_s", "gps_time_s_to_calendar",
            "week_sow_to_gps_time_s", "gps_time_s_to_week_sow", "to_gps_time_s",
            "from_gps_time_s", "datetime64_to_gps_time_s", "gps_time_s_to_datetime64",
            "leap_seconds_at", "TIME_SYSTEMS", "utc_datetime64_to_gps_time_s",
-           "gps_time_s_to_utc_iso"]
+           "gps_time_s_to_utc_iso", "days_in_month", "gpst_label"]
 
 #: The GPS epoch as a label, 1980-01-06 00:00:00.
 GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
@@ -58,6 +58,13 @@ def _days_from_civil(year, month, day):
     doy = (153 * (m + np.where(m > 2, -3, 9)) + 2) // 5 + np.asarray(day, dtype=np.int64) - 1
     doe = yoe * 365 + yoe // 4 - yoe // 100 + doy
     return era * 146097 + doe - 719468
+
+
+def days_in_month(year: npt.ArrayLike, month: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """Number of days of a month of the proleptic Gregorian calendar (`month` in 1..12)."""
+    m = np.asarray(month, dtype=np.int64)
+    next_year = np.asarray(year, dtype=np.int64) + (m == 12)
+    return _days_from_civil(next_year, m % 12 + 1, 1) - _days_from_civil(year, m, 1)
 
 
 def calendar_to_gps_time_s(year: npt.ArrayLike, month: npt.ArrayLike, day: npt.ArrayLike,
@@ -201,3 +208,9 @@ def gps_time_s_to_utc_iso(t: npt.ArrayLike, *, suffix: str = "") -> np.ndarray:
     labels = gps_time_s_to_datetime64(from_gps_time_s(t, "UTC"))
     text = np.datetime_as_string(labels.astype("datetime64[ms]"), unit="ms")
     return np.char.add(text, suffix) if suffix else text
+
+
+def gpst_label(t: float) -> str:
+    """``YYYY-MM-DD HH:MM:SS`` of a GPS time, in GPS time (for messages)."""
+    return str(np.datetime_as_string(gps_time_s_to_datetime64(t).astype("datetime64[s]"))
+               ).replace("T", " ")

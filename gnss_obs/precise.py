@@ -21,15 +21,19 @@ The broadcast group delays (TGD/BGD) still apply to the code used.
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS
+from gnss_obs.errors import GnssInputError
 from gnss_obs.kepler import SatelliteStates
 
 __all__ = ["PreciseOrbits"]
+
+log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 #: Half step of the velocity difference, s.
@@ -59,15 +63,33 @@ class PreciseOrbits:
 
     @classmethod
     def from_sp3(cls, *sp3_files, order: int = 10) -> "PreciseOrbits":
-        """Merge one or more `Sp3` products (later files win at equal epochs)."""
+        """Merge one or more `Sp3` products (later files win at equal epochs).
+
+        Satellites with fewer than ``order + 1`` valid epochs are left out with a warning
+        (a lower-degree interpolation would be kilometres off).
+
+        Raises
+        ------
+        GnssInputError
+            No satellite has enough epochs (e.g. a truncated file).
+        """
         import pandas as pd
 
         table = pd.concat([s.table for s in sp3_files], ignore_index=True)
         table = table.drop_duplicates(["sv", "gps_time_s"], keep="last")
         table = table[table["x_m"].notna()].sort_values(["sv", "gps_time_s"])
+        groups = dict(list(table.groupby("sv")))
         nodes = {str(sv): (g["gps_time_s"].to_numpy(), g[["x_m", "y_m", "z_m"]].to_numpy(),
                            g["clock_s"].to_numpy())
-                 for sv, g in table.groupby("sv") if len(g) >= 2}
+                 for sv, g in groups.items() if len(g) > order}
+        names = ", ".join(s.path or "SP3" for s in sp3_files)
+        if not nodes:
+            raise GnssInputError(f"no satellite has the {order + 1} valid epochs a degree-"
+                                 f"{order} interpolation needs (truncated file?)", path=names)
+        if len(nodes) < len(groups):
+            few = sorted(str(sv) for sv in groups if str(sv) not in nodes)
+            log.warning("%s: %d satellites with fewer than %d valid epochs are not used (%s)",
+                        names, len(few), order + 1, " ".join(few))
         return cls(nodes, float(min(s.interval_s for s in sp3_files)), order)
 
     def _position(self, t_nodes: Array, r_nodes: Array, t: Array) -> Array:

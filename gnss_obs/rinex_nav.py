@@ -48,6 +48,8 @@ import pandas as pd
 from gnss_obs._fixedwidth import (
     calendar_fields,
     char_table,
+    check_ascii,
+    check_last_line,
     parse_floats,
     parse_ints,
     read_text_bytes,
@@ -64,7 +66,7 @@ from gnss_obs._nav_layout import (
 )
 from gnss_obs._rinex4_nav import record_starts_v4
 from gnss_obs._rinex_header import split_header, warn_lenient
-from gnss_obs.constants import BDT_MINUS_GPST_S, BDT_WEEK0_GPS_WEEK, WEEK_S
+from gnss_obs.constants import BDT_MINUS_GPST_S, BDT_WEEK0_GPS_WEEK, SYSTEM_NAMES, WEEK_S
 from gnss_obs.errors import GnssInputError
 from gnss_obs.gpstime import calendar_to_gps_time_s, to_gps_time_s
 
@@ -76,7 +78,6 @@ _KM = 1000.0
 #: RINEX 2 navigation file type -> system letter (E/L Galileo and J/Q QZSS: RINEX 2.12).
 _V2_FILE_SYSTEM = {"N": "G", "G": "R", "H": "S", "E": "E", "L": "E", "J": "J", "Q": "J"}
 _RINEX4 = 4
-_V2_NAMES = {"G": "GPS", "R": "GLONASS", "S": "SBAS", "E": "Galileo", "J": "QZSS"}
 _FNAV_BIT = 1 << 1
 _V2_CENTURY_PIVOT = 80
 
@@ -104,10 +105,12 @@ _LINE_WIDTH = 80
 
 @dataclass(frozen=True, eq=False)
 class RinexNav:
-    """A read navigation file: header and one record table per system letter."""
+    """A read navigation file: header, one record table per system letter, and the file
+    it was read from (None when built in memory)."""
 
     header: NavHeader
     records: dict[str, pd.DataFrame]
+    path: str | None = None
 
 
 def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
@@ -126,11 +129,13 @@ def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
     Raises
     ------
     GnssInputError
-        One line with file and line number: empty, truncated or malformed file, a record
-        with too few lines or a bad number, an unsupported version or system, or a file
-        that is not a navigation file.
+        One line with file and line number: empty, truncated or malformed file (a record
+        with too few lines or a bad number, a last line cut without its line end,
+        a byte that is not ASCII, a date such as month 13), an unsupported version or
+        system, or a file that is not a navigation file.
     """
-    lines = split_lines(read_text_bytes(path))
+    data = read_text_bytes(path)
+    lines = split_lines(data)
     start = split_header(lines, path, expected_types="".join(_V2_FILE_SYSTEM))
     if start.version >= 3 and start.file_type != "N":
         raise GnssInputError(f"wrong file type {start.file_type!r} for RINEX "
@@ -142,6 +147,8 @@ def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
                               system=v2_system or "M")
     warn_lenient(log, path, notes)
     body = lines[start.body_start:]
+    check_ascii(body, start.body_start + 1, path)
+    check_last_line(data, lines, _LINE_WIDTH - (start.version < 3), path)
     if int(start.version) == _RINEX4:
         groups, skipped, iono = record_starts_v4(body, start.body_start + 1, start.version,
                                                  path)
@@ -156,8 +163,11 @@ def read_rinex_nav(path: str | os.PathLike) -> RinexNav:
     records = {s: _system_frame(s, body, idx, start.body_start + 1, start.version, cols,
                                 header.leap_seconds, path)
                for s, idx in sorted(groups.items())}
+    if not any(len(f) for f in records.values()):    # a user of it is told which files
+        log.warning("%s: no navigation records after the header (empty or truncated file?)",
+                    path)
     log.debug("%s: %s", path, {s: len(f) for s, f in records.items()})
-    return RinexNav(header, records)
+    return RinexNav(header, records, os.fspath(path))
 
 
 def _record_starts(body: list[bytes], first_line: int, version: float, v2_system: str | None,
@@ -175,7 +185,7 @@ def _record_starts(body: list[bytes], first_line: int, version: float, v2_system
         if v2_system is not None and not line[:indent].strip():
             raise GnssInputError(f"expected the first line of a record (satellite number in "
                                  f"columns 1-2): records are longer than a RINEX 2 "
-                                 f"{_V2_NAMES[v2_system]} record, is the file type letter "
+                                 f"{SYSTEM_NAMES[v2_system]} record, is the file type letter "
                                  "on line 1 right?", path=path, line=first_line + i)
         if line[:1] == b" " and v2_system is None:
             raise GnssInputError("expected the first line of a record (satellite code in "
@@ -215,8 +225,26 @@ def _system_frame(system: str, body, idx: list[int], first_line: int, version: f
             name = next(names, None)
             if name is not None:
                 frame[name] = _values(chars, span, first_line + starts + k, name, path)
-    return _finish(system, pd.DataFrame(frame)).sort_values(
-        ["sv", "toc_gps_s"], kind="stable", ignore_index=True)
+    table = _finish(system, pd.DataFrame(frame))
+    _check_reference_times(table, lines0, path)
+    return table.sort_values(["sv", "toc_gps_s"], kind="stable", ignore_index=True)
+
+
+#: Largest |toc - toe| of a Keplerian record, s: both are the record's issue time (hours
+#: apart at most); more means a wrong week (e.g. modulo 1024) or a wrong date.
+_MAX_TOC_TOE_S = float(WEEK_S)
+
+
+def _check_reference_times(table: pd.DataFrame, lines, path) -> None:
+    if "toe_gps_s" not in table:
+        return
+    gap = np.abs(table["toc_gps_s"].to_numpy() - table["toe_gps_s"].to_numpy())
+    bad = ~(gap <= _MAX_TOC_TOE_S)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise GnssInputError(f"the clock epoch and the ephemeris week/toe are "
+                             f"{gap[i] / WEEK_S:.1f} weeks apart: a wrong week number or date",
+                             path=path, line=int(lines[i]), column="week")
 
 
 def _values(chars, span, lines, name, path) -> np.ndarray:

@@ -47,10 +47,12 @@ from gnss_obs import _rinex2_obs
 from gnss_obs._fixedwidth import (
     calendar_fields,
     char_table,
+    check_ascii,
     parse_ints,
     read_text_bytes,
     split_lines,
 )
+from gnss_obs._obs_checks import check_declarations
 from gnss_obs._obs_header import parse_obs_header
 from gnss_obs._obs_records import EpochWalk, flag_and_count, tidy_observations
 from gnss_obs._rinex_header import warn_lenient
@@ -94,6 +96,13 @@ class ObsHeader:
         GLONASS satellite -> FDMA frequency channel k (``{"R01": 1}``).
     signal_strength_unit : str
         ``SIGNAL STRENGTH UNIT`` (``"DBHZ"``) or empty.
+    last_obs_gps_time_s : float or None
+        ``TIME OF LAST OBS`` when given, s since the GPS epoch.
+    n_satellites : int or None
+        ``# OF SATELLITES`` when given.
+    obs_counts : dict of str to list of int
+        ``PRN / # OF OBS``: satellite -> number of observations of each type, in the
+        order of its system's types (empty when the header has none).
     """
 
     obs_types: dict[str, list[str]]
@@ -108,6 +117,9 @@ class ObsHeader:
     leap_seconds: int | None = None
     glonass_slots: dict[str, int] = field(default_factory=dict)
     signal_strength_unit: str = "DBHZ"
+    last_obs_gps_time_s: float | None = None
+    n_satellites: int | None = None
+    obs_counts: dict[str, list[int]] = field(default_factory=dict)
 
     @property
     def systems(self) -> list[str]:
@@ -122,11 +134,13 @@ def _empty_events() -> pd.DataFrame:
 
 @dataclass(frozen=True, eq=False)
 class RinexObs:
-    """A read observation file: header, tidy table (module docstring), events."""
+    """A read observation file: header, tidy table (module docstring), events, and the
+    file it was read from (None when built in memory, e.g. simulated)."""
 
     header: ObsHeader
     table: pd.DataFrame
     events: pd.DataFrame = field(default_factory=_empty_events)
+    path: str | None = None
 
 
 def read_rinex_obs(path: str | os.PathLike, *, systems: str | None = None) -> RinexObs:
@@ -147,13 +161,21 @@ def read_rinex_obs(path: str | os.PathLike, *, systems: str | None = None) -> Ri
     Raises
     ------
     GnssInputError
-        One line with the file and line number for an empty, truncated or malformed file,
+        One line with the file and line number for an empty, truncated or malformed file
+        (an epoch or record cut short, a byte that is not ASCII, a date such as month 13),
         a version other than 2.xx/3.xx, or a file that is not an observation file.
+
+    Notes
+    -----
+    A file that holds fewer epochs or satellites than its header declares (``TIME OF
+    FIRST/LAST OBS``, ``# OF SATELLITES``, ``PRN / # OF OBS``) is read, with one warning
+    giving the counts (`gnss_obs._obs_checks`).
     """
     lines = split_lines(read_text_bytes(path))
     head = parse_obs_header(lines, path)
     warn_lenient(log, path, head.notes)
     body = lines[head.body_start:]
+    check_ascii(body, head.body_start + 1, path)
     if int(head.version) == 2:
         walk = _rinex2_obs.walk_epochs(body, head.body_start + 1, head.obs_types, path)
     else:
@@ -167,9 +189,11 @@ def read_rinex_obs(path: str | os.PathLike, *, systems: str | None = None) -> Ri
     if "first_obs_gps_time_s" not in values:
         values["first_obs_gps_time_s"] = float(t[0]) if len(t) else float("nan")
     header = ObsHeader(**values)
+    check_declarations(header, t, table, systems=systems,
+                       first_declared=head.first_obs_labels is not None, path=path)
     events = _events_frame(walk.events, head.time_system, head.leap_seconds)
     log.debug("%s: %d epochs, %d rows, %d events", path, len(t), len(table), len(events))
-    return RinexObs(header, table, events)
+    return RinexObs(header, table, events, os.fspath(path))
 
 
 def _epoch_gps_time_s(fields: dict[str, np.ndarray], time_system: str,

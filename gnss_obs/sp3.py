@@ -30,11 +30,14 @@ import pandas as pd
 from gnss_obs._fixedwidth import (
     calendar_fields,
     char_table,
+    check_ascii,
+    check_last_line,
     field_text,
     parse_floats,
     read_text_bytes,
     split_lines,
 )
+from gnss_obs._sp3_header import check_declared
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.gpstime import TIME_SYSTEMS, calendar_to_gps_time_s, to_gps_time_s
 
@@ -55,6 +58,7 @@ _EPOCH_SECOND = (20, 31)
 _POSITION_COLUMNS = {"x_m": (4, 18), "y_m": (18, 32), "z_m": (32, 46)}
 _CLOCK_COLUMNS = (46, 60)
 _LINE_WIDTH = 60
+_COMMENT = b"/*"
 _TIME_SYSTEM_COLUMNS = (9, 12)
 #: Largest gap between the two epochs that bracket a query, in nominal intervals.
 _MAX_GAP_INTERVALS = 2.0
@@ -76,6 +80,8 @@ class Sp3:
         Nominal epoch interval, s (from header line 2).
     agency : str
         Producing agency (header line 1).
+    path : str or None
+        The file read (None when built in memory).
     """
 
     table: pd.DataFrame
@@ -83,6 +89,7 @@ class Sp3:
     time_system: str
     interval_s: float
     agency: str
+    path: str | None = None
 
     def interpolate(self, sv: str, gps_time_s: npt.ArrayLike, *,
                     order: int = 10) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +114,7 @@ class Sp3:
         Raises
         ------
         GnssError
-            Unknown satellite, fewer than 2 valid epochs, or a time outside the
+            Unknown satellite, fewer than ``order + 1`` valid epochs, or a time outside the
             satellite's coverage or inside a gap longer than two intervals.
         """
         t = np.asarray(gps_time_s, dtype=np.float64)
@@ -116,6 +123,10 @@ class Sp3:
         rows = self.table[(self.table["sv"] == sv) & self.table["x_m"].notna()]
         if len(rows) < 2:
             raise GnssError(f"SP3: no orbit for {sv!r} (fewer than 2 valid epochs)")
+        if len(rows) < order + 1:   # a lower degree would be kilometres off at 15-min nodes
+            raise GnssError(f"SP3: {sv} has {len(rows)} valid epochs, a degree-{order} "
+                            f"interpolation needs {order + 1}"
+                            + (f" ({self.path}: truncated?)" if self.path else ""))
         nodes_t = rows["gps_time_s"].to_numpy()
         nodes_r = rows[["x_m", "y_m", "z_m"]].to_numpy()
         clock = rows["clock_s"].to_numpy()
@@ -171,11 +182,20 @@ def read_sp3(path: str | os.PathLike) -> Sp3:
     ------
     GnssInputError
         Empty file, not SP3-c/d, unknown time system, a position record before the first
-        epoch, a malformed number, or no epochs.
+        epoch or cut short, a malformed number, a byte that is not ASCII outside comments,
+        a date such as month 13, or no epochs.
+
+    Notes
+    -----
+    A file with fewer epochs than header line 1 declares, or whose epochs lack satellites
+    of the header's list, is read with one warning giving the counts (a truncated file).
     """
-    lines = split_lines(read_text_bytes(path))
+    data = read_text_bytes(path)
+    lines = split_lines(data)
     if not lines:
         raise GnssInputError("empty file", path=path, line=1)
+    check_ascii(lines, 1, path, free_text=lambda line: line.startswith(_COMMENT))
+    check_last_line(data, lines, _LINE_WIDTH, path)
     first = lines[0].decode("ascii", errors="replace")
     if first[:1] != "#" or first[1:2] not in _VERSIONS:
         raise GnssInputError("not an SP3-c/d file (first line must start '#c' or '#d')",
@@ -194,8 +214,10 @@ def read_sp3(path: str | os.PathLike) -> Sp3:
     epoch_idx = np.flatnonzero(is_epoch)
     t_epoch = _epoch_times(lines, epoch_idx, time_system, path)
     table = _positions(lines, pos_idx, t_epoch[epoch_of[pos_idx]], path)
+    check_declared(lines, table, len(epoch_idx), path)
     log.debug("%s: %d epochs, %d records", path, len(epoch_idx), len(table))
-    return Sp3(table, first[1], time_system, interval_s, first[55:60].strip())
+    return Sp3(table, first[1], time_system, interval_s, first[55:60].strip(),
+               os.fspath(path))
 
 
 def _header(lines: list[bytes], path) -> tuple[float, str]:
@@ -233,6 +255,11 @@ def _epoch_times(lines, epoch_idx, time_system, path) -> np.ndarray:
 def _positions(lines, pos_idx, t, path) -> pd.DataFrame:
     chars = char_table([lines[i] for i in pos_idx], _LINE_WIDTH)
     line_no = pos_idx + 1
+    short = np.fromiter((len(lines[i].rstrip()) < _LINE_WIDTH for i in pos_idx), dtype=bool,
+                        count=len(pos_idx))
+    if short.any():
+        raise GnssInputError(f"position record cut short (x, y, z and clock fill columns "
+                             f"1-{_LINE_WIDTH})", path=path, line=int(line_no[short][0]))
     sv = field_text(chars, 1, 4).astype(str)
     sv = np.char.replace(sv.astype("U3"), " ", "0").astype(object)
     cols = {"gps_time_s": t, "sv": sv}

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import numpy.typing as npt
 
+from gnss_obs.coverage import check_nav_coverage
 from gnss_obs.dgps import apply_corrections
 from gnss_obs.dop import dilution_of_precision
 from gnss_obs.epoch import (
@@ -182,8 +183,8 @@ def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
     for _ in range(cfg.max_iter):
         prep = _prepare(epoch, tx, ctx, r_e, excluded, coarse=coarse)
         H, z, present = _design(prep, r_e, cfg.measurement.systems)
-        if len(prep) < H.shape[1]:
-            return None
+        if len(prep) < H.shape[1] or not (np.isfinite(H).all() and np.isfinite(z).all()):
+            return None             # too few satellites, or iterates gone astray
         try:
             dx = wls_step(H, z, prep.sigma_pr_m).dx
         except np.linalg.LinAlgError:
@@ -348,6 +349,8 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
     ------
     GnssError
         If no epoch has a measurement of the configured systems.
+    GnssInputError
+        If `nav` holds no record valid for the observations (`gnss_obs.coverage`).
     """
     cfg = config or SppConfig()
     mc = cfg.measurement
@@ -356,8 +359,10 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
     if corrections is not None:
         meas = apply_corrections(meas, corrections, max_age_s=max_correction_age_s)
     if len(meas) == 0:
-        raise GnssError(f"no measurements of systems {mc.systems!r} in the observation file"
+        raise GnssError(f"{obs.path or 'observations'}: no measurements of systems "
+                        f"{mc.systems!r}"
                         + (" with a base correction" if corrections is not None else ""))
+    check_nav_coverage(obs, nav, mc.systems)
     klob = None
     if mc.ionosphere == "klobuchar":
         alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta

@@ -18,6 +18,12 @@ command                                function(s)
 ``railnav run TRACK --fixes F``        `run_files` (`gnss_obs.read_fixes`, `FixModelConfig`)
 ``railnav run ... --truth R``          `score_run` (`read_reference`, `reference_errors`,
                                        `screen_fix_reference`)
+``railnav run TRACK --smooth``         ``run_simulated``/``run_files(smooth=True)``
+                                       (`smooth_result`, `smooth_outcome`;
+                                       ``NavigatorConfig(rts_smoothing=True)``)
+``railnav run TRACK --export F,...``    + `write_exports` (GeoJSON, KML, GPX, NMEA)
+``--out DIR [--overwrite]``            `trackmodel.files.output_directory` (every
+                                       command: written whole or not at all)
 ``railnav run ... --imu-spec S``       `run_files(imu_spec=)` (`strapdown.read_imu_log`,
                                        `strapdown.ImuSpec`), `read_sensor_files`
 ``railnav run ... --odometer O``       `run_files(odometer_path=)` (`read_odometer_csv`,
@@ -48,7 +54,8 @@ command                                function(s)
                                        `route_candidates`
 =====================================  ===========================================
 
-The names are imported on first use (PEP 562), so ``import railnav`` stays cheap.
+The names are imported on first use (PEP 562), so ``import railnav`` stays cheap;
+``railnav.__version__`` is the installed distribution's version (package metadata).
 """
 from __future__ import annotations
 
@@ -79,6 +86,8 @@ _EXPORTS = {
     "score_run": "jobs.scoring", "read_reference": "evaluation.reference",
     "reference_errors": "evaluation.reference",
     "screen_fix_reference": "evaluation.reference",
+    "smooth_result": "navigation.smoothing", "smooth_outcome": "jobs.smoothed",
+    "write_exports": "jobs.export",
     "plot_network_map": "evaluation.network_map",
     "read_sensor_files": "jobs.sensor_files", "read_odometer_csv": "sensors.odometer",
     "read_balises_csv": "sensors.balises", "OdometerConfig": "filters.odometer_epochs",
@@ -90,10 +99,18 @@ _EXPORTS = {
     "ImuLogSimConfig": "simulation.imu_logs",
 }
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted(_EXPORTS)   # and __version__, from the package metadata
 
 
 def __getattr__(name: str):
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            value = version("railnav")
+        except PackageNotFoundError:     # a source tree that was never installed
+            value = "0+unknown"
+        globals()[name] = value
+        return value
     try:
         module = _EXPORTS[name]
     except KeyError:

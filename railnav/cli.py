@@ -29,6 +29,44 @@ USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, 
 
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
+#: Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the installed distribution's version, looked up only when asked."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS,
+                 help="print the version and exit"):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from railnav import __version__
+        print(f"railnav {__version__}")          # stdout, as argparse's own version action
+        parser.exit()
+
+
+def _add_global_flags(parser: argparse.ArgumentParser, *, top: bool) -> None:
+    """``-v``, ``-q`` and ``--debug``: on the top parser with their defaults, on every
+    subcommand (recursively) with no default, so that a flag given after the subcommand
+    counts and one given before is not reset."""
+    extra = {} if top else {"default": argparse.SUPPRESS}
+    parser.add_argument("-v", "--verbose", action="count", help="more log output (-vv for "
+                        "debug)", **({"default": 0} if top else extra))
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="no progress bars, warnings and errors only", **extra)
+    parser.add_argument("--debug", action="store_true",
+                        help="show the traceback of an error", **extra)
+
+
+def _subparsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser]:
+    """Every subcommand parser below `parser` (``track fit``, ``network run``...)."""
+    found = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in dict.fromkeys(action.choices.values()):
+                found += [child, *_subparsers(child)]
+    return found
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -36,15 +74,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="railnav",
         description="Track-constrained navigation of rail vehicles.")
-    parser.add_argument("-v", "--verbose", action="count", default=0,
-                        help="more log output (-vv for debug)")
-    parser.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress bars, warnings and errors only")
-    parser.add_argument("--debug", action="store_true",
-                        help="show the traceback of an error")
+    parser.add_argument("--version", action=_VersionAction)
+    _add_global_flags(parser, top=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name in command_modules():
         importlib.import_module(f"railnav.commands.{name}").register(sub)
+    for child in _subparsers(parser):
+        _add_global_flags(child, top=False)
     return parser
 
 
@@ -78,9 +114,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     _configure_logging(args.verbose, args.quiet)
     try:
         return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:     # a message when the command says what was kept
+        print(f"error: {str(exc) or 'interrupted'}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     except FilterDivergedError as exc:
         if args.debug:
             raise

@@ -18,10 +18,13 @@ from railnav.commands.network_data import (
     start_position,
 )
 from railnav.commands.support import (
+    add_output_arguments,
     nonnegative_int,
+    output_dir,
     positive_float,
     positive_int,
     progress_bar,
+    written_line,
 )
 from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError
@@ -110,8 +113,7 @@ def register(subparsers) -> None:
     run.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
                      help="most live hypotheses (default 16)")
     run.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
-    run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                     help=f"output directory (default {DEFAULT_OUT})")
+    add_output_arguments(run, DEFAULT_OUT)
     run.set_defaults(func=_run)
 
 
@@ -163,13 +165,8 @@ def _routes(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     """``network run``: the network navigator (`railnav.commands.network_run`) from a known
     start, on a trip simulated along route --true-route or on sensor files."""
-    from railnav.commands.network_run import nav_config, network_report
-    from railnav.jobs.network import (
-        route_candidates,
-        run_files_network,
-        run_simulated_network,
-        write_network_run,
-    )
+    from railnav.commands.network_run import network_report
+    from railnav.jobs.network import write_network_run
     from railnav.navigation.network_start import NetworkStart
     from trackmodel.network_io import read_network
     network = read_network(args.network)
@@ -179,21 +176,29 @@ def _run(args: argparse.Namespace) -> int:
                           "files there is none to shape")
     out = Path(args.out)
     start = NetworkStart(args.start.element, args.start.s_m, args.start.direction)
-    with progress_bar("network", enabled=not args.quiet) as progress:
-        if files:
-            run = run_files_network(network, imu_path=args.imu, obs_path=args.obs,
-                                    nav_path=args.nav, start=start, nav=nav_config(args),
-                                    progress=progress)
-        else:
-            names, routes, start_s = route_candidates(network, args.start,
-                                                      horizon_m=args.horizon_m)
-            if not 0 <= args.true_route < len(routes):
-                raise ConfigError(f"--true-route {args.true_route}: only {len(routes)} "
-                                  "route(s) ahead of the start")
-            scenario = replace(_scenario(network, args), start_s=start_s)
-            run = run_simulated_network(network, routes[args.true_route].legs, scenario,
-                                        seed=args.seed, nav=nav_config(args),
-                                        known_start=True, progress=progress)
-    write_network_run(run, out, plots=not args.no_plots)
+    with output_dir(args, [args.network, args.imu, args.obs, args.nav]) as tmp:
+        with progress_bar("network", enabled=not args.quiet) as progress:
+            run = _network_run(network, args, start, files, progress)
+        written = write_network_run(run, tmp, plots=not args.no_plots)
     print(network_report(run, out))
+    print(written_line(out, written, tmp))
     return 0
+
+
+def _network_run(network, args: argparse.Namespace, start, files: bool, progress):
+    """The navigator from `start`: on the sensor files, or on a trip simulated along route
+    --true-route ahead of it."""
+    from railnav.commands.network_run import nav_config
+    from railnav.jobs.network import route_candidates, run_files_network, run_simulated_network
+    if files:
+        return run_files_network(network, imu_path=args.imu, obs_path=args.obs,
+                                 nav_path=args.nav, start=start, nav=nav_config(args),
+                                 progress=progress)
+    names, routes, start_s = route_candidates(network, args.start, horizon_m=args.horizon_m)
+    if not 0 <= args.true_route < len(routes):
+        raise ConfigError(f"--true-route {args.true_route}: only {len(routes)} route(s) "
+                          "ahead of the start")
+    scenario = replace(_scenario(network, args), start_s=start_s)
+    return run_simulated_network(network, routes[args.true_route].legs, scenario,
+                                 seed=args.seed, nav=nav_config(args), known_start=True,
+                                 progress=progress)

@@ -3,13 +3,14 @@
 Thin layer over `railnav.reproduce.common.run_experiment` (STYLE.md §2.11): runs a source
 paper's experiment as a seeded Monte Carlo, prints our figures (median and 95th
 percentile over the runs) next to the paper's, and writes ``DIR/<EXPERIMENT>.json``
-atomically (`railnav.reproduce.common.write_result_json`).
+atomically (`railnav.reproduce.common.write_result_json`); an existing one is refused
+before the work unless ``--overwrite`` (`trackmodel.files.check_output_file`). DIR is a
+folder of results, one file per experiment, so both experiments share the default.
 """
 from __future__ import annotations
 
 import argparse
 import logging
-from pathlib import Path
 
 from railnav.commands.support import (
     nonnegative_int,
@@ -17,7 +18,12 @@ from railnav.commands.support import (
     positive_int,
     progress_bar,
 )
-from railnav.reproduce.common import EXPERIMENTS, run_experiment, write_result_json
+from railnav.reproduce.common import (
+    EXPERIMENTS,
+    result_path,
+    run_experiment,
+    write_result_json,
+)
 
 __all__ = ["register", "handler", "DEFAULT_SEED", "DEFAULT_OUT"]
 
@@ -46,13 +52,18 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=nonnegative_int, default=DEFAULT_SEED,
                    help=f"random seed (default {DEFAULT_SEED})")
     p.add_argument("--out", default=DEFAULT_OUT, type=output_path, metavar="DIR",
-                   help=f"output directory (default: {DEFAULT_OUT})")
+                   help=f"output directory (default: {DEFAULT_OUT}); an existing "
+                        "DIR/EXPERIMENT.json is refused unless --overwrite")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing DIR/EXPERIMENT.json")
     p.set_defaults(func=handler)
 
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav reproduce``; returns the exit status."""
-    Path(args.out).mkdir(parents=True, exist_ok=True)     # a bad --out fails before the work
+    from trackmodel.files import check_output_file
+    check_output_file(result_path(args.experiment, args.out),    # before the work
+                      overwrite=args.overwrite)
     with progress_bar(args.experiment, enabled=not args.quiet) as progress:
         result = run_experiment(args.experiment, runs=args.runs, seed=args.seed,
                                 progress=progress)

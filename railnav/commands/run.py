@@ -28,9 +28,8 @@ from railnav.commands.run_flags import (
     time_window,
 )
 from railnav.commands.run_report import report
-from railnav.commands.support import progress_bar
+from railnav.commands.support import output_dir, progress_bar, written_line
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_SYSTEMS
-from railnav.errors import ConfigError
 from railnav.simulation.scenarios import get_scenario
 
 __all__ = ["register", "handler", "DEFAULT_OUT", "DEFAULT_SCENARIO", "time_window"]
@@ -59,15 +58,21 @@ def handler(args: argparse.Namespace) -> int:
     args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
                                   or not files_given(args) else "gnss-only")
     check_flags(args)                  # before the engine is imported: errors stay fast
+    inputs = [*args.tracks, args.imu, args.obs, args.nav, args.fixes, args.truth, args.baro,
+              args.base, *args.sp3, args.network]
+    with output_dir(args, inputs) as tmp:     # --out checked before any work
+        text, written = (_network(args, tmp) if args.network is not None else
+                         _several_tracks(args, tmp) if len(args.tracks) > 1
+                         else _one_track(args, tmp))
+    print(text)
+    print(written_line(args.out, written, tmp))
+    return 0
+
+
+def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """Run one filter on one track and write it into `tmp`: (report, files written)."""
     from railnav.jobs.run import run_files, run_simulated, write_run
     from trackmodel.io import read_track
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"{out}: exists and is not a directory")
-    if args.network is not None:
-        return _network(args, out)
-    if len(args.tracks) > 1:
-        return _several_tracks(args, out)
     baro = None
     if args.baro is not None:
         from railnav.jobs.baro import read_baro_csv
@@ -83,8 +88,8 @@ def handler(args: argparse.Namespace) -> int:
                                 imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
-                                window=args.window, progress=progress, **augmentation(args),
-                                **real_inputs(args))
+                                window=args.window, smooth=args.smooth, progress=progress,
+                                **augmentation(args), **real_inputs(args))
         else:
             scenario = get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
@@ -93,13 +98,26 @@ def handler(args: argparse.Namespace) -> int:
             systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems)
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
-                                    systems=systems, window=args.window, progress=progress)
+                                    systems=systems, window=args.window, smooth=args.smooth,
+                                    progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
-    write_run(outcome, out, plots=not args.no_plots)
+    written = write_run(outcome, tmp, plots=not args.no_plots)
     if baro_check is not None:
-        _write_baro(baro_check, out)
-    print(report(outcome, out))
-    return 0
+        written += _write_baro(baro_check, tmp)
+    return report(outcome, Path(args.out)), written + _exports(args, outcome, tmp)
+
+
+def _exports(args: argparse.Namespace, outcome, tmp: Path) -> list[Path]:
+    """--export: the trajectory (and the smoothed one) in the formats asked for."""
+    if args.export is None:
+        return []
+    from railnav.jobs.export import parse_export_formats, write_exports
+    formats = parse_export_formats(args.export)
+    written = write_exports(outcome.result.estimates, tmp, formats)
+    if outcome.smoothed is not None:
+        written += write_exports(outcome.smoothed.result.estimates, tmp, formats,
+                                 name="smoothed")
+    return written
 
 
 def _baro_check(outcome, baro):
@@ -111,14 +129,16 @@ def _baro_check(outcome, baro):
     return check
 
 
-def _write_baro(check, out: Path) -> None:
+def _write_baro(check, out: Path) -> list[Path]:
     from trackmodel.files import atomic_write_csv
     atomic_write_csv(out / "baro.csv", check.to_frame())
     atomic_write_csv(out / "baro_gnss.csv", check.gnss_frame())
+    return [out / "baro.csv", out / "baro_gnss.csv"]
 
 
-def _several_tracks(args: argparse.Namespace, out: Path) -> int:
-    """``railnav run A.csv B.csv ...``: identify the track among candidates."""
+def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """``railnav run A.csv B.csv ...``: identify the track among candidates; written into
+    `tmp`: (report, files written)."""
     from railnav.jobs.tracks import (
         run_files_tracks,
         run_simulated_tracks,
@@ -149,18 +169,19 @@ def _several_tracks(args: argparse.Namespace, out: Path) -> int:
                                        config=navigator_config_for(scenario, systems=systems),
                                        seed=seed(args), systems=systems, bank=bank,
                                        window=args.window, progress=progress)
-    write_track_run(run, out, plots=not args.no_plots)
+    written = write_track_run(run, tmp, plots=not args.no_plots) + _exports(args, run.outcome,
+                                                                            tmp)
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
-    print(report(run.outcome, out) + f"\n  track probabilities at the end: {probs}")
-    return 0
+    return (report(run.outcome, Path(args.out)) + f"\n  track probabilities at the end: {probs}",
+            written)
 
 
-def _network(args: argparse.Namespace, out: Path) -> int:
-    """``railnav run --network NETWORK ...`` (`railnav.commands.network_run`)."""
+def _network(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """``railnav run --network NETWORK ...`` (`railnav.commands.network_run`) written into
+    `tmp`: (report, files written)."""
     from railnav.commands.network_run import network_report, run_network
     from railnav.jobs.network import write_network_run
     with progress_bar("network", enabled=not args.quiet) as progress:
-        run = run_network(args, out, progress=progress)
-    write_network_run(run, out, plots=not args.no_plots)
-    print(network_report(run, out))
-    return 0
+        run = run_network(args, Path(args.out), progress=progress)
+    written = write_network_run(run, tmp, plots=not args.no_plots)
+    return network_report(run, Path(args.out)), written

@@ -12,8 +12,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from railnav.commands.result_flags import add_result_arguments, check_result_flags
 from railnav.commands.support import (
     add_augmentation_arguments,
+    add_output_arguments,
     augmentation_requested,
     nonnegative_float,
     nonnegative_int,
@@ -43,13 +45,16 @@ __all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "
            "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
-           "scenario_name", "add_real_input_arguments", "real_inputs", "REAL_INPUT_FLAGS",
-           "lever_arm"]
+           "scenario_name", "scenario_for", "SCENARIO_HELP", "add_real_input_arguments",
+           "real_inputs", "REAL_INPUT_FLAGS", "lever_arm"]
 
 #: Output directory when --out is not given.
 DEFAULT_OUT = "railnav-run"
 #: Scenario simulated on a track whose file name is not a scenario's name.
 DEFAULT_SCENARIO = "curvy"
+#: Help of --scenario (``run`` and ``simulate``: one rule, `scenario_for`).
+SCENARIO_HELP = (f"scenario to simulate (default: the track's file name if it is a scenario's, "
+                 f"else {DEFAULT_SCENARIO})")
 #: Random seed of a simulated trip when --seed is not given.
 DEFAULT_SEED = 0
 #: Flags that shape a simulated trip (attribute -> flag); with sensor files there is none.
@@ -80,9 +85,7 @@ def add_run_arguments(p) -> None:
     p.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     p.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
     add_file_arguments(p)
-    p.add_argument("--scenario", choices=sorted(SCENARIOS), default=None,
-                   help="scenario to simulate (default: the track's name if it is a "
-                        f"scenario, else {DEFAULT_SCENARIO})")
+    p.add_argument("--scenario", choices=sorted(SCENARIOS), default=None, help=SCENARIO_HELP)
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
                    help="the IMU grade the filter assumes (simulated trip: also the grade "
                         "simulated; default the scenario's). A recorded IMU file needs it, "
@@ -121,8 +124,8 @@ def add_run_arguments(p) -> None:
     add_network_arguments(p)
     add_real_input_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"output directory (default: {DEFAULT_OUT})")
+    add_result_arguments(p)
+    add_output_arguments(p, DEFAULT_OUT)
 
 
 def add_file_arguments(p) -> None:
@@ -190,6 +193,7 @@ def check_flags(args: argparse.Namespace) -> None:
         raise ConfigError("--base-position needs --base")
     if not several and args.crossing_rate_per_s is not None and args.network is None:
         raise ConfigError("--crossing-rate-per-s: only with several tracks or --network")
+    check_result_flags(args, several)
     if several and not kind.banks:
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
         raise ConfigError(f"several tracks run the {banked} filter, not --filter "
@@ -374,7 +378,13 @@ def seed(args: argparse.Namespace) -> int:
 def scenario_name(args) -> str:
     """--scenario, else the first track's file name if it is a scenario's, else
     `DEFAULT_SCENARIO`."""
-    if args.scenario is not None:
-        return args.scenario
-    stem = Path(args.tracks[0]).stem
+    return scenario_for(args.tracks[0], args.scenario)
+
+
+def scenario_for(track, given: str | None) -> str:
+    """The scenario simulated on `track`: `given`, else the track's file name if it is a
+    scenario's, else `DEFAULT_SCENARIO` (the one rule of ``run`` and ``simulate``)."""
+    if given is not None:
+        return given
+    stem = Path(track).stem
     return stem if stem in SCENARIOS else DEFAULT_SCENARIO

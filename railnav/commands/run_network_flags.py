@@ -57,6 +57,10 @@ def _check_network_flags(args: argparse.Namespace) -> None:
               if getattr(args, attr, None) is not None]
     if augmentation_requested(args):
         others.append("--base/--sp3/--smooth-window-s")
+    if getattr(args, "smooth", False):
+        others.append("--smooth")
+    if getattr(args, "export", None) is not None:
+        others.append("--export")
     if others:
         raise ConfigError(f"{', '.join(others)}: not with --network")
     parse_start(args.start)

@@ -37,6 +37,13 @@ def report(outcome, out: Path) -> str:
         for o in errors["outages"]:
             lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
                          f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
+    smoothed = (s.get("smoothed") or {}).get("errors")
+    if smoothed:
+        a = smoothed["all"]
+        lines.append(f"  smoothed (RTS): along-track RMS {_number(a['along_track_m']['rms'], '.3f')}"
+                     f" m, max {_number(a['along_track_m']['max'], '.3f')} m; speed RMS "
+                     f"{_number(a['speed_mps']['rms'], '.4f')} m/s; NEES mean "
+                     f"{_number(smoothed['nees']['mean'], '.2f')} (dof {smoothed['nees']['dof']})")
     baro = s.get("baro")
     if baro:
         lines.append(f"  baro bias {baro['bias_m']:+.2f} ± {baro['sigma_bias_m']:.2f} m "

@@ -11,20 +11,22 @@ from __future__ import annotations
 import argparse
 import json
 import logging
-import os
 from dataclasses import replace
 from pathlib import Path
 
+from railnav.commands.run_flags import SCENARIO_HELP, scenario_for
 from railnav.commands.simulate_sensors import (
     add_sensor_arguments,
     sensor_configs,
     write_sensor_files,
 )
 from railnav.commands.support import (
+    add_output_arguments,
     outage_window,
-    output_path,
+    output_dir,
     positive_float,
     progress_bar,
+    written_line,
 )
 from railnav.defaults import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
@@ -46,6 +48,8 @@ log = logging.getLogger(__name__)
 FLOAT_FORMAT = "%.17g"
 #: With --network/--route: the route's line, a track file for ``railnav run``.
 ROUTE_TRACK_FILE = "route_track.csv"
+#: Output directory when --out is not given.
+DEFAULT_OUT = "railnav-simulate"
 
 
 def register(subparsers) -> None:
@@ -58,8 +62,7 @@ def register(subparsers) -> None:
     p.add_argument("track", metavar="TRACK", nargs="?", default=None,
                    help="track file (.csv); or --network with --route")
     add_network_route_arguments(p)
-    p.add_argument("--scenario", default="paper2017", choices=sorted(SCENARIOS),
-                   help="named scenario (default: paper2017)")
+    p.add_argument("--scenario", default=None, choices=sorted(SCENARIOS), help=SCENARIO_HELP)
     p.add_argument("--imu-grade", choices=sorted(IMU_GRADES), default=None,
                    help="IMU error preset (default: the scenario's; 'perfect' = ideal IMU)")
     p.add_argument("--speed-mps", type=positive_float, default=None,
@@ -86,8 +89,7 @@ def register(subparsers) -> None:
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     add_sensor_arguments(p)
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    p.add_argument("--out", required=True, type=output_path, metavar="DIR",
-                   help="output directory")
+    add_output_arguments(p, DEFAULT_OUT)
     p.set_defaults(func=handler)
 
 
@@ -143,25 +145,34 @@ def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
-    from gnss_obs.sim_files import write_simulation
     from railnav.simulation.fixes import trip_fixes
     from railnav.simulation.trip import simulate_trip
     _check_network_flags(args)
     fix_config = _fix_config(args)
     sensors = sensor_configs(args)
-    scenario = get_scenario(args.scenario).with_overrides(
+    scenario = get_scenario(scenario_for(args.track or "", args.scenario)).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
     if args.lever_arm is not None:
         scenario = replace(scenario, antenna_m=args.lever_arm)
     track, track_name = _track_of(args)
-    with progress_bar("simulate", enabled=not args.quiet) as progress:
-        trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
-                             systems=args.systems, progress=progress)
-    fixes = None if fix_config is None else trip_fixes(trip, fix_config)   # before any file
+    with output_dir(args, [args.track, args.network]) as tmp:
+        with progress_bar("simulate", enabled=not args.quiet) as progress:
+            trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
+                                 systems=args.systems, progress=progress)
+        fixes = None if fix_config is None else trip_fixes(trip, fix_config)
+        written, meta = _write(tmp, trip, track, track_name, scenario, sensors, fixes,
+                               fix_config, args)
+    print(f"{written_line(args.out, written, tmp)} ({meta['n_samples']} IMU samples, "
+          f"{meta['end_time_s']:.1f} s of the {scenario.name} scenario on {track_name})")
+    return 0
+
+
+def _write(out: Path, trip, track, track_name: str, scenario, sensors, fixes, fix_config,
+           args: argparse.Namespace) -> tuple[list[Path], dict]:
+    """Write a simulated trip's files into `out`: (paths written, scenario.json content)."""
+    from gnss_obs.sim_files import write_simulation
     result = trip.simulation
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
     written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
     if args.network is not None:
         from trackmodel.io import write_track
@@ -176,11 +187,8 @@ def handler(args: argparse.Namespace) -> int:
             "end_time_s": float(result.truth.time_s[-1])}
     if fix_config is not None:
         meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
+        written.append(out / meta["fixes"]["file"])
     extra, entries = write_sensor_files(out, trip, sensors, float_format=FLOAT_FORMAT)
     meta.update(entries)
     atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    written = [out / "truth.csv", out / "imu.csv", *written, *extra, out / "scenario.json"]
-    print(f"{out}{os.sep}: {', '.join(p.name for p in written)} ({meta['n_samples']} IMU "
-          f"samples, {meta['end_time_s']:.1f} s of the {scenario.name} scenario on "
-          f"{track_name})")
-    return 0
+    return [out / "truth.csv", out / "imu.csv", *written, *extra, out / "scenario.json"], meta

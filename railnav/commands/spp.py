@@ -20,16 +20,20 @@ import numpy as np
 from gnss_obs.corrections import IONOSPHERE_MODELS
 from railnav.commands.support import (
     add_augmentation_arguments,
+    add_output_arguments,
+    output_dir,
     progress_bar,
     read_augmentation,
+    written_line,
 )
+from railnav.defaults import DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from trackmodel.files import atomic_write_csv
 
 if TYPE_CHECKING:
     from gnss_obs.spp import SppConfig
 
-__all__ = ["register", "handler", "FLOAT_FORMAT"]
+__all__ = ["register", "handler", "FLOAT_FORMAT", "DEFAULT_OUT"]
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +42,8 @@ FLOAT_FORMAT = "%.12g"
 #: ``gps_time_s`` is written with 6 decimals (1 µs): 12 significant digits of a GPS time
 #: (~1.3e9 s) would be 10 ms, coarser than receivers' sub-ms epoch offsets (issue 16).
 TIME_FORMAT = "{:.6f}"
+#: Output directory when --out is not given.
+DEFAULT_OUT = "railnav-spp"
 
 
 def register(subparsers) -> None:
@@ -49,8 +55,9 @@ def register(subparsers) -> None:
                     "DIR/spp.png.")
     p.add_argument("--obs", required=True, metavar="OBS.rnx", help="RINEX observation file")
     p.add_argument("--nav", required=True, metavar="NAV.rnx", help="RINEX navigation file")
-    p.add_argument("--systems", default="GE",
-                   help="GNSS systems to use, letters of GERCJ (default: GE)")
+    p.add_argument("--systems", default=DEFAULT_SYSTEMS,
+                   help=f"GNSS systems to use, letters of GERCJ (default: {DEFAULT_SYSTEMS}, "
+                        "as every command)")
     p.add_argument("--ionosphere", choices=IONOSPHERE_MODELS, default="klobuchar",
                    help="ionosphere handling (default: klobuchar)")
     p.add_argument("--elevation-mask-deg", type=float, default=10.0,
@@ -60,7 +67,7 @@ def register(subparsers) -> None:
     p.add_argument("--ref", metavar="CSV",
                    help="reference trajectory: print RMS/95 %% errors against it")
     add_augmentation_arguments(p)
-    p.add_argument("--out", default=".", metavar="DIR", help="output directory (default .)")
+    add_output_arguments(p, DEFAULT_OUT)
     p.set_defaults(func=handler)
 
 
@@ -88,26 +95,27 @@ def handler(args: argparse.Namespace) -> int:
         spp_errors,
     )
     config = _config(args)
-    obs = read_rinex_obs(args.obs)
-    nav = read_rinex_nav(args.nav)
-    reference = read_reference_trajectory(args.ref) if args.ref else None
-    aug = read_augmentation(args, obs, nav, config.measurement)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    with progress_bar("spp", enabled=not args.quiet) as progress:
-        result = solve_spp(aug.obs, nav, config, corrections=aug.corrections,
-                           max_correction_age_s=aug.max_age_s, precise=aug.precise,
-                           progress=progress)
-    frame = result.to_frame()
-    errors = spp_errors(frame, reference) if reference is not None else None
-    atomic_write_csv(out / "spp.csv", frame.assign(gps_time_s=frame["gps_time_s"].map(
-        TIME_FORMAT.format)), float_format=FLOAT_FORMAT)
-    plot_spp(frame, out / "spp.png", errors=errors, reference=reference)
+    with output_dir(args, [args.obs, args.nav, args.ref, args.base, *args.sp3]) as tmp:
+        obs = read_rinex_obs(args.obs)
+        nav = read_rinex_nav(args.nav)
+        reference = read_reference_trajectory(args.ref) if args.ref else None
+        aug = read_augmentation(args, obs, nav, config.measurement)
+        with progress_bar("spp", enabled=not args.quiet) as progress:
+            result = solve_spp(aug.obs, nav, config, corrections=aug.corrections,
+                               max_correction_age_s=aug.max_age_s, precise=aug.precise,
+                               progress=progress)
+        frame = result.to_frame()
+        errors = spp_errors(frame, reference) if reference is not None else None
+        atomic_write_csv(tmp / "spp.csv", frame.assign(gps_time_s=frame["gps_time_s"].map(
+            TIME_FORMAT.format)), float_format=FLOAT_FORMAT)
+        plot_spp(frame, tmp / "spp.png", errors=errors, reference=reference)
+        written = written_line(args.out, [tmp / "spp.csv", tmp / "spp.png"], tmp)
     for line in _summary(frame, config, args):
         print(line)
     if errors is not None:
         for line in accuracy_summary(errors).lines():
             print(line)
+    print(written)
     return 0
 
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from railnav.commands.support import positive_int, progress_bar
+from railnav.commands.support import output_path, positive_int, progress_bar
 
 __all__ = ["register", "handler", "DEFAULT_OUT"]
 
@@ -23,10 +23,12 @@ def register(subparsers) -> None:
                     "speeds, outages, GNSS noise, filters) for each replicate seed, on the "
                     "local cores or a Dask cluster. Writes DIR/results.parquet (one row per "
                     "run), summary plots and study.json; rerunning with the same DIR skips "
-                    "the runs already written.")
+                    "the runs already written. Ctrl-C stops it after saving the finished "
+                    "runs (the same command resumes).")
     p.add_argument("config", metavar="CONFIG.toml", help="study configuration (TOML)")
-    p.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                   help=f"output directory (default: {DEFAULT_OUT})")
+    p.add_argument("--out", default=DEFAULT_OUT, type=output_path, metavar="DIR",
+                   help=f"output directory (default: {DEFAULT_OUT}); a study locks it while it "
+                        "runs, and resumes the runs already in it")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler (tcp://HOST:PORT), or 'local' for a Dask LocalCluster "
                         "on this machine (default: a process pool on the local cores)")

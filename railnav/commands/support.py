@@ -6,6 +6,7 @@ import contextlib
 import os
 import sys
 from collections.abc import Callable, Iterator
+from pathlib import Path
 
 from gnss_obs.sim_events import Outage
 from railnav.errors import ConfigError
@@ -13,7 +14,7 @@ from railnav.errors import ConfigError
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
            "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
            "augmentation_requested", "read_augmentation", "output_path", "same_file",
-           "check_outputs"]
+           "check_outputs", "add_output_arguments", "output_dir", "written_line"]
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:
@@ -148,20 +149,16 @@ def read_augmentation(args: argparse.Namespace, obs, nav, measurement):
     railnav.errors.ConfigError
         ``--base-position`` without ``--base``.
     """
-    from gnss_obs.dgps import DgpsConfig, augment
-    from gnss_obs.rinex_obs import read_rinex_obs
+    from gnss_obs.dgps import augment_files
     from gnss_obs.smoothing import SmoothingConfig
-    from gnss_obs.sp3 import read_sp3
 
     if args.base_position is not None and not args.base:
         raise ConfigError("--base-position needs --base")
-    dgps = DgpsConfig() if args.max_age_s is None else DgpsConfig(max_age_s=args.max_age_s)
-    return augment(
-        obs, nav, measurement, base_obs=read_rinex_obs(args.base) if args.base else None,
-        base_lat_lon_h=args.base_position, dgps=dgps,
+    return augment_files(
+        obs, nav, measurement, base_path=args.base or None,
+        base_lat_lon_h=args.base_position, max_age_s=args.max_age_s,
         smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
-                   if args.smooth_window_s else None),
-        sp3=[read_sp3(p) for p in args.sp3])
+                   if args.smooth_window_s else None), sp3_paths=args.sp3)
 
 
 def output_path(text: str) -> str:
@@ -170,6 +167,32 @@ def output_path(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an output path cannot be empty")
     return text
+
+
+def add_output_arguments(p, default: str) -> None:
+    """``--out DIR`` (default `default`: every command's is ``railnav-<command>``, never
+    the working directory) and ``--overwrite``: the output directory is written whole or
+    not at all (`trackmodel.files.output_directory`)."""
+    p.add_argument("--out", default=default, type=output_path, metavar="DIR",
+                   help=f"output directory (default: {default}); an existing one that is "
+                        "not empty is refused unless --overwrite")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing --out whole (none of its old files is kept)")
+
+
+def output_dir(args: argparse.Namespace, inputs=()):
+    """The ``--out`` of `add_output_arguments` as an `output_directory` context: checked
+    before any work, written into a hidden sibling, renamed into place when complete."""
+    from trackmodel.files import output_directory
+    return output_directory(args.out, overwrite=args.overwrite,
+                            inputs=[p for p in inputs if p is not None])
+
+
+def written_line(out: str | os.PathLike, written, root: str | os.PathLike) -> str:
+    """``DIR/: a.csv, b.png``: what a command wrote, `written` being paths under `root`
+    (the temporary directory that became `out`)."""
+    names = [str(Path(p).relative_to(root)) for p in written]
+    return f"{out}{os.sep}: {', '.join(names)}"
 
 
 def same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:

@@ -13,6 +13,7 @@ each GNSS outage (its maximum and its value at the outage's end).
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -20,9 +21,12 @@ import numpy.typing as npt
 import pandas as pd
 
 from ekf.packing import unpack_sym
+from railnav.errors import ConfigError
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
-__all__ = ["ErrorSeries", "error_series", "summarize", "ERROR_QUANTITIES"]
+__all__ = ["ErrorSeries", "error_series", "summarize", "ERROR_QUANTITIES", "check_trip_times"]
+
+log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
@@ -204,6 +208,45 @@ def _stats(x: Array) -> dict[str, float | None]:
     if x.size == 0:
         return {"rms": None, "max": None}
     return {"rms": float(np.sqrt(np.mean(x * x))), "max": float(np.max(np.abs(x)))}
+
+
+def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | None = None,
+                     track_end: bool = False) -> None:
+    """Outages and the summary window must fall inside the trip ``[0, end_s]``.
+
+    An outage or window that starts at or after the trip's end would change nothing and
+    report nothing (issue 18: it was silently ignored): an error. One that starts inside
+    and ends after the end is cut there by the run: a warning says so. When the trip
+    ended early at the track's end (`track_end`: the scenario's duration was not reached),
+    an outage after it is the scenario's, not a mistake: a warning.
+
+    Parameters
+    ----------
+    end_s : float
+        The trip's last time, s from its start.
+    outages : sequence of (start_s, duration_s)
+    window : (start_s, end_s), optional
+    track_end : bool
+        The trip ended at the track's end before its scenario's duration.
+
+    Raises
+    ------
+    ConfigError
+        Naming the outage or window and the trip's end.
+    """
+    spans = [("outage", float(a), float(a) + float(d)) for a, d in outages]
+    if window is not None:
+        spans.append(("window", float(window[0]), float(window[1])))
+    for name, start, stop in spans:
+        label = f"{name} {start:g}-{stop:g} s"
+        if start >= end_s and name == "outage" and track_end:
+            log.warning("%s starts after the trip ends at the track's end (%g s): no effect",
+                        label, end_s)
+        elif start >= end_s:
+            raise ConfigError(f"{label} starts after the trip ends at {end_s:g} s")
+        elif stop > end_s:
+            log.warning("%s ends after the trip (at %g s): only %g-%g s is covered", label,
+                        end_s, start, end_s)
 
 
 def summarize(errors: ErrorSeries, *, window: tuple[float, float] | None = None,

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from gnss_obs.coverage import check_nav_coverage
 from gnss_obs.dgps import apply_corrections
 from gnss_obs.epoch import (
     EpochData,
@@ -93,6 +94,7 @@ class GnssEpochs:
         channels = glonass_channels(obs.header.glonass_slots, nav.records) \
             if "R" in config.systems else None
         meas = select_measurements(table, config, glonass_channels=channels)
+        check_nav_coverage(obs, nav, config.systems, table=table)
         precise = None
         if augmentation is not None:
             precise = augmentation.precise

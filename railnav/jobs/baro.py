@@ -35,7 +35,7 @@ def read_baro_csv(path: str | os.PathLike) -> pd.DataFrame:
     Returns
     -------
     pandas.DataFrame
-        The two columns, float, times strictly increasing.
+        The two columns, float, times strictly increasing; ``attrs["path"]`` the file.
 
     Raises
     ------
@@ -62,7 +62,9 @@ def read_baro_csv(path: str | os.PathLike) -> pd.DataFrame:
     if steps.size:
         raise ConfigError("times must increase", path=path, row=int(steps[0]) + 2,
                           column=time_col)
-    return pd.DataFrame(out)
+    table = pd.DataFrame(out)
+    table.attrs["path"] = os.fspath(path)           # for messages about the file
+    return table
 
 
 def check_run_baro(outcome, baro: pd.DataFrame, *, obs=None, nav=None, measurement=None,
@@ -94,7 +96,8 @@ def check_run_baro(outcome, baro: pd.DataFrame, *, obs=None, nav=None, measureme
     t = _relative_times(baro, result.start_gps_time_s)
     if t[0] < t_est[0] - 1.0 or t[-1] > t_est[-1] + 1.0:
         raise ConfigError(f"baro times [{t[0]:.1f}, {t[-1]:.1f}] s are outside the run "
-                          f"[{t_est[0]:.1f}, {t_est[-1]:.1f}] s (from the trip start)")
+                          f"[{t_est[0]:.1f}, {t_est[-1]:.1f}] s (from the trip start)",
+                          path=baro.attrs.get("path"))
     h_track = np.interp(t, t_est, est["h_m"].to_numpy())
     sigma_track = np.interp(t, t_est, est["sigma_up_m"].to_numpy())
     if obs is None and outcome.trip is not None and outcome.trip.gnss is not None:

@@ -7,8 +7,8 @@
   GNSS position fixes), starting from the first GNSS fix; a reference (railnav's truth.csv,
   a reference trajectory or a fix file: `railnav.jobs.scoring`), given or found beside
   ``railnav simulate``'s files, is used for the errors;
-* `write_run` writes ``estimates.csv``, ``innovations.csv``, ``summary.json`` (and
-  ``errors.csv`` with a truth) and the plots into a directory, each file atomically.
+* `write_run` writes ``estimates.csv``, ``innovations.csv``, ``summary.json`` (+ ``errors.csv``
+  with a truth, ``smoothed.csv`` with ``smooth=True``) and the plots, each file atomically.
 """
 from __future__ import annotations
 
@@ -23,14 +23,19 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from gnss_obs.rinex_obs import read_rinex_obs
+from gnss_obs.dgps import augment_files
 from railnav.config import (
     DEFAULT_SYSTEMS,
     NavigatorConfig,
     SensorData,
 )
 from railnav.errors import ConfigError
-from railnav.evaluation.metrics import ErrorSeries, error_series, summarize
+from railnav.evaluation.metrics import (
+    ErrorSeries,
+    check_trip_times,
+    error_series,
+    summarize,
+)
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.jobs.scoring import (
     find_truth,
@@ -40,6 +45,7 @@ from railnav.jobs.scoring import (
     with_timestamps,
 )
 from railnav.jobs.sensor_files import read_sensor_files, sensor_summary
+from railnav.jobs.smoothed import smooth_outcome, write_smoothed
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, NavigationResult
@@ -55,7 +61,6 @@ __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_F
            "read_sensor_files", "run_summary", "truth_start"]
 
 log = logging.getLogger(__name__)
-
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,6 +80,8 @@ class RunOutcome:
     truth : railnav.simulation.truth.Truth or None
     data : SensorData or None
         The sensor data read, for runs on files.
+    smoothed : railnav.jobs.smoothed.SmoothedRun or None
+        The RTS-smoothed twin, for runs with ``smooth=True``.
     """
 
     result: NavigationResult
@@ -84,11 +91,12 @@ class RunOutcome:
     trip: SimulatedTrip | None = None
     truth: object = None
     data: SensorData | None = None
+    smoothed: object = None
 
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
                   seed: int = 0, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
-                  faults: tuple = (),
+                  faults: tuple = (), smooth: bool = False,
                   progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Simulate `scenario` on `track` and filter it.
 
@@ -107,18 +115,25 @@ def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None =
         Extra error-summary window.
     faults : tuple of gnss_obs.SatelliteFault
         Satellite faults simulated in the GNSS observations (times from the trip start).
+    smooth : bool
+        Also the RTS-smoothed twin, scored like the run (`railnav.jobs.smoothed`).
     progress : callable(done, total), optional
         Filter steps.
     """
     config = config or navigator_config_for(scenario, systems=systems)
+    config = replace(config, rts_smoothing=True) if smooth else config
     trip = simulate_trip(scenario, track=track, seed=seed, systems=systems, faults=faults)
+    check_trip_times(float(trip.truth.time_s[-1]), window=window)   # outages: simulate_trip
     result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
                       initial=functools.partial(truth_start, trip=trip, config=config),
                       progress=progress)
-    errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
+    score = functools.partial(error_series, truth=trip.truth, track=trip.track,
+                              clock_truth=trip.clock_truth)
+    errors = score(result)
     summary = run_summary(result, trip.track, errors, window, scenario.outages,
                        {"scenario": scenario.name, "seed": int(seed), "systems": systems})
-    return RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+    outcome = RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+    return smooth_outcome(outcome, score, window=window) if smooth else outcome
 
 
 def truth_start(filt, trip: SimulatedTrip, config: NavigatorConfig, x_true=None):
@@ -159,7 +174,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               progress: Callable[[int, int], None] | None = None, imu_spec=None,
               odometer_path=None, balises_path=None, wheel_circumference_m=None,
               pulses_per_rev=None, odometer_model=None, balise_model=None,
-              lever_arms=None) -> RunOutcome:
+              lever_arms=None, smooth: bool = False) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -223,6 +238,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         The wheel of an odometer file of pulse counts.
     odometer_model, balise_model, lever_arms : optional
         `NavigatorConfig` fields for the default configuration (default theirs).
+    smooth : bool
+        Also the RTS-smoothed twin, scored like the run (`railnav.jobs.smoothed`).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -234,6 +251,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
                                      pulses_per_rev=pulses_per_rev,
                                      odometer_model=odometer_model, balise_model=balise_model,
                                      lever_arms=lever_arms)
+    config = replace(config, rts_smoothing=True) if smooth else config
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,
@@ -241,42 +259,40 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     found = simulation_meta(imu_path, obs_path, fixes_path)
     if outages is None:
         outages = scenario_outages(found[0] if found else None)
+    check_trip_times(data.end_s, outages=outages, window=window)
     result = with_timestamps(navigate(track, data, config, outages=outages,
                                       progress=progress), data.fixes)
     return _file_outcome(result, track, data, truth_path or find_truth(
-        imu_path, obs_path, fixes_path), truth_quality, window, tuple(outages))
+        imu_path, obs_path, fixes_path), truth_quality, window, tuple(outages), smooth)
 
 
 def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, window,
-                  outages) -> RunOutcome:
+                  outages, smooth: bool) -> RunOutcome:
     """A file run's outcome: scored against `truth_path` when there is one."""
+    score = None if truth_path is None else functools.partial(
+        score_run, track=track, truth_path=truth_path, start_gps_time_s=data.start_gps_time_s,
+        quality=truth_quality)
     errors, extra = None, {}
-    if truth_path is not None:
-        errors, extra["reference"] = score_run(result, track, truth_path,
-                                               start_gps_time_s=data.start_gps_time_s,
-                                               quality=truth_quality)
+    if score is not None:
+        errors, extra["reference"] = score(result)
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
     extra.update(sensor_summary(data))
-    summary = run_summary(result, track, errors, window, outages, extra)
-    return RunOutcome(result, track, summary, errors, data=data)
+    outcome = RunOutcome(result, track, run_summary(result, track, errors, window, outages,
+                                                    extra), errors, data=data)
+    return smooth_outcome(outcome, score and (lambda r: score(r)[0]), window=window) \
+        if smooth else outcome
 
 
 def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat_lon_h,
                smoothing, sp3_paths, max_correction_age_s) -> SensorData:
     """`data` with carrier-smoothed observations, base corrections and precise orbits."""
-    from gnss_obs.dgps import DgpsConfig, augment
-    from gnss_obs.sp3 import read_sp3
-
     if data.obs is None:
         raise ConfigError("base corrections, smoothing and SP3 need GNSS observations (--obs)")
-    dgps = DgpsConfig() if max_correction_age_s is None else DgpsConfig(
-        max_age_s=max_correction_age_s)
-    aug = augment(data.obs, data.nav, config.measurement,
-                  base_obs=read_rinex_obs(base_path) if base_path is not None else None,
-                  base_lat_lon_h=base_lat_lon_h, dgps=dgps, smoothing=smoothing,
-                  sp3=[read_sp3(p) for p in sp3_paths])
+    aug = augment_files(data.obs, data.nav, config.measurement, base_path=base_path,
+                        base_lat_lon_h=base_lat_lon_h, smoothing=smoothing,
+                        sp3_paths=sp3_paths, max_age_s=max_correction_age_s)
     return replace(data, obs=aug.obs, augmentation=aug)
 
 
@@ -310,6 +326,7 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
     csv("innovations.csv", outcome.result.innovations)
     if outcome.errors is not None:
         csv("errors.csv", outcome.errors.to_frame())
+    written += write_smoothed(outcome.smoothed, out)
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
     written.append(out / "summary.json")
     if plots:                       # matplotlib only when drawing (~0.5 s to import)

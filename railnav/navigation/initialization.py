@@ -95,15 +95,17 @@ def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
     table = data.obs.table
     times = np.unique(table["gps_time_s"].to_numpy())
     times = times[times >= data.start_gps_time_s - 1e-6][:max_epochs]
+    name = data.obs.path or "the GNSS observations"
     if times.size == 0:
-        raise RailnavError("no GNSS epoch at or after the trip start")
+        raise RailnavError(f"{name}: no GNSS epoch at or after the trip start (GPS time "
+                           f"{data.start_gps_time_s:.1f} s)")
     sub = replace(data.obs, table=table[table["gps_time_s"].isin(times)])
     spp = solve_spp(sub, data.nav, SppConfig(measurement=config.measurement,
                                             elevation_mask_deg=config.elevation_mask_deg))
     ok = np.all(np.isfinite(spp.r_e), axis=1) & np.all(np.isfinite(spp.v_e), axis=1)
     if not ok.any():
-        raise RailnavError(f"no GNSS fix with velocity in the first {times.size} epochs "
-                           "(too few satellites?)")
+        raise RailnavError(f"{name}: no GNSS fix with velocity in the first {times.size} "
+                           "epochs (too few satellites?)")
     k = int(np.argmax(ok))
     return GnssFix(time_s=float(spp.gps_time_s[k] - data.start_gps_time_s),
                    r_e=spp.r_e[k], v_e=spp.v_e[k],
@@ -115,8 +117,8 @@ def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
 def initial_from_gnss(filt_obj, data, config, gnss):
     """The filter's `InitialState` at the first GNSS fix."""
     if gnss is None:
-        raise RailnavError("no GNSS data to start from: give GNSS observations or an "
-                           "initial state")
+        raise RailnavError("no GNSS data to start from: give GNSS observations or fixes "
+                           "(--obs/--nav, --fixes; from Python also navigate(initial=...))")
     fix = first_fix(data, config)
     x0, P0 = filt_obj.initial_from_fix(fix)
     log.info("started at t=%.3f s from a GNSS fix", fix.time_s)

@@ -125,7 +125,8 @@ class ChunkLoop:
 
 def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
     """The EKF engine of a run: the filter object's process model, the configured gate,
-    estimates stored at ``config.output_rate_hz`` with their full covariance.
+    estimates stored at ``config.output_rate_hz`` with their full covariance (and every
+    step for the RTS smoother with ``config.rts_smoothing``).
 
     Parameters
     ----------
@@ -139,7 +140,8 @@ def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
                                                              scope="rows")
     return CdFilter(filt.process, FilterConfig(gate=gate, store_every=store_every,
                                                full_covariance=True,
-                                               time_tol_s=EPOCH_TIME_TOL_S))
+                                               time_tol_s=EPOCH_TIME_TOL_S,
+                                               smoothing=config.rts_smoothing))
 
 
 def beyond_track(filt, x: Array, P: Array, time_s: float) -> dict | None:

@@ -186,9 +186,37 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=(),
                                    fixes.time_s if fixes is not None else [],
                                    tol_s=EPOCH_TIME_TOL_S,
                                    extra={k: v.time_s for k, v in sensors.items()})
+    if data.imu is not None:
+        _check_overlap(data, samples_t, schedule.time_s)
     samples_t, samples_u = _insert_samples(samples_t, samples_u, schedule.time_s)
     return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule,
                        sensors.get("odometer"), sensors.get("balises"))
+
+
+def _gnss_sources(data: SensorData) -> list[tuple[str, Array]]:
+    """(name, GPS times) of the GNSS observations and fixes given (names: their files)."""
+    return [(name, frame["gps_time_s"].to_numpy(dtype=float)) for name, frame in (
+        (getattr(data.obs, "path", None) or "GNSS observations",
+         data.obs.table if data.obs is not None else None),
+        (getattr(data.fixes, "path", None) or "GNSS fixes",
+         data.fixes.table if data.fixes is not None else None)) if frame is not None]
+
+
+def _check_overlap(data: SensorData, t: Array, epoch_times: Array) -> None:
+    """An error when no GNSS epoch or fix falls within the IMU samples' time span."""
+    sources = _gnss_sources(data)
+    inside = (epoch_times >= t[0] - EPOCH_TIME_TOL_S) & (epoch_times <= t[-1] + EPOCH_TIME_TOL_S)
+    if not sources or inside.any():
+        return
+    if not any(g.size for _, g in sources):
+        raise RailnavError(f"{', '.join(name for name, _ in sources)}: no GNSS observation "
+                           "or fix in the file")
+    spans = "; ".join(f"{name} {np.min(g) - data.start_gps_time_s:.1f} to "
+                      f"{np.max(g) - data.start_gps_time_s:.1f} s" if g.size else f"{name} empty"
+                      for name, g in sources)
+    raise RailnavError(f"the IMU samples ({t[0]:.1f} to {t[-1]:.1f} s from the trip start, "
+                       f"GPS time {data.start_gps_time_s:.1f} s) and the GNSS data ({spans}) "
+                       "do not overlap: check the IMU's time_s and --start-gps-time-s")
 
 
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:
@@ -196,13 +224,12 @@ def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Arr
     if not filter_kind(config.filter).needs_imu:
         if data.obs is None and data.fixes is None:
             raise RailnavError(f"the {config.filter} filter needs GNSS observations or fixes")
-        times = [data.obs.table["gps_time_s"].to_numpy()] if data.obs is not None else []
-        if data.fixes is not None:
-            times.append(data.fixes.table["gps_time_s"].to_numpy(dtype=float))
-        t_obs = np.unique(np.concatenate(times)) - data.start_gps_time_s
+        sources = _gnss_sources(data)
+        t_obs = np.unique(np.concatenate([g for _, g in sources])) - data.start_gps_time_s
         t_obs = t_obs[t_obs >= -EPOCH_TIME_TOL_S]
         if t_obs.size < 2:
-            raise RailnavError("fewer than two GNSS epochs or fixes after the trip start")
+            raise RailnavError(f"{', '.join(name for name, _ in sources)}: fewer than two "
+                               "GNSS epochs or fixes after the trip start")
         grid = np.arange(t_obs[0], t_obs[-1], 1.0 / config.output_rate_hz)
         t = np.union1d(grid, t_obs)
         return t, np.zeros((t.size, 0))

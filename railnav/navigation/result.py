@@ -200,7 +200,7 @@ def _screened_innovations(result: FilterResult, rows: pd.DataFrame,
                          f"{result.innov_d.size}")
     accepted = np.zeros(len(rows), dtype=bool)
     accepted[used] = result.accepted
-    status = rows["status"].to_numpy().copy()
+    status = rows["status"].to_numpy(dtype=object).copy()   # object even with no row
     status[used & ~accepted] = "rejected"
     innovation, sigma = rows["innovation"].to_numpy().copy(), rows["sigma"].to_numpy().copy()
     innovation[used], sigma[used] = result.innov_d, np.sqrt(result.s_d)

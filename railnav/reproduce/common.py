@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["PaperFigure", "Quantity", "ReproductionResult", "Experiment", "EXPERIMENTS",
-           "run_experiment", "write_result_json", "PERCENTILE"]
+           "run_experiment", "write_result_json", "result_path", "PERCENTILE"]
 
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -184,11 +184,15 @@ class ReproductionResult:
         return doc
 
 
+def result_path(experiment: str, out_dir: str | Path) -> Path:
+    """Where `write_result_json` writes an experiment's result."""
+    return Path(out_dir) / f"{experiment}.json"
+
+
 def write_result_json(result: ReproductionResult, out_dir: str | Path) -> Path:
     """Write ``out_dir/<experiment>.json`` atomically (the directory is created)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / f"{result.experiment}.json"
+    path = result_path(result.experiment, out_dir)
+    path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, json.dumps(result.to_json_dict(), indent=2, allow_nan=True) + "\n")
     return path
 

@@ -153,12 +153,18 @@ class Scenario:
         """The scenario with what is given replaced (None: kept): the profile's top speed
         (m/s, scaling all speeds), the duration (s), the IMU grade, the outages (s from the
         trip start). The one place where ``railnav simulate`` and ``railnav run`` apply
-        their flags to a scenario."""
+        their flags to a scenario.
+
+        A shorter duration drops the scenario's own outages that start after it (they
+        belong to the longer trip); given `outages` are kept as given, and a run refuses
+        one that starts after its trip ends (`railnav.evaluation.metrics.check_trip_times`).
+        """
         out = self
         if speed_mps is not None:
             out = replace(out, profile=out.profile.scaled_to(speed_mps))
         if duration_s is not None:
-            out = replace(out, duration_s=duration_s)
+            kept = tuple(o for o in out.outages if Outage.of(o).start_s < duration_s)
+            out = replace(out, duration_s=duration_s, outages=kept)
         if imu_errors is not None:
             out = replace(out, imu_errors=imu_errors)
         if outages is not None:

@@ -28,6 +28,7 @@ from gnss_obs.simulate import (
 )
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
 from railnav.errors import ConfigError
+from railnav.evaluation.metrics import check_trip_times
 from railnav.filters.track_frame import LeverArms
 from railnav.simulation.scenarios import (
     RNG_STREAMS,
@@ -199,9 +200,13 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
     Raises
     ------
     ConfigError
-        If the GNSS rate does not divide the IMU rate.
+        If the GNSS rate does not divide the IMU rate, or an outage starts after the trip
+        ends (`railnav.evaluation.metrics.check_trip_times`).
     """
     sim = simulate_scenario(scenario, track=track, seed=seed, progress=progress)
+    end_s = float(sim.truth.time_s[-1])
+    check_trip_times(end_s, outages=scenario.outages,
+                     track_end=end_s < scenario.duration_s - 1.0 / scenario.imu_rate_hz)
     if not gnss:
         return SimulatedTrip(scenario, sim, None, None, systems)
     ratio = scenario.imu_rate_hz / scenario.gnss_rate_hz

@@ -231,6 +231,18 @@ def _summary(spec: RunSpec) -> dict:
                          systems=spec.systems).summary
 
 
+def _interrupted(exc: BaseException) -> bool:
+    """Whether `exc` carries a Ctrl-C: CasADi (like other C extensions) reports a
+    KeyboardInterrupt raised inside its callbacks as a SystemError caused by it."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
 def run_one(spec: RunSpec) -> dict:
     """Run `spec`; its table row (module docstring). Never raises for a failed run."""
     started = time.perf_counter()
@@ -240,6 +252,8 @@ def run_one(spec: RunSpec) -> dict:
         metrics.update(_metrics(_summary(spec), spec.outages))
         status, message = "ok", ""
     except Exception as exc:      # noqa: BLE001 - a failed run is a row, not the end
+        if _interrupted(exc):
+            raise KeyboardInterrupt from None   # Ctrl-C seen through C code: not a failure
         log.warning("run %s (index %d) failed: %s: %s", spec.run_id, spec.index,
                     type(exc).__name__, exc)
         status, message = "failed", f"{type(exc).__name__}: {exc}"

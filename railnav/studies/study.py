@@ -26,12 +26,12 @@ import pandas as pd
 
 from railnav.errors import ConfigError
 from railnav.studies.config import StudyConfig
-from railnav.studies.execution import execute
+from railnav.studies.execution import execute, sigint_blocked
 from railnav.studies.runs import STATUS_COLUMNS, expand_grid, metric_columns
 from railnav.studies.store import PartStore
-from trackmodel.files import atomic_write_text
+from trackmodel.files import atomic_write_text, directory_lock
 
-__all__ = ["StudyResult", "run_study", "STUDY_FILE"]
+__all__ = ["StudyResult", "run_study", "STUDY_FILE", "StudyInterrupted"]
 
 log = logging.getLogger(__name__)
 
@@ -102,10 +102,29 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, scheduler=None,
     ------
     ConfigError
         For an output path that is a file, a bad worker count or scheduler.
+    trackmodel.errors.InputError
+        When another study holds the lock on `out_dir` (`trackmodel.files.directory_lock`).
+    StudyInterrupted
+        On Ctrl-C (a `KeyboardInterrupt`), after the finished runs are saved; running the
+        same study again resumes the rest (an interrupted run is never a failed one).
     """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
+    with directory_lock(out, what="study"):
+        try:
+            return _run_locked(config, out, scheduler=scheduler, workers=workers,
+                               progress=progress, plots=plots)
+        except KeyboardInterrupt:
+            ids = {s.run_id for s in expand_grid(config)}
+            done = len(PartStore(out).finished_ids() & ids)
+            raise StudyInterrupted(f"interrupted: {done} of {len(ids)} runs are saved in "
+                                   f"{out}; the same command resumes the rest") from None
+
+
+def _run_locked(config: StudyConfig, out: Path, *, scheduler, workers, progress,
+                plots: bool) -> StudyResult:
+    """`run_study` while holding the lock on `out`."""
     specs = expand_grid(config)
     store = PartStore(out)
     atomic_write_text(out / STUDY_FILE, json.dumps(config.to_dict(), indent=2) + "\n")
@@ -133,8 +152,8 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, scheduler=None,
 
 def _execute(todo, store: PartStore, chunk_runs: int, *, done: int, total: int, scheduler,
              workers, progress: Progress | None) -> None:
-    """Run `todo`, writing a part every `chunk_runs` rows and whatever is finished when
-    the loop ends or is interrupted."""
+    """Run `todo`, writing a part every `chunk_runs` rows and, when the loop ends or is
+    interrupted, whatever has finished (with Ctrl-C held off while it is saved)."""
     tick = progress or (lambda d, t: None)
     tick(done, total)
     buffer: list[dict] = []
@@ -148,7 +167,9 @@ def _execute(todo, store: PartStore, chunk_runs: int, *, done: int, total: int, 
                 buffer = []
             tick(done, total)
     finally:
-        store.write(buffer)
-        close = getattr(rows, "close", None)
-        if close is not None:
-            close()
+        with sigint_blocked():         # a second Ctrl-C waits until the rows are saved
+            store.write(buffer + rows.stop())
+
+
+class StudyInterrupted(KeyboardInterrupt):
+    """Ctrl-C stopped a study: its finished runs are saved, a rerun resumes the rest."""

@@ -27,7 +27,10 @@ NAV3 = DATA / "broadcast_nav.rnx"
 
 
 def _one_warning(caplog, path) -> str:
-    lines = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    # the truncation warning of issue 18 (the peer excerpts hold fewer epochs than their
+    # headers declare) is another concern, tested apart
+    lines = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING
+             and "than the header declares" not in r.getMessage()]
     assert len(lines) == 1, lines            # once per file
     assert str(path) in lines[0]
     return lines[0]

@@ -85,8 +85,8 @@ def test_perfect_imu_matches_truth_csv_derivation(request, tmp_path, capsys, whi
     code = main(["-q", "simulate", str(track), "--scenario", scenario, "--imu-grade", "perfect",
                  "--duration-s", "600", "--seed", "3", "--out", str(out), "--no-gnss"])
     assert code == 0
-    truth = pd.read_csv(out / "truth.csv", float_precision="round_trip")
-    imu = pd.read_csv(out / "imu.csv", float_precision="round_trip")
+    truth = pd.read_csv(out / "truth.csv")
+    imu = pd.read_csv(out / "imu.csv")
     assert tuple(truth.columns) == TRUTH_COLUMNS and tuple(imu.columns) == IMU_COLUMNS
     f_ref, w_ref = derive_imu_from_truth(truth, earth)
     f = imu[list(IMU_COLUMNS[1:4])].to_numpy()[2:-2]
@@ -104,8 +104,8 @@ def test_overrides_outages_and_measured_imu(tmp_path, paper_file):
                  "10", "--duration-s", "20", "--outage", "5:2", "--outage", "10:1.5",
                  "--imu-grade", "mems", "--seed", "1", "--out", str(out)])
     assert code == 0
-    truth = pd.read_csv(out / "truth.csv", float_precision="round_trip")
-    imu = pd.read_csv(out / "imu.csv", float_precision="round_trip")
+    truth = pd.read_csv(out / "truth.csv")
+    imu = pd.read_csv(out / "imu.csv")
     assert len(truth) == 2001 and truth["time_s"].iloc[-1] == pytest.approx(20.0)
     np.testing.assert_allclose(truth["speed_mps"], 10.0)
     assert truth["s_m"].iloc[-1] == pytest.approx(200.0, abs=1e-9)
@@ -124,7 +124,10 @@ def test_overrides_outages_and_measured_imu(tmp_path, paper_file):
 
 def test_trip_ends_at_track_end(tmp_path, paper_file):
     out = tmp_path / "end"
-    assert main(["-q", "simulate", str(paper_file), "--speed-mps", "50", "--duration-s", "1000",
+    # --scenario paper2017 (constant speed: 25 km at 50 m/s = 500 s): simulate's default
+    # was paper2017, it now follows run's rule (the track's name, else curvy; issue 18)
+    assert main(["-q", "simulate", str(paper_file), "--scenario", "paper2017",
+                 "--speed-mps", "50", "--duration-s", "1000",
                  "--imu-grade", "perfect", "--out", str(out), "--no-gnss"]) == 0
     truth = pd.read_csv(out / "truth.csv")
     assert truth["s_m"].iloc[-1] <= 25000.0 and truth["time_s"].iloc[-1] == pytest.approx(500.0)

@@ -101,10 +101,12 @@ def test_issue16_ref_matches_epochs_a_few_ms_off_whole_seconds(tmp_path, capsys)
     compared with the whole-second reference, and spp.csv keeps their µs."""
     obs = tmp_path / "rover.rnx"
     _rover_excerpt(obs, n_epochs=30, offset_s=0.0035)
+    # --out beside the input, not the folder holding it (issue 18: a non-empty --out is
+    # refused without --overwrite)
     assert main(["-q", "spp", "--obs", str(obs), "--nav", str(NAV), "--ref", str(REF),
-                 "--out", str(tmp_path)]) == 0
-    text = (tmp_path / "spp.csv").read_text().splitlines()
-    t = pd.read_csv(tmp_path / "spp.csv")["gps_time_s"].to_numpy()
+                 "--out", str(tmp_path / "out")]) == 0
+    text = (tmp_path / "out" / "spp.csv").read_text().splitlines()
+    t = pd.read_csv(tmp_path / "out" / "spp.csv")["gps_time_s"].to_numpy()
     sow = t - 2134 * 604_800
     np.testing.assert_allclose(sow - np.floor(sow), 0.0035, atol=1e-6)
     assert text[1].split(",")[0].endswith(".003500")
@@ -130,9 +132,9 @@ def test_issue16_one_satellite_epoch_is_a_row_without_fix(tmp_path, system, used
     used system (G) or not (C, with --systems GE: the row used to vanish)."""
     obs = tmp_path / "rover.rnx"
     _rover_excerpt(obs, n_epochs=5, single=2, system=system)
-    assert main(["-q", "spp", "--obs", str(obs), "--nav", str(NAV), "--out",
-                 str(tmp_path)]) == 0
-    frame = pd.read_csv(tmp_path / "spp.csv")
+    assert main(["-q", "spp", "--obs", str(obs), "--nav", str(NAV), "--systems", "GE",
+                 "--out", str(tmp_path / "out")]) == 0     # GE: was spp's default
+    frame = pd.read_csv(tmp_path / "out" / "spp.csv")
     assert len(frame) == 5
     assert frame["fix_ok"].tolist() == [True, True, False, True, True]
     assert frame["n_sat_used"].iloc[2] == 0 and frame["n_sat_tracked"].iloc[2] == used

@@ -45,7 +45,7 @@ FORBIDDEN_HELP = FORBIDDEN | {"pandas", "matplotlib"}
 
 HELP = [["--help"], ["run", "--help"], ["simulate", "--help"], ["spp", "--help"],
         ["reproduce", "--help"], ["study", "--help"], ["track", "--help"],
-        ["track", "fit", "--help"]]
+        ["track", "fit", "--help"], ["--version"], ["run", "--help", "-q"]]
 ERRORS = [
     [],                                                     # no command
     ["run"],                                                # no track

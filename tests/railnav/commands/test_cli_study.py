@@ -21,9 +21,9 @@ def test_study_command_writes_the_table_and_resumes(tmp_path, capsys):
     assert f"16 runs (0 already done, 0 failed) -> {out / 'results.parquet'}" in printed
     table = pd.read_parquet(out / "results.parquet")
     assert len(table) == 16 and table["run_id"].is_unique
-    assert {p.name for p in out.iterdir()} == {
+    assert {p.name for p in out.iterdir()} == {     # .lock: the study's lock (issue 18)
         "parts", "results.parquet", "study.json", "error_growth_along_track.png",
-        "error_growth_horizontal.png"}
+        "error_growth_horizontal.png", ".lock"}
     assert main(["-q", "study", str(TINY), "--out", str(out), "--no-plots"]) == 0
     assert "16 runs (16 already done, 0 failed)" in capsys.readouterr().out
 

@@ -57,7 +57,9 @@ def test_without_a_mask_every_component_is_drawn(rng):
 
 @pytest.fixture(scope="module")
 def tactical_start():
-    scenario = replace(get_scenario("paper2017"), duration_s=5.0, imu_errors="tactical")
+    # with_overrides: a 5-s trip drops the scenario's outages at 100 s and 500 s (issue 18:
+    # an outage after the end of a trip that ran its whole duration is refused)
+    scenario = get_scenario("paper2017").with_overrides(duration_s=5.0, imu_errors="tactical")
     trip = simulate_trip(scenario, seed=3)
     config = navigator_config_for(scenario)
     filt = make_filter(trip.track, config, None)

@@ -20,33 +20,12 @@ from dataclasses import replace
 import pandas as pd
 import pytest
 
-from railnav.studies.file import load_study_config
 from railnav.studies.runs import expand_grid, run_one
 from railnav.studies.store import PartStore
 from railnav.studies.study import run_study
-from tests.conftest import DATA, REPO
-
-TINY = DATA / "studies" / "tiny.toml"
-#: Columns that differ between two executions of the same run (wall time).
-TIMING = ["runtime_s"]
-#: Give up waiting for the killed study's first part after this long, s.
-PART_WAIT_S = 120.0
-
-
-@pytest.fixture(scope="module")
-def config():
-    return load_study_config(TINY)
-
-
-@pytest.fixture(scope="module")
-def reference(config, tmp_path_factory):
-    """The tiny study run serially in this process."""
-    return run_study(config, tmp_path_factory.mktemp("serial"), workers=1)
-
-
-def _same(a: pd.DataFrame, b: pd.DataFrame) -> None:
-    pd.testing.assert_frame_equal(a.drop(columns=TIMING), b.drop(columns=TIMING),
-                                  check_exact=True)
+from tests.conftest import REPO
+from tests.railnav.studies.conftest import PART_WAIT_S, TINY
+from tests.railnav.studies.conftest import same_table as _same
 
 
 def test_serial_study_table(config, reference):

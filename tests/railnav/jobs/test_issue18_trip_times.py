@@ -1,0 +1,86 @@
+"""Issue 18: times that miss the trip — IMU samples that never overlap the GNSS, outages
+and summary windows after the trip's end — are clear errors, not a traceback or a
+silently empty result."""
+from __future__ import annotations
+
+import json
+import logging
+
+import pandas as pd
+import pytest
+
+from railnav.cli import main
+from railnav.errors import ConfigError, RailnavError
+from railnav.jobs.run import run_files, run_simulated
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+from trackmodel import read_track
+
+PAPER = str(TRACKS_DIR / "paper2017.csv")
+SHIFT_S = 5000.0
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sim") / "sim"
+    assert main(["-q", "simulate", PAPER, "--duration-s", "20", "--seed", "3",
+                 "--out", str(out)]) == 0
+    return out
+
+
+def _start(sim) -> float:
+    return json.loads((sim / "scenario.json").read_text())["scenario"]["start_gps_time_s"]
+
+
+def test_issue18_imu_never_overlapping_the_gnss(sim, tmp_path, capsys):
+    imu = pd.read_csv(sim / "imu.csv")
+    imu["time_s"] += SHIFT_S                      # the IMU clock 5000 s late
+    late = tmp_path / "imu.csv"
+    imu.to_csv(late, index=False)
+    with pytest.raises(RailnavError, match="do not overlap") as info:
+        run_files(read_track(PAPER), imu_path=late, obs_path=sim / "gnss_obs.rnx",
+                  nav_path=sim / "gnss_nav.rnx", start_gps_time_s=_start(sim))
+    message = str(info.value)
+    assert "5000.0 to 5020.0 s" in message and "0.0 to 20.0 s" in message
+    assert str(sim / "gnss_obs.rnx") in message
+    code = main(["-q", "run", PAPER, "--imu", str(late), "--obs", str(sim / "gnss_obs.rnx"),
+                 "--nav", str(sim / "gnss_nav.rnx"), "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "do not overlap" in err
+    assert not (tmp_path / "run").exists()
+
+
+def test_issue18_outage_after_the_trip_end_is_an_error():
+    scenario = get_scenario("paper2017").with_overrides(duration_s=20.0,
+                                                        outages=[(30.0, 5.0)])
+    with pytest.raises(ConfigError, match="outage 30-35 s starts after the trip ends at 20 s"):
+        run_simulated(PAPER, scenario)
+
+
+def test_issue18_window_after_the_trip_end_is_an_error_at_the_cli(capsys, tmp_path):
+    code = main(["-q", "run", PAPER, "--duration-s", "20", "--window", "25:40",
+                 "--no-plots", "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == "error: window 25-40 s starts after the trip ends at 20 s"
+    assert not (tmp_path / "run").exists()
+
+
+def test_issue18_window_ending_after_the_trip_is_cut_with_a_warning(caplog):
+    scenario = get_scenario("paper2017").with_overrides(duration_s=20.0)
+    with caplog.at_level(logging.WARNING):
+        outcome = run_simulated(PAPER, scenario, window=(10.0, 40.0))
+    assert any("window 10-40 s ends after the trip (at 20 s)" in r.getMessage()
+               for r in caplog.records)
+    errors = outcome.errors.to_frame()
+    inside = errors[(errors["time_s"] >= 10.0) & (errors["time_s"] <= 40.0)]
+    # the window's statistics are those of its part inside the trip
+    assert outcome.summary["errors"]["window"]["along_track_m"]["max"] == pytest.approx(
+        inside["along_track_m"].abs().max())
+
+
+def test_issue18_a_shorter_trip_drops_the_scenarios_later_outages():
+    paper = get_scenario("paper2017")
+    assert [tuple(o) for o in paper.outages] == [(100.0, 50.0), (500.0, 50.0)]
+    assert [tuple(o) for o in paper.with_overrides(duration_s=200.0).outages] == [(100.0, 50.0)]
+    assert paper.with_overrides(duration_s=20.0).outages == ()
+    given = paper.with_overrides(duration_s=20.0, outages=[(30.0, 5.0)])
+    assert [tuple(o) for o in given.outages] == [(30.0, 5.0)]     # given: kept, refused later
