@@ -55,7 +55,7 @@ _EXPORTS = {
     "chi2_band": "consistency", "chi2_threshold": "gating", "common_offset": "outliers",
     "correlated_step": "correlated", "discrete_update": "update",
     "fault_probability": "outliers", "fault_threshold": "outliers", "imm_starts": "bank",
-    "kalman_update": "update", "merge_gaussians": "bank",
+    "kalman_update": "update", "log_predict": "bank", "logsumexp": "bank", "merge_gaussians": "bank",
     "normalized_squares": "consistency", "predict_linear": "linear",
     "rts_smooth": "smoother", "switching_update": "bank", "uniform_switching": "bank",
 }

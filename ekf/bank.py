@@ -34,14 +34,13 @@ from typing import Any, Callable, Literal, Sequence
 
 import numpy as np
 import numpy.typing as npt
-from scipy.special import logsumexp
 
 from ekf.errors import ModelError
 from ekf.linear import LinearModel
 from ekf.update import UpdateRecord
 
 __all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians", "switching_update",
-           "imm_starts", "uniform_switching", "Convert"]
+           "log_predict", "logsumexp", "imm_starts", "uniform_switching", "Convert"]
 
 Array = npt.NDArray[np.float64]
 Mode = Literal["static", "gpb1", "imm"]
@@ -96,8 +95,16 @@ def merge_gaussians(weights: Array, means: Array, covs: Array) -> tuple[Array, A
     return mean, 0.5 * (cov + cov.T)
 
 
-def _log(p: Array) -> Array:
-    return np.log(np.maximum(p, _TINY))
+def logsumexp(a: npt.ArrayLike, axis: int | None = None) -> Array | float:
+    """``log Σ exp(a)`` along `axis` without overflow (−inf entries allowed; all −inf
+    gives −inf). Plain NumPy: banks call it every cycle on a few values, where
+    `scipy.special.logsumexp`'s argument handling costs ~20 times the arithmetic."""
+    a = np.asarray(a, dtype=float)
+    top = np.max(a, axis=axis, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        out = np.log(np.sum(np.exp(a - top), axis=axis, keepdims=True)) + top
+    return out.item() if axis is None else np.squeeze(out, axis=axis)
 
 
 def switching_update(log_mu: Array, log_lik: Array, transition: Array | None = None) -> Array:
@@ -120,10 +127,33 @@ def switching_update(log_mu: Array, log_lik: Array, transition: Array | None = N
     """
     log_mu = np.asarray(log_mu, dtype=float)
     if transition is not None:
-        mu = np.exp(log_mu - logsumexp(log_mu))
-        log_mu = _log(np.asarray(transition, dtype=float).T @ mu)
+        log_mu = log_predict(log_mu, transition)
     out = log_mu + np.asarray(log_lik, dtype=float)
     return out - logsumexp(out)
+
+
+def log_predict(log_mu: Array, transition: Array) -> Array:
+    """``log (Πᵀ μ)`` computed in log space: ``log c_j = logsumexp_i(log Π_ij + log μ_i)``.
+
+    No probability is floored: a model whose log probability is −2000 keeps it (plus what
+    the chain moves to it) instead of being lifted to ``log(tiny) ≈ −708``, from where a
+    single step's likelihood ratio could revive it.
+
+    Parameters
+    ----------
+    log_mu : ndarray, shape (J,)
+        Log probabilities (−inf allowed), normalized or not.
+    transition : ndarray, shape (J, J)
+        ``Π[i, j]`` (zeros allowed).
+
+    Returns
+    -------
+    ndarray, shape (J,)
+        Normalized like `log_mu` (the rows of Π sum to 1).
+    """
+    with np.errstate(divide="ignore"):
+        log_t = np.log(np.asarray(transition, dtype=float))
+    return logsumexp(np.asarray(log_mu, dtype=float)[:, None] + log_t, axis=0)
 
 
 def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[Array], *,
@@ -249,7 +279,8 @@ class ModelBank:
         prior = np.full(J, 1.0 / J) if prior is None else np.asarray(prior, dtype=float)
         if prior.shape != (J,) or np.any(prior < 0) or not np.isclose(prior.sum(), 1.0):
             raise ModelError("prior must be J probabilities summing to 1")
-        self.log_mu = _log(prior)
+        with np.errstate(divide="ignore"):
+            self.log_mu = np.log(prior)             # a zero prior stays impossible
         if mode not in ("static", "gpb1", "imm"):
             raise ModelError(f"unknown bank mode {mode!r}")
         if mode != "static":

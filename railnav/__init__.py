@@ -47,9 +47,11 @@ command                                function(s)
 ``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
                                        `Network.routes`; `plot_network_map`
 ``railnav simulate --network --route`` `simulate_trip` on `trackmodel.route_track`
-(no command yet)                       `run_simulated_network`, `run_files_network`,
-                                       `route_candidates` (track networks:
-                                       `trackmodel.network`)
+``railnav run --network N ...``        `run_files_network`, `write_network_run`
+                                       (`navigate_network` underneath, `NetworkNavConfig`,
+                                       `NetworkStart`; track networks: `trackmodel.network`)
+``railnav network run N --start E:S``  `run_simulated_network` / `run_files_network`,
+                                       `route_candidates`
 =====================================  ===========================================
 
 The names are imported on first use (PEP 562), so ``import railnav`` stays cheap;
@@ -76,7 +78,9 @@ _EXPORTS = {
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
     "baro_track_check": "evaluation.baro",
     "route_candidates": "jobs.network", "run_simulated_network": "jobs.network",
-    "run_files_network": "jobs.network",
+    "run_files_network": "jobs.network", "write_network_run": "jobs.network",
+    "navigate_network": "navigation.network_navigator",
+    "NetworkNavConfig": "navigation.hypotheses", "NetworkStart": "navigation.network_start",
     "FixModelConfig": "filters.fix_epochs", "trip_fixes": "simulation.fixes",
     "simulate_fixes": "simulation.fixes", "FixSimConfig": "simulation.fixes",
     "score_run": "jobs.scoring", "read_reference": "evaluation.reference",

@@ -22,6 +22,7 @@ from railnav.commands.support import (
     nonnegative_int,
     output_dir,
     positive_float,
+    positive_int,
     progress_bar,
     written_line,
 )
@@ -87,10 +88,14 @@ def register(subparsers) -> None:
     _add_start(r)
     r.set_defaults(func=_routes)
     run = sub.add_parser("run", help="which route did the train take",
-                         description="One constrained filter per route ahead of the start "
-                                     "(a static bank): on a simulated trip along route "
-                                     "--true-route, or on sensor files (--imu, --obs "
-                                     "--nav). Writes what 'railnav run A.csv B.csv' writes.")
+                         description="The network navigator from a known start "
+                                     "(hypotheses that branch at every switch, merge and "
+                                     "are pruned): on a trip simulated along route "
+                                     "--true-route (of 'network routes'), or on sensor "
+                                     "files (--imu, --obs --nav). Writes what 'railnav run "
+                                     "--network' writes: estimates.csv with the netelement "
+                                     "columns, hypotheses.csv, route.csv, summary.json "
+                                     "'route', network.png.")
     _add_start(run)
     run.add_argument("--true-route", type=nonnegative_int, default=0, metavar="N",
                      help="simulated trip: the route it takes, 0 = the first listed "
@@ -105,6 +110,8 @@ def register(subparsers) -> None:
     run.add_argument("--imu", metavar="IMU.csv", help="IMU samples (sensor files)")
     run.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     run.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
+    run.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
+                     help="most live hypotheses (default 16)")
     run.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     add_output_arguments(run, DEFAULT_OUT)
     run.set_defaults(func=_run)
@@ -156,8 +163,11 @@ def _routes(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from railnav.jobs.network import run_files_network, run_simulated_network
-    from railnav.jobs.tracks import write_track_run
+    """``network run``: the network navigator (`railnav.commands.network_run`) from a known
+    start, on a trip simulated along route --true-route or on sensor files."""
+    from railnav.commands.network_run import network_report
+    from railnav.jobs.network import write_network_run
+    from railnav.navigation.network_start import NetworkStart
     from trackmodel.network_io import read_network
     network = read_network(args.network)
     files = args.imu is not None or args.obs is not None
@@ -165,21 +175,30 @@ def _run(args: argparse.Namespace) -> int:
         raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "
                           "files there is none to shape")
     out = Path(args.out)
+    start = NetworkStart(args.start.element, args.start.s_m, args.start.direction)
     with output_dir(args, [args.network, args.imu, args.obs, args.nav]) as tmp:
-        with progress_bar("filters", enabled=not args.quiet) as progress:
-            if files:
-                run = run_files_network(network, args.start, horizon_m=args.horizon_m,
-                                        imu_path=args.imu, obs_path=args.obs,
-                                        nav_path=args.nav, progress=progress)
-            else:
-                scenario = _scenario(network, args)
-                run = run_simulated_network(network, args.start, scenario,
-                                            true_route=args.true_route,
-                                            horizon_m=args.horizon_m, seed=args.seed,
-                                            progress=progress)
-        written = write_track_run(run, tmp, plots=not args.no_plots)
-    final = run.outcome.summary["track_probabilities"]
-    best = max(final, key=final.get)
-    print(f"{len(final)} routes -> {out}/; most probable at the end ({final[best]:.4f}): {best}")
+        with progress_bar("network", enabled=not args.quiet) as progress:
+            run = _network_run(network, args, start, files, progress)
+        written = write_network_run(run, tmp, plots=not args.no_plots)
+    print(network_report(run, out))
     print(written_line(out, written, tmp))
     return 0
+
+
+def _network_run(network, args: argparse.Namespace, start, files: bool, progress):
+    """The navigator from `start`: on the sensor files, or on a trip simulated along route
+    --true-route ahead of it."""
+    from railnav.commands.network_run import nav_config
+    from railnav.jobs.network import route_candidates, run_files_network, run_simulated_network
+    if files:
+        return run_files_network(network, imu_path=args.imu, obs_path=args.obs,
+                                 nav_path=args.nav, start=start, nav=nav_config(args),
+                                 progress=progress)
+    names, routes, start_s = route_candidates(network, args.start, horizon_m=args.horizon_m)
+    if not 0 <= args.true_route < len(routes):
+        raise ConfigError(f"--true-route {args.true_route}: only {len(routes)} route(s) "
+                          "ahead of the start")
+    scenario = replace(_scenario(network, args), start_s=start_s)
+    return run_simulated_network(network, routes[args.true_route].legs, scenario,
+                                 seed=args.seed, nav=nav_config(args), known_start=True,
+                                 progress=progress)

@@ -59,9 +59,10 @@ def handler(args: argparse.Namespace) -> int:
                                   or not files_given(args) else "gnss-only")
     check_flags(args)                  # before the engine is imported: errors stay fast
     inputs = [*args.tracks, args.imu, args.obs, args.nav, args.fixes, args.truth, args.baro,
-              args.base, *args.sp3]
+              args.base, *args.sp3, args.network]
     with output_dir(args, inputs) as tmp:     # --out checked before any work
-        text, written = (_several_tracks(args, tmp) if len(args.tracks) > 1
+        text, written = (_network(args, tmp) if args.network is not None else
+                         _several_tracks(args, tmp) if len(args.tracks) > 1
                          else _one_track(args, tmp))
     print(text)
     print(written_line(args.out, written, tmp))
@@ -173,3 +174,14 @@ def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path
     probs = ", ".join(f"{k} {v:.4f}" for k, v in run.outcome.summary["track_probabilities"].items())
     return (report(run.outcome, Path(args.out)) + f"\n  track probabilities at the end: {probs}",
             written)
+
+
+def _network(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
+    """``railnav run --network NETWORK ...`` (`railnav.commands.network_run`) written into
+    `tmp`: (report, files written)."""
+    from railnav.commands.network_run import network_report, run_network
+    from railnav.jobs.network import write_network_run
+    with progress_bar("network", enabled=not args.quiet) as progress:
+        run = run_network(args, Path(args.out), progress=progress)
+    written = write_network_run(run, tmp, plots=not args.no_plots)
+    return network_report(run, Path(args.out)), written

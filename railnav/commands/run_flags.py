@@ -30,12 +30,19 @@ from railnav.defaults import (
     DEFAULT_ODOMETER_SIGMA_MPS,
     DEFAULT_SYSTEMS,
 )
+from railnav.commands.run_network_flags import (
+    _check_network_flags,
+    add_network_arguments,
+    parse_start,
+)
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.simulation.scenarios import SCENARIOS
 from strapdown.imu_errors import IMU_GRADES
 
-__all__ = ["add_run_arguments", "add_file_arguments", "check_flags", "time_window",
+__all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "parse_start",
+           "check_flags",
+           "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
            "scenario_name", "scenario_for", "SCENARIO_HELP", "add_real_input_arguments",
@@ -69,8 +76,9 @@ def time_window(text: str) -> tuple[float, float]:
 
 def add_run_arguments(p) -> None:
     """Every argument of ``run`` (`register` builds the parser around them)."""
-    p.add_argument("tracks", metavar="TRACK", nargs="+",
-                   help="track file(s) (.csv); several: candidate tracks named by file stem")
+    p.add_argument("tracks", metavar="TRACK", nargs="*",
+                   help="track file(s) (.csv); several: candidate tracks named by file stem "
+                        "(none with --network)")
     p.add_argument("--imu", metavar="IMU.csv",
                    help="IMU samples: railnav's imu.csv (railnav simulate's), or a logger's "
                         "CSV read with --imu-spec")
@@ -113,6 +121,7 @@ def add_run_arguments(p) -> None:
                         "checked against the calibrated baro (baro.csv, baro_gnss.csv, "
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
+    add_network_arguments(p)
     add_real_input_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     add_result_arguments(p)
@@ -153,6 +162,7 @@ def check_flags(args: argparse.Namespace) -> None:
     inputs given: a flag that cannot apply is an error that says why, never ignored
     (single values are checked by their argparse types)."""
     measurement(args.systems)   # validates --systems before any work
+    _check_network_flags(args)
     files = files_given(args)
     kind = filter_kind(args.filter)
     given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
@@ -181,8 +191,8 @@ def check_flags(args: argparse.Namespace) -> None:
                           "track")
     if args.base_position is not None and args.base is None:
         raise ConfigError("--base-position needs --base")
-    if not several and args.crossing_rate_per_s is not None:
-        raise ConfigError("--crossing-rate-per-s: only with several tracks")
+    if not several and args.crossing_rate_per_s is not None and args.network is None:
+        raise ConfigError("--crossing-rate-per-s: only with several tracks or --network")
     check_result_flags(args, several)
     if several and not kind.banks:
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)

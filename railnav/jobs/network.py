@@ -1,43 +1,86 @@
-"""Runs on a track network: which way did the train go at each switch?
+"""Runs on a track network: the public API behind ``railnav run --network`` and
+``railnav network run``.
 
-A train starts at a known network position (`trackmodel.network.NetPosition`). Every way
-it may go within a horizon is a *route* (`trackmodel.network.Network.routes_ahead`), and
-each route is one line (`Network.route_track`). The routes are the hypotheses of the
-multiple-model bank (`railnav.navigation.bank`, one constrained filter per route in
-lockstep): before the first switch the routes share their geometry, so their filters
-agree and their probabilities stay equal; after it, the GNSS evidence separates them.
-The train can not change route after a switch, so the bank's crossing rate is 0 by
-default (a static bank), and a route the train did not take dies when its filter's
-vehicle leaves it (a buffer stop, or the horizon).
+* `run_files_network`: sensor files (fixes, IMU, RINEX) through the network navigator
+  (`railnav.navigation.network_navigator.navigate_network`), started at a given netelement
+  or at every netelement near the first fix; with ``truth_path`` (a fix file: its
+  carrier-fixed rows) scored by issue 13's netelement truth
+  (`railnav.evaluation.netelement_truth`);
+* `run_simulated_network`: a trip simulated along one route (its netelements' legs, the
+  line `Network.route_track` or, for tangent-continuous joints, the legs chained exactly),
+  navigated without being told the route, each start candidate from the truth brought
+  onto its own track plus one common error draw, scored per cycle against the true
+  netelement;
+* `write_network_run`: ``estimates.csv`` (with the network columns), ``innovations.csv``,
+  ``hypotheses.csv``, ``route.csv``, ``summary.json`` (with ``route``), ``errors.csv`` with
+  a truth, and the plots ``network.png`` and ``estimates.png``/``errors.png``.
 
-* `route_candidates`: the routes and their lines;
-* `run_simulated_network`: simulate a trip along one route and identify it;
-* `run_files_network`: identify the route of recorded (or simulated) sensor files.
-
-Both return `railnav.jobs.tracks.TrackRunOutcome`, written by `write_track_run`; the
-track names are the routes' netelements joined by ``>`` (``-`` marks an element
-travelled against its direction).
+`route_candidates` and `route_name` list the routes ahead of a start (``railnav network
+routes``).
 """
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import replace
+import json
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
 
 from railnav.defaults import DEFAULT_HORIZON_M
-from railnav.errors import ConfigError
-from railnav.jobs.tracks import TrackRunOutcome, run_files_tracks, run_simulated_tracks
-from railnav.navigation.bank import TrackBankConfig
-from railnav.simulation.scenarios import Scenario
+from railnav.errors import ConfigError, RailnavError
+from railnav.evaluation.netelement_truth import (
+    collapse,
+    netelement_scores,
+    netelement_truth,
+    route_passes,
+)
+from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_start
+from railnav.navigation.hypotheses import NetworkNavConfig
+from railnav.navigation.network_navigator import navigate_network
+from railnav.navigation.network_weights import converted
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT
 from trackmodel.errors import TrackError
+from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.network import NetPosition, Network, Route
 
-__all__ = ["route_candidates", "route_name", "run_simulated_network", "run_files_network",
-           "NETWORK_BANK", "DEFAULT_HORIZON_M", "DEFAULT_MAX_ROUTES"]
+__all__ = ["route_candidates", "route_name", "run_files_network", "run_simulated_network",
+           "write_network_run", "NetworkRunOutcome", "load_network", "true_netelements",
+           "DEFAULT_HORIZON_M", "DEFAULT_MAX_ROUTES"]
 
-#: A static bank: a train does not change route between switches.
-NETWORK_BANK = TrackBankConfig(crossing_rate_per_s=0.0)
-#: The most routes a run follows.
+#: The most routes `route_candidates` lists.
 DEFAULT_MAX_ROUTES = 16
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkRunOutcome:
+    """A finished network run.
+
+    Attributes
+    ----------
+    outcome : RunOutcome
+        The most probable hypothesis's estimates (`NetworkResult.combined`), the summary
+        (with ``route``), errors against a simulated truth.
+    network_result : railnav.navigation.network_result.NetworkResult
+    network : trackmodel.network.Network
+    true_legs : tuple of (str, int) or None
+        The simulated route.
+    """
+
+    outcome: RunOutcome
+    network_result: object
+    network: Network
+    true_legs: tuple | None = None
+
+
+def load_network(path) -> Network:
+    """A network folder, a GeoJSON or OpenStreetMap file or a track file
+    (`trackmodel.network_routes.load_network`)."""
+    from trackmodel.network_routes import load_network as load
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"{path}: no such network folder or file")
+    return load(path)
 
 
 def route_name(route: Route) -> str:
@@ -48,17 +91,9 @@ def route_name(route: Route) -> str:
 def route_candidates(network: Network, start: NetPosition, *,
                      horizon_m: float = DEFAULT_HORIZON_M,
                      max_routes: int = DEFAULT_MAX_ROUTES):
-    """The routes a train at `start` may take within `horizon_m`, their lines, and where
-    the train is on each line.
-
-    Returns
-    -------
-    names : tuple of str
-        `route_name` of each route.
-    tracks : list of trackmodel.Track
-        The route lines (each starts at the first leg's entry end).
-    start_s : float
-        Distance of `start` along every route line, m.
+    """The routes a train at `start` may take within `horizon_m`: their names
+    (`route_name`), the `Route` objects, and `start`'s distance along each route's first
+    leg (m).
 
     Raises
     ------
@@ -71,37 +106,200 @@ def route_candidates(network: Network, start: NetPosition, *,
         raise ConfigError(str(exc)) from None
     length = network.length_m(start.element)
     start_s = start.s_m if start.direction == 1 else length - start.s_m
-    return (tuple(route_name(r) for r in routes),
-            [network.route_track(r.legs) for r in routes], float(start_s))
+    return tuple(route_name(r) for r in routes), routes, float(start_s)
 
 
-def run_simulated_network(network: Network, start: NetPosition, scenario: Scenario, *,
-                          true_route: int = 0, horizon_m: float = DEFAULT_HORIZON_M,
-                          bank: TrackBankConfig = NETWORK_BANK, seed: int = 0,
-                          progress: Callable[[int, int], None] | None = None,
-                          **kwargs) -> TrackRunOutcome:
-    """Simulate `scenario` from `start` along route `true_route` (an index into
-    `route_candidates`' order; the bank is not told) and identify the route.
+def _scored_summary(summary: dict, result, network, truth_time_s, truth, extra: dict) -> dict:
+    """`summary` with ``route`` (`NetworkResult.route_summary`) and, with a truth, its
+    netelement scores and route check."""
+    route = result.route_summary()
+    if truth is not None:
+        cyc = result.cycles
+        route["truth"] = netelement_scores(cyc["time_s"], cyc["netelement"],
+                                           cyc["netelement_probability"], truth_time_s, truth)
+        frame = result.route_frame()
+        route["truth"].update(route_passes(network, zip(frame["netelement"],
+                                                        frame["orientation"]),
+                                           collapse(truth)))
+    route.update(extra)
+    return {**summary, "route": route}
 
-    Other keyword arguments go to `railnav.jobs.tracks.run_simulated_tracks` (``config``,
-    ``systems``, ``window``, ``faults``).
+
+def _fix_truth(network, truth_path, quality, start_gps_time_s: float):
+    """Issue 13's netelement truth from the rows of class `quality` (default
+    ``rtk_fixed``) of a fix file: times (s from the trip start) and netelements."""
+    from gnss_obs.fixes.read import read_fixes
+    tab = read_fixes(truth_path).table
+    truth = netelement_truth(network, np.radians(tab["lat_deg"].to_numpy()),
+                             np.radians(tab["lon_deg"].to_numpy()))
+    truth[tab["quality"].to_numpy() != (quality or "rtk_fixed")] = None
+    return tab["gps_time_s"].to_numpy(dtype=float) - start_gps_time_s, truth
+
+
+def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_path=None,
+                      nav_path=None, start=None, nav: NetworkNavConfig = NetworkNavConfig(),
+                      truth_path=None, truth_quality: str | None = None,
+                      start_gps_time_s: float | None = None, config=None,
+                      filter: str | None = None, systems: str | None = None,
+                      imu_grade: str | None = None, fix_sigmas=None, fix_model=None,
+                      outages=(), progress=None) -> NetworkRunOutcome:
+    """Navigate sensor files on `network` (module docstring).
+
+    Parameters are those of `railnav.jobs.run.run_files` (the sensor files, the filter
+    and fix model), plus `start` (`railnav.navigation.network_start.NetworkStart`, default
+    unknown) and `nav` (`NetworkNavConfig`); `truth_path` is a fix file whose rows of
+    `truth_quality` (default ``rtk_fixed``) give the netelement truth.
     """
-    names, tracks, start_s = route_candidates(network, start, horizon_m=horizon_m)
-    if not 0 <= true_route < len(tracks):
-        raise ConfigError(f"true route {true_route} is not one of the {len(tracks)} routes")
-    scenario = replace(scenario, start_s=start_s)
-    return run_simulated_tracks(tracks, names, scenario, true_track=true_route, bank=bank,
-                                seed=seed, progress=progress, **kwargs)
+    from railnav.jobs.scoring import with_timestamps
+    data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
+                                     fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
+                                     config=config, filter=filter, systems=systems,
+                                     imu_grade=imu_grade, fix_sigmas=fix_sigmas,
+                                     fix_model=fix_model)
+    result = navigate_network(network, data, config, nav=nav, start=start,
+                              outages=tuple(outages), progress=progress)
+    combined = with_timestamps(result.combined(), data.fixes)
+    track = result.tracks.placed(result.keys[-1])
+    extra = {}
+    if data.fixes is not None:
+        extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
+                          "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
+    summary = run_summary(combined, track, None, None, tuple(outages), extra)
+    truth_t, truth = (None, None) if truth_path is None else _fix_truth(
+        network, truth_path, truth_quality, data.start_gps_time_s)
+    summary = _scored_summary(summary, result, network, truth_t, truth, {})
+    return NetworkRunOutcome(RunOutcome(combined, track, summary, data=data), result, network)
 
 
-def run_files_network(network: Network, start: NetPosition, *,
-                      horizon_m: float = DEFAULT_HORIZON_M,
-                      bank: TrackBankConfig = NETWORK_BANK, **kwargs) -> TrackRunOutcome:
-    """Identify the route of sensor files from `start` (keyword arguments of
-    `railnav.jobs.tracks.run_files_tracks`: ``imu_path``, ``obs_path``, ``nav_path``, ...;
-    each filter starts from the first GNSS fix projected onto its route)."""
-    names, tracks, _ = route_candidates(network, start, horizon_m=horizon_m)
-    if len(tracks) < 2:
-        raise ConfigError(f"one route ahead of {start.element} within {horizon_m:g} m: "
-                          "nothing to identify (run it as one track)")
-    return run_files_tracks(tracks, names, bank=bank, **kwargs)
+def simulation_line(network: Network, legs):
+    """The line a simulated trip along `legs` runs on: `Network.route_track`, the
+    netelements with a tangent-continuous transition into each leg at its joint
+    (`trackmodel.network_lines`: within the fit tolerance of the legs, a real turnout's
+    curve where the map has a corner); for tangent-continuous joints the netelements as
+    they are."""
+    return network.route_track(legs)
+
+
+def true_netelements(network: Network, legs, s_m) -> np.ndarray:
+    """The netelement of each distance `s_m` along the chained legs of a route (None
+    beyond its ends)."""
+    ends = np.cumsum([network.length_m(e) for e, _ in legs])
+    k = np.searchsorted(ends, np.asarray(s_m, dtype=float), side="right")
+    names = np.array([e for e, _ in legs] + [None], dtype=object)
+    out = names[np.minimum(k, len(legs))]
+    out[np.asarray(s_m) < 0.0] = None
+    return out
+
+
+def _candidate_starts(trip, config, route_filter):
+    """Each start candidate's initial state: the truth on the route line brought onto the
+    candidate's track (`railnav.navigation.network_weights.converted`) plus one common
+    error draw (`truth_start`); none for a candidate an inertial filter would face the
+    wrong way on."""
+    x_route = route_filter.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
+    P0 = truth_start(route_filter, trip, config).P0
+
+    def initial(filt, element, orientation):
+        try:
+            x = converted(route_filter, filt, x_route, P0)[0]
+        except RailnavError:                # facing the other way on it
+            return None
+        return truth_start(filt, trip, config, x_true=x)
+    return initial
+
+
+def run_simulated_network(network: Network, legs, scenario, *, line=None, config=None,
+                          seed: int = 0, systems: str | None = None,
+                          nav: NetworkNavConfig = NetworkNavConfig(), known_start: bool = False,
+                          faults: tuple = (), progress=None) -> NetworkRunOutcome:
+    """Simulate `scenario` along the route `legs` and navigate it on `network` (module
+    docstring).
+
+    Parameters
+    ----------
+    network : Network
+    legs : sequence of (str, int)
+        The true route (the navigator is not told).
+    scenario : railnav.simulation.scenarios.Scenario
+        Its ``start_s`` is along the route's line.
+    line : trackmodel.Track, optional
+        The route's line (default `simulation_line`).
+    config : NavigatorConfig, optional
+        Default `railnav.simulation.trip.navigator_config_for(scenario)`.
+    seed : int
+    systems : str, optional
+    nav : NetworkNavConfig
+    known_start : bool
+        Start on the first leg's netelement only (else every netelement near the start).
+    faults : tuple of gnss_obs.SatelliteFault
+    progress : callable(done, total), optional
+    """
+    from railnav.defaults import DEFAULT_SYSTEMS
+    from railnav.evaluation.metrics import error_series
+    from railnav.filters.protocol import make_filter
+    from railnav.navigation.network_start import NetworkStart
+    from railnav.simulation.trip import navigator_config_for, simulate_trip
+    legs = tuple((e, int(o)) for e, o in legs)
+    systems = systems or DEFAULT_SYSTEMS
+    line = line if line is not None else simulation_line(network, legs)
+    config = config or navigator_config_for(scenario, systems=systems)
+    trip = simulate_trip(scenario, track=line, seed=seed, systems=systems, faults=faults)
+    route_filter = make_filter(line, config, None)
+    result = navigate_network(network, trip.sensor_data(), config, nav=nav,
+                              start=NetworkStart(legs[0][0]) if known_start else None,
+                              outages=scenario.outages,
+                              initial=_candidate_starts(trip, config, route_filter),
+                              near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])),
+                              progress=progress)
+    combined = result.combined()
+    errors = error_series(combined, trip.truth, trip.track, clock_truth=trip.clock_truth)
+    summary = run_summary(combined, trip.track, errors, None, scenario.outages,
+                          {"scenario": scenario.name, "seed": int(seed), "systems": systems})
+    truth_s = np.interp(result.time_s, trip.truth.time_s, trip.truth.s)
+    summary = _scored_summary(summary, result, network, result.time_s,
+                              true_netelements(network, legs, truth_s),
+                              {"true_route": [e for e, _ in legs]})
+    return NetworkRunOutcome(RunOutcome(combined, trip.track, summary, errors, trip,
+                                        trip.truth), result, network, legs)
+
+
+def write_network_run(run: NetworkRunOutcome, out_dir: str | os.PathLike, *,
+                      plots: bool = True) -> list[Path]:
+    """Write a network run into `out_dir` (module docstring); the paths written."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    res, outcome = run.network_result, run.outcome
+    tables = {"estimates.csv": outcome.result.estimates,
+              "innovations.csv": outcome.result.innovations,
+              "hypotheses.csv": res.hypotheses, "route.csv": res.route_frame()}
+    if outcome.errors is not None:
+        tables["errors.csv"] = outcome.errors.to_frame()
+    written = []
+    for name, frame in tables.items():
+        atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT,
+                         decimals=CSV_DECIMALS)
+        written.append(out / name)
+    atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
+    written.append(out / "summary.json")
+    if plots:
+        written += _plots(run, out)
+    return written
+
+
+def _plots(run: NetworkRunOutcome, out: Path) -> list[Path]:
+    from railnav.evaluation.network_plots import plot_network_run
+    from railnav.evaluation.plots import plot_errors, plot_estimates
+    outcome = run.outcome
+    fixes = None if outcome.data is None else outcome.data.fixes
+    plot_network_run(run.network, run.network_result, out / "network.png", fixes=fixes,
+                     truth=outcome.truth)
+    if outcome.errors is not None:
+        plot_errors(outcome.errors, outcome.result, out / "errors.png")
+        return [out / "network.png", out / "errors.png"]
+    plot_estimates(outcome.result, out / "estimates.png")
+    return [out / "network.png", out / "estimates.png"]
+
+
+def with_nav(nav: NetworkNavConfig, **changes) -> NetworkNavConfig:
+    """`nav` with the given fields changed (None values left as they are)."""
+    return replace(nav, **{k: v for k, v in changes.items() if v is not None})

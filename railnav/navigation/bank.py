@@ -3,8 +3,7 @@ r"""Parallel-track identification: one constrained filter per candidate track, i
 The hypotheses are "the train is on track j" (the tracks of a double line, the routes
 after a switch). `navigate_tracks` runs one constrained INS/GNSS filter per candidate
 track over the same data, chunk by chunk in lockstep (`railnav.navigation.loop.ChunkLoop`:
-every chunk ends at a GNSS epoch or after `railnav.navigation.loop.MAX_CHUNK_S`), and after each
-chunk (a *cycle*):
+every chunk ends at a GNSS epoch or after `MAX_CHUNK_S`), and after each chunk (a *cycle*):
 
 1. **Evidence.** Each filter's fault screen (`railnav.filters.fault_detection.RowScreen.last`)
    holds the epoch's GNSS innovations at its prior and their full covariance
@@ -80,8 +79,9 @@ from railnav.navigation.navigator import trip_samples
 from railnav.navigation.result import NavigationResult
 from trackmodel.earth import C_n_e
 
-__all__ = ["TrackBankConfig", "navigate_tracks", "convert_state", "Correspondence",
-           "common_log_likelihoods", "evidence_rows", "DEFAULT_CROSSING_RATE_PER_S"]
+__all__ = ["TrackBankConfig", "navigate_tracks", "convert_state", "moved_state",
+           "Correspondence", "common_log_likelihoods", "evidence_rows",
+           "DEFAULT_CROSSING_RATE_PER_S"]
 
 log = logging.getLogger(__name__)
 
@@ -146,15 +146,17 @@ def convert_state(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     if float(np.dot(p_src.u_n, p_tgt.u_n)) <= 0.0:
         raise RailnavError(f"candidate tracks must run in the same direction (not so at "
                            f"s = {s_src:.1f} m)")
-    return _moved(source, x, s_tgt, p_src, p_tgt), P
+    return moved_state(source, x, s_tgt, p_src, p_tgt), P
 
 
-def _moved(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
-    """``x`` with ``s = s_new`` and the attitude turned from track point `p_src`'s
-    azimuth and elevation to `p_tgt`'s."""
+def moved_state(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
+    """``x`` with ``s = s_new``, the attitude turned from `p_src`'s azimuth/elevation to
+    `p_tgt`'s."""
     lay = filt.layout
     out = np.array(x, dtype=float)
     out[lay.index("s")] = s_new
+    if "yaw" not in lay.names:
+        return out                          # no attitude (the GNSS-only filter)
     turn = (float(p_tgt.azimuth) - float(p_src.azimuth) + math.pi) % (2 * math.pi) - math.pi
     out[lay.index("yaw")] += turn
     out[lay.index("pitch")] += float(p_tgt.elevation) - float(p_src.elevation)
@@ -200,7 +202,7 @@ class Correspondence:
             return out
         s_tgt = guess + step
         self._offset[(i, j)] = s_tgt - s_src
-        return _moved(src, x, s_tgt + (s_raw - s_src), p_src,
+        return moved_state(src, x, s_tgt + (s_raw - s_src), p_src,
                       tgt.track.at(min(max(s_tgt, 0.0), tgt.track.length_m))), P
 
 

@@ -29,7 +29,7 @@ from railnav.filters.fix_rows import track_axes_n
 from railnav.navigation.initialization import GnssFix, InitialState
 from trackmodel.earth import C_n_e
 
-__all__ = ["initial_from_fixes", "MAX_INITIAL_FIXES", "MAX_SPEED_BASELINE_S",
+__all__ = ["initial_from_fixes", "initial_at_fix", "MAX_INITIAL_FIXES", "MAX_SPEED_BASELINE_S",
            "UNKNOWN_SPEED_SIGMA_MPS", "START_GATE_PROBABILITY"]
 
 log = logging.getLogger(__name__)
@@ -46,14 +46,16 @@ UNKNOWN_SPEED_SIGMA_MPS = 50.0
 START_GATE_PROBABILITY = 0.9999
 
 
-def _offsets(track, fixes, n: int, cfg):
-    """s, gate-normalized cross and along offsets, and the along σ of the first `n` fixes."""
-    proj = track.project(fixes.lat[:n], fixes.lon[:n])
+def _offsets(track, fixes, n: int, cfg, first: int = 0):
+    """s, gate-normalized cross and along offsets, and the along σ of the `n` fixes from
+    fix `first` on."""
+    part = slice(first, first + n)
+    proj = track.project(fixes.lat[part], fixes.lon[part])
     points = track.at(proj.s)
     A = points.azimuth
     along_h = np.column_stack([np.sin(A), np.cos(A), np.zeros_like(A)])
     cross = np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])
-    cov = fixes.cov_n_m2[:n]
+    cov = fixes.cov_n_m2[part]
     var_along = np.einsum("ki,kij,kj->k", along_h, cov, along_h)
     var_cross = np.einsum("ki,kij,kj->k", cross, cov, cross) + cfg.track_cross_sigma_m ** 2
     return (proj.s, np.abs(proj.cross_track_m) / np.sqrt(var_cross),
@@ -90,6 +92,46 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
                            "the right track?")
     k = int(np.argmax(ok))
     _check_height(fixes, k, float(points.h[k]), gate, cfg)
+    start = _start(filt_obj, fixes, k, s, ok, sigma_along, points)
+    log.info("started at t=%.3f s from GNSS fix %d of %d (the first %d disagree with the "
+             "track)", start.time_s, k + 1, len(fixes), k)
+    return start
+
+
+def initial_at_fix(filt_obj, fixes, k: int, config) -> InitialState:
+    """The filter's `InitialState` at fix `k` projected on its track, whether or not the
+    fix agrees with the track (a network run's candidates: every netelement near the fix);
+    the speed as `initial_from_fixes` takes it, from fixes that do agree.
+
+    Parameters
+    ----------
+    filt_obj : railnav.filters.protocol.Filter
+    fixes : railnav.filters.fix_epochs.FixEpochs
+    k : int
+        Index of the start fix.
+    config : railnav.config.NavigatorConfig
+    """
+    gate = math.sqrt(chi2_threshold(config.gate_probability or START_GATE_PROBABILITY, 1))
+    n = min(len(fixes) - k, MAX_INITIAL_FIXES)
+    s, cross, along, sigma_along, points = _offsets(filt_obj.track, fixes, n,
+                                                    config.fix_model, first=k)
+    ok = (cross <= gate) & (along <= gate)
+    ok[0] = True
+    return _start(filt_obj, _Shifted(fixes, k), 0, s, ok, sigma_along, points)
+
+
+class _Shifted:
+    """Fix arrays seen from fix `k` on (what `_start` indexes)."""
+
+    def __init__(self, fixes, k: int) -> None:
+        for name in ("time_s", "cov_n_m2", "v_n_mps", "sigma_speed_mps"):
+            setattr(self, name, getattr(fixes, name)[k:])
+
+
+def _start(filt_obj, fixes, k: int, s: Array, ok, sigma_along: Array, points
+           ) -> InitialState:
+    """The `InitialState` at fix `k` (s, agreement and along σ of the fixes from the
+    first of `s` on)."""
     point = scalar_point(points, k)
     v0, sigma_v = _start_speed(fixes, k, s, ok, sigma_along, track_axes_n(point))
     t_e = C_n_e(point.lat, point.lon) @ np.asarray(point.u_n, dtype=float)
@@ -97,8 +139,6 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
                   v_e=v0 * t_e, clock_bias_m={}, clock_drift_mps=0.0,
                   cov_enu_m2=fixes.cov_n_m2[k], cov_v_enu_m2ps2=sigma_v ** 2 * np.eye(3))
     x0, P0 = filt_obj.initial_from_fix(fix)
-    log.info("started at t=%.3f s from GNSS fix %d of %d (the first %d disagree with the "
-             "track)", fix.time_s, k + 1, len(fixes), k)
     return InitialState(fix.time_s, x0, P0)
 
 

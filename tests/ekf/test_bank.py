@@ -202,3 +202,30 @@ def test_imm_starts_in_own_coordinates_equal_the_shared_ones(rng):
     lone = imm_starts(np.array([1 - 1e-12, 1e-12, 0.0]), np.eye(3) * 0.999 + 0.001 / 3, xs,
                       Ps, min_weight=1e-6)
     np.testing.assert_array_equal(lone[0][0], xs[0])
+
+
+def test_a_long_dead_model_is_not_floored_and_revived():
+    """Issue 13's flaw of the static bank: probabilities were floored at ``tiny``
+    (log ≈ −708), so one step whose likelihood ratio exceeded e^708 revived a model the
+    data had ruled out by e^2000. In log space the model keeps −2000 + 800 = −1200."""
+    from ekf.bank import log_predict, switching_update
+    log_mu = np.array([0.0, -2000.0])
+    for transition in (None, np.eye(2)):
+        out = switching_update(log_mu, np.array([-800.0, 0.0]), transition)
+        np.testing.assert_allclose(out, [0.0, -1200.0], atol=1e-9)
+    # what a chain moves there is kept exactly: log(ε) for a model that was −inf
+    eps = 1e-7
+    moved = log_predict(np.array([0.0, -np.inf]), np.array([[1 - eps, eps], [0.0, 1.0]]))
+    np.testing.assert_allclose(moved, [np.log1p(-eps), np.log(eps)], rtol=1e-8)  # 1 - ε rounds
+
+
+def test_logsumexp_equals_scipy(rng):
+    from scipy.special import logsumexp as reference
+
+    from ekf.bank import logsumexp
+    a = rng.normal(scale=300.0, size=(5, 4))
+    a[1, 2] = -np.inf
+    for axis in (None, 0, 1):
+        np.testing.assert_allclose(logsumexp(a, axis=axis), reference(a, axis=axis),
+                                   rtol=1e-14)
+    assert logsumexp(np.full(3, -np.inf)) == -np.inf

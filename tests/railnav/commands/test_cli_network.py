@@ -35,16 +35,21 @@ def test_routes_are_listed(capsys):
 
 
 def test_run_identifies_the_route(tmp_path, capsys):
-    """Route 0 (via 88_L_154) diverges ~650 m from the others within the trip."""
+    """A trip simulated along route 0 (88_L_111 backwards, then the switch's way onto
+    88_L_154): the network navigator, told the start element only, ends on 88_L_154 with
+    probability > 0.99 and writes the network run's files."""
     out = tmp_path / "run"
     assert main(["-q", "network", "run", BRUSSELS, "--start", "88_L_111:1000:-",
-                 "--horizon-m", "2500", "--true-route", "0", "--no-plots",
-                 "--out", str(out)]) == 0
+                 "--horizon-m", "2500", "--true-route", "0", "--duration-s", "75",
+                 "--no-plots", "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
-    probs = summary["track_probabilities"]
-    assert summary["true_track"] == "-88_L_111>-88_L_154>-88_L_7815"
-    assert probs[summary["true_track"]] > 0.99
-    assert (out / "track_probabilities.csv").is_file()
+    route = summary["route"]
+    assert route["true_route"] == ["88_L_111", "88_L_154", "88_L_7815"]
+    assert route["netelements"] == ["88_L_111", "88_L_154"]
+    assert route["final_probability"] > 0.99
+    assert route["truth"]["navigable"] and route["truth"]["passes_truth"]
+    for name in ("estimates.csv", "hypotheses.csv", "route.csv", "innovations.csv"):
+        assert (out / name).is_file()
 
 
 @pytest.mark.parametrize("argv, message", [

@@ -1,0 +1,88 @@
+"""The flags of ``railnav run --network`` (`railnav.commands.network_run`): declared in
+`add_network_arguments` (called from `railnav.commands.run_flags.add_run_arguments`),
+checked against the others in `_check_network_flags` (called from
+`railnav.commands.run_flags.check_flags`), ``--start`` parsed by `parse_start`. Light
+imports only (start-up: `railnav.commands`).
+"""
+from __future__ import annotations
+
+import argparse
+
+from railnav.commands.support import augmentation_requested, positive_int
+from railnav.errors import ConfigError
+
+__all__ = ["add_network_arguments", "parse_start", "NETWORK_EXCLUDES"]
+
+#: Flags of ``run`` that a network run does not take (attribute -> flag).
+NETWORK_EXCLUDES = {"baro": "--baro", "true_track": "--true-track", "window": "--window",
+                    "imu_spec": "--imu-spec", "odometer": "--odometer",
+                    "balises": "--balises", "lever_arm": "--lever-arm",
+                    "imu_lever_arm": "--imu-lever-arm"}
+
+
+def add_network_arguments(p) -> None:
+    """The flags of a run on a track network (`railnav.commands.network_run`)."""
+    p.add_argument("--network", metavar="NETWORK", default=None,
+                   help="a track network (a folder of railnav network build, or GeoJSON "
+                        "netelements + netrelations) instead of TRACK: follow the train "
+                        "through it with hypotheses that branch at switches (sensor files "
+                        "only); writes hypotheses.csv, route.csv, network.png, and "
+                        "estimates.csv gains netelement, netelement_offset_m, direction, "
+                        "netelement_probability")
+    p.add_argument("--start", metavar="NETELEMENT[:OFFSET_M[:+|-]]", default=None,
+                   help="--network: the netelement the train starts on, optionally the "
+                        "offset from its first coordinate (m) and the direction (+ towards "
+                        "its last coordinate); default: every netelement near the first fix")
+    p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
+                   help="--network: most live hypotheses (default 16)")
+
+
+def _check_network_flags(args: argparse.Namespace) -> None:
+    """The network flags against the others (part of `check_flags`)."""
+    if args.network is None:
+        mine = [flag for flag, value in (("--start", args.start),
+                                         ("--max-hypotheses", args.max_hypotheses))
+                if value is not None]
+        if mine:
+            raise ConfigError(f"{', '.join(mine)}: only with --network")
+        if not args.tracks:
+            raise ConfigError("give a TRACK file (or several), or --network NETWORK")
+        return
+    if args.tracks:
+        raise ConfigError("--network replaces TRACK: give one or the other")
+    if args.imu is None and args.obs is None and args.fixes is None:
+        raise ConfigError("--network: needs sensor files (--fixes, --imu, --obs/--nav); a "
+                          "simulated trip on a network: railnav network run")
+    others = [flag for attr, flag in NETWORK_EXCLUDES.items()
+              if getattr(args, attr, None) is not None]
+    if augmentation_requested(args):
+        others.append("--base/--sp3/--smooth-window-s")
+    if getattr(args, "smooth", False):
+        others.append("--smooth")
+    if getattr(args, "export", None) is not None:
+        others.append("--export")
+    if others:
+        raise ConfigError(f"{', '.join(others)}: not with --network")
+    parse_start(args.start)
+
+
+def parse_start(text: str | None) -> tuple[str, float | None, int | None] | None:
+    """``NETELEMENT[:OFFSET_M[:+|-]]`` as ``(element, offset_m, direction)`` (None for
+    None): the netelement, the offset from its first coordinate (m) and the direction of
+    travel (``+`` towards its last coordinate); the keywords of
+    `railnav.navigation.network_start.NetworkStart` (no import here: argument errors stay
+    fast)."""
+    if text is None:
+        return None
+    parts = text.split(":")
+    try:
+        if not 1 <= len(parts) <= 3 or not parts[0]:
+            raise ValueError
+        offset = float(parts[1]) if len(parts) > 1 and parts[1] != "" else None
+        direction = {"+": 1, "-": -1}[parts[2]] if len(parts) == 3 else None
+        if offset is not None and not offset >= 0.0:
+            raise ValueError
+    except (ValueError, KeyError):
+        raise ConfigError(f"--start {text!r}: expected NETELEMENT[:OFFSET_M[:+|-]] with "
+                          "OFFSET_M >= 0 (e.g. 88_L_111:250)") from None
+    return parts[0], offset, direction

@@ -1,0 +1,209 @@
+r"""One cycle of every hypothesis's filter: propagate to the cycle's end, update there.
+
+`EngineStepper` drives each hypothesis's own filter object (any kind that screens its
+rows: `railnav.filters.protocol.FilterKind.banks`, or any kind with fixes) through the
+EKF engine (`ekf.CdFilter`), over the same samples for all: from the previous cycle's end
+``t[a]`` to this one's ``t[b]``, then the epoch's discrete update at ``t[b]`` when there is
+one. The engine holds no hypothesis's state: it is reset to the hypothesis's posterior at
+``t[a]`` (one engine per state layout serves all), the filter object computes the inputs
+of the samples ``t[a..b]`` from that posterior (`Filter.inputs`), the engine propagates
+(`ekf.CdFilter.propagate`) and updates with the epoch's rows built at the prior there
+(`Filter.observations`, which screens them: `railnav.filters.fault_detection`), adding an
+`ekf.EpochRows` jump covariance first as `ekf.CdFilter` does.
+
+**Kinked joints.** A map's netelements may meet at a kink (a switch digitized as a corner:
+5–11° in the Brussels network) where the vehicle runs a curve; the accelerometer
+pseudo-observation of the inertial filters would take the curve's lateral acceleration for
+an error of the state. Within `KINK_WINDOW_M` (plus 3σ_s) of a joint of its track that
+kinks by more than `trackmodel.network.CONTINUOUS_KINK_RAD`, a hypothesis's
+pseudo-observation noise density gets the curve a train would run there,
+``(v²θ/w)² · w/|v|`` (θ the kink, ``w`` the window): the filter then leans on its IMU
+through the joint.
+
+**Continuous evidence on a common covariance** (`common_continuous_log_likelihoods`). Each
+step's pseudo-observation innovation ``ν_j`` of hypothesis j is scored against one
+covariance for all: at each step, the innovation covariance ``S`` of the hypothesis with
+the largest ``det S``. A hypothesis whose own ``S`` is wide — near a kinked joint (above),
+or with a curvature change within its σ_s, where the geometry noise of
+`railnav.filters.geometry_noise` stands in for "on the straight or already in the curve" —
+then pays nothing for that width (its own ``log det S`` would penalize it while the vehicle
+may well be where its mean says), and the innovations decide: small for the hypothesis
+whose geometry the vehicle follows, large (0.8 m/s² in a 500-m curve at 20 m/s) for the
+others.
+
+What the weights need comes back per hypothesis (`CycleOutcome`): the epoch's screen
+(innovations at the prior and their covariance, for the common evidence of
+`railnav.navigation.bank.common_log_likelihoods`) and the continuous measurement's
+innovations and covariances of every step (`ekf.propagate.StepOutputs`).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.packing import unpack_sym
+from ekf.series import EpochRows, InputSeries
+from railnav.navigation.loop import filter_engine
+from trackmodel.network import CONTINUOUS_KINK_RAD
+from trackmodel.network_lines import TRANSITION_MAX_M
+
+__all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
+           "KINK_WINDOW_M", "joint_allowance"]
+
+Array = npt.NDArray[np.float64]
+
+#: Half-width of the stretch around a kinked joint where the map's geometry is not
+#: trusted by the pseudo-observation, m: the longest transition a route line puts after
+#: a joint (`trackmodel.network_lines.TRANSITION_MAX_M`, a 1:9 turnout's curve).
+KINK_WINDOW_M = TRANSITION_MAX_M
+
+
+@dataclass(frozen=True, eq=False)
+class CycleOutcome:
+    """What one cycle gave each hypothesis (in the order they were stepped).
+
+    Attributes
+    ----------
+    screens : list of EpochScreen or None
+        Each filter's screened epoch (None when the cycle had no epoch).
+    innov_c : list of ndarray (N, n_c) or None
+        Each filter's continuous-measurement innovations of the cycle's N steps (None:
+        no continuous measurement, or no step).
+    S_c : list of ndarray (N, n_c, n_c) or None
+        Their covariances.
+    steps : int
+        Filter steps made (summed over the hypotheses).
+    continuous : bool
+        The filters have a continuous measurement (the inertial ones).
+    evidence : ndarray, shape (K,), optional
+        The epoch's evidence when the stepper computed it on the common basis itself
+        (`railnav.navigation.stacked_fixes`); None: from `screens`.
+    evidence_rows : int
+        Rows of that evidence.
+    points : (ndarray (K, 3), ndarray (K, 3)), optional
+        ECEF position and unit tangent of each hypothesis's point, when the stepper has
+        them.
+    """
+
+    screens: list | None
+    innov_c: list | None
+    S_c: list | None
+    steps: int
+    continuous: bool = False
+    evidence: Array | None = None
+    evidence_rows: int = 0
+    points: tuple | None = None
+
+
+def common_continuous_log_likelihoods(innov: list, S: list) -> Array:
+    """``−½ Σ_k ν_jkᵀ S̄_k⁻¹ ν_jk`` of each hypothesis j, ``S̄_k`` the innovation covariance
+    of step k with the largest determinant over the hypotheses (module docstring; the
+    terms common to all are left out).
+
+    Parameters
+    ----------
+    innov : list of ndarray, shape (N, n_c)
+    S : list of ndarray, shape (N, n_c, n_c)
+
+    Returns
+    -------
+    ndarray, shape (K,)
+    """
+    nu, cov = np.stack(innov), np.stack(S)                   # (K, N, c), (K, N, c, c)
+    widest = np.argmax(np.linalg.det(cov), axis=0)            # (N,)
+    common = cov[widest, np.arange(cov.shape[1])]             # (N, c, c)
+    white = np.linalg.solve(common[None], nu[..., None])[..., 0]
+    return -0.5 * np.einsum("knc,knc->k", nu, white)
+
+
+def joint_allowance(h, tracks, t: Array) -> Array | None:
+    """Extra pseudo-observation noise density at samples ``t`` near a kinked joint of the
+    hypothesis's track (module docstring), shape (M,); None where there is none."""
+    if tracks is None:
+        return None
+    joints = [(s_j, k) for s_j, k in tracks.joints(h.pieces) if k >= CONTINUOUS_KINK_RAD]
+    if not joints:
+        return None
+    i_s, i_v = h.index("s"), h.index("v")
+    v = float(h.x[i_v])
+    s = h.s_m + v * (t - t[0])
+    w = KINK_WINDOW_M + 3.0 * float(np.sqrt(max(h.P[i_s, i_s], 0.0)))
+    near = np.zeros(t.size)
+    for s_j, kink in joints:
+        near = np.where(np.abs(s - s_j) < w, np.maximum(near, kink), near)
+    if not near.any():
+        return None
+    speed = max(abs(v), 1.0)
+    return (speed ** 2 * near / w) ** 2 * w / speed
+
+
+class EngineStepper:
+    """Steps hypotheses cycle by cycle over a trip's samples (module docstring).
+
+    Parameters
+    ----------
+    config : railnav.config.NavigatorConfig
+    t : ndarray, shape (M,)
+        Sample times, s from the trip start.
+    u : ndarray, shape (M, n_u)
+        Raw inputs of the samples.
+    tracks : railnav.navigation.net_tracks.OrientedTracks, optional
+        For the joints' kinks.
+    """
+
+    def __init__(self, config, t: Array, u: Array, tracks=None) -> None:
+        self.config, self.t, self.u, self.tracks = config, t, u, tracks
+        self._dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+        self._engines: dict[tuple, object] = {}
+
+    def _engine(self, filt):
+        key = (type(filt).__name__, filt.layout.names)
+        if key not in self._engines:
+            self._engines[key] = filter_engine(filt, self.config, sample_interval_s=self._dt)
+        return self._engines[key]
+
+    def step(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
+        """Propagate every hypothesis from sample `a` to sample `b` and update it there
+        with epoch `epoch` (an index of the trip's epoch schedule; None: no epoch)."""
+        screens = [] if epoch is not None else None
+        innov, cov = [], []
+        t, u = self.t[a:b + 1], self.u[a:b + 1]
+        continuous = False
+        for h in hyps:
+            engine = self._engine(h.filt)
+            engine.reset(h.x, h.P)
+            if b > a:
+                out, has = self._propagate(h, engine, t, u)
+                continuous = continuous or has
+                if has and out.innov.shape[0]:
+                    innov.append(out.innov)
+                    cov.append(unpack_sym(out.S))
+            if epoch is not None:
+                self._update(h, engine, epoch)
+                screens.append(h.filt.screen.last)
+                h.filt.screen.clear_records()
+            h.x, h.P = engine.x.copy(), engine.P.copy()
+        full = bool(innov) and len(innov) == len(hyps)
+        return CycleOutcome(screens, innov if full else None, cov if full else None,
+                            (b - a) * len(hyps), continuous)
+
+    def _propagate(self, h, engine, t: Array, u: Array):
+        """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
+        and whether the filter has a continuous measurement."""
+        u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0]))
+        extra = None if r_c is None else joint_allowance(h, self.tracks, t)
+        if extra is not None:
+            r_c = r_c + extra[:, None]
+        out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c, q_c=h.filt.q_c, r_c=r_c))
+        return out, r_c is not None
+
+    @staticmethod
+    def _update(h, engine, epoch: int) -> None:
+        rows = h.filt.observations(epoch, engine.x, engine.P)
+        if isinstance(rows, EpochRows):
+            if rows.jump_covariance is not None:
+                engine.P = engine.P + rows.jump_covariance
+            rows = rows.observations
+        engine.update(rows)

@@ -1,0 +1,286 @@
+"""What a network run produces (`railnav.navigation.network_navigator.navigate_network`).
+
+`NetworkResult` keeps, for every cycle, the most probable netelement (the one whose
+hypotheses hold the most probability), that probability, the most probable hypothesis on
+it (its state and covariance) and the mixture of all hypotheses on that element along it
+(moment-matched offset and σ); the live hypotheses once per
+`NetworkNavConfig.hypotheses_every_s`; the innovations of the most probable hypothesis at
+each epoch; and the final hypotheses with their paths. From these:
+
+* `NetworkResult.estimates`: the ``estimates.csv`` table of the most probable hypothesis
+  (its filter's columns, `railnav.navigation.result.estimates_frame`) plus ``netelement``,
+  ``netelement_offset_m`` (from the element's first coordinate), ``direction`` (+1 towards
+  its last coordinate), ``netelement_probability``, ``mixture_offset_m`` and
+  ``mixture_sigma_m`` (the mixture on that element: meaningful where one element holds a
+  Gaussian sum along ``s``), and ``hypotheses`` (the live count);
+* `NetworkResult.hypotheses`: ``hypotheses.csv``;
+* `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
+  hypothesis (its path), each element with entry and exit times, the probability of the
+  final mixture that its path went through that element (``probability``) and the share
+  the element held while the train was on it (``mean_probability``, ``min_probability``);
+* `NetworkResult.combined`: a `railnav.navigation.result.NavigationResult` of the
+  estimates and innovations, for the writers, plots and scores of single-track runs.
+
+Estimates are at the cycle ends (each epoch, and every `railnav.navigation.loop.MAX_CHUNK_S`
+without one), not at ``config.output_rate_hz``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from ekf.packing import pack_sym
+from railnav.navigation.hypotheses import normalized_weights
+from railnav.navigation.result import NavigationResult, estimates_frame
+
+__all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
+
+Array = npt.NDArray[np.float64]
+
+#: Columns a network run adds to ``estimates.csv``.
+NETWORK_COLUMNS = ("netelement", "netelement_offset_m", "direction",
+                   "netelement_probability", "mixture_offset_m", "mixture_sigma_m",
+                   "hypotheses")
+
+
+def _offset(tracks, h) -> float:
+    """The hypothesis's offset from its element's first coordinate, m."""
+    element, orientation, s = h.where()
+    return float(tracks.offset_m(element, orientation, s))
+
+
+def _mixture_offset(hyps, w: Array, tracks, element: str) -> tuple[float, float]:
+    """Moment-matched offset (m, from the element's first coordinate) and σ of the
+    hypotheses on `element`."""
+    on = [k for k, h in enumerate(hyps) if h.element == element]
+    ww = w[on] / w[on].sum()
+    off = np.array([_offset(tracks, hyps[k]) for k in on])
+    var = np.array([hyps[k].P[hyps[k].index("s"), hyps[k].index("s")] for k in on])
+    mean = float(ww @ off)
+    return mean, float(np.sqrt(ww @ (var + (off - mean) ** 2)))
+
+
+class NetworkRecorder:
+    """Collects the cycles of a network run (module docstring)."""
+
+    def __init__(self, tracks, factory, nav, *, start_gps_time_s: float) -> None:
+        self.tracks, self.factory, self.nav = tracks, factory, nav
+        self.start_gps_time_s = float(start_gps_time_s)
+        self.rows: list[dict] = []
+        self.x: list[Array] = []
+        self.P: list[Array] = []
+        self.keys: list[tuple[str, int]] = []
+        self.element_probability: list[dict] = []
+        self.hyp_rows: list[dict] = []
+        self.innov: list[pd.DataFrame] = []
+        self.restarts: list[float] = []
+        self.steps = 0
+        self._next_hyp_s = -np.inf
+        self._last: list = []
+
+    def epoch(self, time_s: float, hyps, outcome) -> None:
+        """Record a cycle's screened epoch, of the most probable hypothesis (after the
+        evidence, before branching), and its filter steps."""
+        self.steps += outcome.steps
+        if outcome.screens is not None:
+            best = int(np.argmax([h.log_weight for h in hyps]))
+            self.innov.append((outcome.screens[best], time_s))
+
+    def cycle(self, time_s: float, hyps, *, evidence_rows: int, merges: int,
+              pruned: float) -> None:
+        """Record a cycle's hypotheses after branching, merging and pruning."""
+        w = normalized_weights(hyps)
+        per_element: dict[str, float] = {}
+        for h, wk in zip(hyps, w):
+            per_element[h.element] = per_element.get(h.element, 0.0) + float(wk)
+        element = max(per_element, key=per_element.get)
+        on = [k for k, h in enumerate(hyps) if h.element == element]
+        best = on[int(np.argmax(w[on]))]
+        h = hyps[best]
+        mean, sigma = _mixture_offset(hyps, w, self.tracks, element)
+        v = float(h.x[h.index("v")])
+        self.rows.append({"time_s": time_s, "netelement": element,
+                          "netelement_offset_m": _offset(self.tracks, h),
+                          "direction": int(h.orientation * (1 if v >= 0 else -1)),
+                          "netelement_probability": per_element[element],
+                          "mixture_offset_m": mean, "mixture_sigma_m": sigma,
+                          "hypotheses": len(hyps), "evidence_rows": evidence_rows,
+                          "merges": merges, "pruned_probability": pruned})
+        self.x.append(h.x.copy())
+        self.P.append(pack_sym(h.P))
+        self.keys.append(h.pieces)
+        self.element_probability.append(per_element)
+        self._last = list(hyps)
+        if time_s >= self._next_hyp_s:
+            self._next_hyp_s = time_s + self.nav.hypotheses_every_s
+            self.hyp_rows.extend(_hypothesis_rows(hyps, w, time_s, self.tracks))
+
+    def result(self, network, config, nav, hyps, *, outages, runtime_s: float
+               ) -> "NetworkResult":
+        """The finished run (`hyps` empty when every hypothesis died with no fix left to
+        start again from: the last recorded ones stand for the end)."""
+        hyps = hyps or self._last
+        w = normalized_weights(hyps)
+        final = [{"id": h.id, "element": h.element, "orientation": h.orientation,
+                  "probability": float(wk), "path": h.path} for h, wk in zip(hyps, w)]
+        table = pd.DataFrame(self.rows)
+        return NetworkResult(
+            network=network, tracks=self.tracks, factory=self.factory, config=config,
+            nav=nav, start_gps_time_s=self.start_gps_time_s, runtime_s=float(runtime_s),
+            cycles=table, x=np.array(self.x), P=np.array(self.P), keys=tuple(self.keys),
+            element_probability=tuple(self.element_probability),
+            hypotheses=pd.DataFrame(self.hyp_rows),
+            innovations=_innovation_frame(self.innov, self.start_gps_time_s),
+            final=tuple(final), outages=tuple(tuple(o) for o in outages),
+            restarts=tuple(self.restarts), n_steps=int(self.steps))
+
+
+def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:
+    out = []
+    for h, wk in zip(hyps, w):
+        i_s, i_v = h.index("s"), h.index("v")
+        v = float(h.x[i_v])
+        element, orientation, _ = h.where()
+        out.append({"time_s": time_s, "id": h.id, "parent": h.parent, "netelement": element,
+                    "orientation": orientation,
+                    "direction": int(orientation * (1 if v >= 0 else -1)),
+                    "netelement_offset_m": _offset(tracks, h),
+                    "s_m": h.s_m, "sigma_s_m": float(np.sqrt(h.P[i_s, i_s])),
+                    "speed_mps": v, "sigma_speed_mps": float(np.sqrt(h.P[i_v, i_v])),
+                    "probability": float(wk)})
+    return out
+
+
+def _innovation_frame(epochs: list, start_gps_time_s: float) -> pd.DataFrame:
+    """``innovations.csv`` of the screened epochs ``(EpochScreen, time_s)``
+    (`railnav.navigation.result`'s columns; ``accepted``: used by the update)."""
+    sizes = [e.innov.size for e, _ in epochs]
+    t = np.repeat([tk for _, tk in epochs], sizes).astype(float)
+    keys = [k.split("/", 1) for e, _ in epochs for k in e.keys]
+    innov = np.concatenate([e.innov for e, _ in epochs]) if epochs else np.zeros(0)
+    sigma = np.sqrt(np.concatenate([np.diag(e.S) for e, _ in epochs])) if epochs else \
+        np.zeros(0)
+    cat = (lambda f: np.concatenate([f(e) for e, _ in epochs])) if epochs else \
+        (lambda f: np.zeros(0))
+    return pd.DataFrame({
+        "time_s": t, "gps_time_s": t + start_gps_time_s,
+        "epoch": np.repeat(np.arange(len(epochs)), sizes),
+        "sv": np.array([a for a, _ in keys], dtype=object),
+        "kind": np.array([b for _, b in keys], dtype=object), "innovation": innov,
+        "sigma": sigma, "nis": (innov / sigma) ** 2, "accepted": cat(lambda e: e.used),
+        "status": cat(lambda e: e.status).astype(object),
+        "fault_probability": cat(lambda e: e.fault_probability),
+        "clock_jump_m": np.repeat([e.clock_jump_m for e, _ in epochs], sizes).astype(float)})
+
+
+@dataclass(frozen=True, eq=False)
+class NetworkResult:
+    """A network run (module docstring). ``cycles`` has one row per cycle (the network
+    columns, ``evidence_rows``, ``merges``, ``pruned_probability``); ``x``
+    and ``P`` (packed) the most probable hypothesis's state there (``s`` along its own
+    track), ``keys`` the pieces of that track; ``final`` the last hypotheses (``id,
+    element, orientation, probability, path``)."""
+
+    network: object
+    tracks: object
+    factory: object
+    config: object
+    nav: object
+    start_gps_time_s: float
+    runtime_s: float
+    cycles: pd.DataFrame
+    x: Array
+    P: Array
+    keys: tuple
+    element_probability: tuple
+    hypotheses: pd.DataFrame
+    innovations: pd.DataFrame
+    final: tuple
+    outages: tuple
+    restarts: tuple = ()
+    n_steps: int = 0
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def time_s(self) -> Array:
+        """Cycle end times, s from the trip start."""
+        return self.cycles["time_s"].to_numpy(dtype=float)
+
+    @property
+    def estimates(self) -> pd.DataFrame:
+        """The ``estimates.csv`` table (module docstring)."""
+        if "estimates" not in self._cache:
+            self._cache["estimates"] = self._estimates()
+        return self._cache["estimates"]
+
+    def _estimates(self) -> pd.DataFrame:
+        t = self.time_s
+        parts = []
+        index = {key: k for k, key in enumerate(dict.fromkeys(self.keys))}
+        code = np.array([index[key] for key in self.keys])
+        for key, k in index.items():
+            rows = np.flatnonzero(code == k)
+            filt = self.factory.template(key)
+            frame = estimates_frame(filt, t[rows], self.x[rows], self.P[rows],
+                                    start_gps_time_s=self.start_gps_time_s)
+            parts.append(frame.set_index(rows))
+        out = pd.concat(parts).sort_index()
+        for name in NETWORK_COLUMNS:
+            out[name] = self.cycles[name].to_numpy()
+        return out.reset_index(drop=True)
+
+    def route_frame(self) -> pd.DataFrame:
+        """``route.csv`` (module docstring)."""
+        best = max(self.final, key=lambda f: f["probability"])
+        t = self.time_s
+        rows = []
+        for k, (element, orientation, entry) in enumerate(best["path"]):
+            leave = best["path"][k + 1][2] if k + 1 < len(best["path"]) else float(t[-1])
+            last = k + 1 == len(best["path"])
+            share = [p.get(element, 0.0) for p, tk in zip(self.element_probability, t)
+                     if entry - 1e-9 <= tk and (tk < leave - 1e-9 or last)]
+            passed = sum(f["probability"] for f in self.final
+                         if element in {e for e, _, _ in f["path"]})
+            rows.append({"netelement": element, "orientation": orientation,
+                         "entry_time_s": float(entry), "exit_time_s": float(leave),
+                         "entry_gps_time_s": float(entry) + self.start_gps_time_s,
+                         "exit_gps_time_s": float(leave) + self.start_gps_time_s,
+                         "probability": float(passed),
+                         "mean_probability": float(np.mean(share)) if share else np.nan,
+                         "min_probability": float(np.min(share)) if share else np.nan})
+        return pd.DataFrame(rows)
+
+    def route_summary(self) -> dict:
+        """``summary.json["route"]``: the route's elements and probabilities, the final
+        hypotheses, how many lived (median, max) and what pruning dropped."""
+        route = self.route_frame()
+        cyc = self.cycles
+        return {"netelements": route["netelement"].tolist(),
+                "probabilities": [round(float(p), 6) for p in route["probability"]],
+                "final_probability": float(max(f["probability"] for f in self.final)),
+                "final_hypotheses": len(self.final), "cycles": int(len(cyc)),
+                "hypotheses_median": float(cyc["hypotheses"].median()),
+                "hypotheses_max": int(cyc["hypotheses"].max()),
+                "pruned_probability_total": float(cyc["pruned_probability"].sum()),
+                "merges": int(cyc["merges"].sum()), "restarts": list(self.restarts),
+                "max_hypotheses": self.nav.max_hypotheses,
+                "prune_probability": self.nav.prune_probability,
+                "crossing_rate_per_s": self.nav.crossing_rate_per_s,
+                "runtime_s": self.runtime_s}
+
+    def combined(self) -> NavigationResult:
+        """The estimates and innovations as a `NavigationResult` (``raw`` is None: no one
+        filter ran the whole trip; ``filter_object`` the last most probable one's
+        template, whose ``s`` is along its own element)."""
+        est = self.estimates
+        filt = self.factory.template(self.keys[-1])
+        return NavigationResult(
+            filter=self.config.filter, layout=filt.layout,
+            start_gps_time_s=self.start_gps_time_s, time_s=self.time_s, x=self.x, P=self.P,
+            estimates=est, innovations=self.innovations, nis_continuous_mean=float("nan"),
+            nis_continuous_dof=0, outages=self.outages, runtime_s=self.runtime_s,
+            n_steps=self.n_steps, n_epochs=int(self.innovations["epoch"].nunique())
+            if len(self.innovations) else 0, raw=None, filter_object=None, left_track=None)

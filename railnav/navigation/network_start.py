@@ -1,0 +1,200 @@
+"""Where a network run starts: its first hypotheses.
+
+* **Known netelement** (`NetworkStart`, ``railnav run --network N --start E[:OFFSET_M]``):
+  hypotheses on that element only; at the given offset from its first coordinate, else
+  where the start fix projects on it.
+* **Unknown** (no start): every netelement within `NetworkNavConfig.start_radius_m` of the
+  start fix (`trackmodel.network.Network.project`). The start fix is the first position
+  fix with a netelement that near (a fix far off every track, a wrong flag or a jump, is
+  never a start), or without fixes the first single-point GNSS solution
+  (`railnav.navigation.initialization.first_fix`).
+
+Directions: a filter with attitude states (the inertial filters) knows which way the
+vehicle faces, so each element gets one hypothesis per orientation; the GNSS-only filter's
+speed is signed, so one hypothesis per element covers both ways (its direction of travel
+is the sign of ``v``). Each hypothesis starts from the fix projected on its own track
+(`Filter.initial_from_fix`; from fixes, `railnav.navigation.fix_start.initial_at_fix`,
+whose speed comes from the next fix that agrees with that track), with equal weights.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from railnav.errors import ConfigError, RailnavError
+from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
+from railnav.navigation.hypotheses import Hypothesis, hypothesis
+from railnav.navigation.net_tracks import bare
+from railnav.navigation.initialization import InitialState, first_fix
+from trackmodel.earth import ecef_to_geodetic
+
+__all__ = ["NetworkStart", "start_hypotheses", "orientations_of"]
+
+log = logging.getLogger(__name__)
+
+#: Fixes projected on the network at a time while looking for a start.
+START_CHUNK = 25
+
+
+@dataclass(frozen=True)
+class NetworkStart:
+    """A known start: the netelement, optionally the offset from its first coordinate (m)
+    and the direction of travel on it (+1 towards its last coordinate, -1 back; None:
+    either)."""
+
+    element: str
+    offset_m: float | None = None
+    direction: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.direction not in (None, 1, -1):
+            raise ConfigError(f"start direction must be +1, -1 or None, got {self.direction!r}")
+
+
+def orientations_of(filt, direction: int | None) -> tuple[int, ...]:
+    """The orientations a start on one element needs (module docstring)."""
+    if "yaw" not in filt.layout.names:
+        return (1,)
+    return (1, -1) if direction is None else (direction,)
+
+
+def _start_fix_index(network, fixes, radius_m: float, element: str | None,
+                     after_s: float | None) -> int:
+    """The first fix (after `after_s`) with a netelement (`element`, if given) within
+    `radius_m`."""
+    first = 0 if after_s is None else int(np.searchsorted(fixes.time_s, after_s,
+                                                          side="right"))
+    n = min(len(fixes) - first, MAX_INITIAL_FIXES)
+    if n <= 0:
+        raise RailnavError(f"no fix after t={after_s:.1f} s to start again from")
+    for k in range(first, first + n, START_CHUNK):    # usually the first chunk has one
+        part = slice(k, min(k + START_CHUNK, first + n))
+        near = network.project(fixes.lat[part], fixes.lon[part], radius_m=radius_m)
+        if element is not None:
+            near = near[near["element"] == element]
+        if len(near):
+            return k + int(near["point"].min())
+    where = "a netelement" if element is None else f"netelement {element}"
+    raise ConfigError(f"none of the first {n} fixes is within {radius_m:g} m of {where}: "
+                      "are the fixes on this network?")
+
+
+def _candidates(network, lat: float, lon: float, radius_m: float,
+                start: NetworkStart | None) -> list[str]:
+    if start is not None:
+        return [start.element]
+    near = network.project(np.array([lat]), np.array([lon]), radius_m=radius_m)
+    if len(near) == 0:
+        raise ConfigError(f"the start fix is not within {radius_m:g} m of a netelement: "
+                          "is it on this network?")
+    return list(dict.fromkeys(near["element"]))
+
+
+def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
+                     start: NetworkStart | None = None, initial=None,
+                     after_s: float | None = None, near=None
+                     ) -> tuple[float, list[Hypothesis]]:
+    """The start time (s from the trip start) and the first hypotheses (module docstring).
+
+    Parameters
+    ----------
+    network : trackmodel.network.Network
+    tracks : railnav.navigation.net_tracks.OrientedTracks
+    factory : callable(pieces) -> filter object
+    trip : railnav.navigation.navigator.TripSamples
+    data : railnav.SensorData
+    config : railnav.NavigatorConfig
+    nav : railnav.navigation.hypotheses.NetworkNavConfig
+    start : NetworkStart, optional
+    initial : callable(filter object, element, orientation) -> InitialState or None, optional
+        A start of its own for each candidate (simulations: the truth brought onto it);
+        None for a candidate leaves it out.
+    after_s : float, optional
+        Start from the first fix (or single-point solution) after this time (a restart, s
+        from the trip start).
+    near : (lat, lon), optional
+        Look for candidates near this point (rad) instead of near the start fix (a
+        simulation's true start, with `initial`).
+
+    Raises
+    ------
+    ConfigError
+        A start netelement not in the network; no fix near the network.
+    """
+    if start is not None and start.element not in network.elements:
+        raise ConfigError(f"start netelement {start.element!r} is not in the network")
+    lat, lon, begin = _start_point(network, trip, data, config, nav, start,
+                                   near is not None and initial is not None, after_s)
+    if near is not None:
+        lat, lon = near
+    hyps, time_s = [], None
+    for element in _candidates(network, float(lat), float(lon), nav.start_radius_m, start):
+        probe = factory(bare(element, 1))
+        for orientation in orientations_of(probe, None if start is None else start.direction):
+            filt = probe if orientation == 1 else factory(bare(element, orientation))
+            init = begin(filt) if initial is None else initial(filt, element, orientation)
+            if init is None:
+                continue
+            if start is not None and start.offset_m is not None:
+                init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
+            time_s = init.time_s if time_s is None else time_s
+            hyps.append(hypothesis(tracks, bare(element, orientation), init.x0, init.P0,
+                                   0.0, filt, ((element, orientation, float(init.time_s)),)))
+    if not hyps:
+        raise RailnavError("no start hypothesis")
+    log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),
+             ", ".join(sorted({h.element for h in hyps})))
+    return float(time_s), hyps
+
+
+def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
+    """Where the candidates are looked for (lat, lon, rad) and how a candidate's filter
+    starts there (``begin(filt) -> InitialState``); `told`: every candidate's start is
+    given (a simulation)."""
+    if told:
+        def begin(filt):                       # never called: the starts are given
+            raise RailnavError("no start")
+        return 0.0, 0.0, begin
+    if trip.fixes is not None and len(trip.fixes):
+        k = _start_fix_index(network, trip.fixes, nav.start_radius_m,
+                             None if start is None or start.offset_m is not None
+                             else start.element, after_s)
+
+        def begin(filt):
+            return initial_at_fix(filt, trip.fixes, k, config)
+        return float(trip.fixes.lat[k]), float(trip.fixes.lon[k]), begin
+    if trip.gnss is not None:
+        fix = first_fix(_after(data, trip.gnss, after_s), config)
+        lat, lon, _ = ecef_to_geodetic(fix.r_e)
+
+        def begin(filt):
+            return InitialState(fix.time_s, *filt.initial_from_fix(fix))
+        return float(lat), float(lon), begin
+    raise RailnavError("a network run needs GNSS observations or fixes to start from")
+
+
+def _after(data, gnss, after_s: float | None):
+    """`data` with the GNSS observations from the run's first usable epoch after `after_s`
+    on (s from the trip start; usable: outside the outages, `gnss`'s epochs)."""
+    if after_s is None:
+        return data
+    usable = np.asarray(gnss.time_s, dtype=float)
+    usable = usable[usable > after_s]
+    if usable.size == 0:
+        raise RailnavError(f"no GNSS epoch after t={after_s:.1f} s to start again from")
+    table = data.obs.table
+    keep = table["gps_time_s"].to_numpy() >= data.start_gps_time_s + usable[0] - 1e-6
+    return replace(data, obs=replace(data.obs, table=table[keep]))
+
+
+def _at_offset(init: InitialState, filt, tracks, element: str, orientation: int,
+               offset_m: float) -> InitialState:
+    length = tracks.length_m(element)
+    if not 0.0 <= offset_m <= length:
+        raise ConfigError(f"start offset {offset_m:g} m is not on netelement {element} "
+                          f"(length {length:.1f} m)")
+    x0 = np.array(init.x0, dtype=float)
+    x0[filt.layout.index("s")] = tracks.s_of_offset(element, orientation, offset_m)
+    return replace(init, x0=x0)

@@ -1,0 +1,206 @@
+r"""The weights of the network navigator's hypotheses: evidence, Markov prior, mixing.
+
+After each cycle:
+
+1. **Evidence on a common basis.** The epoch's GNSS rows and fix rows are scored for
+   every hypothesis over one set of rows, those that some hypothesis's fault screen used
+   (`railnav.navigation.bank.common_log_likelihoods`, the track bank's rule carried over:
+   a row that the hypothesis on the wrong track rejects because the wrong geometry biases
+   it is evidence against that track; a row every filter refuses is no evidence). The
+   continuous measurement (the inertial filters' accelerometer pseudo-observation) is the
+   same for all hypotheses; its innovations are scored on one covariance per step
+   (`railnav.navigation.hypothesis_step.common_continuous_log_likelihoods`,
+   `NetworkNavConfig.continuous_evidence`): a branch's curvature, or a wrong ``s`` in a
+   curvy stretch, shows there first.
+2. **Markov prior for leaving the track model.** A train may be on a track abreast of the
+   one a hypothesis says (a crossover the map lacks, a map error): each hypothesis gives
+   ``1 − e^{−εΔt}`` of its probability to the hypotheses *abreast* of it, alike
+   (`abreast`: positions within `NetworkNavConfig.crossing_radius_m`, travelling the
+   same way, on another element), and keeps the rest: ``μ_j ∝ L_j Σ_i Π_ij μ_i``
+   computed in log space (`ekf.bank.log_predict`, no floor under a weight). Hypotheses
+   with nothing abreast keep their probability (a switch's branches that have parted,
+   Gaussian-sum components along one element).
+3. **IMM restarts** (`mix_states`): each hypothesis restarts from the mixture of the
+   abreast estimates brought onto its own track (`railnav.navigation.bank.convert_state`),
+   weighted ``μ_{i|j} = Π_ij μ_i / c_j`` (`ekf.bank.imm_starts`), so that the filter on an
+   unlikely parallel track follows the likely one instead of drifting on its own wrong
+   geometry, ready if the train does cross.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.bank import imm_starts, log_predict
+from railnav.errors import RailnavError
+from railnav.navigation.bank import common_log_likelihoods, evidence_rows, moved_state
+from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
+from trackmodel.earth import C_n_e
+
+__all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
+           "reweight", "mix_states", "converted"]
+
+Array = npt.NDArray[np.float64]
+
+
+def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
+                   ) -> tuple[Array, int]:
+    """Each hypothesis's log-likelihood of the cycle (module docstring, 1) and the number
+    of rows the evidence used.
+
+    Parameters
+    ----------
+    outcome : railnav.navigation.hypothesis_step.CycleOutcome
+    count : int
+        Hypotheses stepped.
+    continuous : bool
+        Add the continuous measurement's evidence.
+    share : float
+        What the epoch's evidence counts (`railnav.navigation.hypotheses.evidence_share`).
+    """
+    log_lik = np.zeros(count)
+    if continuous and outcome.innov_c is not None:
+        log_lik = common_continuous_log_likelihoods(outcome.innov_c, outcome.S_c)
+    rows = 0
+    if outcome.evidence is not None:
+        log_lik, rows = log_lik + share * outcome.evidence, outcome.evidence_rows
+    elif outcome.screens:
+        log_lik = log_lik + share * common_log_likelihoods(outcome.screens)
+        rows = len(evidence_rows(outcome.screens))
+    return log_lik, rows
+
+
+def hypothesis_points(hyps, tracks, outcome=None) -> tuple[Array, Array]:
+    """ECEF position (m) and ECEF unit tangent of the oriented track at each hypothesis's
+    ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis); those of
+    the cycle's `outcome` when its stepper gave them."""
+    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
+    if len(hyps) < 2:                       # nothing to be abreast of
+        return r, u
+    if outcome is not None and outcome.points is not None:
+        return outcome.points
+    for k, h in enumerate(hyps):
+        track = h.filt.track
+        p = track.at(min(max(h.s_m, 0.0), track.length_m))
+        r[k] = p.r_e
+        u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
+    return r, u
+
+
+def _signed_speed(filt) -> bool:
+    """Whether a filter's travel direction is its speed's sign (no attitude states)."""
+    return "yaw" not in filt.layout.names
+
+
+def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[int]]:
+    """For each hypothesis, the others abreast of it (module docstring, 2): on another
+    element or orientation, within `radius_m` (3-D distance of the track points), with
+    tangents pointing the same way (either way for filters whose speed is signed)."""
+    K = len(hyps)
+    out: list[list[int]] = [[] for _ in range(K)]
+    if K < 2:
+        return out
+    d = np.linalg.norm(r_e[:, None, :] - r_e[None, :, :], axis=2)
+    same_way = (tangent_e @ tangent_e.T > 0.0) | _signed_speed(hyps[0].filt)
+    on = [h.where()[:2] for h in hyps]
+    for i in range(K):
+        for j in range(K):
+            if i != j and d[i, j] <= radius_m and same_way[i, j] and on[i] != on[j]:
+                out[i].append(j)
+    return out
+
+
+def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
+    """``Π[i, j]``: hypothesis i keeps ``e^{−εΔt}`` and gives the rest to its abreast
+    hypotheses alike (none abreast: it keeps all); rows sum to 1."""
+    K = len(neighbours)
+    Pi = np.eye(K)
+    leave = -math.expm1(-rate_per_s * max(dt_s, 0.0))
+    if leave == 0.0:
+        return Pi
+    for i, nb in enumerate(neighbours):
+        if nb:
+            Pi[i, i] = 1.0 - leave
+            Pi[i, nb] = leave / len(nb)
+    return Pi
+
+
+def reweight(hyps, log_lik: Array, transition: Array) -> None:
+    """``log w_j ← log Σ_i Π_ij w_i + log L_j`` for every hypothesis, in place."""
+    if len(hyps) == 1:                        # one hypothesis: its weight is all there is
+        hyps[0].log_weight = 0.0
+        return
+    log_w = np.array([h.log_weight for h in hyps], dtype=float)
+    log_w = log_predict(log_w, transition) + log_lik
+    top = float(np.max(log_w)) if np.isfinite(log_w).any() else 0.0
+    for h, lw in zip(hyps, log_w - top):                  # kept near 0: no overflow
+        h.log_weight = float(lw)
+
+
+def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
+    """IMM restarts of the hypotheses that have something abreast (module docstring, 3)."""
+    K = len(hyps)
+    if K < 2 or np.allclose(transition, np.eye(K)):
+        return
+
+    def convert(i: int, j: int, x: Array, P: Array):
+        return converted(hyps[i].filt, hyps[j].filt, x, P)
+
+    x0, P0 = imm_starts(mu, transition, [h.x for h in hyps], [h.P for h in hyps],
+                        convert=convert, min_weight=min_weight)
+    for h, x, P in zip(hyps, x0, P0):
+        h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+
+
+#: Offsets ``s_target − s_source`` found for pairs of tracks, for the next conversion.
+_OFFSETS: dict[tuple[int, int], float] = {}
+#: A Newton step longer than this (m) means the guess was poor: project instead.
+NEWTON_MAX_STEP_M = 1.0
+#: Pairs remembered at most (then forgotten together).
+MAX_OFFSETS = 10_000
+
+
+def _target_s(source, target, p_src, s_src: float) -> float:
+    """``s`` of the point of `target`'s track nearest `source`'s point at ``s_src``: one
+    Newton step along the target's tangent from the offset last found for the pair
+    (`railnav.navigation.bank.Correspondence`'s shortcut), else the projection."""
+    key = (id(source.track), id(target.track))
+    guess = _OFFSETS.get(key)
+    if guess is not None:
+        s_g = min(max(s_src + guess, 0.0), target.track.length_m)
+        p_g = target.track.at(s_g)
+        tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
+        step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
+        if abs(step) <= NEWTON_MAX_STEP_M:
+            _OFFSETS[key] = s_g + step - s_src
+            return s_g + step
+    s_tgt = float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
+    if len(_OFFSETS) > MAX_OFFSETS:
+        _OFFSETS.clear()
+    _OFFSETS[key] = s_tgt - s_src
+    return s_tgt
+
+
+def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
+    """`railnav.navigation.bank.convert_state` (``s`` by `_target_s`), and for filters
+    whose speed is signed also between tracks that run opposite ways there: ``s`` from the
+    projection, ``v`` (and its covariances) negated."""
+    lay = source.layout
+    s_src = min(max(float(x[lay.index("s")]), 0.0), source.track.length_m)
+    p_src = source.track.at(s_src)
+    s_tgt = _target_s(source, target, p_src, s_src)
+    p_tgt = target.track.at(min(max(s_tgt, 0.0), target.track.length_m))
+    if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0:
+        out = moved_state(source, x, s_tgt + (float(x[lay.index("s")]) - s_src), p_src,
+                          p_tgt)
+        return out, P
+    if not _signed_speed(source):
+        raise RailnavError(f"the tracks run opposite ways at s = {s_src:.1f} m: an "
+                           "inertial filter's state cannot be brought across")
+    flip = np.ones(x.size)
+    flip[lay.index("v")] = -1.0
+    out = x * flip
+    out[lay.index("s")] = s_tgt + (float(x[lay.index("s")]) - s_src) * -1.0
+    return out, P * np.outer(flip, flip)

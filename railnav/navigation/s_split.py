@@ -1,0 +1,83 @@
+r"""The Gaussian sum along ``s``: a hypothesis whose σ_s has grown against the track's
+curvature features is split into components, each a filter of its own.
+
+One Gaussian along the track is a poor description of where the train is once σ_s spans
+curvature features (which curve was that?): the filter linearizes the pseudo-observation
+at one ``s``, follows the curve it thinks it is in, and can lock onto the wrong one with
+a shrinking σ. `needs_split` says when: σ_s above `NetworkNavConfig.split_sigma_m` and
+what the track would put on the accelerometer spreading by more than
+`NetworkNavConfig.split_accel_mps2` over ``s' ∈ s ± (3σ_s + |v|·1 s)`` (before the next
+cycle reaches the feature, not after): the lateral acceleration
+``v² κ(s')``, the vertical ``v² dϑ/ds(s')``, or the along-track share of gravity on the
+grade, ``g sin ϑ(s')``. `split` replaces
+the Gaussian by `SPLIT_WEIGHTS`, `SPLIT_OFFSETS` of σ_s apart, each with σ_s scaled by
+`SPLIT_SIGMA_FACTOR` (the three-component split of a unit Gaussian, Huber et al. 2008,
+with its σ adjusted so that the mixture keeps the mean and the variance exactly). The
+other states follow their regression on ``s``: component i has ``x + P[:, s] δ_i /
+P[s, s]`` and ``P − (1 − f²) P[:, s] P[s, :] / P[s, s]`` (the conditional Gaussian), so
+speed, attitude and biases stay as correlated with ``s`` as they were.
+
+The components are hypotheses like the others (`railnav.navigation.hypotheses`): each
+linearizes its own pseudo-observation; the weights take the common-covariance evidence of
+`railnav.navigation.hypothesis_step` (the lateral acceleration the vehicle felt against
+the curvature each component expected) and GNSS when it is back; components that come
+together merge (GPB1) and improbable ones are pruned; each splits again if its own σ_s
+grows so.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from railnav.navigation.hypotheses import CYCLE_REACH_S, hypothesis
+
+__all__ = ["needs_split", "split", "SPLIT_WEIGHTS", "SPLIT_OFFSETS", "SPLIT_SIGMA_FACTOR",
+           "SPLIT_PROBES", "GRAVITY_MPS2"]
+
+Array = npt.NDArray[np.float64]
+
+#: Weights and offsets (in σ) of the components of a unit Gaussian (Huber et al. 2008).
+SPLIT_WEIGHTS = (0.2252246249, 0.5495507502, 0.2252246249)
+SPLIT_OFFSETS = (-1.0575154615, 0.0, 1.0575154615)
+#: σ of each component in σ of the original: the rest of the unit variance.
+SPLIT_SIGMA_FACTOR = math.sqrt(1.0 - sum(w * m * m for w, m in zip(SPLIT_WEIGHTS,
+                                                                    SPLIT_OFFSETS)))
+#: Points of the track sampled over ±3σ_s to see its curvature features.
+SPLIT_PROBES = 41
+#: |g| for the along-track share of gravity on a grade, m/s² (a feature test: 0.3 %).
+GRAVITY_MPS2 = 9.81
+
+
+def needs_split(h, nav) -> bool:
+    """Whether hypothesis `h`'s σ_s spans curvature features (module docstring)."""
+    i_s, i_v = h.index("s"), h.index("v")
+    sigma = math.sqrt(max(float(h.P[i_s, i_s]), 0.0))
+    if sigma <= nav.split_sigma_m:
+        return False
+    track = h.filt.track
+    reach = 3.0 * sigma + abs(float(h.x[i_v])) * CYCLE_REACH_S   # the next cycle too
+    s = np.clip(h.s_m + reach * np.linspace(-1.0, 1.0, SPLIT_PROBES), 0.0, track.length_m)
+    p = track.at(s)
+    v2 = float(h.x[i_v]) ** 2
+    spread = max(v2 * float(np.ptp(p.curvature_1pm)), v2 * float(np.ptp(p.elevation_rate)),
+                 GRAVITY_MPS2 * float(np.ptp(np.sin(p.elevation))))
+    return spread > nav.split_accel_mps2
+
+
+def split(h, tracks, make_child) -> list:
+    """The components of `h` (module docstring), each with a filter of its own
+    (``make_child(parent, pieces)``)."""
+    i_s = h.index("s")
+    column = h.P[:, i_s]
+    var_s = float(h.P[i_s, i_s])
+    sigma = math.sqrt(var_s)
+    gain = column / var_s
+    P = h.P - (1.0 - SPLIT_SIGMA_FACTOR ** 2) * np.outer(column, column) / var_s
+    out = []
+    for w, m in zip(SPLIT_WEIGHTS, SPLIT_OFFSETS):
+        x = h.x + gain * (m * sigma)
+        out.append(hypothesis(tracks, h.pieces, x, P.copy(), h.log_weight + math.log(w),
+                              make_child(h, h.pieces), h.path, h.id))
+    return out

@@ -1,0 +1,289 @@
+r"""The network navigator's cycle for fix-only runs, all hypotheses at once (NumPy).
+
+A fix-only run (the GNSS-only filter on position fixes, state ``[s, v]``, no IMU, no
+pseudoranges) does little per hypothesis and epoch; driven filter object by filter
+object (`railnav.navigation.hypothesis_step.EngineStepper`) the Python around it costs
+~1 ms per hypothesis and epoch, most of it looking up the track. `StackedFixStepper`
+does the same arithmetic for the K hypotheses as arrays:
+
+* **Track.** Each oriented element is sampled once on nodes every `GRID_STEP_M`
+  (`FixGrid`, all elements in one table); a hypothesis's point is its nearest node
+  expanded to second order in ``δ = s − s_node`` (position ``r + C(u δ + ½ u' δ²)``,
+  tangent ``u + u' δ``, azimuth and elevation to first order): |δ| ≤ 0.25 m leaves
+  ~``κ' δ³`` (sub-µm), what `railnav.filters.track_grid` argues for the inertial filters.
+* **Propagation** over the cycle's samples, step by step as the engine does it
+  (`ekf.step`: ``Φ = [[1, Δt], [0, 1]]``, ``Q = σ_a² Δt Ḡ Ḡᵀ``, ``Ḡ = (I + Φ)/2 · [0, 1]ᵀ``).
+* **Fix rows** at the prior, those of `railnav.filters.fix_rows` (along, cross, up with
+  a height, speed with a velocity; their ``z``, ``R`` and ``∂h/∂[s, v]`` at the prior's
+  point: the cross and up rows do not depend on ``s`` there), screened as
+  `railnav.filters.fault_detection.RowScreen` screens a fix (a row whose normalized
+  innovation exceeds the screen's threshold fails, and a fix is used whole or not at
+  all), then the engine's row gate and the Kalman update (Joseph form) of the rows kept.
+* **Evidence** on the common basis of `railnav.navigation.bank.common_log_likelihoods`:
+  every fix row is seen by every hypothesis, so the rows count for all when some
+  hypothesis used the fix, and for none when all refused it.
+
+Equal to the per-filter path to rounding and the grid's expansion
+(``tests/railnav/navigation/test_stacked_fixes.py``).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from ekf.gating import chi2_threshold
+from ekf.outliers import fault_probability
+from ekf.update import LOG_2PI
+from railnav.filters.fault_detection import EpochScreen
+from railnav.filters.fix_rows import FIX_SV_PREFIX
+from railnav.navigation.hypothesis_step import CycleOutcome
+from trackmodel.earth import C_n_e, geodetic_to_ecef
+
+__all__ = ["StackedFixStepper", "FixGrid", "GRID_STEP_M", "stackable"]
+
+Array = npt.NDArray[np.float64]
+
+#: Node spacing of the track tables, m.
+GRID_STEP_M = 0.5
+
+
+def stackable(config, trip) -> bool:
+    """Whether a run is fix-only (`StackedFixStepper` can step it)."""
+    return config.filter == "gnss-only" and trip.gnss is None and trip.fixes is not None
+
+
+class FixGrid:
+    """Every oriented element's track on nodes every `GRID_STEP_M`, in one table."""
+
+    def __init__(self, tracks) -> None:
+        self.tracks = tracks
+        self._offset: dict[tuple[str, int], int] = {}
+        self._length: dict[tuple[str, int], float] = {}
+        names = ("r", "C", "u", "du", "A", "E", "dA", "dE", "h")
+        self._parts: dict[str, list] = {n: [] for n in names}
+        self._table: dict[str, Array] | None = None
+        self._size = 0
+
+    def _add(self, key: tuple[str, int]) -> None:
+        track = self.tracks.track(*key)
+        n = int(math.ceil(track.length_m / GRID_STEP_M)) + 1
+        p = track.at(np.minimum(np.arange(n) * GRID_STEP_M, track.length_m))
+        values = {"r": np.asarray(p.r_e), "C": C_n_e(p.lat, p.lon), "u": np.asarray(p.u_n),
+                  "du": np.asarray(p.du_ds_n), "A": np.asarray(p.azimuth),
+                  "E": np.asarray(p.elevation), "dA": np.asarray(p.curvature_1pm),
+                  "dE": np.broadcast_to(p.elevation_rate, (n,)), "h": np.asarray(p.h)}
+        for name, value in values.items():
+            self._parts[name].append(np.asarray(value, dtype=float))
+        self._offset[key], self._length[key] = self._size, float(track.length_m)
+        self._size += n
+        self._table = None
+
+    def points(self, keys, s: Array) -> dict[str, Array]:
+        """The track quantities at ``s`` of hypotheses on oriented elements `keys`
+        (module docstring; beyond an element's end, expanded from its end node as the
+        fix rows expand the track from the clamped ``s``)."""
+        for key in keys:
+            if key not in self._offset:
+                self._add(key)
+        if self._table is None:
+            self._table = {n: np.concatenate(v) for n, v in self._parts.items()}
+        tab = self._table
+        length = np.array([self._length[k] for k in keys])
+        node = np.rint(np.clip(s, 0.0, length) / GRID_STEP_M)
+        idx = np.array([self._offset[k] for k in keys]) + node.astype(int)
+        d = s - np.minimum(node * GRID_STEP_M, length)     # beyond an end: extrapolated
+        C, u, du = tab["C"][idx], tab["u"][idx], tab["du"][idx]
+        step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
+        return {"r": tab["r"][idx] + np.einsum("kij,kj->ki", C, step_n), "C": C,
+                "u": u + du * d[:, None], "du": du, "A": tab["A"][idx] + tab["dA"][idx] * d,
+                "E": tab["E"][idx] + tab["dE"][idx] * d, "h": tab["h"][idx] + u[:, 2] * d}
+
+
+def _axes(pt: dict) -> dict[str, Array]:
+    """ENU unit vectors of the track frame at the points (`railnav.filters.fix_rows`)."""
+    A, E = pt["A"], pt["E"]
+    sa, ca, se = np.sin(A), np.cos(A), np.sin(E)
+    along_h, cross, up = (np.zeros((A.size, 3)) for _ in range(3))
+    along_h[:, 0], along_h[:, 1] = sa, ca
+    cross[:, 0], cross[:, 1] = ca, -sa
+    up[:, 0], up[:, 1], up[:, 2] = -se * sa, -se * ca, np.cos(E)
+    return {"along": pt["u"], "along_h": along_h, "cross": cross, "up": up}
+
+
+def _dot(a: Array, b: Array) -> Array:
+    return np.einsum("ki,ki->k", a, b)
+
+
+class StackedScreens:
+    """The epoch's screened fix rows of every hypothesis, as `EpochScreen` on demand (for
+    ``innovations.csv`` of the most probable one)."""
+
+    def __init__(self, keys, nu: Array, S: Array, used: Array, config) -> None:
+        self.keys, self.nu, self.S, self.used, self.config = keys, nu, S, used, config
+
+    def __len__(self) -> int:
+        return self.nu.shape[0]
+
+    def __getitem__(self, k: int) -> EpochScreen:
+        var = np.diagonal(self.S[k])
+        cfg = self.config
+        prob = np.full(var.size, np.nan) if cfg is None else fault_probability(
+            self.nu[k] ** 2 / var, prior=cfg.fault_prior, scale=cfg.fault_scale)
+        status = np.where(self.used[k], "used", "rejected").astype(object)
+        return EpochScreen(self.keys, self.nu[k], self.S[k], status, prob, float("nan"))
+
+
+class StackedFixStepper:
+    """Steps fix-only hypotheses cycle by cycle, all at once (module docstring).
+
+    Parameters
+    ----------
+    config : railnav.config.NavigatorConfig
+    trip : railnav.navigation.navigator.TripSamples
+        With ``fixes`` and its ``schedule``, no GNSS observations.
+    tracks : railnav.navigation.net_tracks.OrientedTracks
+    t : ndarray, shape (M,)
+        Sample times, s from the trip start.
+    """
+
+    def __init__(self, config, trip, tracks, t: Array) -> None:
+        self.config, self.t = config, t
+        self.fixes, self.schedule = trip.fixes, trip.schedule
+        self.grid = FixGrid(tracks)
+        self.q = float(config.along_accel_sigma_mps2) ** 2
+        fd = config.fault_detection
+        self.screen_nis = None if fd is None else float(fd.nis_threshold)
+        self.gate_nis = None if config.gate_probability is None else \
+            float(chi2_threshold(config.gate_probability, 1))
+        fx = self.fixes     # r(lat, lon, h) = r(lat, lon, 0) + h n(lat, lon): exact
+        zero = np.zeros(len(fx))
+        self._r0 = geodetic_to_ecef(fx.lat, fx.lon, zero)
+        self._normal = geodetic_to_ecef(fx.lat, fx.lon, zero + 1.0) - self._r0
+
+    def step(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
+        """Propagate every hypothesis from sample `a` to sample `b` and update it there
+        with epoch `epoch`'s fix (None: no epoch)."""
+        keys = [h.pieces[0][:2] for h in hyps]
+        x = np.array([h.x for h in hyps], dtype=float)
+        P = np.array([h.P for h in hyps], dtype=float)
+        P = self._propagate(x, P, np.diff(self.t[a:b + 1]))
+        fix = -1 if epoch is None else self.schedule.split(epoch)[1]
+        screens = evidence = None
+        rows = 0
+        pt = self.grid.points(keys, x[:, 0])
+        if fix >= 0:
+            x, P, screens, evidence, rows = self._update(keys, x, P, pt, fix)
+        for k, h in enumerate(hyps):
+            h.x, h.P = x[k].copy(), P[k].copy()
+        tangent = np.einsum("kij,kj->ki", pt["C"], pt["u"])
+        return CycleOutcome(screens, None, None, (b - a) * len(hyps), False,
+                            evidence=evidence, evidence_rows=rows, points=(pt["r"], tangent))
+
+    def _propagate(self, x: Array, P: Array, steps: Array) -> Array:
+        """``x`` in place and the new ``P`` after the steps (module docstring): the
+        engine's steps composed, ``P ← Φ(T) P Φ(T)ᵀ + Σ_j Φ(τ_j) Q_j Φ(τ_j)ᵀ`` with ``τ_j``
+        the time left after step j (one Q for all hypotheses)."""
+        if steps.size == 0:
+            return P
+        q = self.q
+        total = float(steps.sum())
+        left = total - np.cumsum(steps)
+        # Q_j = q dt [[dt²/4, dt/2], [dt/2, 1]], carried to the cycle's end by Φ(τ)
+        a = steps * steps / 4.0 + steps * left + left * left
+        b = steps / 2.0 + left
+        Q_ss, Q_sv, Q_vv = q * float(np.sum(steps * a)), q * float(np.sum(steps * b)), \
+            q * total
+        x[:, 0] += x[:, 1] * total
+        out = P.copy()
+        out[:, 0, 0] = P[:, 0, 0] + 2.0 * total * P[:, 0, 1] + total * total * P[:, 1, 1] + Q_ss
+        out[:, 0, 1] = out[:, 1, 0] = P[:, 0, 1] + total * P[:, 1, 1] + Q_sv
+        out[:, 1, 1] = P[:, 1, 1] + Q_vv
+        return out
+
+    def _rows(self, pt: dict, x: Array, f: int):
+        """The fix rows at the prior: names, innovations (K, m), ∂h/∂[s, v] (K, m, 2) and
+        variances (K, m) (`railnav.filters.fix_rows`)."""
+        fx, cfg = self.fixes, self.config.fix_model
+        ax = _axes(pt)
+        has_h = cfg.use_height and bool(np.isfinite(fx.h_m[f]))
+        h = np.full(x.shape[0], fx.h_m[f]) if has_h else pt["h"]
+        r_fix = self._r0[f] + h[:, None] * self._normal[f]
+        d_n = np.einsum("kji,kj->ki", pt["C"], r_fix - pt["r"])
+        cov = fx.cov_n_m2[f]
+        K = x.shape[0]
+        along = ax["along"] if has_h else ax["along_h"]
+        spec = [("fix_along", along, 0.0, _dot(along, pt["u"]))]
+        spec.append(("fix_cross", ax["cross"], cfg.track_cross_sigma_m ** 2, np.zeros(K)))
+        if has_h:
+            spec.append(("fix_up", ax["up"], cfg.track_vertical_sigma_m ** 2, np.zeros(K)))
+        names, nu, H, R = [], [], [], []
+        for kind, a, extra, h_s in spec:
+            names.append(kind)
+            nu.append(_dot(a, d_n))
+            H.append(np.column_stack([h_s, np.zeros(K)]))
+            R.append(np.einsum("ki,ij,kj->k", a, cov, a) + extra)
+        v = fx.v_n_mps[f]
+        if cfg.use_speed and np.all(np.isfinite(v[:2])):
+            a = ax["along"] if np.isfinite(v[2]) else ax["along_h"]
+            au = _dot(a, pt["u"])
+            names.append("fix_speed")
+            nu.append(a @ np.nan_to_num(v) - x[:, 1] * au)
+            H.append(np.column_stack([x[:, 1] * _dot(a, pt["du"]), au]))
+            R.append(np.full(K, float(fx.sigma_speed_mps[f]) ** 2))
+        return names, np.stack(nu, 1), np.stack(H, 1), np.stack(R, 1)
+
+    def _update(self, keys, x: Array, P: Array, pt: dict, f: int):
+        """Screen, gate and update with fix `f`; the evidence (module docstring)."""
+        names, nu, H, R = self._rows(pt, x, f)
+        if "fix_speed" not in names:                 # one row on s: scalar arithmetic
+            return self._scalar_update(names, x, P, nu, H[:, 0, 0], R, f)
+        S = np.einsum("kma,kab,knb->kmn", H, P, H) + np.einsum("km,mn->kmn", R,
+                                                               np.eye(R.shape[1]))
+        r2 = nu ** 2 / np.diagonal(S, axis1=1, axis2=2)
+        passed = np.ones(x.shape[0], bool) if self.screen_nis is None else \
+            np.all(r2 <= self.screen_nis, axis=1)
+        kept = passed[:, None] & (True if self.gate_nis is None else r2 <= self.gate_nis)
+        Hk = H * kept[..., None]
+        Sk = np.einsum("kma,kab,knb->kmn", Hk, P, Hk) + np.einsum("km,mn->kmn", R,
+                                                                  np.eye(R.shape[1]))
+        gain = np.linalg.solve(Sk, np.einsum("kab,kmb->kma", P, Hk)).transpose(0, 2, 1)
+        x = x + np.einsum("kam,km->ka", gain, nu)
+        A = np.eye(2)[None] - np.einsum("kam,kmb->kab", gain, Hk)
+        P = np.einsum("kab,kbc,kdc->kad", A, P, A) + np.einsum("kam,km,kbm->kab", gain, R, gain)
+        P = 0.5 * (P + P.transpose(0, 2, 1))
+        quality = FIX_SV_PREFIX + str(self.fixes.quality[f])
+        labels = np.array([f"{quality}/{n}" for n in names], dtype=object)
+        screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
+        if not passed.any():
+            return x, P, screens, np.zeros(x.shape[0]), 0
+        L = np.linalg.cholesky(S)
+        white = np.linalg.solve(L, nu[..., None])[..., 0]
+        log_det = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+        evidence = -0.5 * (np.sum(white ** 2, axis=1) + log_det + nu.shape[1] * LOG_2PI)
+        return x, P, screens, evidence, int(nu.shape[1])
+
+    def _scalar_update(self, names, x: Array, P: Array, nu: Array, h: Array, R: Array,
+                       f: int):
+        """`_update` when only the along row depends on the state (``∂/∂s = h``): the
+        innovation covariance is diagonal, the update scalar."""
+        var = R.copy()
+        var[:, 0] += h * h * P[:, 0, 0]
+        r2 = nu ** 2 / var
+        passed = np.ones(x.shape[0], bool) if self.screen_nis is None else \
+            np.all(r2 <= self.screen_nis, axis=1)
+        kept = passed[:, None] & (True if self.gate_nis is None else r2 <= self.gate_nis)
+        use = kept[:, 0]
+        gain = np.where(use[:, None], P[:, :, 0] * (h / var[:, 0])[:, None], 0.0)   # (K, 2)
+        x = x + gain * nu[:, :1]
+        P = P - np.einsum("ka,kb->kab", gain, gain) * var[:, 0][:, None, None]
+        P = 0.5 * (P + P.transpose(0, 2, 1))
+        quality = FIX_SV_PREFIX + str(self.fixes.quality[f])
+        labels = np.array([f"{quality}/{n}" for n in names], dtype=object)
+        S = np.einsum("km,mn->kmn", var, np.eye(var.shape[1]))
+        screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
+        if not passed.any():
+            return x, P, screens, np.zeros(x.shape[0]), 0
+        evidence = -0.5 * np.sum(r2 + np.log(var) + LOG_2PI, axis=1)
+        return x, P, screens, evidence, int(nu.shape[1])

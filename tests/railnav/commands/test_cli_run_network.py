@@ -1,0 +1,74 @@
+"""``railnav run --network NETWORK --fixes LOG`` (issue 13 §5): the files written, the
+route printed, and one-line errors with nothing written. Reference: issue 13's
+netelement truth of the log's own carrier-fixed rows (`railnav.evaluation.netelement_truth`)."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from railnav.cli import main
+
+REPO = Path(__file__).resolve().parents[3]
+BRUSSELS = str(REPO / "data" / "networks" / "brussels_airport")
+EXCERPT = REPO / "data" / "fixes" / "brussels" / "log_28876_L36-B_excerpt.csv"
+
+
+def test_fix_log_through_the_network_writes_route_and_hypotheses(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT),
+                 "--truth", str(EXCERPT), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "88_L_3842 > 88_L_5900" in text and "netelement right on" in text
+    est = pd.read_csv(out / "estimates.csv")
+    for col in ("netelement", "netelement_offset_m", "direction", "netelement_probability",
+                "mixture_offset_m", "mixture_sigma_m"):
+        assert col in est
+    assert set(est["direction"]) <= {-1, 1}
+    route = pd.read_csv(out / "route.csv")
+    assert list(route["netelement"]) == ["88_L_3842", "88_L_5900"]
+    assert (route["exit_time_s"] >= route["entry_time_s"]).all()
+    hyps = pd.read_csv(out / "hypotheses.csv")
+    assert hyps.groupby("time_s")["probability"].sum().sub(1.0).abs().max() < 1e-9
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["route"]["truth"]["share_right"] == 1.0
+    assert (out / "network.png").is_file() and (out / "estimates.png").is_file()
+
+
+def _far_fixes(tmp_path) -> Path:
+    raw = pd.read_csv(EXCERPT)
+    raw["latitude"] += 0.05                    # 5.5 km north: no track near
+    path = tmp_path / "far.csv"
+    raw.to_csv(path, index=False)
+    return path
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--start", "88_L_nope"], "start netelement '88_L_nope' is not in the network"),
+    (["--start", "88_L_3842:x"], "NETELEMENT[:OFFSET_M"),
+    (["--start", "88_L_3842:99999"], "is not on netelement 88_L_3842"),
+    ("far", "within 30 m of a netelement"),
+    (["data/tracks/curvy.csv"], "--network replaces TRACK"),
+    (["--baro", "b.csv"], "--baro"),
+    (["--balises", "b.csv"], "--balises: not with --network"),
+])
+def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, extra, message):
+    out = tmp_path / "run"
+    fixes = str(_far_fixes(tmp_path)) if extra == "far" else str(EXCERPT)
+    argv = ["-q", "run", "--network", BRUSSELS, "--fixes", fixes, "--out", str(out),
+            "--no-plots"] + ([] if extra == "far" else extra)
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and message in err and "\n" not in err, err
+    assert not out.exists()
+
+
+def test_network_flags_need_a_network(capsys):
+    assert main(["-q", "run", "data/tracks/curvy.csv", "--start", "x"]) == 2
+    assert "--start: only with --network" in capsys.readouterr().err
+    assert main(["-q", "run"]) == 2
+    assert "give a TRACK" in capsys.readouterr().err
+    assert main(["-q", "run", "--network", BRUSSELS]) == 2
+    assert "needs sensor files" in capsys.readouterr().err
