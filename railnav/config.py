@@ -32,6 +32,7 @@ from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.filters.track_frame import LeverArms
+from railnav.navigation.monitor import MonitorConfig
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
@@ -120,6 +121,9 @@ class NavigatorConfig:
     lever_arms : railnav.filters.track_frame.LeverArms
         Antenna, IMU and balise-reader offsets from the reference point (default none;
         the constrained and GNSS-only filters).
+    monitor : railnav.navigation.monitor.MonitorConfig
+        The divergence monitor of track-based filters (status per epoch, recovery when
+        lost; default on).
     rts_smoothing : bool
         Keep every filter step's moments and transition for the Rauch–Tung–Striebel
         smoother (`railnav.navigation.smoothing.smooth_result`); costs
@@ -151,6 +155,7 @@ class NavigatorConfig:
     odometer_model: OdometerConfig = OdometerConfig()
     balise_model: BaliseModelConfig = BaliseModelConfig()
     lever_arms: LeverArms = LeverArms()
+    monitor: MonitorConfig = MonitorConfig()
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)

@@ -17,6 +17,14 @@ def report(outcome, out: Path) -> str:
                      f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
                      "not used")
     stats = s["statistics"]
+    mon = stats.get("monitor")
+    if mon:
+        e = mon["epochs"]
+        lines.append(f"  monitor: {e['ok']} ok, {e['degraded']} degraded, {e['lost']} lost "
+                     f"epochs; {mon['recoveries']} recoveries")
+        if mon["final_status"] == "lost":
+            lines.append("  LOST at the end of the run: the last estimates are not to be "
+                         "trusted (monitor status 'lost', estimates.csv 'status')")
     if "fix_epochs" in stats:
         lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
                      "by the fault screen")

@@ -66,6 +66,7 @@ class ChunkLoop:
         self.engine = filter_engine(filt, config, sample_interval_s=sample_interval_s)
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
+        self.monitor = None      # a railnav.navigation.monitor.FilterMonitor, optional
         if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
             filt.sample_interval_s = float(sample_interval_s)
 
@@ -113,14 +114,34 @@ class ChunkLoop:
         for time_s, index in zip(times, indices):
             if self.left is not None:
                 return
-            yield Epoch(float(time_s), functools.partial(observe, int(index)))
+            rows = functools.partial(observe, int(index))
+            if self.monitor is not None:
+                rows = functools.partial(_watched, self.monitor, float(time_s), rows)
+            yield Epoch(float(time_s), rows)
 
     def stream(self, chunks: Iterable[InputSeries], epochs: Iterable[Epoch],
                initial: InitialState, *, progress: Progress | None = None,
                total: int | None = None):
         """`ekf.CdFilter.stream` from `initial`: the results chunk by chunk."""
-        return self.engine.stream(chunks, epochs, x0=initial.x0, P0=initial.P0,
-                                  progress=progress, total=total)
+        results = self.engine.stream(chunks, epochs, x0=initial.x0, P0=initial.P0,
+                                     progress=progress, total=total)
+        return results if self.monitor is None else self._monitored(results)
+
+    def _monitored(self, results):
+        """The results, each chunk's epoch tested by `monitor`; a recovery replaces the
+        engine's posterior before the next chunk is built from it."""
+        engine = self.engine
+        for result in results:
+            recovered = self.monitor.epoch(result, engine.x, engine.P)
+            if recovered is not None:
+                engine.x, engine.P = recovered
+            yield result
+
+
+def _watched(monitor, time_s: float, rows, x: Array, P: Array):
+    """`rows` at the prior ``x, P``, the prior first given to `monitor`."""
+    monitor.prior(time_s, x, P)
+    return rows(x, P)
 
 
 def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:

@@ -43,10 +43,11 @@ from railnav.filters.protocol import Filter, filter_kind, make_filter
 from railnav.navigation.fix_start import initial_from_fixes
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
+from railnav.navigation.monitor import FilterMonitor, fix_log_track_fixes, spp_track_fixes
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.sensors import imu_at_reference, track_sensor_epochs
 
-__all__ = ["navigate", "TripSamples", "trip_samples", "Start"]
+__all__ = ["navigate", "TripSamples", "trip_samples", "Start", "run_monitor"]
 
 log = logging.getLogger(__name__)
 
@@ -103,6 +104,7 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         initial = initial(filt)
     t, u, epoch_idx = trip.from_time(initial.time_s)
     loop = ChunkLoop(filt, config, sample_interval_s=float(np.median(np.diff(t))))
+    loop.monitor = run_monitor(filt, data, config, trip.fixes, start_s=float(t[0]))
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
     parts = list(loop.stream(loop.chunks(t, u, at_sample),
                              loop.epochs(t[at_sample], epoch_idx), initial,
@@ -116,7 +118,22 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
     return NavigationResult.assemble(
         filt, config, concatenate_results(parts), start_gps_time_s=data.start_gps_time_s,
         outages=outages, epoch_indices=epoch_idx, epoch_times=trip.epoch_times,
-        runtime_s=time.perf_counter() - started, left_track=left)
+        runtime_s=time.perf_counter() - started, left_track=left,
+        monitor=None if loop.monitor is None else loop.monitor.frame())
+
+
+def run_monitor(filt, data: SensorData, config: NavigatorConfig, fixes=None, *,
+                start_s: float = 0.0) -> FilterMonitor | None:
+    """The divergence monitor of a run (`railnav.navigation.monitor`): for a track-based
+    filter with ``config.monitor.enabled``, fed the run's position fixes or, without them,
+    the single-point fixes of its GNSS observations from `start_s` on; None otherwise."""
+    names = getattr(getattr(filt, "layout", None), "names", ())
+    if not config.monitor.enabled or "s" not in names or "v" not in names \
+            or getattr(filt, "track", None) is None:
+        return None
+    track_fixes = fix_log_track_fixes(filt.track, fixes) if fixes is not None else \
+        spp_track_fixes(filt.track, data, config, start_s=start_s)
+    return FilterMonitor(filt.layout, track_fixes, config.monitor, config.gate_probability)
 
 
 @dataclass(frozen=True, eq=False)

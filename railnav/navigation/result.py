@@ -26,6 +26,8 @@ from ekf.history import FilterResult
 from ekf.layout import StateLayout
 from railnav.filters.fix_rows import FIX_ROW_KINDS
 from railnav.filters.sensor_rows import sensor_statistics
+from railnav.navigation.monitor import STATUSES, status_at
+from railnav.navigation.protection import protection_columns
 
 __all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
 
@@ -115,15 +117,21 @@ class NavigationResult:
     raw: FilterResult = field(repr=False)
     filter_object: object = field(repr=False, default=None)
     left_track: dict | None = None
+    monitor: pd.DataFrame | None = field(repr=False, default=None)
 
     @classmethod
     def assemble(cls, filt_obj, config, result: FilterResult, *, start_gps_time_s: float,
                  outages, epoch_indices, epoch_times, runtime_s: float,
-                 left_track: dict | None = None) -> "NavigationResult":
-        """Build the result of a finished run (called by `railnav.navigate`)."""
+                 left_track: dict | None = None,
+                 monitor: pd.DataFrame | None = None) -> "NavigationResult":
+        """Build the result of a finished run (called by `railnav.navigate`); with the
+        `monitor`'s records, ``estimates.csv`` gets the integrity columns
+        (`integrity_columns`)."""
         P = result.P if result.P is not None else np.zeros((result.t.size, 0))
         estimates = estimates_frame(filt_obj, result.t, result.x, P,
                                     start_gps_time_s=start_gps_time_s)
+        if monitor is not None:
+            estimates = estimates.assign(**integrity_columns(estimates, monitor, config))
         innovations = _innovations(result, filt_obj, start_gps_time_s)
         n_c = result.innov_c.shape[1] if result.innov_c.ndim == 2 else 0
         nis_c = result.nis_c_sum / result.nis_c_count if result.nis_c_count else float("nan")
@@ -133,7 +141,14 @@ class NavigationResult:
                    nis_continuous_dof=n_c, outages=tuple(tuple(o) for o in outages),
                    runtime_s=float(runtime_s), n_steps=int(result.n_steps),
                    n_epochs=int(result.t_d.size), raw=result, filter_object=filt_obj,
-                   left_track=left_track)
+                   left_track=left_track, monitor=monitor)
+
+    @property
+    def final_status(self) -> str | None:
+        """The monitor's status at the last tested epoch (None without a monitor)."""
+        if self.monitor is None or not len(self.monitor):
+            return None
+        return str(self.monitor["status"].iloc[-1])
 
     def statistics(self) -> dict:
         """Filter self-consistency figures for ``summary.json`` (no truth needed)."""
@@ -157,7 +172,29 @@ class NavigationResult:
             used = fix.groupby("epoch")["accepted"].all()
             out["fix_epochs"], out["fixes_rejected"] = int(used.size), int((~used).sum())
         out.update(sensor_statistics(inn))      # odometer (slip episodes) and balises
+        if self.monitor is not None:
+            out["monitor"] = monitor_statistics(self.monitor, self.estimates)
         return out
+
+
+def integrity_columns(estimates: pd.DataFrame, monitor: pd.DataFrame, config) -> dict:
+    """``status`` (`railnav.navigation.monitor.status_at`) and the protection columns
+    (`railnav.navigation.protection.protection_columns`) of the `estimates` rows."""
+    status = status_at(monitor, estimates["time_s"].to_numpy())
+    cols = {"status": status}
+    cols.update(protection_columns(estimates.assign(status=status), monitor, config))
+    return cols
+
+
+def monitor_statistics(monitor: pd.DataFrame, estimates: pd.DataFrame) -> dict:
+    """Status counts of the tested epochs and of the estimate rows, the recoveries and
+    the final status (``summary.json`` ``statistics.monitor``)."""
+    epochs = monitor["status"].value_counts()
+    rows = estimates["status"].value_counts() if "status" in estimates else {}
+    return {"epochs": {k: int(epochs.get(k, 0)) for k in STATUSES},
+            "estimate_rows": {k: int(rows.get(k, 0)) for k in STATUSES},
+            "recoveries": int((monitor["action"] != "").sum()),
+            "final_status": str(monitor["status"].iloc[-1]) if len(monitor) else None}
 
 
 def _finite_or_none(value: float):

@@ -1,0 +1,324 @@
+r"""Divergence monitor: is a filter still consistent with its data, and what to do when not.
+
+`FilterMonitor` watches one track-based filter (states ``s``, ``v``) epoch by epoch while it
+runs (`railnav.navigation.loop.ChunkLoop.monitored`) and gives each measurement epoch a
+status, ``ok``, ``degraded`` or ``lost``, from four windowed tests over the last
+`MonitorConfig.window_epochs` epochs. Each is a tail probability of a χ² (or binomial)
+statistic that is exact when the filter's σ are right:
+
+* **GNSS NIS**: the sum of the accepted rows' ``ν_i²/S_ii`` against χ² with one degree of
+  freedom per row;
+* **rejected rows**: the number of rows the χ² row gate rejected against the binomial
+  law of the gate's false-rejection rate ``1 − config.gate_probability``;
+* **fix disagreement**: ``d = (s_fix − s_prior)/√(σ_fix² + σ_s,prior²)`` of an independent
+  single-epoch fix on the track (`TrackFixes`: the receiver's SPP, `spp_track_fixes`, or
+  the position fixes a fix-based filter reads, `fix_log_track_fixes`) at the epoch's prior
+  (not yet updated with that epoch's measurements); ``Σ d²`` against χ²ₙ and the signed
+  mean, ``(Σ d)²/n`` against χ²₁ (a filter off by a steady offset), the smaller tail
+  doubled (Bonferroni);
+* **pseudo-observation NIS**: the continuous (accelerometer) pseudo-observation's NIS
+  summed over the window's steps against χ² with its total dimension.
+
+Thresholds: a test *fails at level p* when its tail probability is below ``p``. The status is
+``lost`` when the fix-disagreement test fails at `MonitorConfig.p_lost` (default 1e-6), or
+the rejected-row test does and at least `MonitorConfig.lost_rejected_share` of the window's
+rows were rejected, ``degraded`` when any test fails at `MonitorConfig.p_degraded` (1e-3),
+else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 4·p_degraded per epoch
+(four tests), false ``lost`` ≤ 2·p_lost; the windows overlap, so alarms come in runs.
+
+Recovery (`MonitorConfig.recover`): when ``lost`` and a fix is at hand, ``s`` (and ``v``
+where the fix has a speed) are re-initialised from it (`railnav.filters.common.start_on_track`'s
+σ floors); the rows and columns of ``s`` and ``v`` in ``P`` lose their correlations; without
+a fix the ``s, v`` block of ``P`` is widened by the window's variance factor ``Σ d²/n``.
+After a recovery the windows restart, and the status is ``degraded`` until
+`MonitorConfig.min_epochs` epochs have been seen again.
+
+Real-data caveat: urban SPP errors are correlated from epoch to epoch (multipath), so the
+fix-disagreement statistic is heavier-tailed than χ²ₙ; the fix σ are floored at
+`MonitorConfig.min_fix_sigma_m`. The figures on the urban drive are in
+``benchmarks/results/real_pieces.json``.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from trackmodel.earth import C_n_e, ecef_to_geodetic
+
+__all__ = ["MonitorConfig", "FilterMonitor", "TrackFixes", "spp_track_fixes",
+           "fix_log_track_fixes", "STATUSES", "status_at"]
+
+Array = npt.NDArray[np.float64]
+
+#: The statuses, from best to worst.
+STATUSES = ("ok", "degraded", "lost")
+#: An epoch's fix is the one within this of its time, s.
+FIX_TIME_TOL_S = 1e-3
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """Windows and thresholds of `FilterMonitor` (module docstring).
+
+    Parameters
+    ----------
+    enabled : bool
+    window_epochs : int
+        Epochs in each test's window.
+    min_epochs : int
+        Epochs after a start or recovery before the status may be ``ok``.
+    p_degraded, p_lost : float
+        Tail probabilities below which a test flags ``degraded`` / ``lost``.
+    recover : bool
+        Re-initialise (or widen) when ``lost``.
+    lost_rejected_share : float
+        The rejected-row test says ``lost`` only when at least this share of the window's
+        rows was rejected (fewer: the rows, not the prior, are bad: multipath).
+    min_fix_sigma_m, min_fix_sigma_mps : float
+        Floors of a fix's along-track σ of position and speed.
+    """
+
+    enabled: bool = True
+    window_epochs: int = 10
+    min_epochs: int = 3
+    p_degraded: float = 1e-3
+    p_lost: float = 1e-6
+    recover: bool = True
+    lost_rejected_share: float = 0.5
+    min_fix_sigma_m: float = 1.0
+    min_fix_sigma_mps: float = 0.05
+
+
+@dataclass(frozen=True)
+class TrackFixes:
+    """Independent single-epoch fixes projected on a track.
+
+    Attributes
+    ----------
+    time_s : ndarray, shape (N,)
+        s from the trip start, increasing.
+    s_m, sigma_s_m : ndarray, shape (N,)
+        Distance along the track of the fix's projection and its σ along the tangent, m.
+    v_mps, sigma_v_mps : ndarray, shape (N,)
+        Speed along the tangent and its σ (NaN where the fix has none), m/s.
+    """
+
+    time_s: Array
+    s_m: Array
+    sigma_s_m: Array
+    v_mps: Array
+    sigma_v_mps: Array
+
+    @classmethod
+    def on_track(cls, track, *, time_s, lat, lon, cov_enu_m2, v_enu_mps=None,
+                 cov_v_enu_m2ps2=None) -> "TrackFixes":
+        """Project fixes (radians; ENU covariances (N, 3, 3)) on `track`."""
+        time_s = np.asarray(time_s, dtype=float)
+        proj = track.project(np.asarray(lat, dtype=float), np.asarray(lon, dtype=float))
+        u = np.asarray(track.at(proj.s).u_n, dtype=float).reshape(-1, 3)
+        var_s = np.einsum("ki,kij,kj->k", u, cov_enu_m2, u)
+        if v_enu_mps is None:
+            v = sv = np.full(time_s.size, np.nan)
+        else:
+            v = np.einsum("ki,ki->k", u, v_enu_mps)
+            sv = np.sqrt(np.einsum("ki,kij,kj->k", u, cov_v_enu_m2ps2, u)) \
+                if cov_v_enu_m2ps2 is not None else np.full(time_s.size, np.nan)
+        order = np.argsort(time_s, kind="stable")
+        return cls(time_s[order], np.asarray(proj.s)[order], np.sqrt(var_s)[order],
+                   np.asarray(v, dtype=float)[order], np.asarray(sv, dtype=float)[order])
+
+    def at(self, time_s: float) -> int | None:
+        """Index of the fix at `time_s` (within `FIX_TIME_TOL_S`), or None."""
+        j = int(np.searchsorted(self.time_s, time_s - FIX_TIME_TOL_S))
+        if j < self.time_s.size and abs(self.time_s[j] - time_s) <= FIX_TIME_TOL_S \
+                and np.isfinite(self.s_m[j]):
+            return j
+        return None
+
+
+def spp_track_fixes(track, data, config, *, start_s: float = 0.0) -> TrackFixes | None:
+    """The receiver's single-point fixes (`gnss_obs.solve_spp`, the run's systems and mask)
+    of the epochs of ``data.obs`` from `start_s` (s from the trip start) on, on `track`;
+    None without observations or fixes."""
+    if data.obs is None or data.nav is None:
+        return None
+    from dataclasses import replace
+    from gnss_obs.spp import SppConfig, solve_spp
+    table = data.obs.table
+    sub = replace(data.obs, table=table[table["gps_time_s"].to_numpy()
+                                        >= data.start_gps_time_s + start_s - FIX_TIME_TOL_S])
+    spp = solve_spp(sub, data.nav, SppConfig(measurement=config.measurement,
+                                             elevation_mask_deg=config.elevation_mask_deg))
+    ok = np.all(np.isfinite(spp.r_e), axis=1)
+    if not ok.any():
+        return None
+    r_e = spp.r_e[ok]
+    lat, lon, _ = ecef_to_geodetic(r_e, earth=track.earth)
+    C = C_n_e(lat, lon)                                   # (N, 3, 3): ENU -> ECEF
+    v_e = np.nan_to_num(spp.v_e[ok])
+    v_enu = np.einsum("kji,kj->ki", C, v_e)
+    v_enu[~np.all(np.isfinite(spp.v_e[ok]), axis=1)] = np.nan
+    return TrackFixes.on_track(track, time_s=spp.gps_time_s[ok] - data.start_gps_time_s,
+                               lat=lat, lon=lon, cov_enu_m2=spp.cov_enu_m2[ok],
+                               v_enu_mps=v_enu, cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[ok])
+
+
+def fix_log_track_fixes(track, fixes) -> TrackFixes | None:
+    """The position fixes a run reads (`railnav.filters.fix_epochs.FixEpochs`), on `track`."""
+    if fixes is None or len(fixes.time_s) == 0:
+        return None
+    speed_var = np.asarray(fixes.sigma_speed_mps, dtype=float) ** 2
+    cov_v = np.einsum("k,ij->kij", speed_var, np.eye(3))
+    return TrackFixes.on_track(track, time_s=fixes.time_s, lat=fixes.lat, lon=fixes.lon,
+                               cov_enu_m2=fixes.cov_n_m2, v_enu_mps=fixes.v_n_mps,
+                               cov_v_enu_m2ps2=cov_v)
+
+
+def _chi2_sf(value: float, dof: float) -> float:
+    from scipy.special import chdtrc
+    return float(chdtrc(dof, value)) if dof > 0 else 1.0
+
+
+def _binom_sf(k: int, n: int, p: float) -> float:
+    """P(X ≥ k), X ~ Binomial(n, p)."""
+    if k <= 0:
+        return 1.0
+    from scipy.special import bdtrc
+    return float(bdtrc(k - 1, n, p))
+
+
+class FilterMonitor:
+    """Status of one filter epoch by epoch, and its recovery (module docstring).
+
+    Parameters
+    ----------
+    layout : ekf.StateLayout
+        With ``s`` and ``v``.
+    fixes : TrackFixes or None
+        Independent fixes (None: the fix test and recovery from fixes are off).
+    config : MonitorConfig
+    gate_probability : float or None
+        The run's χ² row gate (None: the rejected-row test is off).
+    """
+
+    def __init__(self, layout, fixes: TrackFixes | None, config: MonitorConfig,
+                 gate_probability: float | None) -> None:
+        self.layout, self.fixes, self.config = layout, fixes, config
+        self.i_s, self.i_v = layout.index("s"), layout.index("v")
+        self.p_reject = None if gate_probability is None else 1.0 - gate_probability
+        self._prior: tuple[float, float, float] | None = None
+        self._window: deque = deque(maxlen=config.window_epochs)
+        self._seen = 0
+        self.records: list[dict] = []
+
+    def prior(self, time_s: float, x: Array, P: Array) -> None:
+        """The prior of the epoch at `time_s` (before its update)."""
+        self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
+
+    def epoch(self, chunk, x: Array, P: Array) -> tuple[Array, Array] | None:
+        """Test the epoch that ended `chunk` (an `ekf.FilterResult`), posterior ``x, P``.
+
+        Returns
+        -------
+        (x, P) or None
+            The recovered state and covariance, or None to keep the filter's.
+        """
+        if chunk.t_d.size == 0 or self._prior is None:
+            return None
+        time_s, s_prior, var_prior = self._prior
+        self._prior = None
+        nis = chunk.innov_d ** 2 / chunk.s_d
+        acc = np.asarray(chunk.accepted, dtype=bool)
+        d = np.nan
+        j = None if self.fixes is None else self.fixes.at(time_s)
+        if j is not None:
+            var_fix = max(self.fixes.sigma_s_m[j], self.config.min_fix_sigma_m) ** 2
+            d = (self.fixes.s_m[j] - s_prior) / np.sqrt(var_fix + var_prior)
+        self._window.append((float(nis[acc].sum()), int(acc.sum()), int((~acc).sum()), d * d,
+                             float(chunk.nis_c_sum),
+                             int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
+                             if chunk.innov_c.ndim == 2 else 0, d))
+        self._seen += 1
+        status, tails = self._status()
+        record = {"time_s": time_s, "status": status, **tails,
+                  "sigma_s_prior_m": float(np.sqrt(var_prior)), "action": ""}
+        self.records.append(record)
+        if status != "lost" or not self.config.recover:
+            return None
+        recovered = self._recover(j, x, P)
+        record["action"] = "reinit" if j is not None else "widen"
+        self._window.clear()
+        self._seen = 0
+        return recovered
+
+    def _status(self) -> tuple[str, dict]:
+        w = np.array(self._window, dtype=float)
+        nis_sum, n_acc, n_rej, d2, nisc, nisc_dof = (w[:, k] for k in range(6))
+        n_rows = n_acc.sum() + n_rej.sum()
+        rejected_share = n_rej.sum() / n_rows if n_rows else 0.0
+        have = np.isfinite(d2)
+        d = w[have, 6]
+        tails = {"p_gnss_nis": _chi2_sf(nis_sum.sum(), n_acc.sum()),
+                 "p_rejected": 1.0 if self.p_reject is None else
+                 _binom_sf(int(n_rej.sum()), int(n_acc.sum() + n_rej.sum()), self.p_reject),
+                 "p_fix": min(1.0, 2.0 * min(
+                     _chi2_sf(float(d2[have].sum()), int(have.sum())),
+                     _chi2_sf(float(d.sum()) ** 2 / max(d.size, 1), min(d.size, 1)))),
+                 "p_pseudo_nis": _chi2_sf(nisc.sum(), nisc_dof.sum()),
+                 "fix_disagreement_sigma": float(np.sqrt(d2[-1])) if have[-1] else np.nan,
+                 "variance_factor": float(d2[have].mean()) if have.any() else np.nan}
+        cfg = self.config
+        if tails["p_fix"] < cfg.p_lost or (tails["p_rejected"] < cfg.p_lost
+                                           and rejected_share >= cfg.lost_rejected_share):
+            return "lost", tails
+        worst = min(tails[k] for k in ("p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis"))
+        if worst < cfg.p_degraded or self._seen < cfg.min_epochs:
+            return "degraded", tails
+        return "ok", tails
+
+    def _recover(self, j: int | None, x: Array, P: Array) -> tuple[Array, Array]:
+        x, P = x.copy(), P.copy()
+        i_s, i_v, cfg = self.i_s, self.i_v, self.config
+        if j is None:
+            w = np.array(self._window, dtype=float)[:, 3]
+            factor = max(float(np.nanmean(w)) if np.isfinite(w).any() else 1.0, 1.0)
+            for i in (i_s, i_v):
+                P[i, :] *= np.sqrt(factor)
+                P[:, i] *= np.sqrt(factor)
+            return x, P
+        f = self.fixes
+        reset = [i_s]
+        x[i_s] = f.s_m[j]
+        var = {i_s: max(f.sigma_s_m[j], cfg.min_fix_sigma_m) ** 2}
+        if np.isfinite(f.v_mps[j]):
+            x[i_v] = f.v_mps[j]
+            var[i_v] = max(f.sigma_v_mps[j], cfg.min_fix_sigma_mps) ** 2
+            reset.append(i_v)
+        for i in reset:
+            P[i, :] = 0.0
+            P[:, i] = 0.0
+            P[i, i] = var[i]
+        return x, P
+
+    def frame(self) -> pd.DataFrame:
+        """One row per tested epoch: ``time_s, status``, the tests' tail probabilities,
+        the fix disagreement (σ), the window's fix variance factor ``Σ d²/n``, the prior
+        σ_s and the recovery ``action`` (``reinit``, ``widen`` or empty)."""
+        return pd.DataFrame.from_records(self.records, columns=[
+            "time_s", "status", "p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
+            "fix_disagreement_sigma", "variance_factor", "sigma_s_prior_m", "action"])
+
+
+def status_at(records: pd.DataFrame, time_s: Array) -> npt.NDArray[np.object_]:
+    """The status in force at each of `time_s`: that of the last tested epoch at or before
+    it (``ok`` before the first; every sample ``ok`` without records)."""
+    time_s = np.asarray(time_s, dtype=float)
+    if records is None or len(records) == 0:
+        return np.full(time_s.size, STATUSES[0], dtype=object)
+    j = np.searchsorted(records["time_s"].to_numpy(), time_s + FIX_TIME_TOL_S, side="right") - 1
+    status = records["status"].to_numpy(dtype=object)
+    return np.where(j >= 0, status[np.maximum(j, 0)], STATUSES[0]).astype(object)
