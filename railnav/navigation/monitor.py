@@ -26,10 +26,13 @@ rows were rejected, ``degraded`` when any test fails at `MonitorConfig.p_degrade
 else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 4·p_degraded per epoch
 (four tests), false ``lost`` ≤ 2·p_lost; the windows overlap, so alarms come in runs.
 
-Recovery (`MonitorConfig.recover`): when ``lost`` and a fix is at hand, ``s`` (and ``v``
-where the fix has a speed) are re-initialised from it (`railnav.filters.common.start_on_track`'s
-σ floors); the rows and columns of ``s`` and ``v`` in ``P`` lose their correlations; without
-a fix the ``s, v`` block of ``P`` is widened by the window's variance factor ``Σ d²/n``.
+Recovery (`MonitorConfig.recover`): when ``lost`` and this epoch's fix alone disagrees
+beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at 1e-6), ``s`` (and ``v`` where
+the fix has a speed) are re-initialised from it (σ floored as
+`railnav.filters.common.start_on_track` does); the rows and columns of ``s`` and ``v`` in
+``P`` lose their correlations. Otherwise the ``s, v`` rows and columns of ``P`` are widened
+by the window's variance factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull
+the state back, and one noisy fix never replaces it.
 After a recovery the windows restart, and the status is ``degraded`` until
 `MonitorConfig.min_epochs` epochs have been seen again.
 
@@ -183,6 +186,11 @@ def _chi2_sf(value: float, dof: float) -> float:
     return float(chdtrc(dof, value)) if dof > 0 else 1.0
 
 
+def _chi2_isf(p: float, dof: int) -> float:
+    from scipy.special import chdtri
+    return float(chdtri(dof, p))
+
+
 def _binom_sf(k: int, n: int, p: float) -> float:
     """P(X ≥ k), X ~ Binomial(n, p)."""
     if k <= 0:
@@ -249,8 +257,9 @@ class FilterMonitor:
         self.records.append(record)
         if status != "lost" or not self.config.recover:
             return None
-        recovered = self._recover(j, x, P)
-        record["action"] = "reinit" if j is not None else "widen"
+        far = j is not None and np.isfinite(d) and d * d > _chi2_isf(self.config.p_lost, 1)
+        recovered = self._recover(j if far else None, x, P)
+        record["action"] = "reinit" if far else "widen"
         self._window.clear()
         self._seen = 0
         return recovered

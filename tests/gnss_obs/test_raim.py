@@ -101,8 +101,13 @@ def test_protection_level_bounds_the_worst_undetected_bias(rng):
     bias[i] = sigma[i] * np.sqrt(lam / (1 - step.leverage[i]))
     biased = wls_step(H, bias, sigma)
     assert biased.test_statistic == pytest.approx(lam, rel=1e-9)
-    assert np.hypot(biased.dx[0], biased.dx[1]) == pytest.approx(hpl, rel=1e-9)
-    assert vpl > 0
+    # the boundary fault's mean error plus the noise term (Rayleigh on the major-axis σ)
+    sigma_major = np.sqrt(np.linalg.eigvalsh(step.cov[:2, :2]).max())
+    noise_h = np.sqrt(-2 * np.log(1e-3)) * sigma_major
+    assert np.hypot(biased.dx[0], biased.dx[1]) + noise_h == pytest.approx(hpl, rel=1e-9)
+    slopes_v = np.abs(step.gain[2]) / np.sqrt(1 - step.leverage)
+    noise_v = stats.norm.isf(0.5e-3) * np.sqrt(step.cov[2, 2])
+    assert vpl == pytest.approx(slopes_v.max() * np.sqrt(lam) + noise_v, rel=1e-9)
 
 
 def test_singular_geometry_raises():

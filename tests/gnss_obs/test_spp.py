@@ -49,6 +49,23 @@ def test_real_excerpt_accuracy_bound(nav, rover_obs, reference, systems):
     assert np.sqrt(np.mean(enu[:, 2] ** 2)) < VRMS_MAX_M
 
 
+@pytest.mark.parametrize("systems", ["G", "GE"])
+def test_real_excerpt_protection_levels_bound_the_errors(nav, rover_obs, reference, systems):
+    """Every epoch of the real excerpt (the PPK reference, 5-25 cm) inside its HPL and VPL
+    (p_md = 1e-3: ~0.2 expected outside over 168 epochs were the σ model right); and the
+    levels are not vacuous: the VPL stays within 30 σ_up (the noise term's K is 3.3)."""
+    res = solve_spp(rover_obs, nav, SppConfig(measurement=MeasurementConfig(systems=systems)))
+    frame = res.to_frame().set_index("gps_time_s")
+    ref = reference.set_index("gps_time_s").reindex(res.gps_time_s)
+    ok = np.isfinite(ref["x_m"].to_numpy()) & np.isfinite(res.r_e[:, 0])
+    enu = _errors_enu(res, reference)
+    fix = frame.loc[res.gps_time_s[ok]]
+    assert len(enu) > 150
+    assert (np.hypot(enu[:, 0], enu[:, 1]) <= fix["hpl_m"].to_numpy()).all()
+    assert (np.abs(enu[:, 2]) <= fix["vpl_m"].to_numpy()).all()
+    assert np.median(fix["vpl_m"] / fix["sigma_up_m"]) < 30.0
+
+
 def test_real_excerpt_doppler_speed(nav, rover_obs, reference):
     res = solve_spp(rover_obs, nav, SppConfig(measurement=MeasurementConfig(systems="GE")))
     ref = reference.set_index("gps_time_s")
