@@ -28,9 +28,11 @@ else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 4·p_deg
 
 Recovery (`MonitorConfig.recover`): when ``lost`` and this epoch's fix alone disagrees
 beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at 1e-6), ``s`` (and ``v`` where
-the fix has a speed) are re-initialised from it (σ floored as
-`railnav.filters.common.start_on_track` does); the rows and columns of ``s`` and ``v`` in
-``P`` lose their correlations. Otherwise the ``s, v`` rows and columns of ``P`` are widened
+the fix has a speed) are re-initialised from it: the whole state through the filter's own
+start-from-fix code where the run has it (`TrackFixes.start`: ``filter.initial_from_fix``,
+`railnav.filters.common.start_on_track`; `railnav.navigation.fix_start.initial_at_fix`),
+so that attitude, IMU biases and clock start over too; else ``s`` and ``v`` alone (σ floored
+as ``start_on_track`` does), their rows and columns of ``P`` without correlations. Otherwise the ``s, v`` rows and columns of ``P`` are widened
 by the window's variance factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull
 the state back, and one noisy fix never replaces it.
 After a recovery the windows restart, and the status is ``degraded`` until
@@ -44,7 +46,8 @@ fix-disagreement statistic is heavier-tailed than χ²ₙ; the fix σ are floore
 from __future__ import annotations
 
 from collections import deque
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -108,6 +111,11 @@ class TrackFixes:
         Distance along the track of the fix's projection and its σ along the tangent, m.
     v_mps, sigma_v_mps : ndarray, shape (N,)
         Speed along the tangent and its σ (NaN where the fix has none), m/s.
+    source : ndarray of int, shape (N,)
+        Index of each fix in the source it was built from (before sorting).
+    start : callable(int) -> (x0, P0), optional
+        The filter's whole start from source fix ``i`` (its own start-from-fix code): a
+        recovery restarts every state (attitude, IMU biases, clock) from it.
     """
 
     time_s: Array
@@ -115,6 +123,8 @@ class TrackFixes:
     sigma_s_m: Array
     v_mps: Array
     sigma_v_mps: Array
+    source: npt.NDArray[np.intp] | None = None
+    start: Callable[[int], tuple[Array, Array]] | None = None
 
     @classmethod
     def on_track(cls, track, *, time_s, lat, lon, cov_enu_m2, v_enu_mps=None,
@@ -132,7 +142,12 @@ class TrackFixes:
                 if cov_v_enu_m2ps2 is not None else np.full(time_s.size, np.nan)
         order = np.argsort(time_s, kind="stable")
         return cls(time_s[order], np.asarray(proj.s)[order], np.sqrt(var_s)[order],
-                   np.asarray(v, dtype=float)[order], np.asarray(sv, dtype=float)[order])
+                   np.asarray(v, dtype=float)[order], np.asarray(sv, dtype=float)[order],
+                   source=order)
+
+    def with_start(self, start: Callable[[int], tuple[Array, Array]]) -> "TrackFixes":
+        """The same fixes with the filter's start function (`TrackFixes.start`)."""
+        return replace(self, start=start)
 
     def at(self, time_s: float) -> int | None:
         """Index of the fix at `time_s` (within `FIX_TIME_TOL_S`), or None."""
@@ -143,14 +158,16 @@ class TrackFixes:
         return None
 
 
-def spp_track_fixes(track, data, config, *, start_s: float = 0.0) -> TrackFixes | None:
+def spp_track_fixes(track, data, config, *, start_s: float = 0.0,
+                    filt=None) -> TrackFixes | None:
     """The receiver's single-point fixes (`gnss_obs.solve_spp`, the run's systems and mask)
     of the epochs of ``data.obs`` from `start_s` (s from the trip start) on, on `track`;
-    None without observations or fixes."""
+    None without observations or fixes. With the filter object `filt`, a recovery restarts
+    it from the fix (``filt.initial_from_fix``, `railnav.navigation.initialization.GnssFix`)."""
     if data.obs is None or data.nav is None:
         return None
-    from dataclasses import replace
     from gnss_obs.spp import SppConfig, solve_spp
+    from railnav.navigation.initialization import GnssFix
     table = data.obs.table
     sub = replace(data.obs, table=table[table["gps_time_s"].to_numpy()
                                         >= data.start_gps_time_s + start_s - FIX_TIME_TOL_S])
@@ -165,20 +182,45 @@ def spp_track_fixes(track, data, config, *, start_s: float = 0.0) -> TrackFixes 
     v_e = np.nan_to_num(spp.v_e[ok])
     v_enu = np.einsum("kji,kj->ki", C, v_e)
     v_enu[~np.all(np.isfinite(spp.v_e[ok]), axis=1)] = np.nan
-    return TrackFixes.on_track(track, time_s=spp.gps_time_s[ok] - data.start_gps_time_s,
-                               lat=lat, lon=lon, cov_enu_m2=spp.cov_enu_m2[ok],
-                               v_enu_mps=v_enu, cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[ok])
+    fixes = TrackFixes.on_track(track, time_s=spp.gps_time_s[ok] - data.start_gps_time_s,
+                                lat=lat, lon=lon, cov_enu_m2=spp.cov_enu_m2[ok],
+                                v_enu_mps=v_enu, cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[ok])
+    rows = np.flatnonzero(ok)
+    if filt is None or not hasattr(filt, "initial_from_fix"):
+        return fixes
+
+    def start(i: int) -> tuple[Array, Array]:
+        k = int(rows[i])
+        if not np.all(np.isfinite(spp.v_e[k])):
+            raise ValueError("no velocity")
+        return filt.initial_from_fix(GnssFix(
+            time_s=float(spp.gps_time_s[k] - data.start_gps_time_s), r_e=spp.r_e[k],
+            v_e=spp.v_e[k], clock_bias_m={n: float(spp.clock_bias_m[n][k])
+                                          for n in spp.systems},
+            clock_drift_mps=float(spp.clock_drift_mps[k]), cov_enu_m2=spp.cov_enu_m2[k],
+            cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k]))
+    return fixes.with_start(start)
 
 
-def fix_log_track_fixes(track, fixes) -> TrackFixes | None:
-    """The position fixes a run reads (`railnav.filters.fix_epochs.FixEpochs`), on `track`."""
+def fix_log_track_fixes(track, fixes, *, filt=None, config=None) -> TrackFixes | None:
+    """The position fixes a run reads (`railnav.filters.fix_epochs.FixEpochs`), on `track`;
+    with the filter object `filt` and its `config`, a recovery restarts it from the fix
+    (`railnav.navigation.fix_start.initial_at_fix`)."""
     if fixes is None or len(fixes.time_s) == 0:
         return None
     speed_var = np.asarray(fixes.sigma_speed_mps, dtype=float) ** 2
     cov_v = np.einsum("k,ij->kij", speed_var, np.eye(3))
-    return TrackFixes.on_track(track, time_s=fixes.time_s, lat=fixes.lat, lon=fixes.lon,
-                               cov_enu_m2=fixes.cov_n_m2, v_enu_mps=fixes.v_n_mps,
-                               cov_v_enu_m2ps2=cov_v)
+    out = TrackFixes.on_track(track, time_s=fixes.time_s, lat=fixes.lat, lon=fixes.lon,
+                              cov_enu_m2=fixes.cov_n_m2, v_enu_mps=fixes.v_n_mps,
+                              cov_v_enu_m2ps2=cov_v)
+    if filt is None or not hasattr(filt, "initial_from_fix"):
+        return out
+    from railnav.navigation.fix_start import initial_at_fix
+
+    def start(i: int) -> tuple[Array, Array]:
+        initial = initial_at_fix(filt, fixes, i, config)
+        return initial.x0, initial.P0
+    return out.with_start(start)
 
 
 def _chi2_sf(value: float, dof: float) -> float:
@@ -300,6 +342,13 @@ class FilterMonitor:
                 P[:, i] *= np.sqrt(factor)
             return x, P
         f = self.fixes
+        if f.start is not None:
+            try:
+                x0, P0 = f.start(int(f.source[j]))
+            except (ValueError, ArithmeticError, np.linalg.LinAlgError):
+                x0 = None                  # no start from this fix: s and v alone
+            if x0 is not None:
+                return np.asarray(x0, dtype=float), np.asarray(P0, dtype=float)
         reset = [i_s]
         x[i_s] = f.s_m[j]
         var = {i_s: max(f.sigma_s_m[j], cfg.min_fix_sigma_m) ** 2}

@@ -131,8 +131,9 @@ def run_monitor(filt, data: SensorData, config: NavigatorConfig, fixes=None, *,
     if not config.monitor.enabled or "s" not in names or "v" not in names \
             or getattr(filt, "track", None) is None:
         return None
-    track_fixes = fix_log_track_fixes(filt.track, fixes) if fixes is not None else \
-        spp_track_fixes(filt.track, data, config, start_s=start_s)
+    track_fixes = fix_log_track_fixes(filt.track, fixes, filt=filt, config=config) \
+        if fixes is not None else spp_track_fixes(filt.track, data, config, start_s=start_s,
+                                                  filt=filt)
     return FilterMonitor(filt.layout, track_fixes, config.monitor, config.gate_probability)
 
 

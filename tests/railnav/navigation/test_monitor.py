@@ -1,0 +1,190 @@
+"""The divergence monitor (railnav/navigation/monitor.py) and the along-track protection
+level (railnav/navigation/protection.py).
+
+References: χ² and binomial tail probabilities (scipy.stats, a second implementation of the
+special functions the monitor calls); the simulator's truth, which the filter never sees.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from ekf.layout import StateLayout
+from railnav.commands.run_report import report
+from railnav.jobs.run import run_simulated
+from railnav.navigation.monitor import FilterMonitor, MonitorConfig, TrackFixes, status_at
+from railnav.navigation.protection import along_track_protection
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+from railnav.simulation.trip import navigator_config_for
+from strapdown.imu_errors import imu_grade
+from trackmodel.io import read_track
+
+LAYOUT = StateLayout.from_blocks([("s", ["s"]), ("v", ["v"])])
+
+
+def _chunk(t: float, nis_rows=(1.0,), accepted=None):
+    """A one-epoch `ekf.FilterResult` stand-in: rows of unit S and the given NIS."""
+    nis = np.asarray(nis_rows, dtype=float)
+    acc = np.ones(nis.size, dtype=bool) if accepted is None else np.asarray(accepted)
+    return SimpleNamespace(t_d=np.array([t]), innov_d=np.sqrt(nis), s_d=np.ones(nis.size),
+                           accepted=acc, nis_c_sum=0.0, nis_c_count=0,
+                           innov_c=np.zeros((0, 0)))
+
+
+def _fixes(times, s_fix, sigma_m=1.0):
+    n = len(times)
+    return TrackFixes(np.asarray(times, dtype=float), np.asarray(s_fix, dtype=float),
+                      np.full(n, sigma_m), np.full(n, np.nan), np.full(n, np.nan),
+                      source=np.arange(n))
+
+
+def _feed(monitor, times, s_prior, var_prior=0.0):
+    x, P = np.zeros(2), np.diag([var_prior, 1.0])
+    for t, s in zip(times, s_prior):
+        x = np.array([s, 0.0])
+        monitor.prior(t, x, P)
+        out = monitor.epoch(_chunk(t), x, P)
+        if out is not None:
+            x, P = out
+    return monitor.frame()
+
+
+@pytest.mark.parametrize("margin, expected", [(-1e-6, "degraded"), (1e-6, "lost")])
+def test_lost_threshold_is_the_chi2_quantile(margin, expected):
+    """Ten epochs whose fix disagreements square-sum to the χ²₁₀ quantile of p_lost/2
+    (the fix test's tail is doubled, Bonferroni over its two statistics) ± a hair: the
+    10th epoch is lost just above it, only degraded just below (and not ok: p < 1e-3)."""
+    cfg = MonitorConfig(recover=False)
+    total = stats.chi2.isf(cfg.p_lost / 2, 10) * (1 + margin)
+    # alternating signs: the signed-mean statistic stays 0
+    d = np.sqrt(total / 10) * np.array([1, -1] * 5)
+    times = np.arange(10.0)
+    monitor = FilterMonitor(LAYOUT, _fixes(times, d), cfg, gate_probability=None)
+    frame = _feed(monitor, times, np.zeros(10))
+    assert frame["status"].iloc[-1] == expected
+    assert frame["p_fix"].iloc[-1] == pytest.approx(2 * stats.chi2.sf(total, 10), rel=1e-6)
+
+
+def test_consistent_fixes_raise_few_alarms(rng):
+    """2000 epochs of fixes that disagree by N(0, 1) σ: no ``lost`` (p_lost = 1e-6 per
+    test), and ``degraded`` on at most ~1 % (4 tests at 1e-3, windows overlapping ×10,
+    plus the first `min_epochs`)."""
+    n = 2000
+    times = np.arange(float(n))
+    monitor = FilterMonitor(LAYOUT, _fixes(times, rng.standard_normal(n)), MonitorConfig(),
+                            gate_probability=0.9999)
+    frame = _feed(monitor, times, np.zeros(n))
+    assert (frame["status"] == "lost").sum() == 0
+    assert (frame["status"] == "degraded").mean() <= 0.01
+
+
+def test_offset_filter_is_lost_and_restarted_at_the_fix():
+    """A prior 30 m (30σ) off the fixes: the first epoch already fails at 1e-6 (30² ≫ the
+    χ²₁ quantile, 23.9 with the doubled tail), and the state is re-initialised at the fix
+    (σ floored at 1 m)."""
+    times = np.arange(5.0)
+    monitor = FilterMonitor(LAYOUT, _fixes(times, np.zeros(5)), MonitorConfig(),
+                            gate_probability=None)
+    x, P = np.array([30.0, 0.0]), np.diag([0.0, 1.0])
+    monitor.prior(0.0, x, P)
+    x_new, P_new = monitor.epoch(_chunk(0.0), x, P)
+    assert monitor.records[0]["status"] == "lost" and monitor.records[0]["action"] == "reinit"
+    assert x_new[0] == 0.0 and P_new[0, 0] == pytest.approx(1.0)
+
+
+def test_rejected_rows_lost_only_when_most_are_rejected():
+    """Gate 0.9999: 3 of 10 rows rejected per epoch is improbable (binomial tail ≪ 1e-6)
+    but a minority: degraded; 6 of 10: lost."""
+    for n_bad, expected in ((3, "degraded"), (6, "lost")):
+        monitor = FilterMonitor(LAYOUT, None, MonitorConfig(recover=False), 0.9999)
+        acc = np.arange(10) >= n_bad
+        for t in range(5):
+            monitor.prior(float(t), np.zeros(2), np.eye(2))
+            monitor.epoch(_chunk(float(t), np.ones(10), acc), np.zeros(2), np.eye(2))
+        rec = monitor.records[-1]
+        assert rec["status"] == expected
+        assert rec["p_rejected"] == pytest.approx(
+            stats.binom.sf(5 * n_bad - 1, 50, 1e-4), rel=1e-6)
+
+
+def test_status_at_takes_the_last_tested_epoch():
+    records = pd.DataFrame({"time_s": [1.0, 2.0], "status": ["degraded", "lost"]})
+    got = status_at(records, np.array([0.5, 1.0, 1.5, 2.0, 9.0]))
+    assert list(got) == ["ok", "degraded", "degraded", "lost", "lost"]
+
+
+def test_protection_level_closed_form():
+    """PL = Φ⁻¹(1 − α/8)·σ·√f + (T + Φ⁻¹(1 − α/2))·σ_prior; NaN when lost."""
+    pl = along_track_protection(np.array([1.0, 2.0, 1.0]), np.array([0.5, 0.0, 0.5]),
+                                np.array([1.0, 4.0, 1.0]), np.array([False, False, True]),
+                                integrity_risk=1e-5, threshold_sigma=3.0)
+    k_ff, k_md = stats.norm.isf(1e-5 / 8), stats.norm.isf(1e-5 / 2)
+    assert pl[0] == pytest.approx(k_ff + (3.0 + k_md) * 0.5, rel=1e-9)
+    assert pl[1] == pytest.approx(k_ff * 2.0 * 2.0, rel=1e-9)
+    assert np.isnan(pl[2])
+
+
+# --- simulated runs -------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def paper_track():
+    return read_track(TRACKS_DIR / "paper2017.csv")
+
+
+def _scenario(duration_s: float = 30.0):
+    return get_scenario("paper2017").with_overrides(duration_s=duration_s)
+
+
+def _joined(outcome):
+    est = outcome.result.estimates
+    err = outcome.errors.to_frame()[["time_s", "along_track_m"]]
+    return est.merge(err, on="time_s")
+
+
+@pytest.fixture(scope="module")
+def clean_runs(paper_track):
+    return [run_simulated(paper_track, _scenario(), seed=seed) for seed in (1, 2)]
+
+
+def test_clean_runs_are_never_lost(clean_runs):
+    for out in clean_runs:
+        mon = out.result.statistics()["monitor"]
+        assert mon["epochs"]["lost"] == 0 and mon["recoveries"] == 0
+        assert set(out.result.estimates["status"]) <= {"ok", "degraded"}
+
+
+def test_protection_levels_cover_the_truth(clean_runs):
+    """Rows with the true s outside ±PL: none at 1e-5 and 1e-3 over 600 rows (at the
+    declared 1e-3 per epoch, 5 or more violations would have probability < 4e-4)."""
+    rows = [_joined(out) for out in clean_runs]
+    err = np.concatenate([np.abs(r["along_track_m"].to_numpy()) for r in rows])
+    for column in ("protection_level_m", "protection_level_0.001_m"):
+        pl = np.concatenate([r[column].to_numpy() for r in rows])
+        assert np.isfinite(pl).all() and err.size >= 600
+        assert (err > pl).sum() <= 4, column
+
+
+def test_injected_imu_bias_is_flagged(paper_track):
+    """IMU biases of 0.5 m/s² and 0.01 rad/s the filter is not told of (it assumes the
+    paper2017 grade): the monitor says lost within 2 epochs, every row whose true error
+    exceeds 3σ_s is flagged, no protection interval is given while lost, and the terminal
+    report says the run ended lost."""
+    sc = _scenario()
+    config = navigator_config_for(sc)
+    biased = replace(imu_grade(sc.imu_errors), accel_bias_mps2=0.5, gyro_bias_radps=0.01,
+                     name="biased")
+    out = run_simulated(paper_track, replace(sc, imu_errors=biased), config=config, seed=1)
+    rows = _joined(out)
+    beyond = np.abs(rows["along_track_m"]) > 3 * rows["sigma_s_m"]
+    assert beyond.mean() > 0.5                                  # the filter really diverges
+    assert (rows.loc[beyond, "status"] != "ok").all()
+    mon = out.result.monitor
+    assert (mon["status"] == "lost").to_numpy()[2:].all()
+    lost = rows["status"] == "lost"
+    assert np.isnan(rows.loc[lost, "protection_level_m"]).all()
+    assert "LOST at the end of the run" in report(out, "out")
