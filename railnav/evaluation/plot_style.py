@@ -72,6 +72,45 @@ def shade_outages(ax, spans) -> None:
         ax.axvspan(start, start + duration, **OUTAGE_STYLE)
 
 
+#: Shading of the monitor's non-``ok`` statuses (`railnav.navigation.monitor`) on time axes.
+STATUS_STYLE = {"degraded": {"color": "gold", "alpha": 0.25, "lw": 0},
+                "lost": {"color": "red", "alpha": 0.2, "lw": 0}}
+
+
+def status_spans(result) -> dict[str, list[tuple[float, float]]]:
+    """(start, duration) of each run of ``degraded`` and ``lost`` rows of the estimates'
+    ``status`` column (none without it)."""
+    est = getattr(result, "estimates", None)
+    if est is None or "status" not in est or not len(est):
+        return {}
+    t = est["time_s"].to_numpy(dtype=float)
+    status = est["status"].to_numpy(dtype=object)
+    out: dict[str, list[tuple[float, float]]] = {}
+    for name in STATUS_STYLE:
+        flag = np.concatenate([[False], status == name, [False]]).astype(int)
+        starts = np.flatnonzero(np.diff(flag) == 1)
+        stops = np.flatnonzero(np.diff(flag) == -1) - 1
+        end = np.append(t[1:], t[-1])          # a row's status holds until the next row
+        spans = [(float(t[a]), float(end[b] - t[a])) for a, b in zip(starts, stops)]
+        if spans:
+            out[name] = spans
+    return out
+
+
+def shade_status(ax, spans: dict) -> None:
+    """The `status_spans` on a time axis."""
+    for name, runs in spans.items():
+        for start, duration in runs:
+            ax.axvspan(start, start + duration, **STATUS_STYLE[name])
+
+
+def status_legend_handles(spans: dict) -> list:
+    """Legend entries for the statuses shaded."""
+    from matplotlib.patches import Patch
+    return [Patch(color=STATUS_STYLE[n]["color"], alpha=STATUS_STYLE[n]["alpha"] * 2,
+                  label=f"monitor: {n}") for n in spans]
+
+
 def outage_legend_handle():
     """A legend entry for the shading."""
     from matplotlib.patches import Patch

@@ -1,5 +1,8 @@
 """Plots of a navigation run: errors against the truth, estimates with their σ, the map.
 
+Time axes shade the divergence monitor's ``degraded`` (gold) and ``lost`` (red) rows
+(`railnav.evaluation.plot_style.status_spans`), under the grey GNSS outages.
+
 * ``errors.png`` (`errors_figure`, with a truth): estimate − truth of each quantity the
   filter has, with its ``±3σ`` band; along-track (or 3-D), cross-track and vertical position
   (m), speed (m/s), yaw, pitch and roll (mrad).
@@ -31,7 +34,10 @@ from railnav.evaluation.plot_style import (
     robust_limit,
     save_png,
     shade_outages,
+    shade_status,
     sigma_band,
+    status_legend_handles,
+    status_spans,
 )
 
 __all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "errors_figure",
@@ -94,9 +100,11 @@ def errors_figure(errors, result) -> Figure:
     est, t = result.estimates, errors.time_s
     panels = _error_panels(est)
     spans = outage_spans(result)
+    statuses = status_spans(result)
     fig = Figure(figsize=(9, 1.9 * len(panels) + 0.8), layout="constrained")
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     for ax, (field, sig_name, sig_scale, words, unit, scale) in zip(axes, panels):
+        shade_status(ax, statuses)
         shade_outages(ax, spans)
         value = np.asarray(getattr(errors, field), dtype=float) * scale
         band = None
@@ -110,6 +118,7 @@ def errors_figure(errors, result) -> Figure:
     handles, _ = axes[0].get_legend_handles_labels()
     if spans:
         handles.append(outage_legend_handle())
+    handles += status_legend_handles(statuses)
     fig.suptitle(f"{result.filter} filter: errors against the truth")
     fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
     axes[-1].set_xlabel(TIME_LABEL)
@@ -132,6 +141,7 @@ def estimates_figure(result) -> Figure:
     t = est["time_s"].to_numpy()
     panels = [p for p in _ESTIMATE_PANELS if p[0] in est]
     spans = outage_spans(result)
+    statuses = status_spans(result)
     fig = Figure(figsize=(12, 1.9 * len(panels) + 0.8), layout="constrained")
     axes = fig.subplots(len(panels), 2, sharex=True, squeeze=False,
                         gridspec_kw={"width_ratios": (1.6, 1.0)})
@@ -139,6 +149,7 @@ def estimates_figure(result) -> Figure:
         value = est[col].to_numpy()
         sigma = est.get(f"sigma_{col}")
         for a in (ax, ax_sigma):
+            shade_status(a, statuses)
             shade_outages(a, spans)
             plain_axis(a)
         if sigma is not None:
@@ -152,6 +163,7 @@ def estimates_figure(result) -> Figure:
     handles, _ = axes[0, 0].get_legend_handles_labels()
     if spans:
         handles.append(outage_legend_handle())
+    handles += status_legend_handles(statuses)
     fig.suptitle(f"{result.filter} filter: estimates and their uncertainty")
     fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
     for ax in axes[-1]:

@@ -1,0 +1,216 @@
+"""Every piece of the shared urban drive: GNSS-only and fix-based filters against SPP, and
+the divergence monitor's flags (issue 14, acceptance on real data).
+
+Data: the full urban drive, ``--data DIR`` (rover 2020-11-29 12:40-12:48 GPST, PPK
+reference; provenance in ``data/gnss/README.md``).
+
+Pieces, each with its own track fitted from the reference (`trackmodel.fit.fit_track`,
+default tolerances) and the filters started at the piece's first epoch, fed only its epochs:
+
+* ``leg N``: the legs of `trackmodel.polyline.split_legs` (``railnav track fit --leg N``);
+* ``leg N part k``: each leg cut at the middle of every street corner tighter than
+  `TIGHTEST_TRACK_RADIUS_M` (the smallest tram radii; no railway has such a corner), found
+  on the leg's own fitted track;
+* ``leg 2 with the U-turn``: leg 2's track with the data from `UTURN_START_SOW` on, the
+  issue's held-out case (the car drives leg 2's street backwards, stands, turns round,
+  drives it forwards).
+
+Solutions on each piece: ``gnss-only`` (pseudoranges and Doppler, GPS L1, the run's
+defaults: `railnav.navigate`), ``fixes`` (the gnss-only filter on ``[s, v]`` from the SPP
+fixes, read back as a fix file) and ``spp`` (`gnss_obs.solve_spp`, GPS L1 defaults), all
+scored on the same epochs (whole seconds where each has a position and the reference one).
+Per piece: epochs, horizontal RMS / max of each, "never worse than SPP" (RMS and max), the
+monitor's status counts, the epochs whose along-track error (reference projected on the
+piece's track) exceeds 3σ_s, and how many of those the monitor left ``ok``.
+
+Writes ``benchmarks/results/real_pieces.json``. Run: ``python benchmarks/bench_real_pieces.py
+--data DIR`` (a few minutes).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
+
+from gnss_obs.fixes.read import read_fixes  # noqa: E402
+from gnss_obs.measurements import MeasurementConfig  # noqa: E402
+from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
+from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
+from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
+from railnav.config import NavigatorConfig, SensorData  # noqa: E402
+from railnav.evaluation.spp_accuracy import read_reference_trajectory, spp_errors  # noqa: E402
+from railnav.navigation.navigator import navigate  # noqa: E402
+from trackmodel.files import atomic_write_text  # noqa: E402
+from trackmodel.fit import fit_track  # noqa: E402
+from trackmodel.polyline import Polyline, split_legs  # noqa: E402
+
+RESULTS = Path(__file__).resolve().parent / "results" / "real_pieces.json"
+DATA_FILES = ("rover_obs.rnx", "broadcast_nav.rnx", "reference_trajectory.csv")
+#: Corners tighter than this radius split a leg (tram minimum radii are ~18-25 m), m.
+TIGHTEST_TRACK_RADIUS_M = 20.0
+#: A piece needs this many reference points (fit and statistics), and corners closer
+#: than `MIN_PIECE_M` to a piece end do not split it.
+MIN_PIECE_POINTS = 20
+MIN_PIECE_M = 60.0
+#: GPS week and the seconds of week where the issue's held-out run starts.
+GPS_WEEK = 2134
+UTURN_START_SOW = 45966.0
+WEEK_S = 604_800
+SAMPLE_STEP_M = 1.0
+
+
+def _corner_cuts(track) -> list[float]:
+    """``s`` of the middle of each corner tighter than `TIGHTEST_TRACK_RADIUS_M`."""
+    s = np.arange(0.0, track.length_m, SAMPLE_STEP_M)
+    tight = np.abs(track.at(s).curvature_1pm) > 1.0 / TIGHTEST_TRACK_RADIUS_M
+    cuts, start = [], None
+    for k, flag in enumerate(np.append(tight, False)):
+        if flag and start is None:
+            start = k
+        elif not flag and start is not None:
+            mid = 0.5 * (s[start] + s[k - 1])
+            if MIN_PIECE_M <= mid <= track.length_m - MIN_PIECE_M:
+                cuts.append(float(mid))
+            start = None
+    return cuts
+
+
+def pieces(reference: pd.DataFrame) -> list[dict]:
+    """The pieces of the module docstring: name, reference rows, track."""
+    poly = Polyline(np.radians(reference["lat_deg"].to_numpy()),
+                    np.radians(reference["lon_deg"].to_numpy()), reference["h_m"].to_numpy())
+    out = []
+    for n, index in enumerate(split_legs(poly), start=1):
+        leg = fit_track(poly.lat[index], poly.lon[index], poly.h[index]).track
+        out.append({"name": f"leg {n}", "rows": index, "track": leg})
+        s = leg.project(poly.lat[index], poly.lon[index]).s
+        bounds = [-np.inf, *_corner_cuts(leg), np.inf]
+        if len(bounds) > 2:
+            for k in range(len(bounds) - 1):
+                part = index[(s >= bounds[k]) & (s < bounds[k + 1])]
+                if part.size >= MIN_PIECE_POINTS:
+                    track = fit_track(poly.lat[part], poly.lon[part], poly.h[part]).track
+                    out.append({"name": f"leg {n} part {k + 1}", "rows": part, "track": track})
+        if n == 2:
+            sow = reference["gps_time_s"].to_numpy() - GPS_WEEK * WEEK_S
+            out.append({"name": "leg 2 with the U-turn", "track": leg,
+                        "rows": np.flatnonzero(sow >= UTURN_START_SOW)})
+    return out
+
+
+def _at_epochs(estimates: pd.DataFrame) -> pd.DataFrame:
+    t = estimates["gps_time_s"].to_numpy()
+    out = estimates[np.abs(t - np.round(t)) < 1e-3].copy()
+    out["gps_time_s"] = np.round(out["gps_time_s"])
+    return out.drop_duplicates("gps_time_s", keep="last")
+
+
+def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
+              workdir: Path, config: NavigatorConfig = NavigatorConfig(filter="gnss-only")
+              ) -> dict:
+    """The three solutions on one piece, scored (module docstring)."""
+    times = reference["gps_time_s"].to_numpy()[piece["rows"]]
+    t0, t1 = float(times[0]), float(times[-1])
+    table = obs.table
+    piece_obs = replace(obs, table=table[(table["gps_time_s"] >= t0 - 1e-6)
+                                         & (table["gps_time_s"] <= t1 + 1e-6)])
+    spp_piece = spp[(spp["gps_time_s"] >= t0 - 1e-6) & (spp["gps_time_s"] <= t1 + 1e-6)]
+    fix_path = workdir / f"{piece['name'].replace(' ', '_')}_fixes.csv"
+    spp_piece.to_csv(fix_path, index=False)
+    track = piece["track"]
+    solutions, monitor = {"spp": spp_piece}, {}
+    for name, data in (("gnss-only", SensorData(start_gps_time_s=t0, obs=piece_obs, nav=nav)),
+                       ("fixes", SensorData(start_gps_time_s=t0, fixes=read_fixes(fix_path)))):
+        result = navigate(track, data, config)
+        solutions[name] = _at_epochs(result.estimates)
+        monitor[name] = result
+    errors = {k: spp_errors(v, reference) for k, v in solutions.items()}
+    common = None
+    for e in errors.values():
+        t = set(e.loc[np.isfinite(e["horizontal_m"]), "gps_time_s"].round())
+        common = t if common is None else common & t
+    common = np.array(sorted(common))
+    row = {"epochs": int(common.size), "gps_time_s": [t0, t1],
+           "track_length_m": float(track.length_m)}
+    ref = reference.set_index(np.round(reference["gps_time_s"]))
+    for name, e in errors.items():
+        h = e.set_index(np.round(e["gps_time_s"])).loc[common, "horizontal_m"].to_numpy()
+        row[name] = {"horizontal_rms_m": float(np.sqrt(np.mean(h ** 2))),
+                     "horizontal_max_m": float(h.max())}
+    for name in ("gnss-only", "fixes"):
+        est = solutions[name].set_index("gps_time_s").loc[common]
+        r = ref.loc[common]
+        s_ref = track.project(np.radians(r["lat_deg"].to_numpy()),
+                              np.radians(r["lon_deg"].to_numpy())).s
+        beyond = np.abs(est["s_m"].to_numpy() - s_ref) > 3.0 * est["sigma_s_m"].to_numpy()
+        status = est["status"].to_numpy()
+        mon = monitor[name].statistics()["monitor"]
+        row[name].update(
+            never_worse_than_spp=bool(row[name]["horizontal_rms_m"] <= row["spp"]["horizontal_rms_m"]
+                                      and row[name]["horizontal_max_m"]
+                                      <= row["spp"]["horizontal_max_m"]),
+            status_epochs=mon["epochs"], recoveries=mon["recoveries"],
+            final_status=mon["final_status"], epochs_beyond_3sigma=int(beyond.sum()),
+            epochs_beyond_3sigma_not_flagged=int((beyond & (status == "ok")).sum()),
+            along_track_rms_m=float(np.sqrt(np.mean((est["s_m"].to_numpy() - s_ref) ** 2))))
+    return row
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_data_argument(parser, DATA_FILES)
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--no-recovery", action="store_true",
+                        help="the monitor flags but never changes the state (the baseline)")
+    args = parser.parse_args(argv)
+    config = NavigatorConfig(filter="gnss-only")
+    if args.no_recovery:
+        config = replace(config, monitor=replace(config.monitor, recover=False))
+    data = checked_data_dir(parser, args.data, DATA_FILES)
+    started = time.perf_counter()
+    obs = read_rinex_obs(data / "rover_obs.rnx")
+    nav = read_rinex_nav(data / "broadcast_nav.rnx")
+    reference = read_reference_trajectory(data / "reference_trajectory.csv")
+    spp = solve_spp(obs, nav, SppConfig(measurement=MeasurementConfig(systems="G"))).to_frame()
+    spp = spp[np.isfinite(spp["lat_deg"])]
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for piece in pieces(reference):
+            results[piece["name"]] = run_piece(piece, obs, nav, reference, spp, Path(tmp),
+                                               config)
+            r = results[piece["name"]]
+            print(f"{piece['name']}: {r['epochs']} epochs; horizontal RMS/max gnss-only "
+                  f"{r['gnss-only']['horizontal_rms_m']:.2f}/{r['gnss-only']['horizontal_max_m']:.2f}"
+                  f", fixes {r['fixes']['horizontal_rms_m']:.2f}/{r['fixes']['horizontal_max_m']:.2f}"
+                  f", SPP {r['spp']['horizontal_rms_m']:.2f}/{r['spp']['horizontal_max_m']:.2f} m; "
+                  f">3σ not flagged {r['gnss-only']['epochs_beyond_3sigma_not_flagged']}/"
+                  f"{r['gnss-only']['epochs_beyond_3sigma']}, "
+                  f"{r['fixes']['epochs_beyond_3sigma_not_flagged']}/"
+                  f"{r['fixes']['epochs_beyond_3sigma']}", flush=True)
+    out = {"data": "gnss_urban_drive", "tightest_track_radius_m": TIGHTEST_TRACK_RADIUS_M,
+           "recovery": not args.no_recovery,
+           "pieces": results,
+           "all_never_worse_than_spp": all(r[k]["never_worse_than_spp"] for r in results.values()
+                                           for k in ("gnss-only", "fixes")),
+           "epochs_beyond_3sigma_not_flagged": sum(
+               r[k]["epochs_beyond_3sigma_not_flagged"] for r in results.values()
+               for k in ("gnss-only", "fixes")),
+           "seconds": time.perf_counter() - started, "machine": platform.platform()}
+    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    print(f"{args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
