@@ -4,7 +4,11 @@
 place that builds it): ``time_s`` (from the trip start), ``gps_time_s`` and the filter's
 columns (`railnav.filters.common.ESTIMATE_COLUMNS`: ``s_m, lat_deg, lon_deg, h_m,
 speed_mps, v_east_mps, ...``, then ``yaw_deg, ...``, clock, biases, and ``sigma_*`` of
-each; `railnav.filters.common.estimate_columns`). `NavigationResult.innovations` is ``innovations.csv``: one
+each; `railnav.filters.common.estimate_columns`); with the divergence monitor
+(`railnav.navigation.monitor`, track-based filters), then ``status`` (``ok``, ``degraded``,
+``lost``), ``s_min_m``, ``s_max_m``, ``protection_level_m`` (integrity risk 1e-5 per
+epoch) and ``protection_level_0.001_m`` (`railnav.navigation.protection`).
+`NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
 innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
 m or m/s by kind; a GNSS position fix has the rows of `railnav.filters.fix_rows`, ``sv``
@@ -29,7 +33,8 @@ from railnav.filters.sensor_rows import sensor_statistics
 from railnav.navigation.monitor import STATUSES, status_at
 from railnav.navigation.protection import protection_columns
 
-__all__ = ["NavigationResult", "estimates_frame", "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
+__all__ = ["NavigationResult", "estimates_frame", "integrity_columns", "monitor_statistics",
+           "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
 
 #: CSV float format of the output tables: 12 significant digits (µm at 10⁶ m, 1e-10° in
 #: degrees), except the times (`CSV_DECIMALS`).

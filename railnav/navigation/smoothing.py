@@ -16,7 +16,7 @@ import numpy as np
 
 from ekf.smoother import rts_smooth
 from railnav.errors import RailnavError
-from railnav.navigation.result import NavigationResult, estimates_frame
+from railnav.navigation.result import NavigationResult, estimates_frame, integrity_columns
 
 __all__ = ["smooth_result"]
 
@@ -52,4 +52,7 @@ def smooth_result(result: NavigationResult) -> NavigationResult:
     x, P = smoothed.x[index], smoothed.P[index]
     estimates = estimates_frame(result.filter_object, result.time_s, x, P,
                                 start_gps_time_s=result.start_gps_time_s)
+    if result.monitor is not None:       # the run's statuses, the smoothed σ in the PL
+        estimates = estimates.assign(**integrity_columns(
+            estimates, result.monitor, result.filter_object.config))
     return replace(result, x=x, P=P, estimates=estimates)
