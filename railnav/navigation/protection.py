@@ -2,7 +2,7 @@ r"""Along-track protection level: an interval ``[s_min, s_max]`` that holds the 
 with probability at least ``1 − integrity_risk`` per epoch (the ETCS confidence interval).
 
 Method, at each row of ``estimates.csv``, with ``α`` the integrity risk (default
-`DEFAULT_INTEGRITY_RISK` = 1e-5 per epoch; ``protection_level_1e-3_m`` is also written):
+`DEFAULT_INTEGRITY_RISK` = 1e-5 per epoch; ``protection_level_risk_0p001_m`` at 1e-3 is also written):
 
 ``PL = K(α/4) · σ_s · √f  +  (T + K(α/2)) · σ_s,prior``,  ``[s_min, s_max] = s ∓ PL``
 
@@ -36,14 +36,20 @@ from scipy.special import ndtri
 from railnav.navigation.monitor import FIX_TIME_TOL_S
 
 __all__ = ["DEFAULT_INTEGRITY_RISK", "REPORTED_RISKS", "protection_columns",
-           "along_track_protection", "row_test_threshold"]
+           "along_track_protection", "row_test_threshold", "risk_column"]
 
 Array = npt.NDArray[np.float64]
 
 #: Integrity risk per epoch of ``s_min_m``, ``s_max_m`` and ``protection_level_m``.
 DEFAULT_INTEGRITY_RISK = 1e-5
-#: Further risks whose protection level is also written (``protection_level_<risk>_m``).
+#: Further risks whose protection level is also written (`risk_column`).
 REPORTED_RISKS = (1e-3,)
+
+
+def risk_column(risk: float) -> str:
+    """Column of the protection level at `risk`: a Python identifier (exports read the
+    rows as named tuples), ``1e-3`` -> ``protection_level_risk_0p001_m``."""
+    return "protection_level_risk_" + f"{risk:f}".rstrip("0").replace(".", "p") + "_m"
 
 
 def row_test_threshold(config) -> float:
@@ -90,7 +96,7 @@ def protection_columns(estimates: pd.DataFrame, monitor: pd.DataFrame | None, co
                        integrity_risk: float = DEFAULT_INTEGRITY_RISK,
                        reported=REPORTED_RISKS) -> dict[str, Array]:
     """``s_min_m``, ``s_max_m``, ``protection_level_m`` (at `integrity_risk`) and
-    ``protection_level_<risk>_m`` for each of `reported`, for the rows of `estimates`
+    `risk_column` for each of `reported`, for the rows of `estimates`
     (columns ``time_s``, ``s_m``, ``sigma_s_m``, ``status``) and the monitor's records
     (`railnav.navigation.monitor.FilterMonitor.frame`; None: no fault part, f = 1)."""
     t = estimates["time_s"].to_numpy(dtype=float)
@@ -113,6 +119,6 @@ def protection_columns(estimates: pd.DataFrame, monitor: pd.DataFrame | None, co
                                 threshold_sigma=T)
     out = {"s_min_m": s - pl, "s_max_m": s + pl, "protection_level_m": pl}
     for risk in reported:
-        out[f"protection_level_{risk:g}_m"] = along_track_protection(
+        out[risk_column(risk)] = along_track_protection(
             sigma, prior, factor, lost, integrity_risk=risk, threshold_sigma=T)
     return out

@@ -7,7 +7,7 @@ speed_mps, v_east_mps, ...``, then ``yaw_deg, ...``, clock, biases, and ``sigma_
 each; `railnav.filters.common.estimate_columns`); with the divergence monitor
 (`railnav.navigation.monitor`, track-based filters), then ``status`` (``ok``, ``degraded``,
 ``lost``), ``s_min_m``, ``s_max_m``, ``protection_level_m`` (integrity risk 1e-5 per
-epoch) and ``protection_level_0.001_m`` (`railnav.navigation.protection`).
+epoch) and ``protection_level_risk_0p001_m`` (`railnav.navigation.protection`).
 `NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
 innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in

@@ -163,7 +163,7 @@ def test_protection_levels_cover_the_truth(clean_runs):
     declared 1e-3 per epoch, 5 or more violations would have probability < 4e-4)."""
     rows = [_joined(out) for out in clean_runs]
     err = np.concatenate([np.abs(r["along_track_m"].to_numpy()) for r in rows])
-    for column in ("protection_level_m", "protection_level_0.001_m"):
+    for column in ("protection_level_m", "protection_level_risk_0p001_m"):
         pl = np.concatenate([r[column].to_numpy() for r in rows])
         assert np.isfinite(pl).all() and err.size >= 600
         assert (err > pl).sum() <= 4, column
