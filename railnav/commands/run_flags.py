@@ -194,10 +194,10 @@ def check_flags(args: argparse.Namespace) -> None:
     if not several and args.crossing_rate_per_s is not None and args.network is None:
         raise ConfigError("--crossing-rate-per-s: only with several tracks or --network")
     check_result_flags(args, several)
-    if several and not kind.banks:
+    if several and not (kind.banks or (kind.fixes and args.fixes is not None)):
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
-        raise ConfigError(f"several tracks run the {banked} filter, not --filter "
-                          f"{args.filter}")
+        raise ConfigError(f"several tracks run the {banked} filter, or a filter that takes "
+                          f"--fixes with them, not --filter {args.filter}")
 
 
 def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
@@ -208,8 +208,6 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
                                           ("--no-fix-heights", args.no_fix_heights)) if given]
     if fix_flags and args.fixes is None:
         raise ConfigError(f"{', '.join(fix_flags)}: only with --fixes")
-    if args.fixes is not None and several:
-        raise ConfigError("--fixes works with one track")
     if args.fixes is not None and not kind.fixes:
         takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).fixes)
         raise ConfigError(f"--fixes: the {args.filter} filter takes no fixes (the {takes} "

@@ -4,7 +4,7 @@ A *filter object* holds one filter's models and turns a trip's samples and GNSS 
 into what the engine (`ekf.CdFilter`) consumes; the chunk loop that drives it is
 `railnav.navigation.loop`. Every filter kind railnav runs is one `FilterKind` entry in
 `FILTERS`: the command line's ``--filter`` choices, `railnav.config.NavigatorConfig`'s
-check, streaming and the multi-track bank all read this table. Adding a filter kind means
+check, streaming and the network navigator all read this table. Adding a filter kind means
 adding one module with a class that satisfies `Filter`, and one entry here.
 
 Time: ``t`` and ``time_s`` are seconds from the trip start.
@@ -90,7 +90,8 @@ class FilterKind:
     streams : bool
         It can run in streaming mode (`railnav.navigation.streaming`).
     banks : bool
-        It can run in a multi-track bank (`railnav.navigation.bank`): it screens each
+        It can run as a hypothesis of the network navigator on observations
+        (`railnav.navigation.network_navigator`, several tracks): it screens each
         epoch's rows and keeps their innovations (``screen.last``).
     fixes : bool
         It takes GNSS position fixes (`railnav.filters.fix_rows`): its class accepts

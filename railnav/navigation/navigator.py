@@ -167,7 +167,7 @@ class TripSamples:
 def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=(),
                  track=None) -> TripSamples:
     """The samples and GNSS epochs of a trip (steps 1–2 of `navigate`; also used to run
-    several filters over the same data, `railnav.navigation.bank`); `track` projects
+    several filters over the same data, `railnav.navigation.network_navigator`); `track` projects
     balises given as coordinates."""
     samples_t, samples_u = _sample_times(data, config)
     gnss = fixes = None
