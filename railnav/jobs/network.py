@@ -215,7 +215,8 @@ def candidate_starts(trip, config, route_filter):
 def run_simulated_network(network: Network, legs, scenario, *, line=None, config=None,
                           seed: int = 0, systems: str | None = None,
                           nav: NetworkNavConfig = NetworkNavConfig(), known_start: bool = False,
-                          faults: tuple = (), window: tuple[float, float] | None = None,
+                          start_direction: int | None = None, faults: tuple = (),
+                          window: tuple[float, float] | None = None,
                           progress=None) -> NetworkRunOutcome:
     """Simulate `scenario` along the route `legs` and navigate it on `network` (module
     docstring).
@@ -236,6 +237,9 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
     nav : NetworkNavConfig
     known_start : bool
         Start on the first leg's netelement only (else every netelement near the start).
+    start_direction : {1, -1}, optional
+        Start hypotheses in this orientation of each netelement only (+1 along it; default
+        both for an inertial filter: the truth brought onto each decides).
     faults : tuple of gnss_obs.SatelliteFault
     window : (start_s, end_s), optional
         Extra error-summary window.
@@ -253,7 +257,9 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
     trip = simulate_trip(scenario, track=line, seed=seed, systems=systems, faults=faults)
     route_filter = make_filter(line, config, None)
     result = navigate_network(network, trip.sensor_data(), config, nav=nav,
-                              start=NetworkStart(legs[0][0]) if known_start else None,
+                              start=NetworkStart(legs[0][0] if known_start else None,
+                                                 direction=start_direction)
+                              if known_start or start_direction is not None else None,
                               outages=scenario.outages,
                               initial=candidate_starts(trip, config, route_filter),
                               near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])),

@@ -20,7 +20,8 @@ start) falls below it within tens of epochs.
   the navigator is not told), each candidate starting from the truth brought onto its own
   track plus one common error draw;
 * `run_files_tracks` does the same on recorded or ``railnav simulate`` files (GNSS
-  observations, or position fixes), starting from the first fix projected onto each track;
+  observations, or position fixes), starting from the first fix projected onto each track,
+  facing along the tracks (as given) unless told otherwise;
 * `write_track_run` writes the files of `railnav.jobs.network.write_network_run`
   (``estimates.csv`` with the network columns and ``track``, ``track_probability``;
   ``innovations.csv`` with ``track``; ``hypotheses.csv``, ``route.csv``, ``network.png``),
@@ -35,6 +36,7 @@ candidate farther than `NetworkNavConfig.start_radius_m` from the start is none.
 """
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -65,6 +67,8 @@ __all__ = ["TrackRunOutcome", "TrackProbabilities", "run_simulated_tracks",
            "track_nav", "correct_share", "TRACK_PRUNE_PROBABILITY"]
 
 Array = npt.NDArray[np.float64]
+
+log = logging.getLogger(__name__)
 
 #: A run over tracks drops a hypothesis below this probability (module docstring).
 TRACK_PRUNE_PROBABILITY = 1e-30
@@ -221,7 +225,8 @@ def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int =
     run = run_simulated_network(network, [(names[true_track], 1)], scenario,
                                 line=tracks[true_track], config=config, seed=seed,
                                 systems=systems, nav=nav or track_nav(len(tracks)),
-                                faults=faults, window=window, progress=progress)
+                                start_direction=1, faults=faults, window=window,
+                                progress=progress)
     return _track_outcome(run, tracks, names, {"true_track": names[true_track]})
 
 
@@ -230,18 +235,23 @@ def run_files_tracks(tracks, names, *, imu_path=None, obs_path=None, nav_path=No
                      config: NavigatorConfig | None = None, filter: str = DEFAULT_FILTER,
                      systems: str | None = None, imu_grade: str | None = None,
                      fix_sigmas=None, fix_model=None, outages=(),
-                     nav: NetworkNavConfig | None = None,
+                     nav: NetworkNavConfig | None = None, direction: int | None = 1,
                      window: tuple[float, float] | None = None,
                      progress: Callable[[int, int], None] | None = None) -> TrackRunOutcome:
     """Identify the track of recorded (or simulated) sensor files among `tracks`.
 
     Parameters are those of `railnav.jobs.network.run_files_network` (the sensor files, the
-    filter and fix model), plus the candidate `tracks`, their `names` and `nav` (default
-    ``track_nav(len(tracks))``).
+    filter and fix model), plus the candidate `tracks`, their `names`, `nav` (default
+    ``track_nav(len(tracks))``) and the `direction` the vehicle faces on them (+1: along
+    ``s``, as the tracks are given; -1; None: either, one inertial hypothesis per track and
+    orientation).
     """
+    from railnav.navigation.network_start import NetworkStart
     network = track_network(tracks, names)
     run = run_files_network(network, fixes_path=fixes_path, imu_path=imu_path,
                             obs_path=obs_path, nav_path=nav_path,
+                            start=None if direction is None else NetworkStart(
+                                None, direction=direction),
                             nav=nav or track_nav(len(tracks)),
                             start_gps_time_s=start_gps_time_s, config=config, filter=filter,
                             systems=systems, imu_grade=imu_grade, fix_sigmas=fix_sigmas,
@@ -254,6 +264,11 @@ def _track_outcome(run: NetworkRunOutcome, tracks, names, extra: dict) -> TrackR
     """The network run as a run over tracks: the track columns and summary fields."""
     res, outcome = run.network_result, run.outcome
     probs = TrackProbabilities.of(res, names)
+    missing = [n for n in names if n not in res.element_probability[0]]
+    if missing:
+        log.warning("candidate track(s) %s got no start hypothesis: farther than %g m from "
+                    "the start, or running the other way", ", ".join(missing),
+                    res.nav.start_radius_m)
     est = outcome.result.estimates
     est["track"] = est["netelement"]
     est["track_probability"] = est["netelement_probability"]
