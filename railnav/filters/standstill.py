@@ -15,6 +15,17 @@ The IMU samples are cut into consecutive windows of ``window_s`` (default 1 s). 
   of 10 °/h = 4.8e-5 and the window mean's noise ~1e-4 fit under it; a car body moving on
   a 600-m curve at 1 m/s turns at 1.7e-3 rad/s).
 
+* constancy: the window and its `StandstillConfig.constancy_windows` neighbours on each
+  side pass the tests above and their mean specific forces agree within
+  ``constancy_tol_mps2`` (default 0.01 m/s², per axis, the range over the span; default 1
+  neighbour): a vehicle
+  at rest feels the same specific force all along, one that brakes to a stop does not
+  (the raised-cosine braking of the simulated profiles: 25 m/s in 50 s, still 0.16 m/s and
+  0.02 m/s² 5 s before the stop, passes the four tests above; this one first passes ~1.5 s
+  before the stop, at 5 mm/s). The neighbours make the detection non-causal: in real time
+  it comes ``constancy_windows × window_s`` late (default 1 s); a run applies each row at
+  its window's end.
+
 A vehicle moving smoothly at constant speed on a straight level track, with no vibration,
 passes every IMU test: only vibration tells it from a standstill. Real vehicles vibrate, and
 the simulator's car body (`railnav.simulation.car_body_motion`) does (1–3 mrad at ~1 Hz, its
@@ -59,6 +70,10 @@ class StandstillConfig:
         Largest ``| |f̄| − g |`` of a still window, m/s² (> 0).
     rate_tol_radps : float
         Largest ``|ω̄|`` of a still window, rad/s (> 0).
+    constancy_tol_mps2 : float
+        Largest range of the windows' mean specific force over a still span, m/s² (> 0).
+    constancy_windows : int
+        Neighbours on each side of a still window that must be still with it (>= 0).
     gnss_speed_tol_mps : float
         A fix's speed above ``max(this, 3σ)`` vetoes its window, m/s (> 0).
     zero_speed_sigma_mps : float
@@ -71,13 +86,18 @@ class StandstillConfig:
     variance_ratio: float = 4.5
     level_tol_mps2: float = 0.1
     rate_tol_radps: float = 5e-4
+    constancy_tol_mps2: float = 0.01
+    constancy_windows: int = 1
     gnss_speed_tol_mps: float = 0.2
     zero_speed_sigma_mps: float = 0.01
     yaw_rate_update: bool = True
 
     def __post_init__(self) -> None:
+        if not (isinstance(self.constancy_windows, int) and self.constancy_windows >= 0):
+            raise ConfigError(f"standstill: constancy_windows must be an integer >= 0, got "
+                              f"{self.constancy_windows!r}")
         for name in ("window_s", "variance_ratio", "level_tol_mps2", "rate_tol_radps",
-                     "gnss_speed_tol_mps", "zero_speed_sigma_mps"):
+                     "constancy_tol_mps2", "gnss_speed_tol_mps", "zero_speed_sigma_mps"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"standstill: {name} must be a finite number > 0, "
@@ -165,11 +185,28 @@ def detect_standstill(t: Array, u: Array, config: StandstillConfig, imu_errors, 
              & (np.abs(np.linalg.norm(w["f_mean"], axis=1) - NOMINAL_GRAVITY_MPS2)
                 <= config.level_tol_mps2)
              & (np.linalg.norm(w["omega_mean"], axis=1) <= config.rate_tol_radps))
+    still = _constant_spans(still, w["f_mean"], config)
     still &= ~_vetoed(w["time_s"], config, odometer, fixes)
     k = np.flatnonzero(still)
     epochs = StandstillEpochs(time_s=w["time_s"][k], omega_mean_radps=w["omega_mean"][k],
                               omega_sigma_radps=sigma_w / np.sqrt(w["count"][k]))
     return epochs, {"time_s": w["time_s"], "still": still}
+
+
+def _constant_spans(still: npt.NDArray[np.bool_], f_mean: Array,
+                    config: StandstillConfig) -> npt.NDArray[np.bool_]:
+    """Still windows whose ±n neighbours are still and agree in mean specific force."""
+    n = config.constancy_windows
+    if n == 0 or still.size == 0:
+        return still
+    from numpy.lib.stride_tricks import sliding_window_view
+    pad_still = np.concatenate([np.zeros(n, bool), still, np.zeros(n, bool)])
+    pad_f = np.concatenate([np.full((n, 3), np.nan), f_mean, np.full((n, 3), np.nan)])
+    span_still = sliding_window_view(pad_still, 2 * n + 1).all(axis=1)
+    spans = sliding_window_view(pad_f, 2 * n + 1, axis=0)          # (K, 3, 2n+1)
+    with np.errstate(invalid="ignore"):
+        spread = (spans.max(axis=2) - spans.min(axis=2)).max(axis=1)
+    return still & span_still & (np.nan_to_num(spread, nan=np.inf) <= config.constancy_tol_mps2)
 
 
 def _vetoed(end_s: Array, config: StandstillConfig, odometer, fixes) -> npt.NDArray[np.bool_]:

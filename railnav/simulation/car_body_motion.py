@@ -7,18 +7,19 @@ attitude is not the track's:
 * **chord**: the body is the chord between its bogie pivots (`railnav.filters.car_body`):
   yaw ``A + δψ(s)``, pitch ``ϑ + δθ(s)``; over the leading bogie of a 19-m body that is
   ``−b/(2R)`` = −15.8 mrad on R = 600 m;
-* **suspension**: yaw, pitch and roll of the body on its secondary suspension, each a sum of
-  `CarBodyMotion.components` sinusoids, amplitudes ``σ √(2/K)`` (total 1σ ``σ``),
-  frequencies uniform in ``f0 ± bw/2`` and phases uniform, drawn from the seed's
-  ``car_body`` stream (`RNG_STREAMS`). Defaults: σ = 1 / 2 / 3 mrad (yaw / pitch / roll),
-  f0 = 1.0 Hz, bw = 0.6 Hz (car-body bounce, pitch and roll modes of passenger stock lie at
-  0.8–1.5 Hz); its autocorrelation has fallen to |ρ| ≤ 0.15 after 2 s. Track irregularities
-  excite it, so its amplitude grows with speed, ``1 − exp(−(v/v_f)²)``, ``v_f = 5 m/s``:
-  none at a standstill;
+* **suspension**: yaw, pitch and roll of the body on its secondary suspension, each a damped
+  oscillator driven by white noise (`suspension_angles`), from the seed's ``car_body``
+  stream (`RNG_STREAMS`). Defaults: stationary σ = 1 / 2 / 3 mrad (yaw / pitch / roll),
+  natural frequency f0 = 1.0 Hz, damping ζ = 0.3 (car-body bounce, pitch and roll modes of
+  passenger stock lie at 0.8–1.5 Hz); its autocorrelation ``e^{−ζω₀τ}(cos ω_d τ +
+  ζ/√(1−ζ²) sin ω_d τ)`` is 0.02 after 2 s. Track irregularities excite it, so its
+  amplitude grows with speed, ``1 − exp(−(v/v_f)²)``, ``v_f = 5 m/s``: none at a
+  standstill. The oscillator's rate is its second state, so the angles are C¹ and the IMU
+  exact;
 * **mounting**: the IMU's axes are turned from the body's by three small constant angles
   (yaw, pitch, roll of the IMU in body axes), drawn N(0, ``mount_sigma_rad``²), default 1°.
 
-Angles and their rates are analytic, so the ideal IMU (`railnav.simulation.truth.ideal_imu`
+Angles and their rates are exact at the samples, so the ideal IMU (`railnav.simulation.truth.ideal_imu`
 with the body's Euler rates) is exact; the IMU's ``f_b, ω_ib_b`` are the body's turned by the
 mounting, and the truth's yaw, pitch and roll are the IMU frame's
 (``C_imu_n = C_body_n C_imu_body``). The truth carries the mounting (`CarBodyTruth`).
@@ -62,23 +63,35 @@ class CarBodyTruth(Truth):
 
 def suspension_angles(time_s: Array, v: Array, a: Array, motion: CarBodyMotion,
                       rng: np.random.Generator) -> tuple[Array, Array]:
-    """Suspension yaw, pitch, roll (rad) and their rates (rad/s), each (N, 3)."""
-    t, v, a = (np.asarray(q, dtype=float)[:, None] for q in (time_s, v, a))
-    K, f0, bw = motion.components, motion.suspension_frequency_hz, motion.suspension_bandwidth_hz
-    x = (v / motion.full_motion_speed_mps) ** 2
-    gain = 1.0 - np.exp(-x)
-    dgain = 2.0 * v / motion.full_motion_speed_mps ** 2 * np.exp(-x) * a
-    angles, rates = np.zeros((t.shape[0], 3)), np.zeros((t.shape[0], 3))
+    """Suspension yaw, pitch, roll (rad) and their rates (rad/s), each (N, 3): per axis a
+    damped oscillator ``x'' + 2ζω₀x' + ω₀²x = w`` in its stationary state (variance
+    ``σ² = q/(4ζω₀³)``), sampled exactly (its transition and noise over the sample step:
+    ``expm`` and Van Loan's method), times the speed gain ``1 − exp(−(v/v_f)²)``."""
+    from scipy.linalg import expm
+    t, v, a = (np.asarray(q, dtype=float) for q in (time_s, v, a))
+    dt = np.diff(t)
+    step = float(np.median(dt)) if dt.size else 1.0
+    if dt.size and not np.allclose(dt, step, rtol=1e-6, atol=1e-9):
+        raise ValueError("suspension_angles needs uniform sample times")
+    w0, zeta = 2.0 * np.pi * motion.suspension_frequency_hz, motion.suspension_damping
+    A = np.array([[0.0, 1.0], [-w0 ** 2, -2.0 * zeta * w0]])
+    n = t.size
+    states = np.zeros((n, 3, 2))
     for j, sigma in enumerate(motion.suspension_sigma_rad):
-        freq = rng.uniform(f0 - 0.5 * bw, f0 + 0.5 * bw, K)
-        phase = rng.uniform(0.0, 2.0 * np.pi, K)
-        amp = sigma * math.sqrt(2.0 / K)
-        arg = 2.0 * np.pi * freq[None, :] * t + phase[None, :]
-        wave = amp * np.sin(arg).sum(axis=1)
-        dwave = amp * (2.0 * np.pi * freq[None, :] * np.cos(arg)).sum(axis=1)
-        angles[:, j] = gain[:, 0] * wave
-        rates[:, j] = dgain[:, 0] * wave + gain[:, 0] * dwave
-    return angles, rates
+        q = 4.0 * zeta * w0 ** 3 * sigma ** 2
+        M = expm(np.block([[-A, np.diag([0.0, q])], [np.zeros((2, 2)), A.T]]) * step)
+        Phi = M[2:, 2:].T
+        Qd = Phi @ M[:2, 2:]
+        L = np.linalg.cholesky(Qd + 1e-30 * np.eye(2))
+        x = np.array([sigma, w0 * sigma]) * rng.standard_normal(2)
+        noise = rng.standard_normal((n, 2)) @ L.T
+        for k in range(n):
+            states[k, j] = x
+            x = Phi @ x + noise[k]
+    ratio = (v / motion.full_motion_speed_mps) ** 2
+    gain = (1.0 - np.exp(-ratio))[:, None]
+    dgain = (2.0 * v / motion.full_motion_speed_mps ** 2 * np.exp(-ratio) * a)[:, None]
+    return gain * states[:, :, 0], dgain * states[:, :, 0] + gain * states[:, :, 1]
 
 
 def car_body_trip(track, truth: Truth, motion: CarBodyMotion,
