@@ -18,7 +18,8 @@ grade and its roll the cant (0: the track model has none), up to
 Rows, at every ``interval_s`` (default 2 s: the suspension's band, 1.0 ± 0.3 Hz, has lost
 its correlation by then, |ρ| ≤ 0.15; the rows are treated as white), ``z = 0`` and::
 
-    C_body_n = C_b_n(ψ, θ, φ) C_b_n(m)ᵀ  →  (ψ_b, θ_b, φ_b)   (strapdown.euler convention)
+    C_body_n = C_b_n(ψ, θ, φ) M(m)ᵀ  →  (ψ_b, θ_b, φ_b)   (strapdown.euler convention;
+                                                         M = strapdown.euler.relative_dcm)
     h_yaw   = wrap(ψ_b − A(s) − δψ(s)),   h_pitch = θ_b − ϑ(s) − δθ(s),   h_roll = φ_b
 
 with the track and the chord linearized about the prior's ``s₀`` (``A₀ + A'(s − s₀)``,
@@ -45,7 +46,7 @@ from ekf.model import MeasurementModel
 from ekf.update import Observation
 from railnav.filters.attitude_config import MOUNT_STATES, TrackAttitudeConfig
 from railnav.filters.car_body import chord_offsets
-from strapdown.euler import C_b_n
+from strapdown.euler import C_b_n, relative_dcm
 
 __all__ = ["TrackAttitudeConfig", "MOUNT_STATES", "ATTITUDE_SV", "ATTITUDE_ROW_KINDS",
            "build_attitude_rows", "AttitudeRowBuilder", "attitude_epoch_times",
@@ -76,7 +77,7 @@ def build_attitude_rows(layout: StateLayout) -> MeasurementModel:
     yaw, pitch, roll, s = (x[layout.index(n)] for n in ("yaw", "pitch", "roll", "s"))
     if MOUNT_STATES[0] in layout.names:
         m = [x[layout.index(n)] for n in MOUNT_STATES]
-        C = ca.mtimes(C_b_n(yaw, pitch, roll), C_b_n(*m).T)
+        C = ca.mtimes(C_b_n(yaw, pitch, roll), relative_dcm(*m).T)
     else:
         C = C_b_n(yaw, pitch, roll)
     yaw_b = ca.atan2(C[0, 0], C[1, 0])

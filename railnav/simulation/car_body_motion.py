@@ -38,7 +38,7 @@ import numpy.typing as npt
 from railnav.filters.car_body import chord_offsets
 from railnav.simulation.car_body_config import CarBodyMotion
 from railnav.simulation.truth import Truth, ideal_imu
-from strapdown.euler import C_b_n, euler_from_C_b_n
+from strapdown.euler import C_b_n, euler_from_C_b_n, relative_dcm
 from strapdown.imu import Imu
 
 __all__ = ["CarBodyMotion", "CarBodyTruth", "car_body_trip", "suspension_angles"]
@@ -124,7 +124,7 @@ def car_body_trip(track, truth: Truth, motion: CarBodyMotion,
     body_truth = replace(truth, yaw=np.mod(body[:, 0], 2.0 * np.pi), pitch=body[:, 1],
                          roll=body[:, 2])
     imu_body = ideal_imu(track, body_truth, attitude_rates=rates)
-    C_imu_body = C_b_n(*mount)
+    C_imu_body = relative_dcm(*mount)
     C_imu_n = C_b_n(body_truth.yaw, body_truth.pitch, body_truth.roll) @ C_imu_body
     yaw, pitch, roll = euler_from_C_b_n(C_imu_n)
     turn = lambda vec: vec @ C_imu_body  # noqa: E731  (C_body_imu @ vec, row-wise)

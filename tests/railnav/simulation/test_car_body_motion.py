@@ -147,6 +147,9 @@ def test_suspension_sigma_and_mounting_are_as_stated(body_sim):
     # ~150 s of a 1-Hz oscillator (ζ 0.3: ~60 correlation times): sample σ within 25 %
     assert np.std(roll) == pytest.approx(motion.suspension_sigma_rad[2], rel=0.25)
     assert np.all(np.abs(body_sim.truth.mount_rad) < 4 * motion.mount_sigma_rad)
+    # the IMU's yaw is the body's plus the mounting's (small angles: to ~1e-3 rad)
+    yaw_diff = (body_sim.truth.yaw - body[:, 0] + np.pi) % (2 * np.pi) - np.pi
+    np.testing.assert_allclose(yaw_diff, body_sim.truth.mount_rad[0], atol=2e-3)
     assert pt.s.size > 1000
     still = body_sim.truth.v == 0.0
     assert np.all(body[still, 2] == 0.0)      # no suspension motion at a standstill
