@@ -23,6 +23,7 @@ import numpy.typing as npt
 from railnav.errors import ConfigError
 from railnav.filters.attitude_config import MOUNT_STATES
 from railnav.filters.attitude_rows import AttitudeRowBuilder, attitude_epoch_times
+from railnav.filters.sensor_rows import SensorRows
 from railnav.filters.standstill import detect_standstill
 from railnav.filters.standstill_rows import StandstillRowBuilder
 
@@ -102,8 +103,9 @@ def body_stream_epochs(config, t: Array, u: Array, *, odometer=None, fixes=None)
     return out
 
 
-class BodyRows:
-    """The attitude and standstill rows of a constrained filter (module docstring).
+class BodyRows(SensorRows):
+    """The attitude and standstill rows of a constrained filter (module docstring; the
+    epochs' rows come from `railnav.filters.sensor_rows.SensorRows.parts`).
 
     Parameters
     ----------
@@ -114,7 +116,9 @@ class BodyRows:
         `body_stream_epochs`' result.
     """
 
-    def __init__(self, layout, track, config, streams: dict) -> None:
+    modes = {stream: "row" for stream in BODY_STREAMS}
+
+    def __init__(self, layout, track, config, streams: dict) -> None:  # noqa: D107
         self.builders = {}
         if "attitude" in streams:
             self.builders["attitude"] = AttitudeRowBuilder(layout, track, config.track_attitude)
@@ -122,15 +126,3 @@ class BodyRows:
             self.builders["standstill"] = StandstillRowBuilder(layout, track,
                                                                streams["standstill"],
                                                                config.standstill)
-
-    def __bool__(self) -> bool:
-        return bool(self.builders)
-
-    def parts(self, schedule, index: int, x: Array, P: Array) -> list:
-        """The rows of epoch `index`: ``[((observations, sv, kind), "row"), ...]``."""
-        out = []
-        for stream, builder in self.builders.items():
-            k = schedule.index(stream, index)
-            if k >= 0:
-                out.append((builder.observations(k, x, P), "row"))
-        return out
