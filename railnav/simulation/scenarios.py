@@ -55,7 +55,7 @@ TRACKS_DIR = shipped_path(TRACKS)
 #: Indices of the independent random streams spawned from the seed (a stream added at the
 #: end leaves the others' draws unchanged: ``SeedSequence.spawn`` children are numbered).
 RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2, "fixes": 3, "imu_log": 4, "odometer": 5,
-               "balises": 6, "car_body": 7}
+               "balises": 6, "baro": 7, "car_body": 8}
 
 
 @dataclass(frozen=True)
