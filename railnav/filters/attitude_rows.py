@@ -15,8 +15,9 @@ grade and its roll the cant (0: the track model has none), up to
   (1σ `TrackAttitudeConfig.sigma_rad`, default 1 / 2 / 3 mrad, the simulator's
   `railnav.simulation.car_body_config.DEFAULT_SUSPENSION_SIGMA_RAD`).
 
-Rows, at every ``interval_s`` (default 2 s: the suspension's band, 1.0 ± 0.3 Hz, has lost
-its correlation by then, |ρ| ≤ 0.15; the rows are treated as white), ``z = 0`` and::
+Rows, at every ``interval_s`` (default 2 s: the simulated suspension, a 1-Hz oscillator with
+damping 0.3, has lost its correlation by then, ρ(2 s) = 0.02; the rows are treated as
+white), ``z = 0`` and::
 
     C_body_n = C_b_n(ψ, θ, φ) M(m)ᵀ  →  (ψ_b, θ_b, φ_b)   (strapdown.euler convention;
                                                          M = strapdown.euler.relative_dcm)
