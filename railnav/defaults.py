@@ -22,8 +22,8 @@ DEFAULT_FILTER = "constrained"
 DEFAULT_IMU_GRADE = "tactical"
 #: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
 DEFAULT_SYSTEMS = "G"
-#: Several tracks and networks: the rate of changing to a track abreast, 1/s (`railnav.navigation.bank`'s module
-#: docstring: one crossing per ~28 h of running).
+#: Several tracks and networks: the rate of changing to a track abreast, 1/s
+#: (`railnav.navigation.bank`'s module docstring: one crossing per ~28 h of running).
 DEFAULT_CROSSING_RATE_PER_S = 1e-5
 #: Track networks: how far ahead of a start the routes through the switches are followed,
 #: m (`railnav.jobs.network`).
