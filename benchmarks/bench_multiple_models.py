@@ -6,9 +6,10 @@ both alike:
 * ``fault_screen``: `railnav.navigate` on the 2017 paper's simulated trip (1000 s, 100 Hz
   IMU, ~900 GNSS epochs) with ``NavigatorConfig.fault_detection`` on (the default) and off;
   the target is at most +10 % (``ratio_on_over_off``, best of the repeats);
-* ``track_bank``: `railnav.navigation.bank.navigate_tracks` with the two tracks of the double line
-  (300 s of the ``curvy`` scenario) against `railnav.navigate` on one of them (the issue
-  expects ~N x the single filter for N tracks).
+* ``track_bank``: the network navigator on the two tracks of the double line as a network
+  without connections (`railnav.jobs.tracks.track_network`, `track_nav`; 300 s of the
+  ``curvy`` scenario) against `railnav.navigate` on one of them (the issue expects ~N x
+  the single filter for N tracks).
 
 Writes ``benchmarks/results/multiple_models.json``. Run:
 ``python benchmarks/bench_multiple_models.py``.
@@ -30,9 +31,10 @@ import bench_navigator  # noqa: E402  (the 2017 trip and its start live there)
 
 from railnav.filters.protocol import make_filter
 from railnav.navigation.navigator import navigate  # noqa: E402
-from railnav.jobs.run import truth_start  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
-from railnav.navigation.bank import convert_state, navigate_tracks  # noqa: E402
+from railnav.jobs.network import candidate_starts  # noqa: E402
+from railnav.jobs.tracks import track_nav, track_network  # noqa: E402
+from railnav.navigation.network_navigator import navigate_network  # noqa: E402
 from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
@@ -68,15 +70,15 @@ def _track_bank(repeats: int) -> dict:
     scenario = replace(get_scenario("curvy"), duration_s=BANK_TRIP_S, sigma_pseudorange_m=3.0)
     trip = simulate_trip(scenario, track=tracks[1], seed=1)
     config = navigator_config_for(scenario)
-    filters = [make_filter(t, config, None) for t in tracks]
-    x_true = filters[1].truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
-    P0 = truth_start(filters[1], trip, config).P0
-    initial = [truth_start(f, trip, config, x_true=convert_state(filters[1], f, x_true, P0)[0])
-               for f in filters]
+    start = candidate_starts(trip, config, make_filter(tracks[1], config, None))
+    network, names = track_network(tracks, ("a", "b")), ("a", "b")
+    near = (float(trip.truth.lat[0]), float(trip.truth.lon[0]))
     data = trip.sensor_data()
     out = _alternate({
-        "two_tracks": lambda: navigate_tracks(tracks, data, config, initial=initial),
-        "one_track": lambda: navigate(tracks[1], data, config, initial=initial[1])}, repeats)
+        "two_tracks": lambda: navigate_network(network, data, config, nav=track_nav(2),
+                                               initial=start, near=near),
+        "one_track": lambda: navigate(tracks[1], data, config,
+                                      initial=lambda f: start(f, names[1], 1))}, repeats)
     out["ratio_two_over_one"] = out["two_tracks"]["best_s"] / out["one_track"]["best_s"]
     return out
 

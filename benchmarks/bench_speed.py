@@ -14,7 +14,8 @@ On this machine, in one invocation (the load average is recorded before and afte
 * ``numpy_loop``: the plain NumPy EKF of the same size in this process (7 states, a 2-D
   correlated pseudo-measurement at each of the 100 000 steps, 1000 updates of 20 rows;
   `bench_ekf_engine._time_numpy`), the whole loop unless ``--numpy-fraction`` < 1;
-* ``bank``: `railnav.navigation.bank.navigate_tracks` with 8 hypotheses, the tracks of a
+* ``bank``: the network navigator on 8 tracks as a network without connections
+  (`railnav.jobs.tracks.track_network`, `track_nav`), 8 hypotheses, the tracks of a
   line and its parallels every 4.5 m (`trackmodel.offset.offset_track`), 300 s of the
   ``curvy`` scenario on one of them; × real time = 300 s / wall;
 * ``streaming``: the 10-hour streamed trip of `bench_studies` in a subprocess, its peak
@@ -104,8 +105,9 @@ def _end_to_end(repeats: int) -> dict:
 def _bank(repeats: int) -> dict:
     """8 hypotheses (a line and its parallels) on 300 s of the curvy scenario."""
     from railnav.filters.protocol import make_filter
-    from railnav.jobs.run import truth_start
-    from railnav.navigation.bank import convert_state, navigate_tracks
+    from railnav.jobs.network import candidate_starts
+    from railnav.jobs.tracks import track_nav, track_network
+    from railnav.navigation.network_navigator import navigate_network
     from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
     from railnav.simulation.trip import navigator_config_for, simulate_trip
     from trackmodel.io import read_track
@@ -118,22 +120,24 @@ def _bank(repeats: int) -> dict:
     scenario = replace(get_scenario("curvy"), duration_s=BANK_TRIP_S, sigma_pseudorange_m=3.0)
     trip = simulate_trip(scenario, track=base, seed=1)
     config = navigator_config_for(scenario)
-    filters = [make_filter(t, config, None) for t in tracks]
-    truth = filters[true_index]
-    x_true = truth.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]
-    P0 = truth_start(truth, trip, config).P0
-    initial = [truth_start(f, trip, config, x_true=convert_state(truth, f, x_true, P0)[0])
-               for f in filters]
+    names = [f"T{k}" for k in range(BANK_HYPOTHESES)]
+    network = track_network(tracks, names)
+    initial = candidate_starts(trip, config, make_filter(base, config, None))
+    near = (float(trip.truth.lat[0]), float(trip.truth.lon[0]))
     data = trip.sensor_data()
+
+    def run():
+        return navigate_network(network, data, config, nav=track_nav(BANK_HYPOTHESES),
+                                initial=initial, near=near)
     first_start = time.perf_counter()
-    navigate_tracks(tracks, data, config, initial=initial)        # builds, compiles
+    run()                                                          # builds, compiles
     first = time.perf_counter() - first_start
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
-        bank = navigate_tracks(tracks, data, config, initial=initial)
+        bank = run()
         times.append(time.perf_counter() - start)
-    final = bank.probabilities[-1]
+    final = [bank.element_probability[-1].get(n, 0.0) for n in names]
     return {"hypotheses": BANK_HYPOTHESES, "spacing_m": BANK_SPACING_M,
             "trip_s": BANK_TRIP_S, "first_run_s": first, "run_s": times,
             "best_s": min(times), "real_time_factor": BANK_TRIP_S / min(times),

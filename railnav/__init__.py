@@ -35,7 +35,9 @@ command                                function(s)
                                        (`ImuLogSimConfig`)
 ``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
                                        (`baro_track_check` underneath)
-``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`
+``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`,
+                                       `write_track_run` (`navigate_network` on
+                                       `track_network`, `track_nav`)
 ``railnav reproduce NAME``             `run_experiment` (`reproduce_paper2017`,
                                        `reproduce_anomaly2021`)
 ``railnav study CONFIG.toml``          `load_study_config`, `run_study`
@@ -73,7 +75,8 @@ _EXPORTS = {
     "run_study": "studies.study", "load_study_config": "studies.file", "StudyConfig": "studies.config",
     "stream_simulated": "navigation.streaming",
     "run_simulated_tracks": "jobs.tracks", "run_files_tracks": "jobs.tracks",
-    "TrackBankConfig": "navigation.bank", "FaultDetectionConfig": "filters.fault_detection",
+    "track_nav": "jobs.tracks", "write_track_run": "jobs.tracks",
+    "FaultDetectionConfig": "filters.fault_detection",
     "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
     "baro_track_check": "evaluation.baro",

@@ -2,7 +2,8 @@
 
 `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
 `railnav.config.NavigatorConfig`, which re-exports them) and `DEFAULT_CROSSING_RATE_PER_S`
-(of `railnav.navigation.bank.TrackBankConfig`, which explains it). They live in a module
+(of `railnav.navigation.hypotheses.NetworkNavConfig`; `railnav.navigation.bank` explains
+it). They live in a module
 that imports nothing, so that the ``railnav`` parser (help texts, choices, defaults) is
 built without importing the engine, CasADi, SciPy or pandas: ``railnav --help`` and an
 argument error stay fast. The defaults of a simulated trip (speed profile, GNSS σ, start
@@ -21,8 +22,8 @@ DEFAULT_FILTER = "constrained"
 DEFAULT_IMU_GRADE = "tactical"
 #: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
 DEFAULT_SYSTEMS = "G"
-#: Several tracks: the rate of changing tracks, 1/s (`railnav.navigation.bank`'s module
-#: docstring: one crossing per ~28 h of running).
+#: Several tracks and networks: the rate of changing to a track abreast, 1/s
+#: (`railnav.navigation.bank`'s module docstring: one crossing per ~28 h of running).
 DEFAULT_CROSSING_RATE_PER_S = 1e-5
 #: Track networks: how far ahead of a start the routes through the switches are followed,
 #: m (`railnav.jobs.network`).

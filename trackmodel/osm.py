@@ -26,6 +26,13 @@ is a connection:
   ``railway=railway_crossing`` node (a diamond) a leg passes only to the leg most
   opposite it, so a shallow crossing is not taken for a switch.
 
+A way tagged ``oneway=yes`` (``true``, ``1``) is travelled in its own direction only (the
+order of its nodes: each of its netelements from its first coordinate to its last),
+``oneway=-1`` (``reverse``) against it (`ONEWAY`; ``no`` or any other value: both ways).
+A connection then passes only the ways that leave one netelement and enter the other in
+a direction each allows: ``AB``, ``BA`` or ``none`` instead of ``both``. The tag is kept
+as the netelements' ``oneway`` attribute.
+
 A piece of way whose points all lie within `MIN_ELEMENT_M` of its first cannot be fitted:
 it is dropped and its two end nodes are made one (with a warning naming it).
 
@@ -50,7 +57,8 @@ from trackmodel.network_io import NetworkSource
 from trackmodel.network_project import MEAN_RADIUS_M
 from trackmodel.polyline import MIN_SPACING_M
 
-__all__ = ["read_osm", "RAILWAY_KINDS", "MAX_DEFLECTION_DEG", "LEG_M", "OSM_SUFFIXES"]
+__all__ = ["read_osm", "RAILWAY_KINDS", "MAX_DEFLECTION_DEG", "LEG_M", "OSM_SUFFIXES",
+           "ONEWAY"]
 
 Array = npt.NDArray[np.float64]
 
@@ -59,7 +67,10 @@ log = logging.getLogger(__name__)
 #: ``railway=`` values read as track.
 RAILWAY_KINDS = ("rail", "light_rail", "tram", "subway", "narrow_gauge")
 #: Way tags kept as netelement attributes.
-KEPT_TAGS = ("railway", "gauge", "service", "usage")
+KEPT_TAGS = ("railway", "gauge", "service", "usage", "oneway")
+#: ``oneway=`` values and the one direction they allow along the way's nodes (+1 their
+#: order, -1 against it); others allow both.
+ONEWAY = {"yes": 1, "true": 1, "1": 1, "-1": -1, "reverse": -1}
 #: Node tags that split a way.
 SWITCH, CROSSING = "switch", "railway_crossing"
 #: Largest deflection between two legs a train passes at a switch, deg (module docstring).
@@ -105,7 +116,7 @@ def read_osm(path: str | os.PathLike) -> NetworkSource:
     splits = {n for n, count in uses.items() if count > 1} | set(node_tags)
     pieces = [(name, way, i, j) for way in ways for name, (i, j) in _pieces(way, splits)]
     merged = _contract(pieces, path)
-    polylines, attributes, ends = {}, {}, defaultdict(list)
+    polylines, attributes, ends, oneway = {}, {}, defaultdict(list), {}
     for name, way, i, j in pieces:
         lat, lon = way.lat[i:j + 1], way.lon[i:j + 1]
         if _extent_m(lat, lon) < MIN_ELEMENT_M:
@@ -113,12 +124,13 @@ def read_osm(path: str | os.PathLike) -> NetworkSource:
         polylines[name] = (lat, lon)
         attributes[name] = {"osm_way": str(way.id),
                             **{k: way.tags[k] for k in KEPT_TAGS if k in way.tags}}
+        oneway[name] = ONEWAY.get(way.tags.get("oneway", "").strip().lower(), 0)
         ends[merged(way.nodes[i])].append((name, START, _leg(lat, lon)))
         ends[merged(way.nodes[j])].append((name, END, _leg(lat[::-1], lon[::-1])))
     tags = {merged(n): kind for n, kind in sorted(node_tags.items(), key=lambda x: x[1])}
     connections = []
     for node, here in ends.items():
-        connections.extend(_connections(here, tags.get(node)))
+        connections.extend(_connections(here, tags.get(node), oneway))
     return NetworkSource(polylines, tuple(connections), attributes)
 
 
@@ -227,9 +239,28 @@ def _deflection(a: float, b: float) -> float:
     return math.pi - abs((a - b + math.pi) % (2 * math.pi) - math.pi)
 
 
-def _connections(here: list[tuple[str, int, float]], tag: str | None) -> list[Connection]:
+def _travel(oneway: dict[str, int], a: str, a_end: int, b: str, b_end: int) -> bool:
+    """Whether a train may leave netelement `a` through its end `a_end` and go on along `b`
+    from its end `b_end`, as their ``oneway`` directions allow (+1 along the element, -1
+    against it, 0 either)."""
+    leaving = 1 if a_end == END else -1
+    entering = 1 if b_end == START else -1
+    return oneway.get(a, 0) in (0, leaving) and oneway.get(b, 0) in (0, entering)
+
+
+def _navigability(passes: bool, oneway: dict[str, int], a, a_end, b, b_end) -> str:
+    """``both``, ``AB``, ``BA`` or ``none``: the geometry's verdict, then the one-way
+    tags."""
+    ab = passes and _travel(oneway, a, a_end, b, b_end)
+    ba = passes and _travel(oneway, b, b_end, a, a_end)
+    return "both" if ab and ba else "AB" if ab else "BA" if ba else "none"
+
+
+def _connections(here: list[tuple[str, int, float]], tag: str | None,
+                 oneway: dict[str, int] | None = None) -> list[Connection]:
     """Every pair of the ends meeting at one node, with its navigability (module
-    docstring)."""
+    docstring; `oneway`: each netelement's direction from its way's ``oneway`` tag)."""
+    oneway = oneway or {}
     out = []
     plain = tag is None and len(here) == 2 and _deflection(here[0][2], here[1][2]) <= (
         math.radians(MAX_PLAIN_DEFLECTION_DEG))
@@ -243,5 +274,6 @@ def _connections(here: list[tuple[str, int, float]], tag: str | None) -> list[Co
             passes = _deflection(leg_a, leg_b) <= limit
             if tag == CROSSING:
                 passes = passes and best[i] == j and best[j] == i
-            out.append(Connection(a, a_end, b, b_end, "both" if plain or passes else "none"))
+            out.append(Connection(a, a_end, b, b_end,
+                                  _navigability(plain or passes, oneway, a, a_end, b, b_end)))
     return out

@@ -118,7 +118,9 @@ def register(subparsers) -> None:
 
 
 def _add_start(p) -> None:
-    p.add_argument("network", metavar="DIR", help="network folder (railnav network build)")
+    p.add_argument("network", metavar="NETWORK",
+                   help="network folder (railnav network build), GeoJSON, OpenStreetMap or "
+                        "track .csv")
     p.add_argument("--start", type=start_position, required=True,
                    metavar="ELEMENT:S_M[:+|-]",
                    help="where the train starts: netelement, distance along it (m), "
@@ -154,8 +156,8 @@ def _info(args: argparse.Namespace) -> int:
 
 def _routes(args: argparse.Namespace) -> int:
     from railnav.jobs.network import route_name
-    from trackmodel.network_io import read_network
-    network = read_network(args.network)
+    from railnav.jobs.network import load_network
+    network = load_network(args.network)
     routes = network.routes_ahead(args.start, horizon_m=args.horizon_m)
     for k, route in enumerate(routes):
         print(f"{k}: {route.length_m:8.1f} m  {route_name(route)}")
@@ -168,8 +170,8 @@ def _run(args: argparse.Namespace) -> int:
     from railnav.commands.network_run import network_report
     from railnav.jobs.network import write_network_run
     from railnav.navigation.network_start import NetworkStart
-    from trackmodel.network_io import read_network
-    network = read_network(args.network)
+    from railnav.jobs.network import load_network
+    network = load_network(args.network)
     files = args.imu is not None or args.obs is not None
     if files and (args.duration_s is not None or args.speed_mps != SIM_SPEED_MPS):
         raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "

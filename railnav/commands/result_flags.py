@@ -28,5 +28,5 @@ def check_result_flags(args: argparse.Namespace, several: bool) -> None:
         from railnav.jobs.export import parse_export_formats  # light: no engine
         parse_export_formats(args.export)
     if args.smooth and several:
-        raise ConfigError("--smooth works with one track (the track bank keeps no smoother "
-                          "data)")
+        raise ConfigError("--smooth works with one track (a run over several tracks "
+                          "keeps no smoother data)")

@@ -3,8 +3,8 @@
 Thin layer over `railnav.jobs.run.run_simulated` / `railnav.jobs.run.run_files` and
 `railnav.jobs.run.write_run` (STYLE.md §2.11). With several tracks (candidates: the tracks of
 a double line, the routes after a switch) over `railnav.jobs.tracks.run_simulated_tracks` /
-`run_files_tracks` and `write_track_run`: one constrained filter per track and their
-probabilities (`railnav.navigation.bank`). The flags and their checks are
+`run_files_tracks` and `write_track_run`: the network navigator on the tracks as
+netelements without connections, and their probabilities. The flags and their checks are
 `railnav.commands.run_flags`; the terminal report is `railnav.commands.run_report`.
 """
 from __future__ import annotations
@@ -13,6 +13,7 @@ import argparse
 import logging
 from pathlib import Path
 
+from railnav.commands.attitude_flags import attitude_config, car_body_scenario
 from railnav.commands.run_flags import (
     DEFAULT_OUT,
     DEFAULT_SCENARIO,
@@ -89,14 +90,16 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
                                 window=args.window, smooth=args.smooth, progress=progress,
-                                **augmentation(args), **real_inputs(args))
+                                **augmentation(args), **real_inputs(args),
+                                **attitude_config(args))
         else:
-            scenario = get_scenario(scenario_name(args)).with_overrides(
+            scenario = car_body_scenario(args, get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
-                imu_errors=args.imu_grade, outages=args.outage)
+                imu_errors=args.imu_grade, outages=args.outage))
             from railnav.simulation.trip import navigator_config_for
             systems = args.systems or DEFAULT_SYSTEMS
-            config = navigator_config_for(scenario, filter=args.filter, systems=systems)
+            config = navigator_config_for(scenario, filter=args.filter, systems=systems,
+                                          **attitude_config(args))
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, smooth=args.smooth,
                                     progress=progress)
@@ -137,26 +140,30 @@ def _write_baro(check, out: Path) -> list[Path]:
 
 
 def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
-    """``railnav run A.csv B.csv ...``: identify the track among candidates; written into
-    `tmp`: (report, files written)."""
+    """``railnav run A.csv B.csv ...``: identify the track among candidates (a network of
+    the tracks, `railnav.jobs.tracks`); written into `tmp`: (report, files written)."""
+    from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
     from railnav.jobs.tracks import (
         run_files_tracks,
         run_simulated_tracks,
         track_names,
+        track_nav,
         write_track_run,
     )
-    from railnav.navigation.bank import TrackBankConfig
     from trackmodel.io import read_track
     names = track_names(args.tracks)
     tracks = [read_track(path) for path in args.tracks]
-    bank = TrackBankConfig() if args.crossing_rate_per_s is None else TrackBankConfig(
-        crossing_rate_per_s=args.crossing_rate_per_s)
-    with progress_bar("filters", enabled=not args.quiet) as progress:
+    nav = track_nav(len(tracks), crossing_rate_per_s=DEFAULT_CROSSING_RATE_PER_S
+                    if args.crossing_rate_per_s is None else args.crossing_rate_per_s)
+    with progress_bar("tracks", enabled=not args.quiet) as progress:
         if files_given(args):
             run = run_files_tracks(tracks, names, imu_path=args.imu, obs_path=args.obs,
-                                   nav_path=args.nav, start_gps_time_s=args.start_gps_time_s,
-                                   systems=args.systems, imu_grade=args.imu_grade,
-                                   outages=tuple(args.outage or ()), bank=bank,
+                                   nav_path=args.nav, fixes_path=args.fixes,
+                                   start_gps_time_s=args.start_gps_time_s,
+                                   filter=args.filter, systems=args.systems,
+                                   imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
+                                   fix_model=fix_model(args),
+                                   outages=tuple(args.outage or ()), nav=nav,
                                    window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for
@@ -167,7 +174,7 @@ def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path
             run = run_simulated_tracks(tracks, names, scenario,
                                        true_track=(args.true_track or 1) - 1,
                                        config=navigator_config_for(scenario, systems=systems),
-                                       seed=seed(args), systems=systems, bank=bank,
+                                       seed=seed(args), systems=systems, nav=nav,
                                        window=args.window, progress=progress)
     written = write_track_run(run, tmp, plots=not args.no_plots) + _exports(args, run.outcome,
                                                                             tmp)

@@ -30,6 +30,7 @@ from railnav.defaults import (
     DEFAULT_ODOMETER_SIGMA_MPS,
     DEFAULT_SYSTEMS,
 )
+from railnav.commands.attitude_flags import add_attitude_arguments, check_attitude_flags
 from railnav.commands.run_network_flags import (
     _check_network_flags,
     add_network_arguments,
@@ -122,6 +123,7 @@ def add_run_arguments(p) -> None:
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
     add_network_arguments(p)
+    add_attitude_arguments(p)
     add_real_input_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     add_result_arguments(p)
@@ -164,6 +166,7 @@ def check_flags(args: argparse.Namespace) -> None:
     measurement(args.systems)   # validates --systems before any work
     _check_network_flags(args)
     files = files_given(args)
+    check_attitude_flags(args, files=files)
     kind = filter_kind(args.filter)
     given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
     if files and given:
@@ -194,10 +197,10 @@ def check_flags(args: argparse.Namespace) -> None:
     if not several and args.crossing_rate_per_s is not None and args.network is None:
         raise ConfigError("--crossing-rate-per-s: only with several tracks or --network")
     check_result_flags(args, several)
-    if several and not kind.banks:
+    if several and not (kind.banks or (kind.fixes and args.fixes is not None)):
         banked = " or ".join(k for k in FILTER_KINDS if filter_kind(k).banks)
-        raise ConfigError(f"several tracks run the {banked} filter, not --filter "
-                          f"{args.filter}")
+        raise ConfigError(f"several tracks run the {banked} filter, or a filter that takes "
+                          f"--fixes with them, not --filter {args.filter}")
 
 
 def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
@@ -208,8 +211,6 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
                                           ("--no-fix-heights", args.no_fix_heights)) if given]
     if fix_flags and args.fixes is None:
         raise ConfigError(f"{', '.join(fix_flags)}: only with --fixes")
-    if args.fixes is not None and several:
-        raise ConfigError("--fixes works with one track")
     if args.fixes is not None and not kind.fixes:
         takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).fixes)
         raise ConfigError(f"--fixes: the {args.filter} filter takes no fixes (the {takes} "

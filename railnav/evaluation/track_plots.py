@@ -28,7 +28,8 @@ def track_probabilities_figure(bank, *, outages=()) -> Figure:
 
     Parameters
     ----------
-    bank : railnav.navigation.bank_result.TrackBankResult
+    bank : railnav.jobs.tracks.TrackProbabilities
+        Its ``names``, ``time_s`` and ``probabilities``.
     outages : sequence of (start_s, duration_s)
         Shaded (`railnav.evaluation.plot_style.outage_spans` of the run: declared outages
         and gaps in the GNSS data).

@@ -46,8 +46,8 @@ same path as the GNSS rows.
 Each row gets a status, ``used``, ``rejected`` or ``excluded`` (the row on which a channel
 becomes excluded is marked ``excluded``), and its fault probability, written to
 ``innovations.csv`` (`railnav.navigation.result`). `RowScreen.last` keeps the latest epoch's
-innovations and their full covariance (the track bank compares filters on the rows they all
-used: `railnav.navigation.bank`).
+innovations and their full covariance (the network navigator compares hypotheses on the rows
+they all saw and some used: `railnav.navigation.bank`).
 
 Default parameters: ``p = 0.01``, ``κ = 10``, decision ½ give the gate
 ``|ν| > 3.73 √S`` (`ekf.fault_threshold`), a little tighter than the navigator's χ² row gate

@@ -4,7 +4,7 @@ A *filter object* holds one filter's models and turns a trip's samples and GNSS 
 into what the engine (`ekf.CdFilter`) consumes; the chunk loop that drives it is
 `railnav.navigation.loop`. Every filter kind railnav runs is one `FilterKind` entry in
 `FILTERS`: the command line's ``--filter`` choices, `railnav.config.NavigatorConfig`'s
-check, streaming and the multi-track bank all read this table. Adding a filter kind means
+check, streaming and the network navigator all read this table. Adding a filter kind means
 adding one module with a class that satisfies `Filter`, and one entry here.
 
 Time: ``t`` and ``time_s`` are seconds from the trip start.
@@ -90,7 +90,8 @@ class FilterKind:
     streams : bool
         It can run in streaming mode (`railnav.navigation.streaming`).
     banks : bool
-        It can run in a multi-track bank (`railnav.navigation.bank`): it screens each
+        It can run as a hypothesis of the network navigator on observations
+        (`railnav.navigation.network_navigator`, several tracks): it screens each
         epoch's rows and keeps their innovations (``screen.last``).
     fixes : bool
         It takes GNSS position fixes (`railnav.filters.fix_rows`): its class accepts
@@ -148,7 +149,7 @@ def filter_kind(name: str) -> FilterKind:
 
 
 def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None,
-                balises=None) -> Filter:
+                balises=None, body=None) -> Filter:
     """Build the filter object of ``config.filter``.
 
     Parameters
@@ -165,6 +166,9 @@ def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None
         other streams merged); default: the GNSS epochs in order.
     odometer, balises : optional
         Odometer readings and balise passages (`railnav.filters.sensor_rows`).
+    body : dict, optional
+        The constrained filter's attitude and standstill streams
+        (`railnav.filters.body_rows.body_stream_epochs`; it refuses them for other filters).
 
     Raises
     ------
@@ -179,6 +183,8 @@ def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None
         takes = " or ".join(k.name for k in FILTERS.values() if k.track_sensors)
         what = ", ".join(sensors) or "lever arms"
         raise ConfigError(f"the {kind.name} filter takes no {what} (the {takes} filters do)")
+    if body:
+        sensors["body"] = body
     if sensors:
         return cls(track, config, gnss, fixes=fixes, schedule=schedule, **sensors)
     if fixes is None and schedule is None:

@@ -46,6 +46,7 @@ from trackmodel.network import NetPosition, Network, Route
 
 __all__ = ["route_candidates", "route_name", "run_files_network", "run_simulated_network",
            "write_network_run", "NetworkRunOutcome", "load_network", "true_netelements",
+           "candidate_starts",
            "DEFAULT_HORIZON_M", "DEFAULT_MAX_ROUTES"]
 
 #: The most routes `route_candidates` lists.
@@ -142,13 +143,15 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
                       start_gps_time_s: float | None = None, config=None,
                       filter: str | None = None, systems: str | None = None,
                       imu_grade: str | None = None, fix_sigmas=None, fix_model=None,
-                      outages=(), progress=None) -> NetworkRunOutcome:
+                      outages=(), window: tuple[float, float] | None = None,
+                      progress=None) -> NetworkRunOutcome:
     """Navigate sensor files on `network` (module docstring).
 
     Parameters are those of `railnav.jobs.run.run_files` (the sensor files, the filter
     and fix model), plus `start` (`railnav.navigation.network_start.NetworkStart`, default
     unknown) and `nav` (`NetworkNavConfig`); `truth_path` is a fix file whose rows of
-    `truth_quality` (default ``rtk_fixed``) give the netelement truth.
+    `truth_quality` (default ``rtk_fixed``) give the netelement truth; `window`, an extra
+    summary window ``(start_s, end_s)``.
     """
     from railnav.jobs.scoring import with_timestamps
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
@@ -164,7 +167,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
-    summary = run_summary(combined, track, None, None, tuple(outages), extra)
+    summary = run_summary(combined, track, None, window, tuple(outages), extra)
     truth_t, truth = (None, None) if truth_path is None else _fix_truth(
         network, truth_path, truth_quality, data.start_gps_time_s)
     summary = _scored_summary(summary, result, network, truth_t, truth, {})
@@ -191,8 +194,9 @@ def true_netelements(network: Network, legs, s_m) -> np.ndarray:
     return out
 
 
-def _candidate_starts(trip, config, route_filter):
-    """Each start candidate's initial state: the truth on the route line brought onto the
+def candidate_starts(trip, config, route_filter):
+    """`navigate_network`'s ``initial`` for a simulated `trip` on `route_filter`'s track:
+    each start candidate's initial state: the truth on the route line brought onto the
     candidate's track (`railnav.navigation.network_weights.converted`) plus one common
     error draw (`truth_start`); none for a candidate an inertial filter would face the
     wrong way on."""
@@ -211,7 +215,9 @@ def _candidate_starts(trip, config, route_filter):
 def run_simulated_network(network: Network, legs, scenario, *, line=None, config=None,
                           seed: int = 0, systems: str | None = None,
                           nav: NetworkNavConfig = NetworkNavConfig(), known_start: bool = False,
-                          faults: tuple = (), progress=None) -> NetworkRunOutcome:
+                          start_direction: int | None = None, faults: tuple = (),
+                          window: tuple[float, float] | None = None,
+                          progress=None) -> NetworkRunOutcome:
     """Simulate `scenario` along the route `legs` and navigate it on `network` (module
     docstring).
 
@@ -231,7 +237,12 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
     nav : NetworkNavConfig
     known_start : bool
         Start on the first leg's netelement only (else every netelement near the start).
+    start_direction : {1, -1}, optional
+        Start hypotheses in this orientation of each netelement only (+1 along it; default
+        both for an inertial filter: the truth brought onto each decides).
     faults : tuple of gnss_obs.SatelliteFault
+    window : (start_s, end_s), optional
+        Extra error-summary window.
     progress : callable(done, total), optional
     """
     from railnav.defaults import DEFAULT_SYSTEMS
@@ -246,14 +257,16 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
     trip = simulate_trip(scenario, track=line, seed=seed, systems=systems, faults=faults)
     route_filter = make_filter(line, config, None)
     result = navigate_network(network, trip.sensor_data(), config, nav=nav,
-                              start=NetworkStart(legs[0][0]) if known_start else None,
+                              start=NetworkStart(legs[0][0] if known_start else None,
+                                                 direction=start_direction)
+                              if known_start or start_direction is not None else None,
                               outages=scenario.outages,
-                              initial=_candidate_starts(trip, config, route_filter),
+                              initial=candidate_starts(trip, config, route_filter),
                               near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])),
                               progress=progress)
     combined = result.combined()
     errors = error_series(combined, trip.truth, trip.track, clock_truth=trip.clock_truth)
-    summary = run_summary(combined, trip.track, errors, None, scenario.outages,
+    summary = run_summary(combined, trip.track, errors, window, scenario.outages,
                           {"scenario": scenario.name, "seed": int(seed), "systems": systems})
     truth_s = np.interp(result.time_s, trip.truth.time_s, trip.truth.s)
     summary = _scored_summary(summary, result, network, result.time_s,

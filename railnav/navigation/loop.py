@@ -1,8 +1,7 @@
 """The one chunk loop: a filter object driven through `ekf.CdFilter` chunk by chunk.
 
-In-memory runs (`railnav.navigation.navigator`), streamed runs
-(`railnav.navigation.streaming`) and multi-track banks (`railnav.navigation.bank`) all run
-a filter through a `ChunkLoop`:
+In-memory runs (`railnav.navigation.navigator`) and streamed runs
+(`railnav.navigation.streaming`) run a filter through a `ChunkLoop`:
 
 * the samples are cut into chunks that end at GNSS epoch samples or after `MAX_CHUNK_S`,
   and each chunk's inputs (track linearization, per-step parameters) are computed from

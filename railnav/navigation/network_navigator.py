@@ -304,7 +304,7 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
     reweight(hyps, log_lik, transition)
     mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight)
-    recorder.epoch(time_s, hyps, outcome)
+    recorder.epoch(time_s, hyps, outcome, log_lik)
     out = []
     for h in hyps:
         children = branch(h, tracks, factory.child, time_s)

@@ -32,6 +32,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from ekf.bank import logsumexp
 from ekf.packing import pack_sym
 from railnav.navigation.hypotheses import normalized_weights
 from railnav.navigation.result import NavigationResult, estimates_frame
@@ -74,6 +75,8 @@ class NetworkRecorder:
         self.P: list[Array] = []
         self.keys: list[tuple[str, int]] = []
         self.element_probability: list[dict] = []
+        self.element_log_likelihood: list[dict] = []
+        self._log_lik: dict = {}
         self.hyp_rows: list[dict] = []
         self.innov: list[pd.DataFrame] = []
         self.restarts: list[float] = []
@@ -81,10 +84,12 @@ class NetworkRecorder:
         self._next_hyp_s = -np.inf
         self._last: list = []
 
-    def epoch(self, time_s: float, hyps, outcome) -> None:
+    def epoch(self, time_s: float, hyps, outcome, log_lik=None) -> None:
         """Record a cycle's screened epoch, of the most probable hypothesis (after the
-        evidence, before branching), and its filter steps."""
+        evidence, before branching), its filter steps and each netelement's evidence
+        (`log_lik`, each hypothesis's, after the reweighting: `_element_log_likelihoods`)."""
         self.steps += outcome.steps
+        self._log_lik = {} if log_lik is None else _element_log_likelihoods(hyps, log_lik)
         if outcome.screens is not None:
             best = int(np.argmax([h.log_weight for h in hyps]))
             self.innov.append((outcome.screens[best], time_s))
@@ -113,6 +118,7 @@ class NetworkRecorder:
         self.P.append(pack_sym(h.P))
         self.keys.append(h.pieces)
         self.element_probability.append(per_element)
+        self.element_log_likelihood.append(self._log_lik)
         self._last = list(hyps)
         if time_s >= self._next_hyp_s:
             self._next_hyp_s = time_s + self.nav.hypotheses_every_s
@@ -132,10 +138,24 @@ class NetworkRecorder:
             nav=nav, start_gps_time_s=self.start_gps_time_s, runtime_s=float(runtime_s),
             cycles=table, x=np.array(self.x), P=np.array(self.P), keys=tuple(self.keys),
             element_probability=tuple(self.element_probability),
+            element_log_likelihood=tuple(self.element_log_likelihood),
             hypotheses=pd.DataFrame(self.hyp_rows),
             innovations=_innovation_frame(self.innov, self.start_gps_time_s),
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps))
+
+
+def _element_log_likelihoods(hyps, log_lik) -> dict[str, float]:
+    """Each netelement's log-likelihood of a cycle's evidence: that of the mixture of its
+    hypotheses at their predicted weights, ``log Σ_k w_k⁺ − log Σ_k w_k⁺ / L_k`` from the
+    reweighted ``log w_k⁺ = log w_k⁻ + log L_k`` (one hypothesis: its own ``log L``)."""
+    post: dict[str, list[float]] = {}
+    prior: dict[str, list[float]] = {}
+    for h, ll in zip(hyps, np.asarray(log_lik, dtype=float)):
+        post.setdefault(h.element, []).append(h.log_weight)
+        prior.setdefault(h.element, []).append(h.log_weight - ll)
+    return {e: float(logsumexp(np.array(post[e])) - logsumexp(np.array(prior[e])))
+            for e in post}
 
 
 def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:
@@ -181,7 +201,9 @@ class NetworkResult:
     """A network run (module docstring). ``cycles`` has one row per cycle (the network
     columns, ``evidence_rows``, ``merges``, ``pruned_probability``); ``x``
     and ``P`` (packed) the most probable hypothesis's state there (``s`` along its own
-    track), ``keys`` the pieces of that track; ``final`` the last hypotheses (``id,
+    track), ``keys`` the pieces of that track; ``element_probability`` and
+    ``element_log_likelihood`` per cycle, by netelement, the probability and the cycle's
+    evidence (log-likelihood, 0 without any); ``final`` the last hypotheses (``id,
     element, orientation, probability, path``)."""
 
     network: object
@@ -202,6 +224,7 @@ class NetworkResult:
     outages: tuple
     restarts: tuple = ()
     n_steps: int = 0
+    element_log_likelihood: tuple = ()
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property

@@ -40,17 +40,20 @@ START_CHUNK = 25
 
 @dataclass(frozen=True)
 class NetworkStart:
-    """A known start: the netelement, optionally the offset from its first coordinate (m)
+    """A known start: the netelement (None: every netelement near the start fix, as
+    without a start), optionally the offset from its first coordinate (m, with an element)
     and the direction of travel on it (+1 towards its last coordinate, -1 back; None:
     either)."""
 
-    element: str
+    element: str | None
     offset_m: float | None = None
     direction: int | None = None
 
     def __post_init__(self) -> None:
         if self.direction not in (None, 1, -1):
             raise ConfigError(f"start direction must be +1, -1 or None, got {self.direction!r}")
+        if self.element is None and self.offset_m is not None:
+            raise ConfigError("a start offset needs the start netelement")
 
 
 def orientations_of(filt, direction: int | None) -> tuple[int, ...]:
@@ -83,7 +86,7 @@ def _start_fix_index(network, fixes, radius_m: float, element: str | None,
 
 def _candidates(network, lat: float, lon: float, radius_m: float,
                 start: NetworkStart | None) -> list[str]:
-    if start is not None:
+    if start is not None and start.element is not None:
         return [start.element]
     near = network.project(np.array([lat]), np.array([lon]), radius_m=radius_m)
     if len(near) == 0:
@@ -123,7 +126,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     ConfigError
         A start netelement not in the network; no fix near the network.
     """
-    if start is not None and start.element not in network.elements:
+    if start is not None and start.element is not None and \
+            start.element not in network.elements:
         raise ConfigError(f"start netelement {start.element!r} is not in the network")
     lat, lon, begin = _start_point(network, trip, data, config, nav, start,
                                    near is not None and initial is not None, after_s)

@@ -14,9 +14,9 @@ After each cycle:
    curvy stretch, shows there first.
 2. **Markov prior for leaving the track model.** A train may be on a track abreast of the
    one a hypothesis says (a crossover the map lacks, a map error): each hypothesis gives
-   ``1 − e^{−εΔt}`` of its probability to the hypotheses *abreast* of it, alike
-   (`abreast`: positions within `NetworkNavConfig.crossing_radius_m`, travelling the
-   same way, on another element), and keeps the rest: ``μ_j ∝ L_j Σ_i Π_ij μ_i``
+   its probability to the hypotheses *abreast* of it at the rate ε, alike (`abreast`:
+   positions within `NetworkNavConfig.crossing_radius_m`, travelling the same way, on
+   another element; `crossing_matrix`, the exact chain): ``μ_j ∝ L_j Σ_i Π_ij μ_i``
    computed in log space (`ekf.bank.log_predict`, no floor under a weight). Hypotheses
    with nothing abreast keep their probability (a switch's branches that have parted,
    Gaussian-sum components along one element).
@@ -28,12 +28,11 @@ After each cycle:
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import numpy.typing as npt
+import scipy.linalg as sla
 
-from ekf.bank import imm_starts, log_predict
+from ekf.bank import imm_starts, log_predict, uniform_switching
 from railnav.errors import RailnavError
 from railnav.navigation.bank import common_log_likelihoods, evidence_rows, moved_state
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
@@ -113,18 +112,49 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
 
 
 def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
-    """``Π[i, j]``: hypothesis i keeps ``e^{−εΔt}`` and gives the rest to its abreast
-    hypotheses alike (none abreast: it keeps all); rows sum to 1."""
+    """``Π[i, j]`` over ``dt_s`` of the chain that leaves hypothesis i at ``rate_per_s`` for
+    its abreast hypotheses alike (generator ``Λ_ij = ε/|abreast(i)|``, ``Λ_ii = −ε``; none
+    abreast: it keeps all): ``Π = exp(Λ Δt)`` per group of hypotheses linked by being
+    abreast, in closed form (`ekf.bank.uniform_switching`) where every one of a group is
+    abreast of all the others (a double line, parallel tracks), `scipy.linalg.expm` else.
+    Rows sum to 1; the exact chain, so that the probabilities of hypotheses abreast
+    relax in an outage as the chain does (two: ``μ − ½ ∝ e^{−2εt}``)."""
     K = len(neighbours)
     Pi = np.eye(K)
-    leave = -math.expm1(-rate_per_s * max(dt_s, 0.0))
-    if leave == 0.0:
+    if rate_per_s == 0.0 or dt_s <= 0.0:
         return Pi
-    for i, nb in enumerate(neighbours):
-        if nb:
-            Pi[i, i] = 1.0 - leave
-            Pi[i, nb] = leave / len(nb)
+    for group in _linked_groups(neighbours):
+        n = len(group)
+        if all(len(neighbours[i]) == n - 1 for i in group):
+            block = uniform_switching(n, rate_per_s, dt_s)
+        else:
+            where = {i: k for k, i in enumerate(group)}
+            gen = np.zeros((n, n))
+            for i in group:
+                gen[where[i], [where[j] for j in neighbours[i]]] = rate_per_s / len(neighbours[i])
+                gen[where[i], where[i]] = -rate_per_s
+            block = sla.expm(gen * dt_s)
+        Pi[np.ix_(group, group)] = block
     return Pi
+
+
+def _linked_groups(neighbours: list[list[int]]) -> list[list[int]]:
+    """The connected groups (>= 2 members, sorted) of the symmetric abreast relation."""
+    seen, out = set(), []
+    for i, nb in enumerate(neighbours):
+        if not nb or i in seen:
+            continue
+        group, todo = [], [i]
+        seen.add(i)
+        while todo:
+            k = todo.pop()
+            group.append(k)
+            for j in neighbours[k]:
+                if j not in seen:
+                    seen.add(j)
+                    todo.append(j)
+        out.append(sorted(group))
+    return out
 
 
 def reweight(hyps, log_lik: Array, transition: Array) -> None:
@@ -165,7 +195,7 @@ MAX_OFFSETS = 10_000
 def _target_s(source, target, p_src, s_src: float) -> float:
     """``s`` of the point of `target`'s track nearest `source`'s point at ``s_src``: one
     Newton step along the target's tangent from the offset last found for the pair
-    (`railnav.navigation.bank.Correspondence`'s shortcut), else the projection."""
+    (once the offset of the pair is known), else the projection."""
     key = (id(source.track), id(target.track))
     guess = _OFFSETS.get(key)
     if guess is not None:

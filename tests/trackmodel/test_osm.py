@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from trackmodel.errors import TrackFileError
-from trackmodel.network import NetPosition
+from trackmodel.network import END, START, NetPosition
 from trackmodel.network_io import build_network
 from trackmodel.osm import MAX_DEFLECTION_DEG, read_osm
 
@@ -60,9 +60,9 @@ def test_handmade_network_fits_and_turns_in_the_loop():
     assert kinks.loc[("w1", "w3"), "kink_deg"] == pytest.approx(8.0, abs=0.5)
 
 
-def _switch_xml(angle_deg: float) -> str:
+def _switch_xml(angle_deg: float, oneway: dict | None = None) -> str:
     """A trunk 100 m north to node 2 (railway=switch), a straight branch 100 m on and a
-    branch at `angle_deg` to the east."""
+    branch at `angle_deg` to the east; `oneway`: way id -> its ``oneway`` tag."""
     def node(i, east, north):
         lat = 50.0 + math.degrees(north / R_M)
         lon = 4.0 + math.degrees(east / (R_M * math.cos(math.radians(50.0))))
@@ -72,8 +72,9 @@ def _switch_xml(angle_deg: float) -> str:
              f'<node id="2" lat="{50.0 + math.degrees(100 / R_M):.9f}" lon="4.0">'
              '<tag k="railway" v="switch"/></node>']
     ways = [(10, [1, 2]), (11, [2, 3]), (12, [2, 4])]
+    tag = (lambda w: f'<tag k="oneway" v="{oneway[w]}"/>' if oneway and w in oneway else "")
     body = "".join(f'<way id="{w}">' + "".join(f'<nd ref="{n}"/>' for n in refs)
-                   + '<tag k="railway" v="rail"/></way>' for w, refs in ways)
+                   + f'<tag k="railway" v="rail"/>{tag(w)}</way>' for w, refs in ways)
     return f'<osm version="0.6">{"".join(nodes)}{body}</osm>'
 
 
@@ -85,6 +86,29 @@ def test_angle_rule_at_its_limit(tmp_path, angle_deg):
     assert nav[("w10", "w11")] == "both"
     assert nav[("w10", "w12")] == ("both" if angle_deg < MAX_DEFLECTION_DEG else "none")
     assert nav[("w11", "w12")] == "none"
+
+
+def test_oneway_tags_restrict_navigability(tmp_path):
+    """The switch of `_switch_xml` at 8° with the trunk (way 10, nodes 1→2, north) one-way
+    along its nodes, the straight branch (11, 2→3) untagged and the diverging one (12, 2→4)
+    one-way against its nodes (a train may only come in from node 4). Closed form: the
+    trunk's train leaves it at its END and goes on along 11 from its START (AB), never back;
+    from 12 a train arrives at 12's START travelling against it and may not enter the trunk
+    at its END against the trunk's one way (none); the branches never pass (geometry)."""
+    path = tmp_path / "oneway.osm"
+    path.write_text(_switch_xml(8.0, oneway={10: "yes", 12: "-1"}))
+    source = read_osm(path)
+    nav = {(c.a, c.b): c.navigability for c in source.connections}
+    assert nav == {("w10", "w11"): "AB", ("w10", "w12"): "none", ("w11", "w12"): "none"}
+    assert source.attributes["w10"]["oneway"] == "yes"
+    net = build_network(source)
+    assert net.successors("w10", 1) == [("w11", 1)]
+    assert net.predecessors("w11", 1) == [("w10", 1)]
+    assert net.successors("w11", -1) == [] and net.successors("w12", -1) == []
+    # untagged, the same switch passes both ways from the trunk to both branches
+    path.write_text(_switch_xml(8.0, oneway={10: "no"}))
+    nav = {(c.a, c.b): c.navigability for c in read_osm(path).connections}
+    assert nav == {("w10", "w11"): "both", ("w10", "w12"): "both", ("w11", "w12"): "none"}
 
 
 def test_real_yard_nodes_lie_on_their_netelements():
@@ -109,7 +133,7 @@ def _check_switches(source, expected: int) -> None:
     assert len(switches) == expected
     for ends in switches:
         passable = [c for c in source.connections
-                    if (c.a, c.a_end) in ends and c.navigability == "both"]
+                    if (c.a, c.a_end) in ends and c.navigability != "none"]
         assert len(passable) == 2
         first, second = ({(c.a, c.a_end), (c.b, c.b_end)} for c in passable)
         shared = first & second
@@ -126,6 +150,14 @@ def test_real_helsinki_rail_topology(caplog):
     assert kinds == {"rail", "tram", "subway"}
     assert len(source.polylines) == 366
     _check_switches(source, expected=84)
+    # its tram tracks are oneway=yes: a train passes only from an element's last node
+    # (END) onto the next one's first (START), in the order of the ways' nodes
+    oneway = {e for e, a in source.attributes.items() if a.get("oneway") == "yes"}
+    assert len(oneway) == 186
+    for c in source.connections:
+        if c.a in oneway and c.b in oneway and c.navigability != "none":
+            ends = (c.a_end, c.b_end) if c.navigability == "AB" else (c.b_end, c.a_end)
+            assert c.navigability in ("AB", "BA") and ends == (END, START), c
 
 
 def test_pyrosm_test_file_way_and_tags():

@@ -160,13 +160,25 @@ def test_bad_fix_input_is_one_line_exit_2(tmp_path, capsys, make, extra, message
         assert str(tmp_path / "fixes.dat") in err
 
 
-def test_fixes_with_two_tracks_is_an_error(tmp_path, capsys):
-    path = tmp_path / "f.csv"
-    path.write_text("gps_time_s,lat_deg,lon_deg\n1,50,4\n")
+def test_fixes_on_two_tracks_identify_the_track(tmp_path):
+    """Issue 13: a run over candidate tracks is a network run, so it takes position fixes
+    (the gnss-only filter on them). Fixes simulated on track B (RTK float, decimetres,
+    against 4.5 m between the tracks: tens of nats per fix): B, and the track columns."""
     double = [str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")]
-    assert main(["-q", "run", *double, "--fixes", str(path), "--filter", "constrained",
-                 "--imu", str(path), "--out", str(tmp_path / "o")]) == 2
-    assert "one track" in capsys.readouterr().err
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", double[1], "--scenario", "curvy", "--duration-s", "30",
+                 "--no-gnss", "--fixes-format", "csv", "--fixes-quality", "rtk_float=1",
+                 "--out", str(sim)]) == 0
+    out = tmp_path / "o"
+    assert main(["-q", "run", *double, "--fixes", str(sim / "fixes.csv"), "--no-plots",
+                 "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["filter"] == "gnss-only"
+    assert summary["track_probabilities"]["double_b"] > 0.99
+    est = pd.read_csv(out / "estimates.csv")
+    assert (est["track"].iloc[len(est) // 2:] == "double_b").all()
+    assert list(pd.read_csv(out / "track_probabilities.csv").columns) == [
+        "time_s", "gps_time_s", "double_a", "double_b", "common_rows"]
 
 
 @pytest.mark.parametrize("extra, message", [

@@ -72,3 +72,51 @@ def test_network_flags_need_a_network(capsys):
     assert "give a TRACK" in capsys.readouterr().err
     assert main(["-q", "run", "--network", BRUSSELS]) == 2
     assert "needs sensor files" in capsys.readouterr().err
+
+
+def _bad_network(tmp_path, kind: str) -> Path:
+    """Issue 13's bad network inputs, each a file small enough to write here."""
+    path = tmp_path / {"empty": "empty.geojson", "relation": "rel.geojson",
+                       "road": "road.osm"}[kind]
+    if kind == "empty":
+        path.write_text('{"type": "FeatureCollection", "features": []}')
+    elif kind == "relation":
+        path.write_text(json.dumps({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {"id": "A"}, "geometry": {
+                "type": "LineString", "coordinates": [[4.0, 50.0], [4.0, 50.01]]}},
+            {"type": "Feature", "properties": {"netelementA": "A", "netelementB": "Z",
+                                               "positionOnA": 1, "positionOnB": 0},
+             "geometry": {"type": "Point", "coordinates": [4.0, 50.01]}}]}))
+    else:
+        path.write_text('<osm version="0.6"><node id="1" lat="50" lon="4"/>'
+                        '<node id="2" lat="50.01" lon="4"/><way id="3"><nd ref="1"/>'
+                        '<nd ref="2"/><tag k="highway" v="road"/></way></osm>')
+    return path
+
+
+@pytest.mark.parametrize("command", ["run", "network run"])
+@pytest.mark.parametrize("kind, message", [
+    ("empty", "no LineString netelement"),
+    ("relation", "names netelement 'Z', which the file does not have"),
+    ("road", "no way tagged railway="),
+])
+def test_bad_network_files_are_one_line_exit_2_and_nothing_written(tmp_path, capsys,
+                                                                   command, kind, message):
+    """Issue 13's bad input through both commands that navigate on a network: a GeoJSON
+    without netelements, a netrelation naming an unknown netelement, an OSM file without
+    a railway; the file named, one line, nothing written."""
+    bad, out = _bad_network(tmp_path, kind), tmp_path / "run"
+    argv = (["run", "--network", str(bad), "--fixes", str(EXCERPT)] if command == "run"
+            else ["network", "run", str(bad), "--start", "A:10", "--duration-s", "5"])
+    assert main(["-q", *argv, "--no-plots", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {bad}") and message in err and "\n" not in err, err
+    assert not out.exists()
+
+
+def test_network_run_start_not_in_the_network(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert main(["-q", "network", "run", BRUSSELS, "--start", "nope:10", "--duration-s", "5",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "error: no netelement 'nope' in the network" and not out.exists()
