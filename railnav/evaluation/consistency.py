@@ -70,26 +70,27 @@ class RunSeries:
     status: npt.NDArray | None = None
 
 
-def run_series(estimates, errors, truth_s_m: Array) -> RunSeries:
-    """A run's `RunSeries` from its ``estimates`` frame and `ErrorSeries`.
+def run_series(estimates, *, nees: Array, error_s_m: Array) -> RunSeries:
+    """A run's `RunSeries` from its ``estimates`` frame and its errors at the same epochs.
 
     Parameters
     ----------
     estimates : pandas.DataFrame
-        ``estimates.csv``'s columns (``sigma_s_m``; optional ``s_min_m``, ``s_max_m``,
-        ``status``).
-    errors : railnav.evaluation.metrics.ErrorSeries
-        At the same epochs.
-    truth_s_m : ndarray, shape (K,)
-        The true ``s`` at those epochs, m.
+        ``estimates.csv``'s columns (``s_m``, ``sigma_s_m``; optional ``s_min_m``,
+        ``s_max_m``, ``status``).
+    nees : ndarray, shape (K,)
+        `railnav.evaluation.metrics.ErrorSeries.nees` (or ``errors.csv``'s column).
+    error_s_m : ndarray, shape (K,)
+        Along-track error, m (``along_track_m``). The true ``s`` is taken as
+        ``s_m − error_s_m`` (exact on the track up to the chord of a curve, ``κ δs²/2``).
     """
     def column(name):
         return estimates[name].to_numpy() if name in estimates else None
 
-    return RunSeries(nees=np.asarray(errors.nees, dtype=float),
-                     error_s_m=np.asarray(errors.along_track_m, dtype=float),
+    error = np.asarray(error_s_m, dtype=float)
+    return RunSeries(nees=np.asarray(nees, dtype=float), error_s_m=error,
                      sigma_s_m=estimates["sigma_s_m"].to_numpy(dtype=float),
-                     truth_s_m=np.asarray(truth_s_m, dtype=float),
+                     truth_s_m=estimates["s_m"].to_numpy(dtype=float) - error,
                      s_min_m=column("s_min_m"), s_max_m=column("s_max_m"),
                      status=column("status"))
 

@@ -37,9 +37,11 @@ from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
+from railnav.filters.scale_noise import bias_step_densities
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
+from strapdown.kinematics import BIAS_STATE_NAMES
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
@@ -97,6 +99,8 @@ class ConstrainedFilter:
         self._grid = TrackParameterGrid(track)
         self._joints = JointRateNoise(track)
         self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
+        self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
+            if self.model.estimate_biases else None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -139,6 +143,7 @@ class ConstrainedFilter:
         """
         s_pred = self.predict_s(t, u, x_prev, t_prev)
         params, nodes = self._grid.parameters(s_pred)
+        raw = params
         self._chunk_end = self._grid.point(int(nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
@@ -148,21 +153,32 @@ class ConstrainedFilter:
         if step is None:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
-        self.step_q_c = self._joint_q_c(t, s_pred, x_prev, step)
+        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step)
         return u, params, variance * remainder_correlation_s(sigma_s_m=sigma_s,
                                                              speed_mps=speed, step_s=step)
 
-    def _joint_q_c(self, t: Array, s_pred: Array, x_prev: Array, step: float) -> Array:
-        """`q_c` for the samples `t`, with the rate-step joints' sampling noise added to
-        the steps that cross them (`railnav.filters.joint_noise`)."""
+    def _step_q_c(self, t: Array, s_pred: Array, params: Array, x_prev: Array,
+                  step: float) -> Array:
+        """`q_c` for the samples `t`, with what the steps of the predicted path add: the
+        sampling error of the rate steps at joints (`railnav.filters.joint_noise`) and
+        the bias steps of the unestimated scale factors and misalignments
+        (`railnav.filters.scale_noise`; `params`: the grid's track parameters)."""
         steps = np.concatenate([np.diff(t), [step]])
-        found = self._joints.densities(float(x_prev[self._i["s"]]), s_pred,
-                                       abs(float(x_prev[self._i["v"]])), steps)
-        if found is None:
+        s_prev, speed = float(x_prev[self._i["s"]]), abs(float(x_prev[self._i["v"]]))
+        found = self._joints.densities(s_prev, s_pred, speed, steps)
+        bias = None
+        if self._bias_noise is not None:
+            prev = self._grid.parameters(np.array([min(max(s_prev, 0.0),
+                                                       self.track.length_m)]))[0][0]
+            bias = bias_step_densities(prev, params, speed, self.config.imu, steps)
+        if found is None and bias is None:
             return self.q_c
-        rows, extra = found
         q = np.tile(self.q_c, (t.size, 1))
-        np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
+        if found is not None:
+            rows, extra = found
+            np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
+        if bias is not None:
+            q[:, self._bias_noise] += bias
         return q
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
