@@ -148,6 +148,10 @@ def _streamed_runs(hours: float, seeds: int):
         runs.append(run_series(est, nees=err["nees"].to_numpy(),
                                error_s_m=err["along_track_m"].to_numpy()))
         dof = int(outcome.summary["errors"]["nees"]["dof"])
+        one = summarize_consistency(runs[-1:], dof=dof)
+        print(f"  10-h trip seed {seed}: NEES mean {one.nees_mean:.3g} over "
+              f"{one.nees_epochs} epochs, beyond 3σ_s {one.share_beyond_3sigma:.2%}",
+              flush=True)
     return runs, dof
 
 
