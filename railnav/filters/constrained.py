@@ -35,11 +35,14 @@ from railnav.filters.common import (
 from railnav.filters.constrained_model import build_constrained_model, isb_state_name
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
-from railnav.filters.geometry_noise import statistical_parameters
+from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
+from railnav.filters.joint_noise import JointRateNoise
+from railnav.filters.scale_noise import bias_step_densities
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
+from strapdown.kinematics import BIAS_STATE_NAMES
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
@@ -101,6 +104,13 @@ class ConstrainedFilter:
         self._gravity: dict[int, float] = {}
         self._chunk_end = None   # the track at the last sample of the latest chunk
         self._grid = TrackParameterGrid(track)
+        self._joints = JointRateNoise(track)
+        self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
+        self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
+            if self.model.estimate_biases else None
+        #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
+        #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
+        self.step_q_c = self.q_c
         #: The run's nominal sample interval, s (`inputs`; set by the chunk loop).
         self.sample_interval_s: float | None = None
 
@@ -130,23 +140,53 @@ class ConstrainedFilter:
         r_c : ndarray, shape (M, 2)
             Density of the pseudo-observation noise that the uncertainty of ``s`` puts on
             the track geometry (`railnav.filters.geometry_noise`), (m/s²)²·s: its variance
-            per sample times the run's nominal sample interval (`sample_interval_s`, set by
-            the chunk loop; else the chunk's median step). A density, not a per-step
+            times its correlation time (`geometry_noise.remainder_correlation_s`: the time
+            to run across ±σ_s, at least the run's nominal sample interval
+            `sample_interval_s`, set by the chunk loop; else the chunk's median step). A
+            density, not a per-step
             variance, so that jitter, dropped samples and the samples inserted at epochs
             change the information per second of the pseudo-observation by nothing (a
             chunk of one short inserted step would otherwise weigh as a full sample).
         """
-        params, nodes = self._grid.parameters(self.predict_s(t, u, x_prev, t_prev))
+        s_pred = self.predict_s(t, u, x_prev, t_prev)
+        params, nodes = self._grid.parameters(s_pred)
+        raw = params
         self._chunk_end = self._grid.point(int(nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
-        params, variance = statistical_parameters(
-            self._grid, params, sigma_s_m=float(np.sqrt(max(P_prev[i_s, i_s], 0.0))),
-            speed_mps=abs(float(x_prev[i_v])))
+        sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
+        params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
+                                                  speed_mps=speed)
         step = self.sample_interval_s
         if step is None:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
-        return u, params, variance * max(step, 0.0)
+        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step)
+        return u, params, variance * remainder_correlation_s(sigma_s_m=sigma_s,
+                                                             speed_mps=speed, step_s=step)
+
+    def _step_q_c(self, t: Array, s_pred: Array, params: Array, x_prev: Array,
+                  step: float) -> Array:
+        """`q_c` for the samples `t`, with what the steps of the predicted path add: the
+        sampling error of the rate steps at joints (`railnav.filters.joint_noise`) and
+        the bias steps of the unestimated scale factors and misalignments
+        (`railnav.filters.scale_noise`; `params`: the grid's track parameters)."""
+        steps = np.concatenate([np.diff(t), [step]])
+        s_prev, speed = float(x_prev[self._i["s"]]), abs(float(x_prev[self._i["v"]]))
+        found = self._joints.densities(s_prev, s_pred, speed, steps)
+        bias = None
+        if self._bias_noise is not None:
+            prev = self._grid.parameters(np.array([min(max(s_prev, 0.0),
+                                                       self.track.length_m)]))[0][0]
+            bias = bias_step_densities(prev, params, speed, self.config.imu, steps)
+        if found is None and bias is None:
+            return self.q_c
+        q = np.tile(self.q_c, (t.size, 1))
+        if found is not None:
+            rows, extra = found
+            np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
+        if bias is not None:
+            q[:, self._bias_noise] += bias
+        return q
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""

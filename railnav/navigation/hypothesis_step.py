@@ -196,7 +196,9 @@ class EngineStepper:
         extra = None if r_c is None else joint_allowance(h, self.tracks, t)
         if extra is not None:
             r_c = r_c + extra[:, None]
-        out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c, q_c=h.filt.q_c, r_c=r_c))
+        out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c,
+                                            q_c=getattr(h.filt, "step_q_c", h.filt.q_c),
+                                            r_c=r_c))
         return out, r_c is not None
 
     @staticmethod

@@ -101,7 +101,8 @@ class ChunkLoop:
             t_prev = engine.t if np.isfinite(engine.t) else t[0]
             u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
                                         t_prev)
-            yield InputSeries(t=t[start:stop], u=u_c, p=p_c, q_c=filt.q_c, r_c=r_c)
+            yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
+                              q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c)
             start = stop
 
     def epochs(self, times: Iterable[float], indices: Iterable[int], *,

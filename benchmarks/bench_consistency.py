@@ -1,0 +1,195 @@
+"""Issue 14's consistency table: is the constrained filter's σ a promise it keeps?
+
+Usage::
+
+    nice -n 10 python benchmarks/bench_consistency.py [--quick] [--cases a,b] [--out FILE]
+
+Cases (simulated truth; the filter assumes the IMU grade that is simulated, scale factors
+and misalignments included in the simulation but not in the filter's model):
+
+==================  =========================================================  ======
+case                trip                                                       seeds
+==================  =========================================================  ======
+paper2017           the 2017 paper's scenario (1000 s, two 50-s outages)        10
+curvy_tactical      ``curvy`` (1000 s, a station stop), tactical IMU             10
+curvy_mems          the same, MEMS IMU                                           10
+circle_100mps       100 m/s on a 100-m circle entered without a transition       10
+u_turn              a U-turn of 100 m radius at 20 m/s, tactical                 10
+standstill_5min     MEMS, a 5-min stop with GNSS out for the whole stop          10
+outage_20min        ``curvy``, tactical, a 20-min outage from 60 s               10
+outage_300s         ``curvy``, MEMS, a 300-s outage from 60 s                    10
+trip_10h            a 10-h streamed trip (`bench_studies.long_line`), tactical   4
+==================  =========================================================  ======
+
+``--quick``: 3 seeds (1 for the 10-h trip, shortened to 1 h).
+
+Per case, `railnav.evaluation.consistency.summarize_consistency` over the seeds: NEES mean
+with its 99 % χ² interval, the share of epochs with ``|error_s| > 3 σ_s``, the share with
+the truth outside ``[s_min_m, s_max_m]`` and the ``status`` counts where ``estimates.csv``
+has those columns (else null), each with its number of epochs. Writes
+``benchmarks/results/consistency.json`` (each case as it finishes: a long run that is
+stopped keeps the cases done).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import platform
+import sys
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import pandas as pd
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+sys.path.insert(0, str(HERE))
+
+from railnav.evaluation.consistency import run_series, summarize_consistency  # noqa: E402
+from railnav.jobs.run import run_simulated  # noqa: E402
+from railnav.simulation.profiles import constant_speed, station_stop_profile  # noqa: E402
+from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario  # noqa: E402
+from trackmodel.earth import WGS84  # noqa: E402
+from trackmodel.files import atomic_write_text  # noqa: E402
+from trackmodel.io import read_track  # noqa: E402
+from trackmodel.sections import Section  # noqa: E402
+from trackmodel.track import Origin, Track  # noqa: E402
+
+RESULTS = HERE / "results" / "consistency.json"
+HOUR_S = 3600.0
+ORIGIN = Origin(50.45, 30.52, 100.0)
+
+
+def circle_track(radius_m: float = 100.0, turns: int = 3) -> Track:
+    """1 km of straight, `turns` full turns of an arc without transition, 1 km of straight."""
+    k = 1.0 / radius_m
+    return Track([Section(1000.0, 90.0, 0.0)]
+                 + [Section(0.5 * math.pi * radius_m, None, None, k)] * (4 * turns)
+                 + [Section(1000.0, None, None)], ORIGIN, WGS84)
+
+
+def u_turn_track(radius_m: float = 100.0) -> Track:
+    """500 m of straight, a half circle without transition, 500 m of straight."""
+    return Track([Section(500.0, 90.0, 0.0), Section(math.pi * radius_m, None, None,
+                                                     1.0 / radius_m),
+                  Section(500.0, None, None)], ORIGIN, WGS84)
+
+
+def _curvy(grade: str, *, duration_s: float | None = None, outages=None) -> Scenario:
+    return get_scenario("curvy").with_overrides(imu_errors=grade, duration_s=duration_s,
+                                                outages=outages)
+
+
+def standstill_scenario() -> Scenario:
+    """MEMS: 10 s at rest, 60 s to 25 m/s, 100 s cruise, 50 s braking, 300 s standing with
+    GNSS out from the stop's start to its end, then away again."""
+    profile = station_stop_profile(cruise_speed_mps=25.0, accel_time_s=60.0,
+                                   brake_time_s=50.0, cruise_before_stop_s=100.0,
+                                   dwell_s=300.0, start_dwell_s=10.0)
+    stop_start = 10.0 + 60.0 + 100.0 + 50.0
+    return Scenario(name="standstill", profile=profile, duration_s=stop_start + 360.0,
+                    imu_errors="mems", outages=((stop_start, 300.0),))
+
+
+def cases(quick: bool) -> dict:
+    """name -> (track, scenario, seeds) for `run_simulated`, or a 10-h streamed spec."""
+    seeds = 3 if quick else 10
+    curvy = read_track(TRACKS_DIR / "curvy.csv")
+    return {
+        "paper2017": (read_track(TRACKS_DIR / "paper2017.csv"), get_scenario("paper2017"),
+                      seeds),
+        "curvy_tactical": (curvy, _curvy("tactical"), seeds),
+        "curvy_mems": (curvy, _curvy("mems"), seeds),
+        "circle_100mps": (circle_track(), Scenario(name="circle", profile=constant_speed(
+            100.0), duration_s=70.0, imu_errors="tactical"), seeds),
+        "u_turn": (u_turn_track(), Scenario(name="u_turn", profile=constant_speed(20.0),
+                                            duration_s=60.0, imu_errors="tactical"), seeds),
+        "standstill_5min": (curvy, standstill_scenario(), seeds),
+        "outage_20min": (curvy, _curvy("tactical", duration_s=1300.0,
+                                       outages=[(60.0, 1200.0)]), seeds),
+        "outage_300s": (curvy, _curvy("mems", duration_s=400.0, outages=[(60.0, 300.0)]),
+                        seeds),
+        "trip_10h": ("stream", 1.0 if quick else 10.0, 1 if quick else 4),
+    }
+
+
+def _simulated_runs(track, scenario, seeds: int):
+    runs, dof = [], 0
+    for seed in range(1, seeds + 1):
+        out = run_simulated(track, scenario, seed=seed)
+        runs.append(run_series(out.result.estimates, nees=out.errors.nees,
+                               error_s_m=out.errors.along_track_m))
+        dof = out.errors.nees_dof
+    return runs, dof
+
+
+def _streamed_runs(hours: float, seeds: int):
+    """The 10-h trip of `bench_studies` (paper2017's 20 m/s, tactical, GPS + Galileo, a
+    120-s outage every hour), estimates and errors at 1 Hz."""
+    from bench_studies import long_line
+    from railnav.navigation.streaming import stream_simulated
+    from railnav.simulation.trip import navigator_config_for
+    scenario = replace(get_scenario("paper2017"), duration_s=hours * HOUR_S,
+                       imu_errors="tactical", default_track=None,
+                       outages=tuple((600.0 + HOUR_S * h, 120.0) for h in range(int(hours))))
+    config = navigator_config_for(scenario, systems="GE")
+    runs, dof = [], 0
+    for seed in range(1, seeds + 1):
+        with tempfile.TemporaryDirectory() as tmp:
+            outcome = stream_simulated(long_line(), scenario, config=config, seed=seed,
+                                       systems="GE", out_dir=tmp, estimates_rate_hz=1.0)
+            est = pd.read_csv(Path(tmp) / "estimates.csv")
+            err = pd.read_csv(Path(tmp) / "errors.csv")
+        runs.append(run_series(est, nees=err["nees"].to_numpy(),
+                               error_s_m=err["along_track_m"].to_numpy()))
+        dof = int(outcome.summary["errors"]["nees"]["dof"])
+        one = summarize_consistency(runs[-1:], dof=dof)
+        print(f"  10-h trip seed {seed}: NEES mean {one.nees_mean:.3g} over "
+              f"{one.nees_epochs} epochs, beyond 3σ_s {one.share_beyond_3sigma:.2%}",
+              flush=True)
+    return runs, dof
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="3 seeds, a 1-h trip")
+    parser.add_argument("--cases", default=None, help="comma-separated case names")
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.ERROR)
+    table = cases(args.quick)
+    names = list(table) if args.cases is None else args.cases.split(",")
+    unknown = [n for n in names if n not in table]
+    if unknown:
+        print(f"error: unknown case(s) {unknown}; cases: {', '.join(table)}", file=sys.stderr)
+        return 2
+    doc = {"quick": args.quick, "cases": {},
+           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                       "load_average_before": os.getloadavg()}}
+    for name in names:
+        started = time.perf_counter()
+        spec = table[name]
+        if spec[0] == "stream":
+            runs, dof = _streamed_runs(spec[1], spec[2])
+        else:
+            runs, dof = _simulated_runs(*spec)
+        figures = summarize_consistency(runs, dof=dof).to_dict()
+        figures["wall_s"] = time.perf_counter() - started
+        doc["cases"][name] = figures
+        doc["machine"]["load_average_after"] = os.getloadavg()
+        atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+        lo, hi = figures["nees_interval"]
+        print(f"{name}: NEES {figures['nees_mean']:.3g} (99 % [{lo:.2f}, {hi:.2f}], "
+              f"dof {dof}, {figures['nees_epochs']} epochs), |err_s| > 3σ on "
+              f"{figures['share_beyond_3sigma']:.2%} of {figures['sigma_epochs']}, "
+              f"{figures['wall_s']:.0f} s", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
