@@ -29,9 +29,11 @@ from railnav.errors import ConfigError
 from railnav.filters.balise_epochs import BaliseModelConfig
 from railnav.filters.fault_detection import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
+from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.filters.track_frame import LeverArms
+from railnav.filters.standstill import StandstillConfig
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
@@ -120,6 +122,13 @@ class NavigatorConfig:
     lever_arms : railnav.filters.track_frame.LeverArms
         Antenna, IMU and balise-reader offsets from the reference point (default none;
         the constrained and GNSS-only filters).
+    track_attitude : railnav.filters.attitude_config.TrackAttitudeConfig or None
+        Constrained filter: the attitude of the body against the track as rows, with the
+        IMU's mounting as states (`railnav.filters.attitude_rows`); None (default): off.
+    standstill : railnav.filters.standstill.StandstillConfig or None
+        Constrained filter: detect standstills from the IMU (vetoed by the odometer and the
+        fixes' speed) and apply zero-speed and zero-yaw-rate rows
+        (`railnav.filters.standstill_rows`); None (default): off.
     rts_smoothing : bool
         Keep every filter step's moments and transition for the Rauch–Tung–Striebel
         smoother (`railnav.navigation.smoothing.smooth_result`); costs
@@ -151,6 +160,8 @@ class NavigatorConfig:
     odometer_model: OdometerConfig = OdometerConfig()
     balise_model: BaliseModelConfig = BaliseModelConfig()
     lever_arms: LeverArms = LeverArms()
+    track_attitude: TrackAttitudeConfig | None = None
+    standstill: StandstillConfig | None = None
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)
@@ -180,6 +191,11 @@ class NavigatorConfig:
                               f"{self.fault_detection!r}")
         if not isinstance(self.rts_smoothing, bool):
             raise ConfigError(f"rts_smoothing must be True or False, got {self.rts_smoothing!r}")
+        for name, cls in (("track_attitude", TrackAttitudeConfig),
+                          ("standstill", StandstillConfig)):
+            if not (getattr(self, name) is None or isinstance(getattr(self, name), cls)):
+                raise ConfigError(f"{name} must be a {cls.__name__} or None, got "
+                                  f"{getattr(self, name)!r}")
         for name, cls in (("fix_model", FixModelConfig), ("odometer_model", OdometerConfig),
                           ("balise_model", BaliseModelConfig), ("lever_arms", LeverArms)):
             if not isinstance(getattr(self, name), cls):

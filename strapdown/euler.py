@@ -44,7 +44,7 @@ import numpy as np
 from strapdown.backend import ops_for
 
 __all__ = ["C_b_n", "euler_rate_matrix", "euler_rates", "omega_nb_b_from_rates",
-           "euler_from_C_b_n", "skew"]
+           "euler_from_C_b_n", "skew", "relative_dcm"]
 
 
 def C_b_n(yaw: Any, pitch: Any, roll: Any) -> Any:
@@ -67,6 +67,29 @@ def C_b_n(yaw: Any, pitch: Any, roll: Any) -> Any:
     return ops.mat3([
         [sy * cp, -sy * sp * sr - cy * cr, -sy * sp * cr + cy * sr],
         [cy * cp, -cy * sp * sr + sy * cr, -cy * sp * cr - sy * sr],
+        [sp, cp * sr, cp * cr],
+    ])
+
+
+def relative_dcm(yaw: Any, pitch: Any, roll: Any) -> Any:
+    """DCM from a frame ``a`` to a frame ``c`` with the same axis convention (x forward, y
+    left, z up), ``c`` turned from ``a`` by yaw (clockwise seen from above, like ψ), then
+    pitch (x up), then roll: ``R_z(−ψ) R_y(−θ) R_x(φ)``, i.e. ``R_z(π/2)ᵀ C_b_n(ψ, θ, φ)``,
+    so that ``C_b_n(ψ₁, 0, 0) relative_dcm(ψ₂, 0, 0) = C_b_n(ψ₁ + ψ₂, 0, 0)`` and
+    ``relative_dcm(0, 0, 0) = I``. Used for an IMU's mounting on a car body.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3), or casadi 3x3
+        ``v_a = relative_dcm(...) @ v_c``.
+    """
+    ops = ops_for(yaw, pitch, roll)
+    sy, cy = ops.sin(yaw), ops.cos(yaw)
+    sp, cp = ops.sin(pitch), ops.cos(pitch)
+    sr, cr = ops.sin(roll), ops.cos(roll)
+    return ops.mat3([
+        [cy * cp, -cy * sp * sr + sy * cr, -cy * sp * cr - sy * sr],
+        [-sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
         [sp, cp * sr, cp * cr],
     ])
 

@@ -13,6 +13,7 @@ import argparse
 import logging
 from pathlib import Path
 
+from railnav.commands.attitude_flags import attitude_config, car_body_scenario
 from railnav.commands.run_flags import (
     DEFAULT_OUT,
     DEFAULT_SCENARIO,
@@ -89,14 +90,16 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
                                 fix_model=fix_model(args),
                                 outages=None if args.outage is None else tuple(args.outage),
                                 window=args.window, smooth=args.smooth, progress=progress,
-                                **augmentation(args), **real_inputs(args))
+                                **augmentation(args), **real_inputs(args),
+                                **attitude_config(args))
         else:
-            scenario = get_scenario(scenario_name(args)).with_overrides(
+            scenario = car_body_scenario(args, get_scenario(scenario_name(args)).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
-                imu_errors=args.imu_grade, outages=args.outage)
+                imu_errors=args.imu_grade, outages=args.outage))
             from railnav.simulation.trip import navigator_config_for
             systems = args.systems or DEFAULT_SYSTEMS
-            config = navigator_config_for(scenario, filter=args.filter, systems=systems)
+            config = navigator_config_for(scenario, filter=args.filter, systems=systems,
+                                          **attitude_config(args))
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, smooth=args.smooth,
                                     progress=progress)

@@ -30,6 +30,7 @@ from railnav.defaults import (
     DEFAULT_ODOMETER_SIGMA_MPS,
     DEFAULT_SYSTEMS,
 )
+from railnav.commands.attitude_flags import add_attitude_arguments, check_attitude_flags
 from railnav.commands.run_network_flags import (
     _check_network_flags,
     add_network_arguments,
@@ -122,6 +123,7 @@ def add_run_arguments(p) -> None:
                         "summary.json 'baro'); one track only")
     add_augmentation_arguments(p)
     add_network_arguments(p)
+    add_attitude_arguments(p)
     add_real_input_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     add_result_arguments(p)
@@ -164,6 +166,7 @@ def check_flags(args: argparse.Namespace) -> None:
     measurement(args.systems)   # validates --systems before any work
     _check_network_flags(args)
     files = files_given(args)
+    check_attitude_flags(args, files=files)
     kind = filter_kind(args.filter)
     given = [flag for attr, flag in SIMULATION_FLAGS.items() if getattr(args, attr) is not None]
     if files and given:

@@ -1,11 +1,12 @@
-"""``railnav simulate``'s railway sensors: odometer, balises, a jittered IMU log, the antenna.
+"""``railnav simulate``'s railway sensors: odometer, balises, barometer, a jittered IMU log,
+the antenna.
 
 The flags (`add_sensor_arguments`), their configurations (`sensor_configs`, checked before
 anything is simulated) and the files they add to the output folder (`write_sensor_files`:
-``odometer.csv``, ``balises.csv``, and ``imu.csv`` as a jittered log with dropouts) with
+``odometer.csv``, ``balises.csv``, ``baro.csv``, and ``imu.csv`` as a jittered log with dropouts) with
 their ``scenario.json`` entries. Thin layers over `railnav.simulation.track_sensors` and
 `railnav.simulation.imu_logs`; the files are those `railnav run` reads with ``--odometer``,
-``--balises`` and ``--imu`` (by flag, not found: a run on the folder uses only the sensors
+``--balises``, ``--baro`` and ``--imu`` (by flag, not found: a run on the folder uses only the sensors
 it is given; their models come from ``scenario.json``).
 """
 from __future__ import annotations
@@ -52,6 +53,11 @@ def add_sensor_arguments(p) -> None:
                    help="also write balises.csv (passages of balises along the track)")
     p.add_argument("--balise-spacing-m", type=positive_float, default=None, metavar="M",
                    help="distance between balises, m (default 1000, the first at 500)")
+    p.add_argument("--baro", action="store_true",
+                   help="also write baro.csv (a barometric altimeter: bias, bias walk, noise; "
+                        "1 Hz), the file 'railnav run --baro' reads")
+    p.add_argument("--baro-bias-m", type=float, default=None, metavar="M",
+                   help="with --baro: the altimeter's bias at the start, m (default 7)")
     p.add_argument("--imu-jitter-s", type=nonnegative_float, default=None, metavar="S",
                    help="write imu.csv as a logger's: sample instants jittered by ±S s")
     p.add_argument("--imu-dropouts", type=nonnegative_int, default=None, metavar="N",
@@ -62,7 +68,7 @@ def add_sensor_arguments(p) -> None:
 
 
 def sensor_configs(args: argparse.Namespace) -> dict:
-    """The simulation configs of the flags: ``odometer``, ``balises``, ``imu_log`` (None
+    """The simulation configs of the flags: ``odometer``, ``balises``, ``baro``, ``imu_log`` (None
     when not asked).
 
     Raises
@@ -71,13 +77,18 @@ def sensor_configs(args: argparse.Namespace) -> dict:
         A flag that shapes a sensor that is not simulated.
     """
     from railnav.simulation.imu_logs import ImuLogSimConfig
-    from railnav.simulation.track_sensors import BaliseSimConfig, OdometerSimConfig
+    from railnav.simulation.track_sensors import (
+        BaliseSimConfig,
+        BaroSimConfig,
+        OdometerSimConfig,
+    )
     odo_flags = {"odometer_kind": "kind", "odometer_rate_hz": "rate_hz",
                  "odometer_scale_error": "scale_error", "slip": "slips"}
     _needs(args, list(odo_flags), "odometer")
     _needs(args, ["balise_spacing_m"], "balises")
     _needs(args, ["imu_dropouts"], "imu_jitter_s")
-    out = {"odometer": None, "balises": None, "imu_log": None}
+    _needs(args, ["baro_bias_m"], "baro")
+    out = {"odometer": None, "balises": None, "imu_log": None, "baro": None}
     if args.odometer:
         kw = {key: getattr(args, a) for a, key in odo_flags.items() if getattr(args, a) is not None}
         if "slips" in kw:
@@ -86,6 +97,9 @@ def sensor_configs(args: argparse.Namespace) -> dict:
     if args.balises:
         out["balises"] = BaliseSimConfig(**({} if args.balise_spacing_m is None else
                                             {"spacing_m": args.balise_spacing_m}))
+    if args.baro:
+        out["baro"] = BaroSimConfig(**({} if args.baro_bias_m is None else
+                                       {"bias_m": args.baro_bias_m}))
     if args.imu_jitter_s is not None:
         out["imu_log"] = ImuLogSimConfig(jitter_s=args.imu_jitter_s,
                                          dropouts=args.imu_dropouts or 0)
@@ -106,7 +120,11 @@ def write_sensor_files(out, trip, configs: dict, *, float_format: str) -> tuple[
     from railnav.sensors.balises import write_balises_csv
     from railnav.sensors.odometer import write_odometer_csv
     from railnav.simulation.imu_logs import simulate_imu_log
-    from railnav.simulation.track_sensors import simulate_balises, simulate_odometer
+    from railnav.simulation.track_sensors import (
+        simulate_balises,
+        simulate_baro_readings,
+        simulate_odometer,
+    )
     from trackmodel.files import atomic_write_csv
     written, meta = [], {}
     if configs["imu_log"] is not None:
@@ -127,4 +145,11 @@ def write_sensor_files(out, trip, configs: dict, *, float_format: str) -> tuple[
         meta["balises"] = {"file": "balises.csv", "passages": int(bal["time_s"].size),
                            **configs["balises"].to_dict()}
         written.append(out / "balises.csv")
+    if configs["baro"] is not None:
+        import pandas as pd
+        baro = simulate_baro_readings(trip, configs["baro"])
+        atomic_write_csv(out / "baro.csv", pd.DataFrame(baro), float_format=float_format)
+        meta["baro"] = {"file": "baro.csv", "readings": int(baro["time_s"].size),
+                        **configs["baro"].to_dict()}
+        written.append(out / "baro.csv")
     return written, meta

@@ -198,6 +198,7 @@ class _TruthView:
             setattr(self, name, values[name])
         self.yaw = values["yaw"]
         self.v_n = values["v_n"]
+        self.mount_rad = getattr(truth, "mount_rad", None)
         self.time_s = t
         r_e = geodetic_to_ecef(values["lat"], values["lon"], values["h"])
         self.r_e = r_e

@@ -25,6 +25,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
+from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (
     GnssRowBuilder,
     start_on_track,
@@ -67,19 +68,24 @@ class ConstrainedFilter:
         the scale factor, `railnav.filters.sensor_rows.sensor_states`).
     balises : railnav.filters.balise_rows.BaliseEpochs, optional
         Balise passages (`railnav.filters.balise_rows`).
+    body : dict, optional
+        The attitude and standstill streams (`railnav.filters.body_rows.body_stream_epochs`;
+        with ``config.track_attitude`` the state carries the IMU's mounting).
     """
 
 
     def __init__(self, track: Track, config: NavigatorConfig, gnss=None, *, fixes=None,
-                 schedule=None, odometer=None, balises=None) -> None:
+                 schedule=None, odometer=None, balises=None, body=None) -> None:
         self.track, self.config = track, config
-        extra = sensor_states(config, odometer)
+        sensor_blocks = sensor_states(config, odometer)
+        extra = sensor_blocks + body_states(config)
         self.model = build_constrained_model(track.earth, estimate_biases=config.biases_estimated,
                      isb_systems=tuple(config.measurement.systems[1:]), extra_blocks=extra)
         # the noise densities of the IMU grade and oscillator the filter assumes
         self.q_c = self.model.process_noise_density(config.imu,
                                                     oscillator_from_name(config.oscillator),
-                                                    sensor_densities(config, extra))
+                                                    sensor_densities(config, sensor_blocks)
+                                                    + body_densities(config))
         self.layout, self.process = self.model.layout, self.model.process
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
@@ -88,6 +94,7 @@ class ConstrainedFilter:
         self.fix_rows = None if fixes is None else FixRowBuilder(
             track, self.layout, fixes, config.fix_model, antenna_m=config.lever_arms.antenna_m)
         self.sensors = SensorRows(self.layout, config, odometer=odometer, balises=balises)
+        self.body = BodyRows(self.layout, track, config, body or {})
         self.schedule = schedule
         self._i = {name: self.layout.index(name) for name in ("pitch", "s", "v")}
         self._b_ax = self.layout.index("b_ax") if self.model.estimate_biases else None
@@ -172,7 +179,9 @@ class ConstrainedFilter:
         gnss = None if g < 0 else (self.rows.observations(g, x, self._chunk_end),
                                    self.rows.rows_sv[-1], self.rows.rows_kind[-1])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
-        extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else ()
+        extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
+        if self.body:
+            extra = [*extra, *self.body.parts(self.schedule, index, x, P)]
         rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="channel",
                                                          fix_group=f, extra=extra)
         return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
@@ -218,6 +227,7 @@ class ConstrainedFilter:
         known_values = {"yaw": truth.yaw, "pitch": truth.pitch, "roll": truth.roll,
                         "s": truth.s, "v": truth.v, "clock_bias": clock_bias_m,
                         "clock_drift": clock_drift_mps}
+        known_values.update(mount_truth(truth, np.size(truth.s)))
         return states_from_values(self.layout, known_values, np.size(truth.s))
 
     # -- outputs ---------------------------------------------------------------------------

@@ -240,8 +240,9 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     -------
     dict of str to float
         ``yaw, pitch, roll`` (rad²), the IMU biases ((m/s²)², (rad/s)²), ``clock_bias``
-        (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*`` (m²) and the odometer's
-        scale ``odo_scale`` (its prior, `railnav.filters.odometer_epochs.OdometerConfig`).
+        (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*`` (m²), the odometer's
+        scale ``odo_scale`` (its prior, `railnav.filters.odometer_epochs.OdometerConfig`)
+        and the IMU's mounting ``mount_*`` (rad², with ``config.track_attitude``).
     """
     imu, attitude = config.imu, config.initial_attitude_sigma_rad ** 2
     accel = max(imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2,
@@ -256,6 +257,10 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     var.update({name: config.initial_isb_sigma_m ** 2 for name in layout.names
                 if name.startswith("isb_")})
     var[SCALE_STATE] = config.odometer_model.scale_sigma ** 2
+    attitude_rows = getattr(config, "track_attitude", None)
+    if attitude_rows is not None:      # the IMU's mounting (railnav.filters.attitude_rows)
+        var.update({name: attitude_rows.mount_sigma_rad ** 2 for name in layout.names
+                    if name.startswith("mount_")})
     return var
 
 

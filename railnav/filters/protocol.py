@@ -148,7 +148,7 @@ def filter_kind(name: str) -> FilterKind:
 
 
 def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None,
-                balises=None) -> Filter:
+                balises=None, body=None) -> Filter:
     """Build the filter object of ``config.filter``.
 
     Parameters
@@ -165,6 +165,9 @@ def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None
         other streams merged); default: the GNSS epochs in order.
     odometer, balises : optional
         Odometer readings and balise passages (`railnav.filters.sensor_rows`).
+    body : dict, optional
+        The constrained filter's attitude and standstill streams
+        (`railnav.filters.body_rows.body_stream_epochs`; it refuses them for other filters).
 
     Raises
     ------
@@ -179,6 +182,8 @@ def make_filter(track, config, gnss, *, fixes=None, schedule=None, odometer=None
         takes = " or ".join(k.name for k in FILTERS.values() if k.track_sensors)
         what = ", ".join(sensors) or "lever arms"
         raise ConfigError(f"the {kind.name} filter takes no {what} (the {takes} filters do)")
+    if body:
+        sensors["body"] = body
     if sensors:
         return cls(track, config, gnss, fixes=fixes, schedule=schedule, **sensors)
     if fixes is None and schedule is None:

@@ -65,6 +65,9 @@ class SensorRows:
     balises : railnav.filters.balise_rows.BaliseEpochs, optional
     """
 
+    #: Screen mode of each stream's rows.
+    modes = _MODES
+
     def __init__(self, layout, config, *, odometer=None, balises=None) -> None:
         self.builders = {}
         if odometer is not None:
@@ -83,7 +86,7 @@ class SensorRows:
             k = schedule.index(stream, index)
             part = None if k < 0 else builder.observations(k, x, P)
             if part is not None:
-                out.append((part, _MODES[stream]))
+                out.append((part, self.modes[stream]))
         return out
 
     @property

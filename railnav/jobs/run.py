@@ -174,7 +174,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               progress: Callable[[int, int], None] | None = None, imu_spec=None,
               odometer_path=None, balises_path=None, wheel_circumference_m=None,
               pulses_per_rev=None, odometer_model=None, balise_model=None,
-              lever_arms=None, smooth: bool = False) -> RunOutcome:
+              lever_arms=None, smooth: bool = False, track_attitude=None,
+              standstill=None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -240,6 +241,9 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         `NavigatorConfig` fields for the default configuration (default theirs).
     smooth : bool
         Also the RTS-smoothed twin, scored like the run (`railnav.jobs.smoothed`).
+    track_attitude, standstill : optional
+        `NavigatorConfig` fields (default None: off) applied to whichever configuration
+        (`railnav.filters.attitude_rows`, `railnav.filters.standstill_rows`).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -252,6 +256,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
                                      odometer_model=odometer_model, balise_model=balise_model,
                                      lever_arms=lever_arms)
     config = replace(config, rts_smoothing=True) if smooth else config
+    if track_attitude is not None or standstill is not None:
+        config = replace(config, track_attitude=track_attitude, standstill=standstill)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,

@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -37,6 +37,7 @@ import numpy.typing as npt
 from ekf.history import concatenate_results
 from railnav.config import NavigatorConfig, SensorData
 from railnav.errors import RailnavError
+from railnav.filters.body_rows import body_stream_epochs
 from railnav.filters.fix_epochs import EpochSchedule, FixEpochs
 from railnav.filters.gnss_epochs import GnssEpochs
 from railnav.filters.protocol import Filter, filter_kind, make_filter
@@ -90,11 +91,12 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         If the covariance loses positive definiteness.
     """
     started = time.perf_counter()
-    trip = trip_samples(data, config, outages=outages, track=track)
-    others = trip.fixes is not None or trip.odometer is not None or trip.balises is not None
+    trip = trip_samples(data, config, outages=outages, track=track, body=True)
+    others = (trip.fixes is not None or trip.odometer is not None or trip.balises is not None
+              or bool(trip.body))
     filt = make_filter(track, config, trip.gnss, fixes=trip.fixes,
                        schedule=trip.schedule if others else None, odometer=trip.odometer,
-                       balises=trip.balises)
+                       balises=trip.balises, body=trip.body)
     if initial is None and trip.gnss is None and trip.fixes is not None:
         initial = initial_from_fixes(filt, trip.fixes, config)
     elif initial is None:
@@ -137,6 +139,8 @@ class TripSamples:
         Which GNSS epoch, fix, odometer reading and balise passage each epoch has.
     odometer : railnav.filters.odometer_epochs.OdometerEpochs or None
     balises : railnav.filters.balise_epochs.BaliseEpochs or None
+    body : dict
+        The attitude and standstill streams (`railnav.filters.body_rows`; empty: none).
     """
 
     t: Array
@@ -147,6 +151,7 @@ class TripSamples:
     schedule: EpochSchedule | None = None
     odometer: object = None
     balises: object = None
+    body: dict = field(default_factory=dict)
 
     def from_time(self, start_s: float) -> tuple[Array, Array, npt.NDArray[np.intp]]:
         """Samples ``t, u`` from `start_s` on and the indices of the epochs they reach.
@@ -165,10 +170,11 @@ class TripSamples:
 
 
 def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=(),
-                 track=None) -> TripSamples:
+                 track=None, body: bool = False) -> TripSamples:
     """The samples and GNSS epochs of a trip (steps 1–2 of `navigate`; also used to run
     several filters over the same data, `railnav.navigation.bank`); `track` projects
-    balises given as coordinates."""
+    balises given as coordinates; `body`: also the attitude and standstill streams that
+    ``config`` asks for (`railnav.filters.body_rows.body_stream_epochs`; one filter only)."""
     samples_t, samples_u = _sample_times(data, config)
     gnss = fixes = None
     if data.obs is not None:
@@ -182,15 +188,18 @@ def trip_samples(data: SensorData, config: NavigatorConfig, *, outages=(),
                                      end_s=float(samples_t[-1]), outages=outages)
     sensors = track_sensor_epochs(data, config, track, span_s=(float(samples_t[0]),
                                                                float(samples_t[-1])))
+    streams = body_stream_epochs(config, samples_t, samples_u,
+                                 odometer=sensors.get("odometer"), fixes=fixes) if body else {}
     schedule = EpochSchedule.merge(gnss.time_s if gnss is not None else [],
                                    fixes.time_s if fixes is not None else [],
                                    tol_s=EPOCH_TIME_TOL_S,
-                                   extra={k: v.time_s for k, v in sensors.items()})
+                                   extra={k: v.time_s for k, v in {**sensors,
+                                                                   **streams}.items()})
     if data.imu is not None:
         _check_overlap(data, samples_t, schedule.time_s)
     samples_t, samples_u = _insert_samples(samples_t, samples_u, schedule.time_s)
     return TripSamples(samples_t, samples_u, gnss, schedule.time_s, fixes, schedule,
-                       sensors.get("odometer"), sensors.get("balises"))
+                       sensors.get("odometer"), sensors.get("balises"), streams)
 
 
 def _gnss_sources(data: SensorData) -> list[tuple[str, Array]]:

@@ -31,6 +31,7 @@ from gnss_obs.sim_defaults import (
 from gnss_obs.sim_events import Outage
 from railnav.defaults import DEFAULT_IMU_GRADE
 from railnav.errors import ConfigError
+from railnav.simulation.car_body_config import CarBodyMotion
 from railnav.simulation.profiles import (
     SpeedProfile,
     constant_speed,
@@ -54,7 +55,7 @@ TRACKS_DIR = shipped_path(TRACKS)
 #: Indices of the independent random streams spawned from the seed (a stream added at the
 #: end leaves the others' draws unchanged: ``SeedSequence.spawn`` children are numbered).
 RNG_STREAMS = {"imu": 0, "gnss": 1, "initial": 2, "fixes": 3, "imu_log": 4, "odometer": 5,
-               "balises": 6}
+               "balises": 6, "baro": 7, "car_body": 8}
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,10 @@ class Scenario:
     antenna_m : (float, float, float)
         The GNSS antenna's lever arm from the reference point: forward, left, up, m
         (`railnav.filters.track_frame`); the receiver is simulated there.
+    car_body : CarBodyMotion or None
+        The IMU on a car body: chord between bogies, suspension motion, mounting
+        (`railnav.simulation.car_body_motion`; the ``car_body`` random stream). None
+        (default): the IMU's attitude is the track's.
     """
 
     name: str
@@ -110,6 +115,7 @@ class Scenario:
     start_gps_time_s: float = DEFAULT_START_GPS_TIME_S
     clock: str = "tcxo"
     antenna_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    car_body: CarBodyMotion | None = None
 
     def __post_init__(self) -> None:
         positive = ("duration_s", "imu_rate_hz", "gnss_rate_hz", "sigma_pseudorange_m",
@@ -136,6 +142,9 @@ class Scenario:
         if len(arm) != 3 or not all(math.isfinite(a) and abs(a) <= 100 for a in arm):
             raise ConfigError(f"antenna_m must be 3 finite offsets within ±100 m, got {arm!r}")
         object.__setattr__(self, "antenna_m", tuple(float(a) for a in arm))
+        if not (self.car_body is None or isinstance(self.car_body, CarBodyMotion)):
+            raise ConfigError(f"car_body must be a CarBodyMotion or None, got "
+                              f"{self.car_body!r}")
         try:
             imu_grade(self.imu_errors)
         except StrapdownError as exc:
@@ -177,6 +186,8 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     data = asdict(scenario)
     data["imu_errors"] = asdict(scenario.imu)
     data["outages"] = [list(o) for o in scenario.outages]
+    if scenario.car_body is None:
+        data.pop("car_body")
     return data
 
 
@@ -280,7 +291,13 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
         log.info("the trip reaches the track end at t = %.2f s (scenario: %.2f s)",
                  truth.time_s[-1], scenario.duration_s)
     tick(1, 3)
-    imu_ideal = ideal_imu(track, truth)
+    if scenario.car_body is None:
+        imu_ideal = ideal_imu(track, truth)
+    else:
+        from railnav.simulation.car_body_motion import car_body_trip
+        truth, imu_ideal = car_body_trip(
+            track, truth, scenario.car_body,
+            np.random.default_rng(streams[RNG_STREAMS["car_body"]]))
     tick(2, 3)
     imu_measured = apply_imu_errors(imu_ideal, scenario.imu,
                                     np.random.default_rng(streams[RNG_STREAMS["imu"]]))

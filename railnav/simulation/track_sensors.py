@@ -15,6 +15,10 @@ samples; ``L`` the pulse length), so its quantization is the real one. Readings 
 (or at given distances); each one the vehicle passes gives a row at the time its ``s``
 crosses the balise, with the balise's surveyed distance off by ``N(0, σ²)`` and that σ.
 
+**Barometer** (`simulate_baro_readings`): the true height at `BaroSimConfig.rate_hz` from the
+trip start, with the errors of `railnav.evaluation.baro.simulate_baro` (a constant bias, a
+random walk of the bias and white noise).
+
 **Antenna** (`antenna_track`): the receiver's position and velocity at the scenario's
 antenna lever arm (`railnav.filters.track_frame`), for the GNSS and fix simulations.
 
@@ -29,11 +33,13 @@ import numpy as np
 import numpy.typing as npt
 
 from railnav.errors import ConfigError
+from railnav.evaluation.baro import BaroConfig, simulate_baro
 from railnav.filters.track_frame import OFFSET_STEP_M, antenna_offset_e
 from railnav.simulation.scenarios import RNG_STREAMS
 
 __all__ = ["SlipEpisode", "OdometerSimConfig", "simulate_odometer", "BaliseSimConfig",
-           "simulate_balises", "antenna_track", "SLIP_RAMP_S", "slip_excess",
+           "simulate_balises", "BaroSimConfig", "simulate_baro_readings", "antenna_track",
+           "SLIP_RAMP_S", "slip_excess",
            "sensor_models_from_simulation", "PULSE_READING_SIGMA_MPS"]
 
 Array = npt.NDArray[np.float64]
@@ -201,6 +207,48 @@ def simulate_balises(trip, config: BaliseSimConfig = BaliseSimConfig()) -> dict:
     error = config.sigma_m * rng.standard_normal(passed.size)
     return {"time_s": t, "s_m": passed + error, "sigma_m": np.full(passed.size, config.sigma_m),
             "id": np.array([f"b{int(round(p))}" for p in passed], dtype=object)}
+
+
+@dataclass(frozen=True)
+class BaroSimConfig:
+    """A simulated barometric altimeter (module docstring).
+
+    Parameters
+    ----------
+    rate_hz : float
+        Readings per second, from the trip start.
+    bias_m : float
+        Bias at the first reading, m (default 7: the 2021 paper's ΔH).
+    noise : railnav.evaluation.baro.BaroConfig
+        Its ``sigma_m`` (white noise, m) and ``bias_walk_mps`` (m/√s).
+    """
+
+    rate_hz: float = 1.0
+    bias_m: float = 7.0
+    noise: BaroConfig = BaroConfig()
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.rate_hz) and self.rate_hz > 0):
+            raise ConfigError(f"rate_hz must be finite and > 0, got {self.rate_hz!r}")
+        if not math.isfinite(self.bias_m):
+            raise ConfigError(f"bias_m must be finite, got {self.bias_m!r}")
+
+    def to_dict(self) -> dict:
+        """The ``scenario.json`` entry."""
+        return {"rate_hz": self.rate_hz, "bias_m": self.bias_m,
+                "sigma_m": self.noise.sigma_m, "bias_walk_mps": self.noise.bias_walk_mps}
+
+
+def simulate_baro_readings(trip, config: BaroSimConfig = BaroSimConfig()) -> dict:
+    """The baro readings of a trip: ``time_s`` (s from the trip start) and ``baro_h_m``
+    (m), the true height interpolated at the reading times plus the errors of
+    `railnav.evaluation.baro.simulate_baro`, on the trip's own ``baro`` random stream."""
+    rng = np.random.default_rng(trip.simulation.rng_streams[RNG_STREAMS["baro"]])
+    truth = trip.truth
+    t = np.arange(0.0, truth.time_s[-1] + 1e-9, 1.0 / config.rate_hz)
+    h = np.interp(t, truth.time_s, truth.h)
+    return {"time_s": t, "baro_h_m": simulate_baro(t, h, bias_m=config.bias_m,
+                                                   config=config.noise, rng=rng)}
 
 
 def antenna_track(track, truth, antenna_m) -> tuple[Array, Array]:

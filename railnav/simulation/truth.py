@@ -234,14 +234,15 @@ def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:
 
 @functools.lru_cache(maxsize=1)
 def _dC_b_n_function() -> ca.Function:
-    """CasADi: angles (3) -> [vec(∂C_b_n/∂yaw), vec(∂C_b_n/∂pitch)] (18), column-major."""
+    """CasADi: angles (3) -> [vec(∂C_b_n/∂yaw), vec(∂C_b_n/∂pitch), vec(∂C_b_n/∂roll)]
+    (27), column-major."""
     ang = ca.SX.sym("angles", 3)
     C = ca.reshape(C_b_n(ang[0], ang[1], ang[2]), 9, 1)
     J = ca.jacobian(C, ang)
-    return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1])])
+    return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1], J[:, 2])])
 
 
-def ideal_imu(track, truth: Truth) -> Imu:
+def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None) -> Imu:
     """Error-free specific force and inertial angular rate in body axes (module docstring).
 
     Parameters
@@ -249,6 +250,10 @@ def ideal_imu(track, truth: Truth) -> Imu:
     track : trackmodel.Track
         The track `truth` was simulated on (its Earth model sets Ω and gravity).
     truth : Truth
+    attitude_rates : ndarray, shape (N, 3), optional
+        ``[ψ̇, θ̇, φ̇]`` of the body, rad/s, when its attitude is not the track's (a car
+        body's chord and suspension, `railnav.simulation.car_body_motion`); default: the
+        track's, ``v (dA/ds, dϑ/ds, 0)``.
 
     Returns
     -------
@@ -275,11 +280,18 @@ def ideal_imu(track, truth: Truth) -> Imu:
     C_bn = C_b_n(truth.yaw, truth.pitch, truth.roll)
     (dC,) = batch_call(_dC_b_n_function(), np.column_stack([truth.yaw, truth.pitch, truth.roll]))
     dC_dyaw = dC[:, :9].reshape(-1, 3, 3).transpose(0, 2, 1)
-    dC_dpitch = dC[:, 9:].reshape(-1, 3, 3).transpose(0, 2, 1)
-    dC_bn_ds = (dC_dyaw * pt.curvature_1pm[:, None, None]
-                + dC_dpitch * pt.elevation_rate[:, None, None])
+    dC_dpitch = dC[:, 9:18].reshape(-1, 3, 3).transpose(0, 2, 1)
     C_be = C_ne @ C_bn
-    dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn + C_ne @ dC_bn_ds)
+    if attitude_rates is None:
+        dC_bn_ds = (dC_dyaw * pt.curvature_1pm[:, None, None]
+                    + dC_dpitch * pt.elevation_rate[:, None, None])
+        dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn + C_ne @ dC_bn_ds)
+    else:
+        rates = np.asarray(attitude_rates, dtype=float)
+        dC_droll = dC[:, 18:].reshape(-1, 3, 3).transpose(0, 2, 1)
+        dC_bn_dt = (dC_dyaw * rates[:, 0, None, None] + dC_dpitch * rates[:, 1, None, None]
+                    + dC_droll * rates[:, 2, None, None])
+        dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn) + C_ne @ dC_bn_dt
     W = np.swapaxes(C_be, -1, -2) @ dC_be_dt
     omega_eb_b = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
                                  W[:, 1, 0] - W[:, 0, 1]], axis=-1)

@@ -90,3 +90,39 @@ def test_bad_baro_file_is_a_one_line_error(simulated, tmp_path, capsys, text, me
     assert code == 2 and len(err.splitlines()) == 1
     assert "bad_baro.csv" in err and message in err
     assert not (tmp_path / "out").exists()
+
+
+def test_simulate_writes_a_baro_file_that_run_reads(simulated, tmp_path):
+    """``simulate --baro``: readings of the simulated truth height (truth.csv, a second
+    record of the same trip) plus the bias asked for; ``run --baro`` on the folder finds it."""
+    track, _ = simulated
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", str(track), "--scenario", "curvy", "--duration-s",
+                 DURATION_S, "--seed", "3", "--baro", "--baro-bias-m", "5", "--out",
+                 str(sim)]) == 0
+    baro = pd.read_csv(sim / "baro.csv", comment="#")
+    truth = pd.read_csv(sim / "truth.csv")
+    assert list(baro.columns) == ["time_s", "baro_h_m"]
+    np.testing.assert_allclose(baro["time_s"], np.arange(121.0))
+    error = baro["baro_h_m"] - np.interp(baro["time_s"], truth["time_s"], truth["h_m"])
+    # white noise 1 m over 121 readings (σ of the mean 0.09 m) + a bias walk of
+    # 0.01 m/√s (σ ≤ 0.11 m at 120 s): the mean within 0.6 m of the bias is a 4σ bound.
+    assert abs(error.mean() - 5.0) < 0.6
+    assert 0.75 < error.std() < 1.3            # 1 m white noise: χ² 99.99 % bounds, 120 dof
+    meta = json.loads((sim / "scenario.json").read_text())["baro"]
+    assert meta == {"file": "baro.csv", "readings": 121, "rate_hz": 1.0, "bias_m": 5.0,
+                    "sigma_m": 1.0, "bias_walk_mps": 0.01}
+    out = tmp_path / "run"
+    assert main(["-q", "run", str(track), "--imu", str(sim / "imu.csv"), "--obs",
+                 str(sim / "gnss_obs.rnx"), "--nav", str(sim / "gnss_nav.rnx"), "--baro",
+                 str(sim / "baro.csv"), "--no-plots", "--out", str(out)]) == 0
+    found = json.loads((out / "summary.json").read_text())["baro"]
+    assert abs(found["bias_m"] - 5.0) < 4 * found["sigma_bias_m"]
+
+
+def test_simulate_baro_bias_without_baro_is_an_error(simulated, tmp_path, capsys):
+    track, _ = simulated
+    code = main(["simulate", str(track), "--baro-bias-m", "3", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "only with --baro" in err
+    assert not (tmp_path / "o").exists()
