@@ -75,11 +75,16 @@ def _atanh_over_x(x: Array) -> Array:
     return np.where(small, 1.0 + x * x / 3.0 + x ** 4 / 5.0, np.arctanh(xs) / xs)
 
 
-def _divided_atanh_sin(c: float, lat0: Array, lat1: Array) -> Array:
-    """``(atanh(c sinφ1) − atanh(c sinφ0)) / (φ1 − φ0)``, finite when ``φ1 = φ0``."""
+def _divided_sin(lat0: Array, lat1: Array) -> tuple[Array, Array, Array, Array]:
+    """``Δφ``, ``sinφ0``, ``sinφ1`` and ``(sinφ1 − sinφ0)/Δφ`` (finite when ``φ1 = φ0``)."""
     d = lat1 - lat0
-    s0, s1 = np.sin(lat0), np.sin(lat1)
-    dsin = np.cos(0.5 * (lat0 + lat1)) * np.sinc(0.5 * d / np.pi)   # (sinφ1 − sinφ0)/Δφ
+    dsin = np.cos(0.5 * (lat0 + lat1)) * np.sinc(0.5 * d / np.pi)
+    return d, np.sin(lat0), np.sin(lat1), dsin
+
+
+def _divided_atanh_sin(c: float, sines: tuple[Array, Array, Array, Array]) -> Array:
+    """``(atanh(c sinφ1) − atanh(c sinφ0)) / (φ1 − φ0)`` from ``_divided_sin(φ0, φ1)``."""
+    d, s0, s1, dsin = sines
     den = 1.0 - c * c * s0 * s1
     x = c * d * dsin / den              # atanh a − atanh b = atanh((a − b)/(1 − ab))
     return _atanh_over_x(x) * c * dsin / den
@@ -88,9 +93,10 @@ def _divided_atanh_sin(c: float, lat0: Array, lat1: Array) -> Array:
 def _divided_isometric(lat0: Array, lat1: Array, earth: Ellipsoid) -> Array:
     """``Dψ = (ψ(φ1) − ψ(φ0))/(φ1 − φ0)`` for ``ψ = atanh(sinφ) − e atanh(e sinφ)``."""
     e = np.sqrt(earth.e2)
-    out = _divided_atanh_sin(1.0, lat0, lat1)
+    sines = _divided_sin(lat0, lat1)
+    out = _divided_atanh_sin(1.0, sines)
     if e > 0.0:
-        out = out - e * _divided_atanh_sin(e, lat0, lat1)
+        out = out - e * _divided_atanh_sin(e, sines)
     return out
 
 
@@ -100,9 +106,9 @@ def _mean_meridian_radius(lat0: Array, dlat: Array, earth: Ellipsoid) -> Array:
     return M @ _GL_W
 
 
-def _meridian_radius_slope(lat: Array, earth: Ellipsoid) -> Array:
-    """``dM/dφ = 3 e² M sinφ cosφ / (1 − e² sin²φ)``, m/rad."""
-    M, _ = radii(lat, earth=earth)
+def _meridian_radius_slope(lat: Array, earth: Ellipsoid, M: Array) -> Array:
+    """``dM/dφ = 3 e² M sinφ cosφ / (1 − e² sin²φ)``, m/rad (``M``: the meridian radius
+    at `lat`, `radii`)."""
     s = np.sin(lat)
     return 3.0 * earth.e2 * M * s * np.cos(lat) / (1.0 - earth.e2 * s * s)
 
@@ -135,7 +141,7 @@ def loxodrome_position(lat0: npt.ArrayLike, lon0: npt.ArrayLike, h0: npt.ArrayLi
     h = h0 + b * t
     M0, _ = radii(lat0, earth=earth)
     P = M0 + h0
-    Q = _meridian_radius_slope(lat0, earth) * k / P + b      # d(M + h)/dt at the start
+    Q = _meridian_radius_slope(lat0, earth, M0) * k / P + b      # d(M + h)/dt at the start
     x = Q * t / P
     I = (h0 * t * _log1p_over_x(x) + b * t * t * _x_minus_log1p_over_x2(x)) / P
     dm = k * (t - I)                                          # meridian arc travelled, m

@@ -39,6 +39,8 @@ Array = npt.NDArray[np.float64]
 #: Queries this far outside [0, length_m] are clamped to the ends (rounding of a caller's
 #: sum of section lengths); farther is an error.
 S_TOLERANCE_M = 1e-6
+#: Scalar queries of `Track.at` whose points a track keeps for a repeated query.
+RECENT_POINTS = 32
 
 
 @dataclass(frozen=True)
@@ -123,6 +125,7 @@ class Track:
     table: SectionArrays = field(init=False, repr=False)
     starts: Array = field(init=False, repr=False)
     _chunks: ChebyshevSections | None = field(init=False, repr=False)
+    _recent: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "sections", tuple(self.sections))
@@ -143,6 +146,7 @@ class Track:
         object.__setattr__(self, "table", table)
         object.__setattr__(self, "starts", starts)
         object.__setattr__(self, "_chunks", ChebyshevSections.stack(chunks) if chunks else None)
+        object.__setattr__(self, "_recent", {})
 
     def _loxodrome_end(self, table: SectionArrays, k: int, start: Array) -> list[float]:
         """End of straight section `k` (closed form); its latitude must stay off the poles
@@ -212,7 +216,10 @@ class Track:
     def geodetic(self, s: npt.ArrayLike) -> tuple[Array, Array, Array]:
         """Latitude (rad), longitude (rad) and height (m) at ``s`` (m), flattened to (N,)."""
         s = self.check_s(s).ravel()
-        k = self.section_of(s)
+        return self._geodetic(s, self.section_of(s))
+
+    def _geodetic(self, s: Array, k: npt.NDArray[np.intp]) -> tuple[Array, Array, Array]:
+        """`geodetic` of checked ``s`` (m, shape (N,)) in sections `k` (`section_of`)."""
         lat, lon, h = (np.empty_like(s) for _ in range(3))
         lox = self.table.is_loxodrome[k]
         if lox.any():
@@ -242,11 +249,30 @@ class Track:
         ------
         TrackError
             For NaN/inf or ``s`` outside the track.
+
+        Notes
+        -----
+        The points of the last `RECENT_POINTS` scalar queries are kept (read-only arrays)
+        and returned again for the same ``s``: a bank of hypotheses asks for the same
+        points several times a cycle.
         """
+        if isinstance(s, float):
+            point = self._recent.get(s)
+            if point is None:
+                point = self._point(s)
+                for value in vars(point).values():
+                    value.flags.writeable = False
+                if len(self._recent) >= RECENT_POINTS:
+                    self._recent.pop(next(iter(self._recent)))
+                self._recent[s] = point
+            return point
+        return self._point(s)
+
+    def _point(self, s: npt.ArrayLike) -> TrackPoint:
         shape = np.shape(s)
         flat = self.check_s(s).ravel()
         k = self.section_of(flat)
-        lat, lon, h = self.geodetic(flat)
+        lat, lon, h = self._geodetic(flat, k)
         ang = self.table.angles(k, flat - self.table.s_start[k])
         u, du, d2u = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
         r_e = geodetic_to_ecef(lat, lon, h, earth=self.earth)
