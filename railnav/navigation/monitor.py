@@ -80,7 +80,10 @@ class MonitorConfig:
     p_degraded, p_lost : float
         Tail probabilities below which a test flags ``degraded`` / ``lost``.
     recover : bool
-        Re-initialise (or widen) when ``lost``.
+        Re-initialise (or widen) when ``lost``. Off by default: on a consistent
+        100 m/s run round R = 100 m (`tests/railnav/filters/test_joint_noise.py`) the
+        monitor said ``lost`` on 160 of 280 epochs and its restarts took the NEES from
+        7.6 to 7.8e8; until that false alarm is understood, recovery is opt-in.
     lost_rejected_share : float
         The rejected-row test says ``lost`` only when at least this share of the window's
         rows was rejected (fewer: the rows, not the prior, are bad: multipath).
@@ -93,7 +96,7 @@ class MonitorConfig:
     min_epochs: int = 3
     p_degraded: float = 1e-3
     p_lost: float = 1e-6
-    recover: bool = True
+    recover: bool = False
     lost_rejected_share: float = 0.5
     min_fix_sigma_m: float = 1.0
     min_fix_sigma_mps: float = 0.05

@@ -30,6 +30,7 @@ from railnav.jobs.tracks import (
     track_network,
 )
 from railnav.navigation.bank import convert_state
+from railnav.navigation.monitor import MonitorConfig
 from railnav.navigation.navigator import navigate
 from railnav.navigation.network_weights import converted, crossing_matrix
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
@@ -172,7 +173,9 @@ def test_static_run_is_the_softmax_of_single_track_log_likelihoods(double_line):
     a filter of its own, so the final probabilities are the softmax of the log-likelihood
     sums of `railnav.navigate` on each track from the same start."""
     sc = replace(get_scenario("curvy"), duration_s=40.0, sigma_pseudorange_m=3.0)
-    config = replace(navigator_config_for(sc), fault_detection=None, gate_probability=None)
+    # the network navigator runs no divergence monitor: the single-track references neither
+    config = replace(navigator_config_for(sc), fault_detection=None, gate_probability=None,
+                     monitor=MonitorConfig(enabled=False))
     nav = replace(track_nav(2, crossing_rate_per_s=0.0), prune_probability=0.0)
     run = run_simulated_tracks(list(double_line), NAMES, sc, true_track=0, seed=4,
                                config=config, nav=nav)

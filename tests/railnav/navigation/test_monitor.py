@@ -88,7 +88,7 @@ def test_offset_filter_is_lost_and_restarted_at_the_fix():
     χ²₁ quantile, 23.9 with the doubled tail), and the state is re-initialised at the fix
     (σ floored at 1 m)."""
     times = np.arange(5.0)
-    monitor = FilterMonitor(LAYOUT, _fixes(times, np.zeros(5)), MonitorConfig(),
+    monitor = FilterMonitor(LAYOUT, _fixes(times, np.zeros(5)), MonitorConfig(recover=True),
                             gate_probability=None)
     x, P = np.array([30.0, 0.0]), np.diag([0.0, 1.0])
     monitor.prior(0.0, x, P)
