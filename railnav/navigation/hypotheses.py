@@ -101,6 +101,14 @@ class NetworkNavConfig:
     stacked : bool
         Step fix-only runs all hypotheses at once (`railnav.navigation.stacked_fixes`);
         False: filter object by filter object (the same arithmetic, ~10× slower).
+    spawn_window_epochs : int
+        Fix epochs in the window of the test that no live hypothesis agrees with the fixes
+        (`railnav.navigation.spawning`), >= 0 (0: never spawn).
+    spawn_p_value : float
+        New hypotheses are started from the fix when that test's tail probability falls
+        below this, in (0, 1).
+    spawn_probability : float
+        The probability the new hypotheses carry together when spawned, in (0, 1).
     """
 
     max_hypotheses: int = 16
@@ -116,11 +124,17 @@ class NetworkNavConfig:
     split_accel_mps2: float = 0.02
     evidence_correlation_s: float = 0.0
     stacked: bool = True
+    spawn_window_epochs: int = 5
+    spawn_p_value: float = 1e-6
+    spawn_probability: float = 0.5
 
     def __post_init__(self) -> None:
         if not (isinstance(self.max_hypotheses, int) and self.max_hypotheses >= 1):
             raise ConfigError(f"max_hypotheses must be an integer >= 1, got "
                               f"{self.max_hypotheses!r}")
+        if not (isinstance(self.spawn_window_epochs, int) and self.spawn_window_epochs >= 0):
+            raise ConfigError(f"spawn_window_epochs must be an integer >= 0, got "
+                              f"{self.spawn_window_epochs!r}")
         checks = {"prune_probability": lambda v: 0.0 <= v < 1.0,
                   "merge_mahalanobis": lambda v: v >= 0.0,
                   "crossing_rate_per_s": lambda v: v >= 0.0,
@@ -130,7 +144,9 @@ class NetworkNavConfig:
                   "hypotheses_every_s": lambda v: v > 0.0,
                   "split_sigma_m": lambda v: v > 0.0,
                   "split_accel_mps2": lambda v: v >= 0.0,
-                  "evidence_correlation_s": lambda v: v >= 0.0}
+                  "evidence_correlation_s": lambda v: v >= 0.0,
+                  "spawn_p_value": lambda v: 0.0 < v < 1.0,
+                  "spawn_probability": lambda v: 0.0 < v < 1.0}
         for name, ok in checks.items():
             value = getattr(self, name)
             finite = math.isfinite(value) or name == "split_sigma_m"

@@ -63,6 +63,7 @@ from railnav.navigation.net_tracks import OrientedTracks
 from railnav.navigation.network_result import NetworkRecorder, NetworkResult
 from railnav.navigation.network_start import NetworkStart, start_hypotheses
 from railnav.navigation.s_split import needs_split, split
+from railnav.navigation.spawning import Spawner
 from railnav.navigation.stacked_fixes import StackedFixStepper, stackable
 from railnav.navigation.network_weights import (
     abreast,
@@ -221,7 +222,12 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     ends = cycle_ends(t.size, at_sample, max(1, int(round(MAX_CHUNK_S / dt))))
     if 0 in run.epoch_of:   # the start epoch is used, as `railnav.navigate` uses it
         ends = [0] + ends
+    run.spawner = Spawner(nav, trip, config.fix_model.track_cross_sigma_m,
+                          lambda after_s: start_hypotheses(network, tracks, factory, trip,
+                                                           data, config, nav,
+                                                           after_s=after_s))
     hyps = run.cycles(hyps, ends, progress)
+    run.recorder.spawns.extend(run.spawner.spawns)
     return run.recorder.result(network, config, nav, hyps, outages=outages,
                                runtime_s=time.perf_counter() - started)
 
@@ -241,6 +247,7 @@ class _Run:
     recorder: NetworkRecorder
     t: np.ndarray
     epoch_of: dict
+    spawner: Spawner | None = None
 
     def cycles(self, hyps, ends: list[int], progress) -> list:
         """Every cycle (module docstring); the last hypotheses."""
@@ -260,6 +267,8 @@ class _Run:
                     float(t[stop])
             hyps = _after_cycle(hyps, outcome, self.tracks, self.factory, nav,
                                 float(t[stop]), float(t[stop] - t[a]), self.recorder, share)
+            if self.spawner is not None:            # every live hypothesis disagrees
+                hyps = self.spawner.after_epoch(hyps, epoch, float(t[stop]))
             a = stop
             c += stop == b                          # else a joint reached within it
             while not hyps and a is not None:       # every hypothesis left the network

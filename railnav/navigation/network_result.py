@@ -80,6 +80,8 @@ class NetworkRecorder:
         self.hyp_rows: list[dict] = []
         self.innov: list[pd.DataFrame] = []
         self.restarts: list[float] = []
+        #: ``(time_s, count)`` of the spawns (`railnav.navigation.spawning`).
+        self.spawns: list[tuple[float, int]] = []
         self.steps = 0
         self._next_hyp_s = -np.inf
         self._last: list = []
@@ -142,7 +144,8 @@ class NetworkRecorder:
             hypotheses=pd.DataFrame(self.hyp_rows),
             innovations=_innovation_frame(self.innov, self.start_gps_time_s),
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
-            restarts=tuple(self.restarts), n_steps=int(self.steps))
+            restarts=tuple(self.restarts), n_steps=int(self.steps),
+            spawns=tuple(self.spawns))
 
 
 def _element_log_likelihoods(hyps, log_lik) -> dict[str, float]:
@@ -204,7 +207,9 @@ class NetworkResult:
     track), ``keys`` the pieces of that track; ``element_probability`` and
     ``element_log_likelihood`` per cycle, by netelement, the probability and the cycle's
     evidence (log-likelihood, 0 without any); ``final`` the last hypotheses (``id,
-    element, orientation, probability, path``)."""
+    element, orientation, probability, path``); ``restarts`` the times every hypothesis had
+    died, ``spawns`` ``(time_s, count)`` of the hypotheses started from a fix that no live
+    one agreed with (`railnav.navigation.spawning`)."""
 
     network: object
     tracks: object
@@ -225,6 +230,7 @@ class NetworkResult:
     restarts: tuple = ()
     n_steps: int = 0
     element_log_likelihood: tuple = ()
+    spawns: tuple = ()
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -289,6 +295,7 @@ class NetworkResult:
                 "hypotheses_max": int(cyc["hypotheses"].max()),
                 "pruned_probability_total": float(cyc["pruned_probability"].sum()),
                 "merges": int(cyc["merges"].sum()), "restarts": list(self.restarts),
+                "spawns": [list(sp) for sp in self.spawns],
                 "max_hypotheses": self.nav.max_hypotheses,
                 "prune_probability": self.nav.prune_probability,
                 "crossing_rate_per_s": self.nav.crossing_rate_per_s,
