@@ -225,9 +225,12 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     run.spawner = Spawner(nav, trip, config.fix_model.track_cross_sigma_m,
                           lambda after_s: start_hypotheses(network, tracks, factory, trip,
                                                            data, config, nav,
-                                                           after_s=after_s))
+                                                           after_s=after_s),
+                          p_degraded=config.monitor.p_degraded)
     hyps = run.cycles(hyps, ends, progress)
     run.recorder.spawns.extend(run.spawner.spawns)
+    if run.spawner.active:
+        run.recorder.status_records = run.spawner.frame()
     return run.recorder.result(network, config, nav, hyps, outages=outages,
                                runtime_s=time.perf_counter() - started)
 

@@ -12,7 +12,9 @@ each epoch; and the final hypotheses with their paths. From these:
   ``netelement_offset_m`` (from the element's first coordinate), ``direction`` (+1 towards
   its last coordinate), ``netelement_probability``, ``mixture_offset_m`` and
   ``mixture_sigma_m`` (the mixture on that element: meaningful where one element holds a
-  Gaussian sum along ``s``), and ``hypotheses`` (the live count);
+  Gaussian sum along ``s``), and ``hypotheses`` (the live count); in runs with position
+  fixes also ``status`` (``ok``, ``degraded``, ``lost``: whether any live hypothesis agrees
+  with the fixes, the test of `railnav.navigation.spawning`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
   hypothesis (its path), each element with entry and exit times, the probability of the
@@ -35,6 +37,7 @@ import pandas as pd
 from ekf.bank import logsumexp
 from ekf.packing import pack_sym
 from railnav.navigation.hypotheses import normalized_weights
+from railnav.navigation.monitor import status_at
 from railnav.navigation.result import NavigationResult, estimates_frame
 
 __all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
@@ -82,6 +85,8 @@ class NetworkRecorder:
         self.restarts: list[float] = []
         #: ``(time_s, count)`` of the spawns (`railnav.navigation.spawning`).
         self.spawns: list[tuple[float, int]] = []
+        #: The spawner's test per fix epoch (`railnav.navigation.spawning.Spawner.frame`).
+        self.status_records = None
         self.steps = 0
         self._next_hyp_s = -np.inf
         self._last: list = []
@@ -145,7 +150,7 @@ class NetworkRecorder:
             innovations=_innovation_frame(self.innov, self.start_gps_time_s),
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
-            spawns=tuple(self.spawns))
+            spawns=tuple(self.spawns), status_records=self.status_records)
 
 
 def _element_log_likelihoods(hyps, log_lik) -> dict[str, float]:
@@ -231,6 +236,7 @@ class NetworkResult:
     n_steps: int = 0
     element_log_likelihood: tuple = ()
     spawns: tuple = ()
+    status_records: pd.DataFrame | None = None
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -259,6 +265,8 @@ class NetworkResult:
         out = pd.concat(parts).sort_index()
         for name in NETWORK_COLUMNS:
             out[name] = self.cycles[name].to_numpy()
+        if self.status_records is not None:          # runs with fixes
+            out["status"] = status_at(self.status_records, t)
         return out.reset_index(drop=True)
 
     def route_frame(self) -> pd.DataFrame:
@@ -313,4 +321,5 @@ class NetworkResult:
             estimates=est, innovations=self.innovations, nis_continuous_mean=float("nan"),
             nis_continuous_dof=0, outages=self.outages, runtime_s=self.runtime_s,
             n_steps=self.n_steps, n_epochs=int(self.innovations["epoch"].nunique())
-            if len(self.innovations) else 0, raw=None, filter_object=None, left_track=None)
+            if len(self.innovations) else 0, raw=None, filter_object=None, left_track=None,
+            monitor=self.status_records)

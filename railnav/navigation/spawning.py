@@ -28,7 +28,10 @@ their path (``route.csv``) starts with the most probable hypothesis's path up to
 that the route of a run that recovered shows where the navigator had been wrong.
 The evidence of the next epochs then decides between old and new (common basis,
 `railnav.navigation.network_weights`). The window restarts after a spawn, so at most one
-spawn per window.
+spawn per window. The test's outcome per fix epoch is the ``status`` column of the network
+run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
+divergence monitor's statuses and thresholds, on the navigator's own evidence; runs without
+fixes have no status column).
 
 Honesty of the test: if any live hypothesis is the truth with a right σ, its ``d_h²`` is
 χ²₂ at its prior; the minimum over hypotheses is smaller, and the posterior (which took this
@@ -108,9 +111,13 @@ class Spawner:
         `railnav.navigation.network_start.start_hypotheses`).
     """
 
-    def __init__(self, nav, trip, cross_sigma_m: float, start) -> None:
+    def __init__(self, nav, trip, cross_sigma_m: float, start,
+                 p_degraded: float = 1e-3) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
+        self.p_degraded = p_degraded
         self.window: list[float] = []
+        #: One per fix epoch: ``time_s, status, p_fix, d2_min, action`` (`frame`).
+        self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
         self.spawns: list[tuple[float, int]] = []
         self.active = bool(nav.spawn_window_epochs) and trip.fixes is not None and \
@@ -126,12 +133,27 @@ class Spawner:
         d2 = fix_disagreement(hyps, self.trip.fixes, f, self.cross_sigma_m)
         self.window.append(float(np.min(d2)))
         n = self.nav.spawn_window_epochs
-        if len(self.window) < n:
+        if len(self.window) < n:                    # after a start or a spawn
+            self.records.append((time_s, "degraded", np.nan, self.window[-1], ""))
             return hyps
         self.window = self.window[-n:]
-        if float(chi2.sf(sum(self.window), 2 * n)) >= self.nav.spawn_p_value:
-            return hyps
-        return self._spawn(hyps, time_s)
+        p = float(chi2.sf(sum(self.window), 2 * n))
+        status = "lost" if p < self.nav.spawn_p_value else \
+            "degraded" if p < self.p_degraded else "ok"
+        out = hyps if status != "lost" else self._spawn(hyps, time_s)
+        self.records.append((time_s, status, p, self.window[-1] if self.window else
+                             float(np.min(d2)), "spawn" if out is not hyps else ""))
+        return out
+
+    def frame(self):
+        """The fix epochs' test (`railnav.navigation.monitor.status_at` reads it): ``time_s,
+        status`` (``degraded`` while the window fills after a start or a spawn, ``lost``
+        below `NetworkNavConfig.spawn_p_value`, ``degraded`` below the monitor's
+        ``p_degraded``, else ``ok``), ``p_fix`` (the window's tail probability),
+        ``d2_min`` (the epoch's best ``d_h²``), ``action`` (``spawn`` or empty)."""
+        import pandas as pd
+        return pd.DataFrame.from_records(self.records, columns=[
+            "time_s", "status", "p_fix", "d2_min", "action"])
 
     def _spawn(self, hyps: list, time_s: float) -> list:
         try:

@@ -102,6 +102,11 @@ def test_a_start_on_the_wrong_parallel_track_recovers(brussels):
     assert len(run.spawns) == 1 and run.spawns[0][0] <= 2.0
     sc = _scores(run, truth, t, 3.0)
     assert sc["epochs"] >= 90 and sc["share_right"] == 1.0
+    est = run.estimates                     # the test's outcome is estimates.csv's status
+    at = est["time_s"].round(6)
+    assert (est.loc[at == round(run.spawns[0][0], 6), "status"] == "lost").all()
+    assert (est.loc[at < run.spawns[0][0] - 1e-6, "status"] == "degraded").all()  # filling
+    assert run.combined().statistics()["monitor"]["epochs"]["lost"] == 1   # summary.json
     route = run.route_frame()
     assert route["netelement"].iloc[0] == "88_L_2016"     # where it said it was, then
     assert route_passes(network, list(zip(route["netelement"][1:], route["orientation"][1:])),
@@ -142,7 +147,10 @@ def test_consistent_runs_spawn_nothing_and_dirty_fixes_change_no_netelement(brus
     from railnav.jobs.run import read_sensor_files
     from railnav.navigation.network_navigator import navigate_network
     network, data, config, _, _ = brussels
-    assert navigate_network(network, data, config).spawns == ()
+    clean = navigate_network(network, data, config)
+    assert clean.spawns == ()
+    est = clean.estimates
+    assert (est.loc[est["time_s"] > 2.0, "status"] == "ok").all()
     dirty, cfg = read_sensor_files(fixes_path=EXCERPTS / "log_29083_L36-A_excerpt.csv")
     a = navigate_network(network, dirty, cfg)
     b = navigate_network(network, dirty, cfg, nav=NO_SPAWN)
