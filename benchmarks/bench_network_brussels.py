@@ -91,7 +91,8 @@ def _ours(network, fixes: Path, truth_t, truth, nav: NetworkNavConfig) -> dict:
             "route": route["netelement"].tolist(),
             "collapsed_per_epoch": collapse(cyc["netelement"].tolist()),
             "hypotheses_max": int(cyc["hypotheses"].max()),
-            "hypotheses_median": float(cyc["hypotheses"].median())}
+            "hypotheses_median": float(cyc["hypotheses"].median()),
+            "spawns": len(res.spawns)}
 
 
 def _tplib(python: str | None, fixes: Path, truth, geojson: Path, work: Path) -> dict | None:

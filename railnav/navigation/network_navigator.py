@@ -170,6 +170,19 @@ def crossing_sample(hyps, tracks, t, a: int, b: int) -> int:
     return int(min(max(np.searchsorted(t, t[a] + first), a + 1), b))
 
 
+def _grid_points(stepper):
+    """The hypotheses' track points from the fix-only stepper's grid (None: another
+    stepper; `railnav.navigation.spawning.track_points` then)."""
+    grid = getattr(stepper, "grid", None)
+    if grid is None:
+        return None
+
+    def points(hyps):
+        pt = grid.points([h.pieces[0][:2] for h in hyps], np.array([h.s_m for h in hyps]))
+        return pt["r"], np.einsum("kij,kj->ki", pt["C"], pt["u"])
+    return points
+
+
 def _check_inputs(config: NavigatorConfig, data: SensorData) -> None:
     kind = filter_kind(config.filter)
     if not (kind.banks or (kind.fixes and data.fixes is not None)):
@@ -226,7 +239,8 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                           lambda after_s: start_hypotheses(network, tracks, factory, trip,
                                                            data, config, nav,
                                                            after_s=after_s),
-                          p_degraded=config.monitor.p_degraded)
+                          p_degraded=config.monitor.p_degraded,
+                          points=_grid_points(stepper))
     hyps = run.cycles(hyps, ends, progress)
     run.recorder.spawns.extend(run.spawner.spawns)
     if run.spawner.active:

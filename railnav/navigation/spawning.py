@@ -51,50 +51,79 @@ import math
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import chi2
+from scipy.special import chdtrc
 
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
-__all__ = ["Spawner", "fix_disagreement"]
+__all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
 
 log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
 
 
-def fix_disagreement(hyps, fixes, k: int, cross_sigma_m: float) -> Array:
+def fix_disagreement(r_e: Array, tangent_e: Array, sigma_s_m: Array, fixes, k: int,
+                     cross_sigma_m: float, frame: tuple[Array, Array] | None = None) -> Array:
     """``d_h²`` of fix `k` against each hypothesis's track point (module docstring),
     shape (K,).
 
     Parameters
     ----------
-    hyps : list of railnav.navigation.hypotheses.Hypothesis
+    r_e, tangent_e : ndarray, shape (K, 3)
+        ECEF position (m) and unit tangent of each hypothesis's track point.
+    sigma_s_m : ndarray, shape (K,)
+        σ of each hypothesis's ``s``, m.
     fixes : railnav.filters.fix_epochs.FixEpochs
+        (``lat``, ``lon`` in rad, ``cov_n_m2`` ENU covariances.)
     k : int
         The fix.
     cross_sigma_m : float
         σ of the track's centre-line across, m.
+    frame : (ndarray (3,), ndarray (3, 3)), optional
+        The fix's ECEF position at zero height and its ECEF-to-ENU rotation
+        (`fix_frames`; computed when not given).
     """
-    lat, lon = float(fixes.lat[k]), float(fixes.lon[k])
-    r_fix = np.asarray(geodetic_to_ecef(lat, lon, 0.0), dtype=float).reshape(3)
-    C_e_n = C_n_e(lat, lon).T
-    cov_fix = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2]
-    out = np.empty(len(hyps))
+    if frame is None:
+        lat, lon = float(fixes.lat[k]), float(fixes.lon[k])
+        frame = (np.asarray(geodetic_to_ecef(lat, lon, 0.0), dtype=float).reshape(3),
+                 C_n_e(lat, lon).T)
+    r_fix, C_e_n = frame
+    # only the horizontal (east, north) offset counts: heights of fixes and map differ
+    e = ((r_fix[None, :] - np.atleast_2d(r_e)) @ C_e_n[:2].T)        # (K, 2)
+    t = np.atleast_2d(tangent_e) @ C_e_n[:2].T
+    t = t / np.maximum(np.hypot(t[:, 0], t[:, 1]), 1e-12)[:, None]
+    along, cross = e[:, 0] * t[:, 0] + e[:, 1] * t[:, 1], e[:, 1] * t[:, 0] - e[:, 0] * t[:, 1]
+    F = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2]
+    # the covariance on the track's axes (along t, across c = (-t_n, t_e)): 2×2 in closed form
+    f_aa = np.einsum("ki,ij,kj->k", t, F, t)
+    c = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    f_cc = np.einsum("ki,ij,kj->k", c, F, c)
+    f_ac = np.einsum("ki,ij,kj->k", t, F, c)
+    a = f_aa + np.asarray(sigma_s_m, dtype=float) ** 2
+    b = f_cc + cross_sigma_m ** 2
+    det = a * b - f_ac ** 2
+    return (b * along ** 2 - 2.0 * f_ac * along * cross + a * cross ** 2) / det
+
+
+def fix_frames(fixes) -> tuple[Array, Array]:
+    """Every fix's ECEF position at zero height (N, 3) and ECEF-to-ENU rotation (N, 3, 3)."""
+    lat, lon = np.asarray(fixes.lat, dtype=float), np.asarray(fixes.lon, dtype=float)
+    r = np.asarray(geodetic_to_ecef(lat, lon, np.zeros_like(lat)), dtype=float).reshape(-1, 3)
+    return r, np.swapaxes(C_n_e(lat, lon).reshape(-1, 3, 3), 1, 2)
+
+
+def track_points(hyps) -> tuple[Array, Array]:
+    """ECEF position and unit tangent of each hypothesis's track point at its ``s``
+    (clamped to its track; `trackmodel.Track.at`), shapes (K, 3)."""
+    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
     for j, h in enumerate(hyps):
         track = h.filt.track
         p = track.at(min(max(h.s_m, 0.0), track.length_m))
-        r = np.asarray(geodetic_to_ecef(float(p.lat), float(p.lon), 0.0), dtype=float)
-        e = (r_fix - r.reshape(3)) @ C_e_n.T         # east, north, up of fix − point
-        t = np.asarray(p.u_n, dtype=float)[:2]
-        t = t / max(float(np.linalg.norm(t)), 1e-12)
-        c = np.array([-t[1], t[0]])
-        i_s = h.index("s")
-        cov = cov_fix + max(float(h.P[i_s, i_s]), 0.0) * np.outer(t, t) + \
-            cross_sigma_m ** 2 * np.outer(c, c)
-        out[j] = float(e[:2] @ np.linalg.solve(cov, e[:2]))
-    return out
+        r[j] = np.asarray(p.r_e, dtype=float).reshape(3)
+        u[j] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float).reshape(3)
+    return r, u
 
 
 class Spawner:
@@ -109,11 +138,19 @@ class Spawner:
     start : callable(after_s) -> (time_s, list of Hypothesis)
         New hypotheses from the first fix after ``after_s`` (the run's
         `railnav.navigation.network_start.start_hypotheses`).
+    p_degraded : float
+        Below this tail probability the status is ``degraded``.
+    points : callable(hyps) -> (r_e, tangent_e), optional
+        The hypotheses' track points (default `track_points`; the fix-only stepper's grid
+        is faster).
     """
 
     def __init__(self, nav, trip, cross_sigma_m: float, start,
-                 p_degraded: float = 1e-3) -> None:
+                 p_degraded: float = 1e-3, points=None) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
+        self.points = points or track_points
+        self._frames = fix_frames(trip.fixes) if trip.fixes is not None and \
+            len(trip.fixes) else None
         self.p_degraded = p_degraded
         self.window: list[float] = []
         #: One per fix epoch: ``time_s, status, p_fix, d2_min, action`` (`frame`).
@@ -130,14 +167,17 @@ class Spawner:
         _, f = self.trip.schedule.split(epoch)
         if f < 0:
             return hyps
-        d2 = fix_disagreement(hyps, self.trip.fixes, f, self.cross_sigma_m)
+        r_e, tangent_e = self.points(hyps)
+        sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in hyps], 0.0))
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+                              (self._frames[0][f], self._frames[1][f]))
         self.window.append(float(np.min(d2)))
         n = self.nav.spawn_window_epochs
         if len(self.window) < n:                    # after a start or a spawn
             self.records.append((time_s, "degraded", np.nan, self.window[-1], ""))
             return hyps
         self.window = self.window[-n:]
-        p = float(chi2.sf(sum(self.window), 2 * n))
+        p = float(chdtrc(2 * n, sum(self.window)))
         status = "lost" if p < self.nav.spawn_p_value else \
             "degraded" if p < self.p_degraded else "ok"
         out = hyps if status != "lost" else self._spawn(hyps, time_s)
