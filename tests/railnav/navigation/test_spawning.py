@@ -165,3 +165,14 @@ def test_spawn_config_checks():
                 {"spawn_p_value": 0.0}, {"spawn_probability": 1.0}):
         with pytest.raises(ConfigError):
             NetworkNavConfig(**bad)
+
+
+def test_runs_without_fixes_never_spawn():
+    """GNSS runs (no position fixes) have no test to spawn from: the spawner is idle and
+    returns the hypotheses it is given, whatever the epoch."""
+    from railnav.navigation.spawning import Spawner
+    spawner = Spawner(NetworkNavConfig(), SimpleNamespace(fixes=None, schedule=None), 1.5,
+                      start=lambda after_s: (_ for _ in ()).throw(AssertionError("started")))
+    hyps = [object()]
+    assert not spawner.active
+    assert spawner.after_epoch(hyps, 3, 10.0) is hyps and spawner.records == []
