@@ -240,7 +240,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                                                            data, config, nav,
                                                            after_s=after_s),
                           p_degraded=config.monitor.p_degraded,
-                          points=_grid_points(stepper))
+                          points=_grid_points(stepper), network=network)
     hyps = run.cycles(hyps, ends, progress)
     run.recorder.spawns.extend(run.spawner.spawns)
     if run.spawner.active:

@@ -28,10 +28,19 @@ their path (``route.csv``) starts with the most probable hypothesis's path up to
 that the route of a run that recovered shows where the navigator had been wrong.
 The evidence of the next epochs then decides between old and new (common basis,
 `railnav.navigation.network_weights`). The window restarts after a spawn, so at most one
-spawn per window. The test's outcome per fix epoch is the ``status`` column of the network
+attempt per window (spawn or not: a fix whose candidates all disagree with it too, or off
+the network, gets none). The test's outcome per fix epoch is the ``status`` column of the network
 run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
 divergence monitor's statuses and thresholds, on the navigator's own evidence; runs without
 fixes have no status column).
+
+Correlated fix errors declared (`NetworkNavConfig.evidence_correlation_s`, e.g. 60 s for
+fixes of single-point quality): each epoch counts ``(1 − ρ)/(1 + ρ)`` of an independent one
+(`railnav.navigation.hypotheses.evidence_share`, the weights' rule), the window holds
+``n_eff = max(1, Σ shares)`` independent epochs, and its sum scaled by ``n_eff/n`` is tested
+against χ² with ``2 n_eff`` degrees of freedom (a persistent 2-m bias in five 0.4-s epochs is
+one look, not five). Candidates that themselves disagree with the fix they start from
+(``χ²₂`` tail below `NetworkNavConfig.spawn_p_value`) are not spawned.
 
 Honesty of the test: if any live hypothesis is the truth with a right σ, its ``d_h²`` is
 χ²₂ at its prior; the minimum over hypotheses is smaller, and the posterior (which took this
@@ -54,7 +63,7 @@ import numpy.typing as npt
 from scipy.special import chdtrc
 
 from railnav.errors import ConfigError, RailnavError
-from railnav.navigation.hypotheses import entered
+from railnav.navigation.hypotheses import entered, evidence_share
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 __all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
@@ -114,6 +123,11 @@ def fix_frames(fixes) -> tuple[Array, Array]:
     return r, np.swapaxes(C_n_e(lat, lon).reshape(-1, 3, 3), 1, 2)
 
 
+def chi2_isf(p: float) -> float:
+    """The χ²₂ quantile with tail `p`: ``−2 ln p``."""
+    return -2.0 * math.log(p)
+
+
 def track_points(hyps) -> tuple[Array, Array]:
     """ECEF position and unit tangent of each hypothesis's track point at its ``s``
     (clamped to its track; `trackmodel.Track.at`), shapes (K, 3)."""
@@ -146,13 +160,16 @@ class Spawner:
     """
 
     def __init__(self, nav, trip, cross_sigma_m: float, start,
-                 p_degraded: float = 1e-3, points=None) -> None:
+                 p_degraded: float = 1e-3, points=None, network=None) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
         self.points = points or track_points
+        self.network = network
         self._frames = fix_frames(trip.fixes) if trip.fixes is not None and \
             len(trip.fixes) else None
         self.p_degraded = p_degraded
         self.window: list[float] = []
+        self.shares: list[float] = []
+        self._last_s = -np.inf
         #: One per fix epoch: ``time_s, status, p_fix, d2_min, action`` (`frame`).
         self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
@@ -171,16 +188,22 @@ class Spawner:
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in hyps], 0.0))
         d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
                               (self._frames[0][f], self._frames[1][f]))
+        share = evidence_share(self.nav, time_s - self._last_s)
+        self._last_s = time_s
         self.window.append(float(np.min(d2)))
+        self.shares.append(share)
         n = self.nav.spawn_window_epochs
         if len(self.window) < n:                    # after a start or a spawn
             self.records.append((time_s, "degraded", np.nan, self.window[-1], ""))
             return hyps
-        self.window = self.window[-n:]
-        p = float(chdtrc(2 * n, sum(self.window)))
+        self.window, self.shares = self.window[-n:], self.shares[-n:]
+        # correlated fix errors (NetworkNavConfig.evidence_correlation_s): the window holds
+        # n_eff = max(1, Σ shares) independent epochs' worth; its sum scaled to that
+        n_eff = max(1.0, float(sum(self.shares)))
+        p = float(chdtrc(2.0 * n_eff, sum(self.window) * n_eff / n))
         status = "lost" if p < self.nav.spawn_p_value else \
             "degraded" if p < self.p_degraded else "ok"
-        out = hyps if status != "lost" else self._spawn(hyps, time_s)
+        out = hyps if status != "lost" else self._spawn(hyps, time_s, f)
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else ""))
         return out
@@ -195,7 +218,16 @@ class Spawner:
         return pd.DataFrame.from_records(self.records, columns=[
             "time_s", "status", "p_fix", "d2_min", "action"])
 
-    def _spawn(self, hyps: list, time_s: float) -> list:
+    def _spawn(self, hyps: list, time_s: float, f: int) -> list:
+        self.window, self.shares = [], []           # one attempt per window, spawn or not
+        if self.network is not None:                # cheap: any centre-line near enough?
+            fx = self.trip.fixes
+            var = 0.5 * float(np.trace(np.asarray(fx.cov_n_m2[f])[:2, :2])) + \
+                self.cross_sigma_m ** 2
+            radius = math.sqrt(var * float(chi2_isf(self.nav.spawn_p_value)))
+            if not len(self.network.project(fx.lat[f:f + 1], fx.lon[f:f + 1],
+                                            radius_m=radius)):
+                return hyps
         try:
             t_new, new = self.start(time_s - 1e-3)
         except (ConfigError, RailnavError) as exc:
@@ -203,7 +235,15 @@ class Spawner:
             return hyps
         if abs(t_new - time_s) > 1e-3 or not new:   # this epoch's fix is off the network
             return hyps
-        self.window = []
+        # only candidates that agree with the fix they start from (a train on a track the
+        # network lacks, 10-30 m from the nearest element, gets none: it stays lost)
+        r_e, tangent_e = self.points(new)
+        sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in new], 0.0))
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+                              (self._frames[0][f], self._frames[1][f]))
+        new = [h for h, d in zip(new, d2) if chdtrc(2.0, float(d)) >= self.nav.spawn_p_value]
+        if not new:
+            return hyps
         p = self.nav.spawn_probability
         log_w = np.array([h.log_weight for h in hyps], dtype=float)
         top = float(np.max(log_w))
