@@ -49,6 +49,9 @@ per window. Correlated fix errors (a receiver's bias wandering over a minute) ma
 window's sum heavier-tailed than χ²: false spawns are then more frequent, and cost only
 short-lived extra hypotheses (counted, `NetworkResult.spawns`).
 
+Spawning is opt-in (`NetworkNavConfig.spawn`; the test and the status column are not):
+see its documentation for the false spawns measured on the real logs.
+
 Limits: only runs with position fixes (`railnav.filters.fix_epochs.FixEpochs`) spawn; GNSS
 runs without fixes would need a single-point solution per epoch (the divergence monitor's
 `railnav.navigation.monitor.spp_track_fixes`, 5 s of a 7.6-s run) and do not spawn yet.
@@ -203,7 +206,7 @@ class Spawner:
         p = float(chdtrc(2.0 * n_eff, sum(self.window) * n_eff / n))
         status = "lost" if p < self.nav.spawn_p_value else \
             "degraded" if p < self.p_degraded else "ok"
-        out = hyps if status != "lost" else self._spawn(hyps, time_s, f)
+        out = self._spawn(hyps, time_s, f) if status == "lost" and self.nav.spawn else hyps
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else ""))
         return out

@@ -27,7 +27,8 @@ from trackmodel.earth import C_n_e, ecef_to_geodetic, geodetic_to_ecef
 
 REPO = Path(__file__).resolve().parents[3]
 EXCERPTS = REPO / "data" / "fixes" / "brussels"
-NO_SPAWN = NetworkNavConfig(spawn_window_epochs=0)
+NO_SPAWN = NetworkNavConfig()                  # the default: the test runs, no spawn
+SPAWN = NetworkNavConfig(spawn=True)
 
 
 def test_disagreement_is_the_horizontal_mahalanobis_distance():
@@ -98,7 +99,7 @@ def test_a_start_on_the_wrong_parallel_track_recovers(brussels):
     on_3842 = np.array([e == "88_L_3842" for e in truth])
     bad = _scores(stuck, np.where(on_3842, truth, None), t, 3.0)
     assert bad["epochs"] >= 5 and bad["share_right"] == 0.0
-    run = navigate_network(network, data, config, start=start)
+    run = navigate_network(network, data, config, start=start, nav=SPAWN)
     assert len(run.spawns) == 1 and run.spawns[0][0] <= 2.0
     sc = _scores(run, truth, t, 3.0)
     assert sc["epochs"] >= 90 and sc["share_right"] == 1.0
@@ -124,7 +125,7 @@ def test_a_start_far_along_the_track_recovers(brussels):
     start = NetworkStart("88_L_3842", offset_m=400.0)
     reference = navigate_network(network, data, config)
     stuck = navigate_network(network, data, config, start=start, nav=NO_SPAWN)
-    run = navigate_network(network, data, config, start=start)
+    run = navigate_network(network, data, config, start=start, nav=SPAWN)
     assert len(run.spawns) == 1
     ref = reference.cycles.set_index(reference.cycles["time_s"].round(6))
     for r, worst in ((stuck, None), (run, 0.5)):
@@ -147,12 +148,12 @@ def test_consistent_runs_spawn_nothing_and_dirty_fixes_change_no_netelement(brus
     from railnav.jobs.run import read_sensor_files
     from railnav.navigation.network_navigator import navigate_network
     network, data, config, _, _ = brussels
-    clean = navigate_network(network, data, config)
+    clean = navigate_network(network, data, config, nav=SPAWN)
     assert clean.spawns == ()
     est = clean.estimates
     assert (est.loc[est["time_s"] > 2.0, "status"] == "ok").all()
     dirty, cfg = read_sensor_files(fixes_path=EXCERPTS / "log_29083_L36-A_excerpt.csv")
-    a = navigate_network(network, dirty, cfg)
+    a = navigate_network(network, dirty, cfg, nav=SPAWN)
     b = navigate_network(network, dirty, cfg, nav=NO_SPAWN)
     assert b.spawns == ()
     assert len(a.cycles) == len(b.cycles)
@@ -171,7 +172,7 @@ def test_runs_without_fixes_never_spawn():
     """GNSS runs (no position fixes) have no test to spawn from: the spawner is idle and
     returns the hypotheses it is given, whatever the epoch."""
     from railnav.navigation.spawning import Spawner
-    spawner = Spawner(NetworkNavConfig(), SimpleNamespace(fixes=None, schedule=None), 1.5,
+    spawner = Spawner(SPAWN, SimpleNamespace(fixes=None, schedule=None), 1.5,
                       start=lambda after_s: (_ for _ in ()).throw(AssertionError("started")))
     hyps = [object()]
     assert not spawner.active
