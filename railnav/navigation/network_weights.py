@@ -226,7 +226,8 @@ MAX_OFFSETS = 10_000
 class _Points:
     """Track points asked for in batches: each track evaluated once per batch
     (`trackmodel.track.Track.at` on an array of ``s``: the same numbers as point by point,
-    one NumPy pass instead of one per point)."""
+    one NumPy pass instead of one per point; a track asked for one point answers from its
+    cache of recent scalar queries when it can)."""
 
     @staticmethod
     def at(tracks, s) -> list:
@@ -236,6 +237,9 @@ class _Points:
             groups.setdefault(id(track), []).append(k)
         out: list = [None] * len(tracks)
         for ks in groups.values():
+            if len(ks) == 1:            # the track's cache of recent points (a hypothesis's
+                out[ks[0]] = tracks[ks[0]].at(float(s[ks[0]]))    # own, `hypothesis_points`)
+                continue
             p = tracks[ks[0]].at(np.array([s[k] for k in ks], dtype=float))
             for m, k in enumerate(ks):
                 out[k] = _Point(p, m)
