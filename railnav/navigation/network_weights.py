@@ -37,6 +37,7 @@ from railnav.errors import RailnavError
 from railnav.navigation.bank import common_log_likelihoods, evidence_rows, moved_state
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
+from trackmodel.network_points import points_on
 
 __all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
            "reweight", "mix_states", "converted", "converted_pairs"]
@@ -80,9 +81,9 @@ def hypothesis_points(hyps, tracks, outcome=None) -> tuple[Array, Array]:
         return r, u
     if outcome is not None and outcome.points is not None:
         return outcome.points
-    for k, h in enumerate(hyps):
-        track = h.filt.track
-        p = track.at(min(max(h.s_m, 0.0), track.length_m))
+    tracks = [h.filt.track for h in hyps]
+    points = points_on(tracks, [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)])
+    for k, p in enumerate(points):
         r[k] = p.r_e
         u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
     return r, u
@@ -195,7 +196,7 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
     """IMM restarts of the hypotheses that have something abreast (module docstring, 3).
 
     The states of all pairs the mixing uses are converted first, together
-    (`converted_pairs`: one track evaluation per target track and stage instead of two per
+    (`converted_pairs`: the track points of all pairs in two evaluations instead of two per
     pair; the same numbers)."""
     K = len(hyps)
     if K < 2 or np.allclose(transition, np.eye(K)):
@@ -223,46 +224,15 @@ NEWTON_MAX_STEP_M = 1.0
 MAX_OFFSETS = 10_000
 
 
-class _Points:
-    """Track points asked for in batches: each track evaluated once per batch
-    (`trackmodel.track.Track.at` on an array of ``s``: the same numbers as point by point,
-    one NumPy pass instead of one per point; a track asked for one point answers from its
-    cache of recent scalar queries when it can)."""
-
-    @staticmethod
-    def at(tracks, s) -> list:
-        """The point of ``tracks[k]`` at ``s[k]`` for each k."""
-        groups: dict[int, list[int]] = {}
-        for k, track in enumerate(tracks):
-            groups.setdefault(id(track), []).append(k)
-        out: list = [None] * len(tracks)
-        for ks in groups.values():
-            if len(ks) == 1:            # the track's cache of recent points (a hypothesis's
-                out[ks[0]] = tracks[ks[0]].at(float(s[ks[0]]))    # own, `hypothesis_points`)
-                continue
-            p = tracks[ks[0]].at(np.array([s[k] for k in ks], dtype=float))
-            for m, k in enumerate(ks):
-                out[k] = _Point(p, m)
-        return out
-
-
-class _Point:
-    """Point `m` of a `trackmodel.track.TrackPoint` of several (the fields used here)."""
-
-    __slots__ = ("r_e", "lat", "lon", "h", "u_n", "azimuth", "elevation")
-
-    def __init__(self, p, m: int) -> None:
-        self.r_e, self.lat, self.lon, self.h = p.r_e[m], p.lat[m], p.lon[m], p.h[m]
-        self.u_n, self.azimuth, self.elevation = p.u_n[m], p.azimuth[m], p.elevation[m]
-
-
-def _target_s(sources, targets, p_src: list, s_src: list) -> list[float]:
+def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> list[float]:
     """``s`` of the point of each target's track nearest its source's point ``p_src`` at
     ``s_src``: one Newton step along the target's tangent from the offset last found for
     the pair of tracks (once the offset of the pair is known), else the projection.
 
     Pairs are taken in order; a pair of tracks met again within the batch starts from the
-    offset its previous occurrence found (waves: the k-th occurrences together)."""
+    offset its previous occurrence found (waves: the k-th occurrences together).
+    `first_points`: a callable giving the first wave's Newton points on the targets (made
+    with the sources' points in one evaluation, `converted_pairs`)."""
     keys = [(id(a.track), id(b.track)) for a, b in zip(sources, targets)]
     seen: dict[tuple[int, int], int] = {}
     waves: list[list[int]] = []
@@ -281,7 +251,8 @@ def _target_s(sources, targets, p_src: list, s_src: list) -> list[float]:
         guessed = [k for k in wave if keys[k] in _OFFSETS]
         s_g = [min(max(s_src[k] + _OFFSETS[keys[k]], 0.0), targets[k].track.length_m)
                for k in guessed]
-        points = _Points.at([targets[k].track for k in guessed], s_g)
+        points = first_points(guessed, s_g) if first_points is not None and wave is waves[0] \
+            else points_on([targets[k].track for k in guessed], s_g)
         newton = {k: (p, g) for k, p, g in zip(guessed, points, s_g)}
         for k in wave:
             found = None
@@ -332,17 +303,45 @@ def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
 
 def converted_pairs(sources, targets, xs, Ps) -> list[tuple[Array, Array]]:
     """`converted` of each pair ``(sources[k], targets[k], xs[k], Ps[k])``, in order, the
-    track points of all pairs evaluated together (`_Points`)."""
+    track points of all pairs evaluated together (`trackmodel.network_points.points_on`:
+    the same numbers as `trackmodel.track.Track.at` point by point)."""
     if not sources:
         return []
     s_raw = [float(x[f.layout.index("s")]) for x, f in zip(xs, sources)]
     s_src = [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_raw, sources)]
-    p_src = _Points.at([f.track for f in sources], s_src)
-    s_tgt = _target_s(sources, targets, p_src, s_src)
-    p_tgt = _Points.at([f.track for f in targets],
-                       [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)])
+    # the sources' points and the first Newton points need nothing from each other: together
+    first = _first_wave(sources, targets, s_src)
+    both = points_on([f.track for f in sources] + [targets[k].track for k in first],
+                     s_src + list(first.values()))
+    p_src = both[:len(sources)]
+    newton = dict(zip(first, both[len(sources):]))
+
+    def first_points(guessed, s_g):
+        if all(k in newton for k in guessed):
+            return [newton[k] for k in guessed]
+        return points_on([targets[k].track for k in guessed], s_g)
+
+    s_tgt = _target_s(sources, targets, p_src, s_src, first_points)
+    p_tgt = points_on([f.track for f in targets],
+                      [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)])
     return [_converted(*args) for args in zip(sources, xs, Ps, s_raw, s_src, s_tgt, p_src,
                                               p_tgt)]
+
+
+def _first_wave(sources, targets, s_src: list) -> dict[int, float]:
+    """``s_g`` of the pairs of `_target_s`'s first wave that have an offset to start from,
+    by pair index (what `_target_s` computes for them; the table is read, not changed)."""
+    out, seen = {}, set()
+    if len(_OFFSETS) + len(sources) > MAX_OFFSETS:
+        return out
+    for k, (a, b) in enumerate(zip(sources, targets)):
+        key = (id(a.track), id(b.track))
+        if key in seen:
+            continue
+        seen.add(key)
+        if key in _OFFSETS:
+            out[k] = min(max(s_src[k] + _OFFSETS[key], 0.0), b.track.length_m)
+    return out
 
 
 def _converted(source, x: Array, P: Array, s_raw: float, s_src: float, s_tgt: float,
