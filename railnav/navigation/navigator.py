@@ -124,13 +124,14 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         monitor=None if loop.monitor is None else loop.monitor.frame())
 
 
-def run_monitor(filt, data: SensorData, config: NavigatorConfig, fixes=None, *,
+def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=None, *,
                 start_s: float = 0.0) -> FilterMonitor | None:
     """The divergence monitor of a run (`railnav.navigation.monitor`): for a track-based
     filter with ``config.monitor.enabled``; None otherwise. Its fix test solves each
     epoch's own rows on the track (`railnav.navigation.monitor.snapshot_fix`); a recovery
     restarts from the run's position fix of the epoch or, without fixes, from the
-    single-point fix of its GNSS observations, solved then (`spp_fix_at`). `start_s` is
+    single-point fix of its GNSS observations, solved then (`spp_fix_at`; `data` None, a
+    streamed run: the restart widens the covariance only). `start_s` is
     kept for callers (unused: nothing is solved ahead)."""
     names = getattr(getattr(filt, "layout", None), "names", ())
     if not config.monitor.enabled or "s" not in names or "v" not in names \
@@ -142,7 +143,7 @@ def run_monitor(filt, data: SensorData, config: NavigatorConfig, fixes=None, *,
                                                               config=config),
                              config.monitor, config.gate_probability, screen=screen)
     fix_at = spp_fix_at(filt.track, data, config, filt=filt) \
-        if data.obs is not None and data.nav is not None else None
+        if data is not None and data.obs is not None and data.nav is not None else None
     return FilterMonitor(filt.layout, None, config.monitor, config.gate_probability,
                          fix_at=fix_at, screen=screen)
 

@@ -72,7 +72,7 @@ def test_lost_threshold_is_the_chi2_quantile(margin, expected):
 
 def test_consistent_fixes_raise_few_alarms(rng):
     """2000 epochs of fixes that disagree by N(0, 1) σ: no ``lost`` (p_lost = 1e-6 per
-    test), and ``degraded`` on at most ~1 % (4 tests at 1e-3, windows overlapping ×10,
+    test), and ``degraded`` on at most ~1 % (5 tests at 1e-3, windows overlapping ×10-30,
     plus the first `min_epochs`)."""
     n = 2000
     times = np.arange(float(n))
