@@ -332,8 +332,10 @@ SCREENED_SHARE, SCREENED_MIN_ROWS = 0.25, 2
 SNAPSHOT_P_FALSE_ALARM, SNAPSHOT_MAX_EXCLUSIONS, SNAPSHOT_HUBER_K = 1e-3, 4, 1.5
 
 
-def snapshot_fix(observations, x: Array, i_s: int, clock_columns=()) -> tuple[float, float] | None:
-    """This epoch's own fix on the track, relative to the prior: ``(δs, σ²)``, or None.
+def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
+                 pseudorange_inflation: float = 1.0) -> tuple[float, float, bool] | None:
+    """This epoch's own fix on the track, relative to the prior: ``(δs, σ², white)``, or
+    None.
 
     The rows are the ones the filter updates the prior ``x`` with (its
     `ekf.Observation` s, evaluated at ``x`` when they are an
@@ -348,6 +350,15 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=()) -> tuple[fl
     ``δs`` has the variance ``σ² + σ²_s,prior`` when both are right. It is linearised at
     the prior's ``s``, so a track that passes the same place twice (a loop) gives no
     ambiguous projection, unlike a position fix projected on the whole track.
+    A filter that inflates its pseudorange variances for errors correlated in time (the
+    gnss-only filter's ``pseudorange_inflation``, ×40 for τ = 20 s at 1 Hz: the weight of
+    long averages) gives `pseudorange_inflation`; the snapshot keeps the inflated
+    variances, and ``white`` is False: its error is then correlated with the prior's, and
+    the lower tail (`FilterMonitor._small_tail`) does not hold (on the urban drive it fired
+    on every epoch). Solving with ``R / inflation`` instead (one epoch's own σ) was tried:
+    on the urban drive it said ``lost`` on 28 of 58 epochs of leg 2, where the gnss-only
+    filter is right to 0.93 m RMS (single-epoch urban errors exceed that σ), and its
+    restarts made the leg worse (1.21 m).
     None: fewer rows than unknowns, or a singular geometry.
     """
     from gnss_obs.raim import fault_detection_exclusion, wls_step
@@ -395,7 +406,7 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=()) -> tuple[fl
     var = float(step.cov[0, 0])
     if not (np.isfinite(step.dx[0]) and np.isfinite(var) and var > 0.0):
         return None
-    return float(step.dx[0]), var
+    return float(step.dx[0]), var, not (gnss and pseudorange_inflation != 1.0)
 
 
 class FilterMonitor:
@@ -406,17 +417,25 @@ class FilterMonitor:
     layout : ekf.StateLayout
         With ``s`` and ``v``.
     fixes : TrackFixes or None
-        Independent fixes (None: the fix test and recovery from fixes are off).
+        The run's position fixes on the track: the fix test's fix where the epoch's own
+        rows cannot give one (`snapshot_fix`, `_screened_out`), and a restart's.
     config : MonitorConfig
     gate_probability : float or None
         The run's χ² row gate (None: the rejected-row test is off).
+    fix_at : callable(time_s) -> TrackFixes or None, optional
+        Without `fixes`: the epoch's single-point fix, solved when needed (`spp_fix_at`).
+    screen : railnav.filters.fault_detection.RowScreen, optional
+        The filter's fault screen (read only: which rows it kept out).
+    pseudorange_inflation : float
+        The filter's pseudorange variance factor for correlated errors (`snapshot_fix`).
     """
 
     def __init__(self, layout, fixes: TrackFixes | None, config: MonitorConfig,
                  gate_probability: float | None, *,
                  fix_at: Callable[[float], TrackFixes | None] | None = None,
-                 screen=None) -> None:
+                 screen=None, pseudorange_inflation: float = 1.0) -> None:
         self.layout, self.fixes, self.config = layout, fixes, config
+        self.pseudorange_inflation = float(pseudorange_inflation)
         self.fix_at, self.screen = fix_at, screen
         self._screened = None if screen is None or not screen.epochs else screen.epochs[-1]
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
@@ -436,7 +455,8 @@ class FilterMonitor:
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         self._snapshot = None if observations is None or self._screened_out() else \
-            snapshot_fix(observations, x, self.i_s, self._clock_columns)
+            snapshot_fix(observations, x, self.i_s, self._clock_columns,
+                         pseudorange_inflation=self.pseudorange_inflation)
 
     def _screened_out(self) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`)
@@ -473,8 +493,8 @@ class FilterMonitor:
         snapshot, self._snapshot = self._snapshot, None
         d_raw = np.nan
         if snapshot is not None:                       # this epoch's own rows, on the track
-            ds, var_fix = snapshot
-            d_raw = ds / np.sqrt(var_fix + var_prior)
+            ds, var_fix, white = snapshot
+            d_raw = ds / np.sqrt(var_fix + var_prior) if white else np.nan
             var_fix = max(var_fix, self.config.min_fix_sigma_m ** 2)
             d = ds / np.sqrt(var_fix + var_prior)
         else:                                          # a fix from all the epoch's data

@@ -145,7 +145,8 @@ def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=No
     fix_at = spp_fix_at(filt.track, data, config, filt=filt) \
         if data is not None and data.obs is not None and data.nav is not None else None
     return FilterMonitor(filt.layout, None, config.monitor, config.gate_probability,
-                         fix_at=fix_at, screen=screen)
+                         fix_at=fix_at, screen=screen,
+                         pseudorange_inflation=getattr(filt, "pseudorange_inflation", 1.0))
 
 
 @dataclass(frozen=True, eq=False)
