@@ -2,7 +2,8 @@
 
 Usage::
 
-    nice -n 10 python benchmarks/bench_consistency.py [--quick] [--cases a,b] [--out FILE]
+    nice -n 10 python benchmarks/bench_consistency.py [--quick] [--cases a,b] [--seeds N]
+                                                      [--update] [--out FILE]
 
 Cases (simulated truth; the filter assumes the IMU grade that is simulated, scale factors
 and misalignments included in the simulation but not in the filter's model):
@@ -15,13 +16,20 @@ curvy_tactical      ``curvy`` (1000 s, a station stop), tactical IMU            
 curvy_mems          the same, MEMS IMU                                           10
 circle_100mps       100 m/s on a 100-m circle entered without a transition       10
 u_turn              a U-turn of 100 m radius at 20 m/s, tactical                 10
-standstill_5min     MEMS, a 5-min stop with GNSS out for the whole stop          10
+standstill_5min     MEMS, a 5-min stop with GNSS out for the whole stop, the     10
+                    standstill detector on (``NavigatorConfig.standstill``,
+                    `StandstillConfig` defaults, as ``--standstill``)
 outage_20min        ``curvy``, tactical, a 20-min outage from 60 s               10
 outage_300s         ``curvy``, MEMS, a 300-s outage from 60 s                    10
+outage_300s_body    the same trip with the car body (``car_body``: chord,        10
+                    suspension, mounting) and the attitude rows
+                    (``NavigatorConfig.track_attitude``, as ``--track-attitude``)
 trip_10h            a 10-h streamed trip (`bench_studies.long_line`), tactical   4
 ==================  =========================================================  ======
 
-``--quick``: 3 seeds (1 for the 10-h trip, shortened to 1 h).
+``--quick``: 3 seeds (1 for the 10-h trip, shortened to 1 h). ``--seeds N``: at most N
+seeds per case (the JSON's ``runs`` says how many). ``--update``: keep the cases of an
+existing ``--out`` that are not run again (each case records its own load average).
 
 Per case, `railnav.evaluation.consistency.summarize_consistency` over the seeds: NEES mean
 with its 99 % χ² interval, the share of epochs with ``|error_s| > 3 σ_s``, the share with
@@ -51,6 +59,10 @@ sys.path.insert(0, str(HERE.parent))
 sys.path.insert(0, str(HERE))
 
 from railnav.evaluation.consistency import run_series, summarize_consistency  # noqa: E402
+from railnav.filters.attitude_config import TrackAttitudeConfig  # noqa: E402
+from railnav.filters.standstill import StandstillConfig  # noqa: E402
+from railnav.simulation.car_body_config import CarBodyMotion  # noqa: E402
+from railnav.simulation.trip import navigator_config_for  # noqa: E402
 from railnav.jobs.run import run_simulated  # noqa: E402
 from railnav.simulation.profiles import constant_speed, station_stop_profile  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario  # noqa: E402
@@ -85,6 +97,12 @@ def _curvy(grade: str, *, duration_s: float | None = None, outages=None) -> Scen
                                                 outages=outages)
 
 
+def _with(scenario: Scenario, **fields):
+    """`scenario` and the `NavigatorConfig` fields a user sets for it (the filter otherwise
+    assumes what is simulated)."""
+    return scenario, replace(navigator_config_for(scenario), **fields)
+
+
 def standstill_scenario() -> Scenario:
     """MEMS: 10 s at rest, 60 s to 25 m/s, 100 s cruise, 50 s braking, 300 s standing with
     GNSS out from the stop's start to its end, then away again."""
@@ -96,8 +114,15 @@ def standstill_scenario() -> Scenario:
                     imu_errors="mems", outages=((stop_start, 300.0),))
 
 
-def cases(quick: bool) -> dict:
+def cases(quick: bool, max_seeds: int | None = None) -> dict:
     """name -> (track, scenario, seeds) for `run_simulated`, or a 10-h streamed spec."""
+    table = _cases(quick)
+    if max_seeds is None:
+        return table
+    return {name: (*spec[:-1], min(spec[-1], max_seeds)) for name, spec in table.items()}
+
+
+def _cases(quick: bool) -> dict:
     seeds = 3 if quick else 10
     curvy = read_track(TRACKS_DIR / "curvy.csv")
     return {
@@ -109,19 +134,25 @@ def cases(quick: bool) -> dict:
             100.0), duration_s=70.0, imu_errors="tactical"), seeds),
         "u_turn": (u_turn_track(), Scenario(name="u_turn", profile=constant_speed(20.0),
                                             duration_s=60.0, imu_errors="tactical"), seeds),
-        "standstill_5min": (curvy, standstill_scenario(), seeds),
+        "standstill_5min": (curvy, _with(standstill_scenario(),
+                                         standstill=StandstillConfig()), seeds),
         "outage_20min": (curvy, _curvy("tactical", duration_s=1300.0,
                                        outages=[(60.0, 1200.0)]), seeds),
         "outage_300s": (curvy, _curvy("mems", duration_s=400.0, outages=[(60.0, 300.0)]),
                         seeds),
+        "outage_300s_body": (curvy, _with(replace(
+            _curvy("mems", duration_s=400.0, outages=[(60.0, 300.0)]),
+            car_body=CarBodyMotion()), track_attitude=TrackAttitudeConfig()), seeds),
         "trip_10h": ("stream", 1.0 if quick else 10.0, 1 if quick else 4),
     }
 
 
 def _simulated_runs(track, scenario, seeds: int):
+    """`scenario`: a Scenario, or ``(Scenario, NavigatorConfig)`` (`_with`)."""
+    scenario, config = scenario if isinstance(scenario, tuple) else (scenario, None)
     runs, dof = [], 0
     for seed in range(1, seeds + 1):
-        out = run_simulated(track, scenario, seed=seed)
+        out = run_simulated(track, scenario, config=config, seed=seed)
         runs.append(run_series(out.result.estimates, nees=out.errors.nees,
                                error_s_m=out.errors.along_track_m))
         dof = out.errors.nees_dof
@@ -133,7 +164,6 @@ def _streamed_runs(hours: float, seeds: int):
     120-s outage every hour), estimates and errors at 1 Hz."""
     from bench_studies import long_line
     from railnav.navigation.streaming import stream_simulated
-    from railnav.simulation.trip import navigator_config_for
     scenario = replace(get_scenario("paper2017"), duration_s=hours * HOUR_S,
                        imu_errors="tactical", default_track=None,
                        outages=tuple((600.0 + HOUR_S * h, 120.0) for h in range(int(hours))))
@@ -159,10 +189,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="3 seeds, a 1-h trip")
     parser.add_argument("--cases", default=None, help="comma-separated case names")
+    parser.add_argument("--seeds", type=int, default=None, help="at most this many seeds")
+    parser.add_argument("--update", action="store_true",
+                        help="keep the other cases of an existing --out")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
-    table = cases(args.quick)
+    if args.seeds is not None and args.seeds < 1:
+        print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
+        return 2
+    table = cases(args.quick, args.seeds)
     names = list(table) if args.cases is None else args.cases.split(",")
     unknown = [n for n in names if n not in table]
     if unknown:
@@ -171,6 +207,13 @@ def main(argv=None) -> int:
     doc = {"quick": args.quick, "cases": {},
            "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                        "load_average_before": os.getloadavg()}}
+    if args.update and args.out.exists():
+        try:
+            old = json.loads(args.out.read_text())
+            doc["cases"] = {k: v for k, v in old["cases"].items() if k not in names}
+        except (ValueError, KeyError, TypeError) as exc:
+            print(f"error: {args.out}: not a consistency table ({exc})", file=sys.stderr)
+            return 2
     for name in names:
         started = time.perf_counter()
         spec = table[name]
@@ -180,6 +223,7 @@ def main(argv=None) -> int:
             runs, dof = _simulated_runs(*spec)
         figures = summarize_consistency(runs, dof=dof).to_dict()
         figures["wall_s"] = time.perf_counter() - started
+        figures["load_average_after"] = os.getloadavg()
         doc["cases"][name] = figures
         doc["machine"]["load_average_after"] = os.getloadavg()
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
@@ -187,6 +231,8 @@ def main(argv=None) -> int:
         print(f"{name}: NEES {figures['nees_mean']:.3g} (99 % [{lo:.2f}, {hi:.2f}], "
               f"dof {dof}, {figures['nees_epochs']} epochs), |err_s| > 3σ on "
               f"{figures['share_beyond_3sigma']:.2%} of {figures['sigma_epochs']}, "
+              f"outside [s_min, s_max] {figures['share_outside_protection']} of "
+              f"{figures['protection_epochs']}, status {figures['status_counts']}, "
               f"{figures['wall_s']:.0f} s", flush=True)
     return 0
 

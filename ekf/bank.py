@@ -40,7 +40,8 @@ from ekf.linear import LinearModel
 from ekf.update import UpdateRecord
 
 __all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians", "switching_update",
-           "log_predict", "logsumexp", "imm_starts", "uniform_switching", "Convert"]
+           "log_predict", "logsumexp", "imm_starts", "imm_mixing", "uniform_switching",
+           "Convert"]
 
 Array = npt.NDArray[np.float64]
 Mode = Literal["static", "gpb1", "imm"]
@@ -181,12 +182,9 @@ def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[A
     x0, P0 : lists of ndarray (n,), (n, n)
         ``Σ_i μ_{i|j} x_{i→j}`` and its moment-matched covariance, ``μ_{i|j} = Π_ij μ_i / c_j``.
     """
-    mu = np.asarray(mu, dtype=float)
-    c = transition.T @ mu
-    weights = transition * mu[:, None] / np.maximum(c, _TINY)[None, :]
+    weights, uses = imm_mixing(mu, transition, min_weight)
     x0, P0 = [], []
-    for j in range(mu.size):
-        use = [i for i in range(mu.size) if i == j or weights[i, j] > min_weight]
+    for j, use in enumerate(uses):
         if use == [j]:
             x0.append(xs[j])
             P0.append(Ps[j])
@@ -198,6 +196,28 @@ def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[A
         x0.append(x)
         P0.append(P)
     return x0, P0
+
+
+def imm_mixing(mu: Array, transition: Array, min_weight: float = 0.0
+               ) -> tuple[Array, list[list[int]]]:
+    """The mixing weights of `imm_starts` and what each start mixes.
+
+    Returns
+    -------
+    weights : ndarray, shape (J, J)
+        ``μ_{i|j} = Π_ij μ_i / c_j``, ``c = Πᵀ μ``.
+    uses : list of list of int
+        For each j, the i (in order) that its start mixes: j itself and those with
+        ``μ_{i|j} > min_weight``. A caller that converts states in batches
+        (``convert(i, j, …)`` for every ``i != j`` of ``uses[j]``, unless ``uses[j] == [j]``)
+        knows the pairs from it beforehand.
+    """
+    mu = np.asarray(mu, dtype=float)
+    c = transition.T @ mu
+    weights = transition * mu[:, None] / np.maximum(c, _TINY)[None, :]
+    uses = [[i for i in range(mu.size) if i == j or weights[i, j] > min_weight]
+            for j in range(mu.size)]
+    return weights, uses
 
 
 def uniform_switching(n_models: int, rate_per_s: float, dt_s: float) -> Array:

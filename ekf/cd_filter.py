@@ -20,6 +20,7 @@ from typing import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 import numpy.typing as npt
+from scipy.linalg import lapack
 
 from ekf.compiled import CompileOptions
 from ekf.errors import FilterDivergedError, ModelError
@@ -82,12 +83,13 @@ class FilterConfig:
 
 
 def _check_covariance(P: Array, where: str) -> None:
-    if not np.all(np.isfinite(P)):
+    if not np.isfinite(P).all():
         raise FilterDivergedError(f"covariance became non-finite {where}")
-    try:
-        np.linalg.cholesky(P)
-    except np.linalg.LinAlgError:
-        raise FilterDivergedError(f"covariance lost positive definiteness {where}") from None
+    # LAPACK's Cholesky (the factor is not used: only whether it exists), without
+    # np.linalg.cholesky's wrapper (~15 µs a call, one call per span)
+    _, info = lapack.dpotrf(P, lower=True, clean=False, overwrite_a=False)
+    if info != 0:
+        raise FilterDivergedError(f"covariance lost positive definiteness {where}")
 
 
 class CdFilter:

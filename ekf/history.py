@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.layout import StateLayout
-from ekf.packing import unpack_sym
+from ekf.packing import diagonal_indices
 from ekf.update import UpdateRecord
 
 __all__ = ["FilterResult", "SmootherData", "Recorder", "concatenate_results"]
@@ -145,6 +145,8 @@ class Recorder:
         parts = self._parts.get(key)
         if not parts:
             return np.zeros((0,) + shape_tail, dtype=dtype)
+        if len(parts) == 1:               # one span (a streamed chunk): no copy needed
+            return parts[0]
         return np.concatenate(parts, axis=0)
 
     def steps(self, first: int, t: Array, out) -> None:
@@ -154,13 +156,16 @@ class Recorder:
         :class:`~ekf.propagate.StepOutputs`.
         """
         self.n_steps += t.size
-        keep = (first + np.arange(t.size)) % self.store_every == 0
+        if self.store_every == 1:     # every step: the arrays as they are (no copy)
+            keep = slice(None)
+        else:
+            keep = (first + np.arange(t.size)) % self.store_every == 0
         self._add("t", t[keep])
         self._add("x", out.x_filt[keep])
-        P = unpack_sym(out.P_filt[keep])
-        self._add("P_diag", np.diagonal(P, axis1=1, axis2=2))
+        P_filt = out.P_filt[keep]
+        self._add("P_diag", P_filt[:, diagonal_indices(self.layout.size)])
         if self.full_covariance:
-            self._add("P", out.P_filt[keep])
+            self._add("P", P_filt)
         self._add("innov_c", out.innov[keep])
         if out.nis.size:
             self._add("nis_c", out.nis[keep])

@@ -203,6 +203,8 @@ class MeasurementModel:
         if h.n_in() != 2 or h.n_out() != 1:
             raise ModelError(f"measurement {self.name!r} must map (x, p_row) -> z_row")
         object.__setattr__(self, "h", h)
+        # the sizes, asked at every evaluation: read once from the function
+        object.__setattr__(self, "_sizes", (h.numel_in(0), h.numel_in(1), h.numel_out(0)))
 
     @classmethod
     def from_expression(cls, x: ca.SX, p_row: ca.SX, z_row: ca.SX,
@@ -213,17 +215,17 @@ class MeasurementModel:
     @property
     def n(self) -> int:
         """State dimension."""
-        return self.h.numel_in(0)
+        return self._sizes[0]
 
     @property
     def n_p(self) -> int:
         """Parameters per row."""
-        return self.h.numel_in(1)
+        return self._sizes[1]
 
     @property
     def k(self) -> int:
         """Components per row."""
-        return self.h.numel_out(0)
+        return self._sizes[2]
 
     def evaluate(self, x: npt.ArrayLike, p_rows: npt.ArrayLike) -> tuple[Array, Array]:
         """Predicted measurement and its Jacobian for ``m`` rows.

@@ -18,8 +18,8 @@ import casadi as ca
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["packed_size", "pack_sym", "unpack_sym", "pack_sym_sx", "unpack_sym_sx",
-           "to_numpy", "to_casadi"]
+__all__ = ["packed_size", "diagonal_indices", "pack_sym", "unpack_sym", "pack_sym_sx",
+           "unpack_sym_sx", "to_numpy", "to_casadi"]
 
 Array = npt.NDArray[np.float64]
 
@@ -35,6 +35,17 @@ def _tril(n: int) -> tuple[np.ndarray, np.ndarray]:
     rows.setflags(write=False)
     cols.setflags(write=False)
     return rows, cols
+
+
+@lru_cache(maxsize=64)
+def diagonal_indices(n: int) -> np.ndarray:
+    """Positions of the diagonal ``P[i, i]`` in a packed ``(n, n)`` matrix (read-only):
+    ``packed[..., diagonal_indices(n)]`` is ``np.diagonal(unpack_sym(packed))``, without
+    unpacking."""
+    i = np.arange(n)
+    index = i * (i + 1) // 2 + i
+    index.setflags(write=False)
+    return index
 
 
 def _size_from_packed(m: int) -> int:

@@ -32,11 +32,13 @@ def _rows(a: npt.ArrayLike | None, m: int, k: int, name: str) -> Array:
     if a is None:
         return np.zeros((m, k))
     a = np.asarray(a, dtype=float)
-    if a.ndim == 1 and a.shape == (k,):
-        a = np.broadcast_to(a, (m, k))
+    if a.shape == (k,):               # one row for all samples: checked once, broadcast
+        if not np.isfinite(a).all():
+            raise ModelError(f"{name} has non-finite values")
+        return np.broadcast_to(a, (m, k))
     if a.shape != (m, k):
         raise ModelError(f"{name} must have shape ({m}, {k}) or ({k},), got {a.shape}")
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ModelError(f"{name} has non-finite values")
     return a
 
@@ -78,12 +80,12 @@ class InputSeries:
         """
         t = np.asarray(self.t, dtype=float).reshape(-1)
         m = t.size
-        if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
+        if not np.isfinite(t).all() or (np.diff(t) <= 0.0).any():
             raise ModelError("sample times must be finite and strictly increasing")
         fields = dict(t=t, u=_rows(self.u, m, n_u, "u"), p=_rows(self.p, m, n_p, "p"),
                       z_c=_rows(self.z_c, m, n_c, "z_c"), q_c=_rows(self.q_c, m, n_w, "q_c"),
                       r_c=_rows(self.r_c, m, n_c, "r_c"))
-        if np.any(fields["q_c"] < 0.0) or np.any(fields["r_c"] < 0.0):
+        if (fields["q_c"] < 0.0).any() or (fields["r_c"] < 0.0).any():
             raise ModelError("noise spectral densities must be >= 0")
         return InputSeries(**fields)
 

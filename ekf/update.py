@@ -72,7 +72,7 @@ class Observation:
         if R.shape not in ((z.size,), (z.size, z.size)):
             raise ModelError(f"{self.model.name}: R has shape {R.shape}, expected "
                              f"({z.size},) or ({z.size}, {z.size})")
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(R)) and np.all(np.isfinite(p))):
+        if not (np.isfinite(z).all() and np.isfinite(R).all() and np.isfinite(p).all()):
             raise ModelError(f"{self.model.name}: non-finite z, R or p")
         for name, value in (("z", z), ("p", p), ("R", R)):
             object.__setattr__(self, name, value)
@@ -171,6 +171,15 @@ def _solve_lower(L: Array, b: Array) -> Array:
     return x
 
 
+def _solve_lower_transposed(U: Array, b: Array) -> Array:
+    """``L x = b`` given ``U = Lᵀ`` (only its upper triangle is read): the call
+    `_solve_lower` makes for a C-ordered ``L``."""
+    x, info = lapack.dtrtrs(U, b, overwrite_b=False, lower=False, trans=1, unitdiag=False)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular matrix: resolution failed at diagonal {info-1}")
+    return x
+
+
 def _cho_solve(factor: tuple[Array, bool], b: Array) -> Array:
     """``scipy.linalg.cho_solve(factor, b, check_finite=False)``."""
     x, info = lapack.dpotrs(factor[0], b, lower=factor[1], overwrite_b=False)
@@ -180,7 +189,16 @@ def _cho_solve(factor: tuple[Array, bool], b: Array) -> Array:
 
 
 def _log_likelihood(innov: Array, factor: tuple[Array, bool]) -> tuple[float, float]:
-    L = np.tril(factor[0]) if factor[1] else np.triu(factor[0]).T
+    if factor[1]:
+        # the lower factor's transpose, upper triangular in C order: `_solve_lower`'s
+        # transposed call reads its upper triangle only (what np.tril(c) would give, without
+        # the copy that zeroes the other half)
+        c = factor[0]
+        white = _solve_lower_transposed(c.T, innov)
+        nis = float(white @ white)
+        log_det = 2.0 * float(np.sum(np.log(np.diag(c))))
+        return nis, -0.5 * (nis + log_det + innov.size * LOG_2PI)
+    L = np.triu(factor[0]).T
     white = _solve_lower(L, innov)
     nis = float(white @ white)
     log_det = 2.0 * float(np.sum(np.log(np.diag(L))))

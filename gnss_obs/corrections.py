@@ -154,6 +154,20 @@ def _continued_fraction(sin_el: Array, a, b, c) -> Array:
 
 
 def _interp_lat(table: Array, abs_lat: Array) -> list[Array]:
+    """`np.interp` of each row of `table` over `_NIELL_LAT_RAD` at `abs_lat`; for one
+    latitude (a receiver's), the rows at once with `np.interp`'s own arithmetic,
+    ``slope · (x − x_j) + y_j`` (the same bits, a fifth of the calls)."""
+    if np.ndim(abs_lat) == 0 and np.isfinite(abs_lat):
+        x, xp = float(abs_lat), _NIELL_LAT_RAD
+        if x <= xp[0]:
+            return list(table[:, 0])
+        if x >= xp[-1]:
+            return list(table[:, -1])
+        j = int(np.searchsorted(xp, x, side="right")) - 1
+        if xp[j] == x:
+            return list(table[:, j])
+        slope = (table[:, j + 1] - table[:, j]) / (xp[j + 1] - xp[j])
+        return list(slope * (x - xp[j]) + table[:, j])
     return [np.interp(abs_lat, _NIELL_LAT_RAD, row) for row in table]
 
 

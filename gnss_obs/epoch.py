@@ -180,11 +180,13 @@ def sagnac_rotation(r_sat_e: Array, v_sat_e: Array, tau_s: Array) -> tuple[Array
     """
     a = OMEGA_E_GPS * tau_s
     c, s = np.cos(a), np.sin(a)
-
-    def rot(x: Array) -> Array:
-        return np.stack([c * x[:, 0] + s * x[:, 1], -s * x[:, 0] + c * x[:, 1], x[:, 2]], -1)
-
-    return rot(r_sat_e), rot(v_sat_e)
+    both = np.stack([r_sat_e, v_sat_e])           # (2, N, 3): one pass for both
+    x, y = both[..., 0], both[..., 1]
+    out = np.empty_like(both)
+    out[..., 0] = c * x + s * y
+    out[..., 1] = -s * x + c * y
+    out[..., 2] = both[..., 2]
+    return out[0], out[1]
 
 
 def _signal_group_delay_s(eph: dict, meas: dict, config: MeasurementConfig) -> Array:

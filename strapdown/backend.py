@@ -35,6 +35,8 @@ class NumpyOps:
     @staticmethod
     def vec3(x: Any, y: Any, z: Any) -> np.ndarray:
         """Stack three broadcastable components into ``(..., 3)``."""
+        if np.ndim(x) == np.ndim(y) == np.ndim(z) == 0:    # one vector: no broadcasting
+            return np.array([x, y, z], dtype=float)
         x, y, z = np.broadcast_arrays(*(np.asarray(c, dtype=float) for c in (x, y, z)))
         return np.stack([x, y, z], axis=-1)
 

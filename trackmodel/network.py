@@ -289,10 +289,11 @@ class Network:
         for (a, da), (b, db) in zip(legs[:-1], legs[1:]):
             if (b, db) not in self.graph.successors((self._check(a), da)):
                 raise TrackError(f"route: no passage from {a} to {b}")
-        return [self._oriented(e, d) for e, d in legs]
+        return [self.oriented(e, d) for e, d in legs]
 
-    def _oriented(self, element: str, direction: int) -> Track:
-        """`element`'s track in `direction` (reversed tracks cached)."""
+    def oriented(self, element: str, direction: int) -> Track:
+        """`element`'s track in `direction` (+1 its own, -1 `reversed_track`; reversed
+        tracks built once per network and kept: every run on the network shares them)."""
         if direction == 1:
             return self._track(element)
         if element not in self._reversed:

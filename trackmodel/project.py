@@ -111,7 +111,7 @@ class Projector:
         return np.clip(self.s[j] + ds / slope, 0.0, self.track.length_m)
 
     def project(self, lat: npt.ArrayLike, lon: npt.ArrayLike, h: npt.ArrayLike | None = None,
-                *, tol_m: float = 1e-7) -> Projection:
+                *, tol_m: float = 1e-7, s_guess: npt.ArrayLike | None = None) -> Projection:
         """Project geodetic points onto the track.
 
         Parameters
@@ -123,6 +123,10 @@ class Projector:
             height of the track where it projects; ``vertical_m`` is then ≈ 0).
         tol_m : float
             Stop when every along-track correction is below this, m.
+        s_guess : array_like, shape (N,), optional
+            Start the Newton steps here instead of at the nearest sample: the nearest
+            point on the guess's pass of the track (a local minimum of the distance; a
+            track through the same place twice has one per pass).
 
         Returns
         -------
@@ -132,8 +136,11 @@ class Projector:
         h_given = None if h is None else np.broadcast_to(
             np.asarray(h, dtype=float), lat.shape).ravel()
         L = self.track.length_m
-        s = self._seed(geodetic_to_ecef(lat, lon, 0.0 if h is None else h_given,
-                                        earth=self.track.earth))
+        if s_guess is None:
+            s = self._seed(geodetic_to_ecef(lat, lon, 0.0 if h is None else h_given,
+                                            earth=self.track.earth))
+        else:
+            s = np.clip(np.broadcast_to(np.asarray(s_guess, dtype=float), lat.shape), 0.0, L)
         for _ in range(MAX_NEWTON_STEPS):
             pt = self.track.at(s)
             p_e = geodetic_to_ecef(lat, lon, pt.h if h is None else h_given,

@@ -19,7 +19,7 @@ import numpy.typing as npt
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from railnav.evaluation.plot_style import SIGMA_BAND, outage_spans, save_png
+from railnav.evaluation.plot_style import SIGMA_BAND, fixed_margins, outage_spans, save_png
 from trackmodel.earth import ecef_to_enu, geodetic_to_ecef
 
 __all__ = ["track_estimate_figure", "plot_track_estimate", "ZOOM_MIN_HALF_WIDTH_M"]
@@ -101,7 +101,8 @@ def track_estimate_figure(track, result, *, truth=None, names=None) -> Figure:
                               est["h_m"].to_numpy())[:, :2]
     truth_en = _truth_en(local, truth, t)
     colour, colour_label = _colour_values(est, est_en, truth_en)
-    fig = Figure(figsize=(13, 6.2), layout="constrained")
+    fig = Figure(figsize=(13, 6.2))
+    fixed_margins(fig, left_in=0.8, right_in=0.3, top_in=0.6, bottom_in=0.6, wspace=0.3)
     ax_map, ax_zoom = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.45, 1.0)})
     _overview(fig, ax_map, tracks, names, local, result, est_en, colour, colour_label)
     k = _worst(t, colour)

@@ -24,7 +24,8 @@ import numpy.typing as npt
 
 __all__ = ["SIGMA_BAND", "GAP_FACTOR", "TIME_LABEL", "OUTAGE_STYLE", "MRAD_PER_RAD",
            "gnss_gaps", "outage_spans", "shade_outages", "robust_limit", "limit_axis",
-           "sigma_band", "plain_axis", "save_png", "outage_legend_handle"]
+           "sigma_band", "plain_axis", "save_png", "outage_legend_handle", "fixed_margins",
+           "bottom_legend"]
 
 Array = npt.NDArray[np.float64]
 
@@ -159,6 +160,25 @@ def plain_axis(ax) -> None:
     except AttributeError:         # a log or categorical axis has no such formatter
         pass
     ax.grid(True, lw=0.3)
+
+
+def fixed_margins(fig, *, left_in: float = 1.05, right_in: float = 0.2,
+                  top_in: float = 0.45, bottom_in: float = 0.85, hspace: float = 0.12,
+                  wspace: float | None = None) -> None:
+    """Place the subplots with margins given in inches (room for the tick labels and axis
+    labels, the suptitle above, a `bottom_legend` below): the figures of a run are laid
+    out once instead of by the constrained layout, whose dry-run draw was half of each
+    ``savefig`` (0.96 s -> 0.60-0.80 s CPU for a 5-panel figure)."""
+    width, height = fig.get_size_inches()
+    fig.subplots_adjust(left=left_in / width, right=1.0 - right_in / width,
+                        top=1.0 - top_in / height, bottom=bottom_in / height,
+                        hspace=hspace, wspace=wspace)
+
+
+def bottom_legend(fig, handles, *, ncols: int = 3) -> None:
+    """The figure's legend centred at its bottom edge (below the `fixed_margins` axes)."""
+    fig.legend(handles=handles, loc="lower center", bbox_to_anchor=(0.5, 0.005),
+               fontsize=8, ncols=ncols)
 
 
 def save_png(fig, path: str | os.PathLike, *, dpi: int = 110) -> None:

@@ -27,6 +27,8 @@ from railnav.evaluation.plot_style import (
     MRAD_PER_RAD,
     SIGMA_BAND,
     TIME_LABEL,
+    bottom_legend,
+    fixed_margins,
     limit_axis,
     outage_legend_handle,
     outage_spans,
@@ -101,7 +103,8 @@ def errors_figure(errors, result) -> Figure:
     panels = _error_panels(est)
     spans = outage_spans(result)
     statuses = status_spans(result)
-    fig = Figure(figsize=(9, 1.9 * len(panels) + 0.8), layout="constrained")
+    fig = Figure(figsize=(9, 1.9 * len(panels) + 0.8))
+    fixed_margins(fig)
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     for ax, (field, sig_name, sig_scale, words, unit, scale) in zip(axes, panels):
         shade_status(ax, statuses)
@@ -120,7 +123,7 @@ def errors_figure(errors, result) -> Figure:
         handles.append(outage_legend_handle())
     handles += status_legend_handles(statuses)
     fig.suptitle(f"{result.filter} filter: errors against the truth")
-    fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
+    bottom_legend(fig, handles)
     axes[-1].set_xlabel(TIME_LABEL)
     return fig
 
@@ -142,7 +145,8 @@ def estimates_figure(result) -> Figure:
     panels = [p for p in _ESTIMATE_PANELS if p[0] in est]
     spans = outage_spans(result)
     statuses = status_spans(result)
-    fig = Figure(figsize=(12, 1.9 * len(panels) + 0.8), layout="constrained")
+    fig = Figure(figsize=(12, 1.9 * len(panels) + 0.8))
+    fixed_margins(fig, wspace=0.25)
     axes = fig.subplots(len(panels), 2, sharex=True, squeeze=False,
                         gridspec_kw={"width_ratios": (1.6, 1.0)})
     for (ax, ax_sigma), (col, words, unit) in zip(axes, panels):
@@ -165,7 +169,7 @@ def estimates_figure(result) -> Figure:
         handles.append(outage_legend_handle())
     handles += status_legend_handles(statuses)
     fig.suptitle(f"{result.filter} filter: estimates and their uncertainty")
-    fig.legend(handles=handles, loc="outside lower center", fontsize=8, ncols=3)
+    bottom_legend(fig, handles)
     for ax in axes[-1]:
         ax.set_xlabel(TIME_LABEL)
     return fig

@@ -24,7 +24,25 @@ white), ``z = 0`` and::
     h_yaw   = wrap(ψ_b − A(s) − δψ(s)),   h_pitch = θ_b − ϑ(s) − δθ(s),   h_roll = φ_b
 
 with the track and the chord linearized about the prior's ``s₀`` (``A₀ + A'(s − s₀)``,
-``δψ₀ + δψ'(s − s₀)``, the same for the pitch), so that ``∂h/∂s`` is the track's. One
+``δψ₀ + δψ'(s − s₀)``, the same for the pitch), so that ``∂h/∂s`` is the track's.
+
+**When s is uncertain** (a GNSS outage), that line is only good within a few metres of a
+curve's or a vertical curve's onset: with σ_s = 20 m at the entry of R 500 m, the
+azimuth over ±σ_s bends by 40 mrad against the yaw row's 1 mrad. A row taken at face value
+then turns the attitude (or drags ``s``) by the mismatch — measured: a MEMS 300-s outage on
+``curvy`` ended 5.1 km off with σ_s 6 m. The rows therefore take the chord's azimuth and
+elevation ``g(s)`` over the prior ``N(s₀, σ_s²)``
+(`railnav.filters.geometry_noise.angle_statistics`): above
+`railnav.filters.geometry_noise.STATISTICAL_MIN_SIGMA_M` the line is the statistical
+linearization (mean and regression slope over the prior; the chord parameters then 0, the
+line carries them), and the part the line leaves out, ``E[(g − line)²]``, is added to the
+row's variance. That remainder is a function of where the train is against the feature
+and of the error of ``s``, so it repeats from row to row while the train crosses the
+prior's window: it is held for ``T_c = 2 σ_s/|v|``
+(`railnav.filters.geometry_noise.remainder_correlation_s`) and the added variance is
+multiplied by ``max(1, T_c/interval_s)``, the rows' count over one correlation time (the
+same reasoning as the curvature row's density). With GNSS (σ_s < 1 m) and away from the
+features both vanish and the rows are as before. One
 CasADi expression; its Jacobian (`ekf.MeasurementModel`) is tested against central
 differences. Each angle is one scalar row (a selector in the row parameters) screened
 ``row`` by row at the prior (`railnav.filters.fault_detection`), ``sv`` `ATTITUDE_SV`,
@@ -46,7 +64,9 @@ from ekf.layout import StateLayout
 from ekf.model import MeasurementModel
 from ekf.update import Observation
 from railnav.filters.attitude_config import MOUNT_STATES, TrackAttitudeConfig
-from railnav.filters.car_body import chord_offsets
+from railnav.filters.car_body import chord_angles, chord_offsets
+from railnav.filters.geometry_noise import (STATISTICAL_MIN_SIGMA_M, angle_statistics,
+                                            remainder_correlation_s)
 from strapdown.euler import C_b_n, relative_dcm
 
 __all__ = ["TrackAttitudeConfig", "MOUNT_STATES", "ATTITUDE_SV", "ATTITUDE_ROW_KINDS",
@@ -112,8 +132,31 @@ class AttitudeRowBuilder:
     def __init__(self, layout: StateLayout, track, config: TrackAttitudeConfig) -> None:
         self.track, self.config = track, config
         self.model = build_attitude_rows(layout)
-        self.i_s = layout.index("s")
+        self.i_s, self.i_v = layout.index("s"), layout.index("v")
         self.axes = (0, 1, 2) if config.use_roll else (0, 1)
+
+    def _chord(self, s: Array, azimuth0: float) -> Array:
+        """The chord's azimuth (relative to `azimuth0`, wrapped) and elevation at ``s``,
+        shape (K, 2)."""
+        yaw, pitch = chord_angles(self.track, s, bogie_spacing_m=self.config.bogie_spacing_m,
+                                  imu_offset_m=self.config.imu_offset_m)
+        return np.column_stack([np.angle(np.exp(1j * (yaw - azimuth0))), pitch])
+
+    def geometry(self, s0: float, sigma_s_m: float, speed_mps: float
+                 ) -> tuple[list[float] | None, Array]:
+        """What an uncertain ``s`` does to the rows (module docstring): the statistical
+        line's ``(azimuth, elevation, azimuth_rate, elevation_rate)`` (None: σ_s small, the
+        local expansion is kept) and the variance added to the yaw and pitch rows, rad²."""
+        azimuth0 = float(self.track.at(s0).azimuth)
+        value, slope, variance = angle_statistics(lambda s: self._chord(s, azimuth0), s0,
+                                                  sigma_s_m)
+        t_c = remainder_correlation_s(sigma_s_m=sigma_s_m, speed_mps=abs(speed_mps),
+                                      step_s=self.config.interval_s)
+        variance = variance * max(1.0, t_c / self.config.interval_s)
+        if sigma_s_m <= STATISTICAL_MIN_SIGMA_M:
+            return None, variance
+        return [azimuth0 + float(value[0]), float(value[1]), float(slope[0]),
+                float(slope[1])], variance
 
     def observations(self, index: int, x: Array, P: Array):
         """``(observations, sv, kind)`` of the rows at the prior ``(x, P)`` (index unused:
@@ -125,8 +168,15 @@ class AttitudeRowBuilder:
         common = [float(pt.azimuth), float(pt.elevation), float(pt.curvature_1pm),
                   float(pt.elevation_rate), float(c.yaw[0]), float(c.pitch[0]),
                   float(c.yaw_rate_1pm[0]), float(c.pitch_rate_1pm[0]), s0]
-        p = np.array([[*np.eye(3)[k], *common] for k in self.axes])
         R = np.array([self.config.sigma_rad[k] ** 2 for k in self.axes])
+        if P is not None:
+            sigma_s = float(np.sqrt(max(P[self.i_s, self.i_s], 0.0)))
+            line, added = self.geometry(s0, sigma_s, float(x[self.i_v]))
+            if line is not None:
+                common[:4] = line
+                common[4:8] = [0.0, 0.0, 0.0, 0.0]
+            R[:2] += added
+        p = np.array([[*np.eye(3)[k], *common] for k in self.axes])
         obs = Observation(self.model, np.zeros((len(self.axes), 1)), R, p)
         return ([obs], np.full(len(self.axes), ATTITUDE_SV, dtype=object),
                 np.array([ATTITUDE_ROW_KINDS[k] for k in self.axes], dtype=object))

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["ChordOffsets", "chord_offsets", "QUADRATURE_NODES", "DEFAULT_BOGIE_SPACING_M",
+__all__ = ["ChordOffsets", "chord_offsets", "chord_angles", "QUADRATURE_NODES", "DEFAULT_BOGIE_SPACING_M",
            "DEFAULT_IMU_OFFSET_M"]
 
 Array = npt.NDArray[np.float64]
@@ -111,3 +111,15 @@ def chord_offsets(track, s: npt.ArrayLike, *, bogie_spacing_m: float = DEFAULT_B
                         pitch=(0.5 * dE @ weights).reshape(shape),
                         yaw_rate_1pm=yaw_rate.reshape(shape),
                         pitch_rate_1pm=pitch_rate.reshape(shape))
+
+
+def chord_angles(track, s: npt.ArrayLike, *, bogie_spacing_m: float = DEFAULT_BOGIE_SPACING_M,
+                 imu_offset_m: float = DEFAULT_IMU_OFFSET_M) -> tuple[Array, Array]:
+    """The chord's azimuth ``A + δψ`` (in [−π, π)) and elevation ``ϑ + δθ`` at ``s``, rad
+    (``s`` clamped to ``[0, L]``; arrays shaped like ``s``)."""
+    s = np.clip(np.asarray(s, dtype=float), 0.0, track.length_m)
+    here = _angles(track, s.reshape(-1))
+    c = chord_offsets(track, s.reshape(-1), bogie_spacing_m=bogie_spacing_m,
+                      imu_offset_m=imu_offset_m)
+    return (_wrap(here["A"] + c.yaw).reshape(s.shape),
+            (here["E"] + c.pitch).reshape(s.shape))

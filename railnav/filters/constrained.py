@@ -38,7 +38,8 @@ from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
-from railnav.filters.scale_noise import bias_step_densities
+from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
+                                          bias_step_densities, step_nodes)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
@@ -108,6 +109,11 @@ class ConstrainedFilter:
         self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
+        #: The previous chunk's mean along-track acceleration, m/s² (None: no chunk yet).
+        self._along_prev: float | None = None
+        self._along_noise = self._bias_noise is not None and along_force_matters(config.imu)
+        #: The latest chunk's last sample ``(t, f_x)`` (the next chunk's mean starts there).
+        self._last_f: tuple[float, float] | None = None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -160,29 +166,64 @@ class ConstrainedFilter:
         if step is None:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
-        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step)
+        along = self._along_accel(t, u, x_prev) if self._along_noise else None
+        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step, sigma_s,
+                                       None if along is None else
+                                       (along if self._along_prev is None
+                                        else self._along_prev, along))
+        self._along_prev = along
         return u, params, variance * remainder_correlation_s(sigma_s_m=sigma_s,
                                                              speed_mps=speed, step_s=step)
 
+    def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
+        """The chunk's time-mean specific force along the body x axis (traction, braking
+        and the grade's share of gravity; trapezoids, so that jitter and dropped samples
+        change it by nothing), bias-corrected at the prior, m/s²
+        (`railnav.filters.scale_noise`)."""
+        f, tt = u[:, 0], t
+        if self._last_f is not None and self._last_f[0] < t[0]:
+            tt = np.concatenate([[self._last_f[0]], t])     # from the previous chunk's end
+            f = np.concatenate([[self._last_f[1]], f])
+        self._last_f = (float(t[-1]), float(u[-1, 0]))
+        span = float(tt[-1] - tt[0]) if tt.size > 1 else 0.0
+        mean = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(tt)) / span) if span > 0.0 \
+            else float(f.mean())
+        return mean - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
+
     def _step_q_c(self, t: Array, s_pred: Array, params: Array, x_prev: Array,
-                  step: float) -> Array:
+                  step: float, sigma_s: float = 0.0,
+                  along: tuple[float, float] | None = None) -> Array:
         """`q_c` for the samples `t`, with what the steps of the predicted path add: the
         sampling error of the rate steps at joints (`railnav.filters.joint_noise`) and
         the bias steps of the unestimated scale factors and misalignments
         (`railnav.filters.scale_noise`; `params`: the grid's track parameters)."""
         steps = np.concatenate([np.diff(t), [step]])
         s_prev, speed = float(x_prev[self._i["s"]]), abs(float(x_prev[self._i["v"]]))
-        found = self._joints.densities(s_prev, s_pred, speed, steps)
+        nodes = step_nodes(sigma_s)
+        found = []
+        for offset, weight in nodes:
+            one = self._joints.densities(s_prev + offset, s_pred + offset, speed, steps)
+            if one is not None:
+                found.append((one[0], weight * one[1]))
         bias = None
-        if self._bias_noise is not None:
-            prev = self._grid.parameters(np.array([min(max(s_prev, 0.0),
+        for offset, weight in nodes if self._bias_noise is not None else ():
+            path = params if offset == 0.0 else self._grid.parameters(
+                np.minimum(np.maximum(s_pred + offset, 0.0), self.track.length_m))[0]
+            prev = self._grid.parameters(np.array([min(max(s_prev + offset, 0.0),
                                                        self.track.length_m)]))[0][0]
-            bias = bias_step_densities(prev, params, speed, self.config.imu, steps)
-        if found is None and bias is None:
+            one = bias_step_densities(prev, path, speed, self.config.imu, steps)
+            if one is not None:
+                bias = weight * one if bias is None else bias + weight * one
+        extra = None if along is None or self._bias_noise is None else \
+            along_step_variances(along[0], along[1], self.config.imu)
+        if extra is not None:
+            span = float(np.sum(steps))
+            extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
+            bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
+        if not found and bias is None:
             return self.q_c
         q = np.tile(self.q_c, (t.size, 1))
-        if found is not None:
-            rows, extra = found
+        for rows, extra in found:
             np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
         if bias is not None:
             q[:, self._bias_noise] += bias

@@ -56,6 +56,7 @@ class Channel:
         self._passes: deque = deque(maxlen=config.readmission_passes)
         self._cusum = [0.0, 0.0]
         self._influence = np.zeros((2, n_states))
+        self._open = [False, False]    # influence added to the side since it was last reset
 
     def admitted_row(self, r: float, failed: bool, clip: float) -> bool:
         """Record a row of the admitted channel; True when the channel becomes excluded.
@@ -75,8 +76,9 @@ class Channel:
         self._cusum = [max(0.0, self._cusum[0] + step - cfg.drift_allowance),
                        max(0.0, self._cusum[1] - step - cfg.drift_allowance)]
         for side in (0, 1):
-            if self._cusum[side] == 0.0:
+            if self._cusum[side] == 0.0 and self._open[side]:
                 self._influence[side] = 0.0
+                self._open[side] = False
         drift = cfg.drift_threshold is not None and max(self._cusum) > cfg.drift_threshold
         if drift or sum(self._failures) >= cfg.exclusion_failures:
             self.excluded, self._drifted = True, drift
@@ -89,6 +91,7 @@ class Channel:
         for side in (0, 1):
             if self._cusum[side] > 0.0:
                 self._influence[side] += delta_x
+                self._open[side] = True
 
     def contamination(self) -> Array:
         """What the channel may have pulled into the state when its drift test excluded
@@ -111,4 +114,5 @@ class Channel:
         self._failures.clear()
         self._cusum = [0.0, 0.0]
         self._influence[:] = 0.0
+        self._open = [False, False]
         return True

@@ -224,6 +224,7 @@ class RowScreen:
     _kind: list[np.ndarray] = field(default_factory=list)
     _channels: dict[str, Channel] = field(default_factory=dict)
     _n_states: int = 0
+    _clip_value: float | None = None
 
     @property
     def last(self) -> EpochScreen | None:
@@ -293,7 +294,8 @@ class RowScreen:
         cfg = self.config
         if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
             return None
-        admitted = np.array([not self._channel(k).excluded for k in keys])
+        channel = self._channel
+        admitted = np.array([not channel(k).excluded for k in keys])
         members = (np.asarray(kind) == JUMP_ROW_KIND)[admitted]
         if members.sum() < MIN_JUMP_ROWS:
             return None
@@ -325,24 +327,32 @@ class RowScreen:
         prob = fault_probability(r * r, prior=cfg.fault_prior, scale=cfg.fault_scale)
         prob = np.where(modes == SCREEN_MODES[2], np.nan, prob)
         failed = prob > cfg.decision_probability
-        clip = float(np.sqrt(cfg.nis_threshold))
+        clip = self._clip()
         excluded = []
-        for i, key in enumerate(keys):
-            if modes[i] != SCREEN_MODES[0]:
-                status[i] = ROW_STATUSES[1] if failed[i] else ROW_STATUSES[0]
+        # Python floats and bools of the rows (the values float(r[i]), bool(failed[i]))
+        for i, (key, mode, r_i, failed_i) in enumerate(zip(keys, modes, r.tolist(),
+                                                           failed.tolist())):
+            if mode != SCREEN_MODES[0]:
+                status[i] = ROW_STATUSES[1] if failed_i else ROW_STATUSES[0]
                 continue
             ch = self._channel(key)
             if ch.excluded:
                 status[i] = ROW_STATUSES[2]
-                if ch.excluded_row(float(r[i]), bool(failed[i])):
+                if ch.excluded_row(r_i, failed_i):
                     log.debug("channel %s re-admitted", key)
-            elif ch.admitted_row(float(r[i]), bool(failed[i]), clip):
+            elif ch.admitted_row(r_i, failed_i, clip):
                 status[i] = ROW_STATUSES[2]
                 excluded.append(key)
                 log.debug("channel %s excluded", key)
-            elif failed[i]:
+            elif failed_i:
                 status[i] = ROW_STATUSES[1]
         return status, prob, excluded
+
+    def _clip(self) -> float:
+        """``√nis_threshold``: the row test's threshold on ``|r|`` (computed once)."""
+        if self._clip_value is None:
+            self._clip_value = float(np.sqrt(self.config.nis_threshold))
+        return self._clip_value
 
     def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
                        H: Array, S: Array, P: Array) -> None:
@@ -352,9 +362,12 @@ class RowScreen:
             return
         H_u = H[used]
         K_t = np.linalg.solve(S[np.ix_(used, used)], H_u @ P)   # Kᵀ, S symmetric
-        for k, (key, nu_k) in enumerate(zip(keys[used], nu[used])):
-            if key in self._channels:
-                self._channels[key].add_influence(K_t[k] * nu_k)
+        delta = K_t * nu[used][:, None]          # row k: K_k ν_k
+        channels = self._channels
+        for key, delta_k in zip(keys[used], delta):
+            channel = channels.get(key)
+            if channel is not None:
+                channel.add_influence(delta_k)
 
     def clear_records(self) -> None:
         """Forget the recorded epochs (`frame`, `last`), keeping the channels' states (a

@@ -55,7 +55,8 @@ import numpy.typing as npt
 
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["statistical_parameters", "remainder_correlation_s", "MAX_CORRELATION_S",
+__all__ = ["statistical_parameters", "remainder_correlation_s", "angle_statistics",
+           "MAX_CORRELATION_S",
            "QUADRATURE_NODES",
            "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
 
@@ -154,6 +155,51 @@ def remainder_correlation_s(*, sigma_s_m: float, speed_mps: float, step_s: float
         return max(step_s, MAX_CORRELATION_S)
     return min(max(2.0 * float(sigma_s_m) / float(speed_mps), step_s),
                max(step_s, MAX_CORRELATION_S))
+
+
+def angle_statistics(angles, s0_m: float, sigma_s_m: float) -> tuple[Array, Array, Array]:
+    """Track angles as functions of an uncertain ``s``: line and remainder over the prior.
+
+    The attitude rows (`railnav.filters.attitude_rows`) compare the body's yaw and pitch with
+    the chord's azimuth and elevation at ``s``, ``g(s)``, linearized about the prior's
+    ``s₀``. Where the geometry bends within ±σ_s (the onset of a curve, a vertical curve)
+    the line ``g(s₀) + g'(s₀)(s − s₀)`` is wrong by far more than the rows' milliradian σ
+    once σ_s is metres, and a row taken at face value then turns the attitude, or ``s``,
+    the wrong way. As for the curvature pseudo-observation (`statistical_parameters`):
+    above `STATISTICAL_MIN_SIGMA_M` the line is the statistical linearization over
+    ``s' ~ N(s₀, σ_s²)`` (mean and regression slope); at any σ_s the remainder
+    ``g(s') − line(s')`` has the variance returned, to be added to the row's (the midpoint
+    rule of `QUADRATURE_NODES` points over ±4σ, offsets capped at `MAX_OFFSET_M`).
+
+    Parameters
+    ----------
+    angles : callable
+        ``angles(s)`` for ``s`` of shape (K,), m: the angles, shape (K, J), rad, continuous
+        in ``s`` (azimuths unwrapped about the value at ``s₀``).
+    s0_m, sigma_s_m : float
+        The prior's mean and standard deviation of ``s``, m.
+
+    Returns
+    -------
+    value, slope, variance : ndarray, shape (J,)
+        The line's value at ``s₀`` (rad) and slope (rad/m), and the remainder's variance
+        (rad²); with σ_s ≤ `STATISTICAL_MIN_SIGMA_M` the local value and slope (central
+        difference over ±σ_s/100, at least 1 mm) of ``angles``.
+    """
+    sigma = max(float(sigma_s_m), 0.0)
+    offsets = np.minimum(np.maximum(sigma * _XI, -MAX_OFFSET_M), MAX_OFFSET_M)
+    g = np.asarray(angles(float(s0_m) + offsets), dtype=float)
+    if sigma > STATISTICAL_MIN_SIGMA_M:
+        mean_d = offsets @ _W
+        centred = offsets - mean_d
+        slope = (centred * _W) @ g / (centred ** 2 @ _W)
+        value = _W @ g - slope * mean_d
+    else:
+        h = max(1e-2 * sigma, 1e-3)
+        ends = np.asarray(angles(float(s0_m) + np.array([-h, 0.0, h])), dtype=float)
+        value, slope = ends[1], (ends[2] - ends[0]) / (2.0 * h)
+    remainder = g - (value[None, :] + slope[None, :] * offsets[:, None])
+    return value, slope, _W @ remainder ** 2
 
 
 def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:

@@ -168,10 +168,18 @@ def track_rows(point, *, earth) -> Array:
     C = C_n_e(point.lat, point.lon)
     u_n = np.asarray(point.u_n, dtype=float)
     rate_per_m = omega_en_n(u_n, float(point.lat), float(point.h), earth=earth)
-    k_e = C @ (np.asarray(point.du_ds_n, dtype=float) + np.cross(rate_per_m, u_n))
+    k_e = C @ (np.asarray(point.du_ds_n, dtype=float) + _cross3(rate_per_m, u_n))
     j_e = C @ np.asarray(point.d2u_ds2_n, dtype=float)
     return np.concatenate([[float(point.s)], np.asarray(point.r_e, dtype=float), C @ u_n, k_e,
                            j_e])
+
+
+def _cross3(a: Array, b: Array) -> Array:
+    """``np.cross(a, b)`` of two 3-vectors, the same products and differences in the same
+    order (the same bits), without `np.cross`'s generic axis handling (~10 µs a call)."""
+    a0, a1, a2 = a.tolist()
+    b0, b1, b2 = b.tolist()
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def pseudorange_parameters(track_part: Array, prepared: PreparedEpoch,

@@ -22,8 +22,43 @@ variance of a change of ``x²``, ``σ² |Δ(x²)|``, summed over the steps of a 
 from 0 to ``X``, is ``σ² X²``, exactly the variance of the bias step whether the change
 takes one step (an arc without transition) or a whole clothoid. A curve's exit adds as
 much again although the true bias returns to its value before the curve: the filter is
-conservative there, not overconfident. The along-track acceleration (traction and
-braking, ≲ 1 m/s²) is left out: its share is below the bias instability of every grade.
+conservative there, not overconfident.
+
+**The along-track specific force** ``a`` (traction and braking, ≲ 1 m/s², and the
+grade's share of gravity, ``g sin ϑ``: 0.1 m/s² per 1 % of grade) steps the effective
+bias too: by ``σ_sf Δa`` on the x axis and ``σ_m Δa`` on y and z. For the MEMS grade
+(1000 ppm, 1 mrad) that is 1 mm/s² per m/s², twice its bias instability (50 µg), and as
+``g δθ`` it is a pitch error of 0.1 mrad: on ``curvy`` (MEMS, seed 1) the pitch's mean
+z² was 2.6 with the grade's accelerometer scale factors and misalignments, 0.9 without
+(NEES 10.5 and 5.3 for 7 states). The filter gives it from the chunk's mean along-track
+specific force ``ā = mean(f_x) − b_ax`` at the prior (the chunk: the samples
+between two epochs, ~1 s; the mean, not the samples, whose white noise would make
+``Σ|Δ(a²)|`` grow without a change of ``a``), its change from the previous chunk given at
+a density over the chunk's time (`along_step_variances` divided by the chunk's duration;
+the chunk's mean is a time mean from the previous chunk's last sample). Only for grades
+where it matters (`along_force_matters`: ``max(σ_sf, σ_m) × 1 m/s²`` above the
+accelerometer's bias instability — MEMS, not the tactical grade: 0.3 mm/s² against
+0.49 mm/s², nor the navigation grade): with the tactical grade it moved a jittered
+log's estimate from the uniform record's by 1.1 mm instead of 0.4 mm
+(tests/railnav/navigation/test_jittered_imu.py, tolerance 1 mm), for a variance below the
+bias's own.
+
+**When, along the predicted path.** The IMU sees the step when the *true* train crosses
+the joint; the filter's predicted path crosses it up to a few σ_s earlier or later. Given
+at the predicted crossing only, the variance comes one or more samples late whenever the
+estimate is behind the truth, and the pseudo-observation of those samples, which already
+carries the true ``(S + M) Δx_d``, is explained by the attitude at the bias's old, tiny
+σ: at 100 m/s on R 100 m (tactical, seed 2) the roll σ fell from 0.45 mrad to 13 µrad in
+the entry's first sample while the roll error stayed at 0.23 mrad (NEES 188 for 7 states;
+the grade's accelerometer misalignment alone: roll z² 141, no scale factor or
+misalignment: NEES 12). The filter therefore gives the steps over the prior of ``s``
+(`step_nodes`: the predicted path shifted by a 5-point Gauss–Hermite rule in σ_s, each
+path's steps weighted by its node's weight), so that the bias variance grows as the
+probability that the truth has crossed, the total still ``σ² X²``. Giving it all 3σ_s
+early instead (a lead) overshoots: the bias then loosens on the straight, where the
+pseudo-observation ties it again before the truth's step (seed 2: NEES 18 with a 3σ lead,
+39 with 6σ; 11-12 spread). The sampling error of the rate step
+(`railnav.filters.joint_noise`) is spread over the same paths.
 """
 from __future__ import annotations
 
@@ -33,23 +68,38 @@ import numpy.typing as npt
 from strapdown.imu_errors import ImuErrors
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["bias_step_densities", "kinematic_inputs"]
+__all__ = ["bias_step_densities", "kinematic_inputs", "step_nodes", "along_step_variances",
+           "along_force_matters", "TYPICAL_ALONG_CHANGE_MPS2"]
 
 Array = npt.NDArray[np.float64]
 
 _U = slice(TRACK_PARAMETER_NAMES.index("u_E"), TRACK_PARAMETER_NAMES.index("u_U") + 1)
 _DU = slice(TRACK_PARAMETER_NAMES.index("du_E_ds"), TRACK_PARAMETER_NAMES.index("du_U_ds") + 1)
 _PPM = 1e-6
+#: Gauss–Hermite nodes (in σ_s) and weights of the steps' spread (module docstring).
+_GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(5)
+_GH_W = _GH_W / _GH_W.sum()
 
 
-def kinematic_inputs(params: Array, speed_mps: float) -> tuple[Array, Array]:
+def step_nodes(sigma_s_m: float) -> list[tuple[float, float]]:
+    """Offsets (m) and weights of the paths along which the steps are given: the prior
+    of ``s`` by a 5-point Gauss–Hermite rule (one path, offset 0, when σ_s is 0)."""
+    sigma = max(float(sigma_s_m), 0.0)
+    if sigma == 0.0:
+        return [(0.0, 1.0)]
+    return [(float(sigma * x), float(w)) for x, w in zip(_GH_X, _GH_W)]
+
+
+def kinematic_inputs(params: Array, speed_mps: float, along_mps2=None
+                     ) -> tuple[Array, Array]:
     """The track's kinematic specific force and angular rate in body axes (x forward,
-    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s).
+    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s); with
+    `along_mps2` (scalar or (N,)), the along-track acceleration as the x component.
 
     Returns
     -------
     f_d : ndarray, shape (N, 3)
-        ``[0, v² l·du/ds, v² n·du/ds]``, m/s².
+        ``[a, v² l·du/ds, v² n·du/ds]``, m/s² (``a`` 0 without `along_mps2`).
     omega_d : ndarray, shape (N, 3)
         ``[0, −v n·du/ds, v l·du/ds]`` (pitch and yaw rate), rad/s.
     """
@@ -58,8 +108,10 @@ def kinematic_inputs(params: Array, speed_mps: float) -> tuple[Array, Array]:
     k_l = np.einsum("ni,ni->n", lateral, du)
     k_n = np.einsum("ni,ni->n", normal, du)
     zero = np.zeros_like(k_l)
+    along = zero if along_mps2 is None else np.broadcast_to(
+        np.asarray(along_mps2, dtype=float), k_l.shape)
     v = float(speed_mps)
-    return (np.column_stack([zero, v * v * k_l, v * v * k_n]),
+    return (np.column_stack([along, v * v * k_l, v * v * k_n]),
             np.column_stack([zero, -v * k_n, v * k_l]))
 
 
@@ -102,3 +154,34 @@ def bias_step_densities(params_prev: Array, params: Array, speed_mps: float, imu
         return None
     variance = np.hstack([_axis_variances(d_f, sf_a, m_a), _axis_variances(d_w, sf_g, m_g)])
     return variance / np.asarray(step_s, dtype=float)[:, None]
+
+
+def along_step_variances(along_prev_mps2: float, along_mps2: float, imu: ImuErrors
+                         ) -> Array | None:
+    """Variances of the accelerometer biases' step from a change of the along-track
+    specific force (module docstring), ``[x, y, z]``, (m/s²)²; None without a change or
+    without scale factors and misalignments.
+
+    Parameters
+    ----------
+    along_prev_mps2, along_mps2 : float
+        The previous and the current chunk's mean along-track specific force, m/s².
+    imu : ImuErrors
+    """
+    sf, m = imu.accel_scale_factor_ppm * _PPM, imu.accel_misalignment_rad
+    change = abs(float(along_mps2) ** 2 - float(along_prev_mps2) ** 2)
+    if change == 0.0 or sf == m == 0.0:
+        return None
+    return _axis_variances(np.array([[change, 0.0, 0.0]]), sf, m)[0]
+
+
+#: The along-track specific force change the gate of `along_force_matters` assumes, m/s².
+TYPICAL_ALONG_CHANGE_MPS2 = 1.0
+
+
+def along_force_matters(imu: ImuErrors) -> bool:
+    """Whether the along-track specific force's bias steps are modelled for `imu`:
+    ``max(σ_sf, σ_m) · TYPICAL_ALONG_CHANGE_MPS2`` above the accelerometer bias
+    instability (module docstring)."""
+    share = max(imu.accel_scale_factor_ppm * _PPM, imu.accel_misalignment_rad)
+    return share * TYPICAL_ALONG_CHANGE_MPS2 > imu.accel_bias_instability_mps2

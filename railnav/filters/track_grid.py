@@ -13,6 +13,7 @@ short queries).
 from __future__ import annotations
 
 from dataclasses import fields
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -27,6 +28,11 @@ Array = npt.NDArray[np.float64]
 GRID_STEP_M = 0.5
 #: Length of track sampled per window, m (re-sampled when the vehicle leaves it).
 GRID_WINDOW_M = 2000.0
+
+
+@lru_cache(maxsize=8)
+def _field_names(cls) -> tuple[str, ...]:
+    return tuple(f.name for f in fields(cls))
 
 
 class TrackParameterGrid:
@@ -75,5 +81,6 @@ class TrackParameterGrid:
 
     def point(self, index: int):
         """The scalar `trackmodel.TrackPoint` of node `index` (of the current window)."""
-        return type(self._points)(**{f.name: getattr(self._points, f.name)[index]
-                                     for f in fields(self._points)})
+        points = self._points
+        return type(points)(**{name: getattr(points, name)[index]
+                               for name in _field_names(type(points))})

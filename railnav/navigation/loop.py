@@ -139,9 +139,11 @@ class ChunkLoop:
 
 
 def _watched(monitor, time_s: float, rows, x: Array, P: Array):
-    """`rows` at the prior ``x, P``, the prior first given to `monitor`."""
-    monitor.prior(time_s, x, P)
-    return rows(x, P)
+    """`rows` at the prior ``x, P``, given to `monitor` with the prior (its snapshot fix
+    is solved from them)."""
+    observations = rows(x, P)
+    monitor.prior(time_s, x, P, observations)
+    return observations
 
 
 def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:

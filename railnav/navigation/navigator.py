@@ -44,7 +44,7 @@ from railnav.filters.protocol import Filter, filter_kind, make_filter
 from railnav.navigation.fix_start import initial_from_fixes
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
-from railnav.navigation.monitor import FilterMonitor, fix_log_track_fixes, spp_track_fixes
+from railnav.navigation.monitor import FilterMonitor, fix_log_track_fixes, spp_fix_at
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.sensors import imu_at_reference, track_sensor_epochs
 
@@ -124,19 +124,29 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         monitor=None if loop.monitor is None else loop.monitor.frame())
 
 
-def run_monitor(filt, data: SensorData, config: NavigatorConfig, fixes=None, *,
+def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=None, *,
                 start_s: float = 0.0) -> FilterMonitor | None:
     """The divergence monitor of a run (`railnav.navigation.monitor`): for a track-based
-    filter with ``config.monitor.enabled``, fed the run's position fixes or, without them,
-    the single-point fixes of its GNSS observations from `start_s` on; None otherwise."""
+    filter with ``config.monitor.enabled``; None otherwise. Its fix test solves each
+    epoch's own rows on the track (`railnav.navigation.monitor.snapshot_fix`); a recovery
+    restarts from the run's position fix of the epoch or, without fixes, from the
+    single-point fix of its GNSS observations, solved then (`spp_fix_at`; `data` None, a
+    streamed run: the restart widens the covariance only). `start_s` is
+    kept for callers (unused: nothing is solved ahead)."""
     names = getattr(getattr(filt, "layout", None), "names", ())
     if not config.monitor.enabled or "s" not in names or "v" not in names \
             or getattr(filt, "track", None) is None:
         return None
-    track_fixes = fix_log_track_fixes(filt.track, fixes, filt=filt, config=config) \
-        if fixes is not None else spp_track_fixes(filt.track, data, config, start_s=start_s,
-                                                  filt=filt)
-    return FilterMonitor(filt.layout, track_fixes, config.monitor, config.gate_probability)
+    screen = getattr(filt, "screen", None)
+    if fixes is not None:
+        return FilterMonitor(filt.layout, fix_log_track_fixes(filt.track, fixes, filt=filt,
+                                                              config=config),
+                             config.monitor, config.gate_probability, screen=screen)
+    fix_at = spp_fix_at(filt.track, data, config, filt=filt) \
+        if data is not None and data.obs is not None and data.nav is not None else None
+    return FilterMonitor(filt.layout, None, config.monitor, config.gate_probability,
+                         fix_at=fix_at, screen=screen,
+                         pseudorange_inflation=getattr(filt, "pseudorange_inflation", 1.0))
 
 
 @dataclass(frozen=True, eq=False)

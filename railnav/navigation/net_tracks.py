@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from trackmodel.network import END, START, Network, chain_tracks, reversed_track
+from trackmodel.network import END, START, Network, chain_tracks
 from trackmodel.network_lines import TRANSITION_MAX_M, tail_sections
 from trackmodel.track import Track
 
@@ -80,8 +80,7 @@ class OrientedTracks:
         """The track of `element` travelled in `orientation` (+1 its own, -1 reversed)."""
         key = (element, int(orientation))
         if key not in self._tracks:
-            own = self.network.elements[element]
-            self._tracks[key] = own if orientation == 1 else reversed_track(own)
+            self._tracks[key] = self.network.oriented(element, orientation)
         return self._tracks[key]
 
     def placed(self, pieces) -> Track:

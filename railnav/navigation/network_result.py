@@ -159,11 +159,18 @@ def _element_log_likelihoods(hyps, log_lik) -> dict[str, float]:
     reweighted ``log w_k⁺ = log w_k⁻ + log L_k`` (one hypothesis: its own ``log L``)."""
     post: dict[str, list[float]] = {}
     prior: dict[str, list[float]] = {}
-    for h, ll in zip(hyps, np.asarray(log_lik, dtype=float)):
+    for h, ll in zip(hyps, np.asarray(log_lik, dtype=float).tolist()):
         post.setdefault(h.element, []).append(h.log_weight)
         prior.setdefault(h.element, []).append(h.log_weight - ll)
-    return {e: float(logsumexp(np.array(post[e])) - logsumexp(np.array(prior[e])))
-            for e in post}
+    return {e: _logsumexp(post[e]) - _logsumexp(prior[e]) for e in post}
+
+
+def _logsumexp(values: list[float]) -> float:
+    """`ekf.bank.logsumexp` of a list, one value without NumPy (``log e^a = a``: the same
+    number, ``a + 0``)."""
+    if len(values) == 1:
+        return values[0] + 0.0
+    return float(logsumexp(np.array(values)))
 
 
 def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:

@@ -32,14 +32,15 @@ import numpy as np
 import numpy.typing as npt
 import scipy.linalg as sla
 
-from ekf.bank import imm_starts, log_predict, uniform_switching
+from ekf.bank import imm_mixing, imm_starts, log_predict, uniform_switching
 from railnav.errors import RailnavError
 from railnav.navigation.bank import common_log_likelihoods, evidence_rows, moved_state
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
+from trackmodel.network_points import points_on
 
 __all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
-           "reweight", "mix_states", "converted"]
+           "reweight", "mix_states", "converted", "converted_pairs"]
 
 Array = npt.NDArray[np.float64]
 
@@ -80,9 +81,9 @@ def hypothesis_points(hyps, tracks, outcome=None) -> tuple[Array, Array]:
         return r, u
     if outcome is not None and outcome.points is not None:
         return outcome.points
-    for k, h in enumerate(hyps):
-        track = h.filt.track
-        p = track.at(min(max(h.s_m, 0.0), track.length_m))
+    tracks = [h.filt.track for h in hyps]
+    points = points_on(tracks, [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)])
+    for k, p in enumerate(points):
         r[k] = p.r_e
         u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
     return r, u
@@ -118,11 +119,33 @@ def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float)
     abreast, in closed form (`ekf.bank.uniform_switching`) where every one of a group is
     abreast of all the others (a double line, parallel tracks), `scipy.linalg.expm` else.
     Rows sum to 1; the exact chain, so that the probabilities of hypotheses abreast
-    relax in an outage as the chain does (two: ``μ − ½ ∝ e^{−2εt}``)."""
+    relax in an outage as the chain does (two: ``μ − ½ ∝ e^{−2εt}``). Read-only (kept
+    for the cycles that ask again)."""
+    K = len(neighbours)
+    if rate_per_s == 0.0 or dt_s <= 0.0:
+        return np.eye(K)
+    key = (tuple(tuple(nb) for nb in neighbours), float(rate_per_s), float(dt_s))
+    Pi = _CROSSINGS.get(key)
+    if Pi is None:
+        Pi = _crossing_matrix(neighbours, rate_per_s, dt_s)
+        Pi.flags.writeable = False
+        if len(_CROSSINGS) >= MAX_CROSSINGS:
+            _CROSSINGS.clear()
+        _CROSSINGS[key] = Pi
+    return Pi
+
+
+#: Crossing matrices computed, by (abreast lists, rate, interval): cycles repeat them (the
+#: same hypotheses abreast, the same interval), and `scipy.linalg.expm` costs ~10 ms.
+_CROSSINGS: dict[tuple, Array] = {}
+#: Matrices remembered at most (then forgotten together).
+MAX_CROSSINGS = 1000
+
+
+def _crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
+    """`crossing_matrix` computed."""
     K = len(neighbours)
     Pi = np.eye(K)
-    if rate_per_s == 0.0 or dt_s <= 0.0:
-        return Pi
     for group in _linked_groups(neighbours):
         n = len(group)
         if all(len(neighbours[i]) == n - 1 for i in group):
@@ -170,13 +193,22 @@ def reweight(hyps, log_lik: Array, transition: Array) -> None:
 
 
 def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
-    """IMM restarts of the hypotheses that have something abreast (module docstring, 3)."""
+    """IMM restarts of the hypotheses that have something abreast (module docstring, 3).
+
+    The states of all pairs the mixing uses are converted first, together
+    (`converted_pairs`: the track points of all pairs in two evaluations instead of two per
+    pair; the same numbers)."""
     K = len(hyps)
     if K < 2 or np.allclose(transition, np.eye(K)):
         return
+    _, uses = imm_mixing(mu, transition, min_weight)
+    pairs = [(i, j) for j, use in enumerate(uses) if use != [j] for i in use if i != j]
+    done = converted_pairs([hyps[i].filt for i, _ in pairs], [hyps[j].filt for _, j in pairs],
+                           [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs])
+    table = dict(zip(pairs, done))
 
     def convert(i: int, j: int, x: Array, P: Array):
-        return converted(hyps[i].filt, hyps[j].filt, x, P)
+        return table[(i, j)]
 
     x0, P0 = imm_starts(mu, transition, [h.x for h in hyps], [h.P for h in hyps],
                         convert=convert, min_weight=min_weight)
@@ -192,21 +224,70 @@ NEWTON_MAX_STEP_M = 1.0
 MAX_OFFSETS = 10_000
 
 
-def _target_s(source, target, p_src, s_src: float) -> float:
-    """``s`` of the point of `target`'s track nearest `source`'s point at ``s_src``: one
-    Newton step along the target's tangent from the offset last found for the pair
-    (once the offset of the pair is known), else the projection."""
-    key = (id(source.track), id(target.track))
+def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> list[float]:
+    """``s`` of the point of each target's track nearest its source's point ``p_src`` at
+    ``s_src``: one Newton step along the target's tangent from the offset last found for
+    the pair of tracks (once the offset of the pair is known), else the projection.
+
+    Pairs are taken in order; a pair of tracks met again within the batch starts from the
+    offset its previous occurrence found (waves: the k-th occurrences together).
+    `first_points`: a callable giving the first wave's Newton points on the targets (made
+    with the sources' points in one evaluation, `converted_pairs`)."""
+    keys = [(id(a.track), id(b.track)) for a, b in zip(sources, targets)]
+    seen: dict[tuple[int, int], int] = {}
+    waves: list[list[int]] = []
+    for k, key in enumerate(keys):
+        n = seen.get(key, 0)
+        seen[key] = n + 1
+        if n == len(waves):
+            waves.append([])
+        waves[n].append(k)
+    out = [0.0] * len(keys)
+    for wave in waves:
+        if len(_OFFSETS) + len(wave) > MAX_OFFSETS:      # where the table is cleared: as
+            for k in wave:                               # pair by pair
+                out[k] = _one_target_s(sources[k], targets[k], p_src[k], s_src[k], keys[k])
+            continue
+        guessed = [k for k in wave if keys[k] in _OFFSETS]
+        s_g = [min(max(s_src[k] + _OFFSETS[keys[k]], 0.0), targets[k].track.length_m)
+               for k in guessed]
+        points = first_points(guessed, s_g) if first_points is not None and wave is waves[0] \
+            else points_on([targets[k].track for k in guessed], s_g)
+        newton = {k: (p, g) for k, p, g in zip(guessed, points, s_g)}
+        for k in wave:
+            found = None
+            if k in newton:
+                found = _newton(newton[k][0], p_src[k], newton[k][1])
+            if found is None:
+                found = _projected(targets[k], p_src[k])
+            _OFFSETS[keys[k]] = found - s_src[k]
+            out[k] = found
+    return out
+
+
+def _newton(p_g, p_src, s_g: float) -> float | None:
+    """``s`` one Newton step from ``s_g`` (its point `p_g`) towards the point nearest
+    `p_src`; None when the step is longer than `NEWTON_MAX_STEP_M`."""
+    tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
+    step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
+    return s_g + step if abs(step) <= NEWTON_MAX_STEP_M else None
+
+
+def _projected(target, p_src) -> float:
+    """``s`` of the projection of `p_src` onto `target`'s track."""
+    return float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
+
+
+def _one_target_s(source, target, p_src, s_src: float, key) -> float:
+    """`_target_s` of one pair, the offsets table cleared when it is full."""
     guess = _OFFSETS.get(key)
     if guess is not None:
         s_g = min(max(s_src + guess, 0.0), target.track.length_m)
-        p_g = target.track.at(s_g)
-        tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
-        step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
-        if abs(step) <= NEWTON_MAX_STEP_M:
-            _OFFSETS[key] = s_g + step - s_src
-            return s_g + step
-    s_tgt = float(target.track.project(p_src.lat, p_src.lon, p_src.h).s[0])
+        found = _newton(target.track.at(s_g), p_src, s_g)
+        if found is not None:
+            _OFFSETS[key] = found - s_src
+            return found
+    s_tgt = _projected(target, p_src)
     if len(_OFFSETS) > MAX_OFFSETS:
         _OFFSETS.clear()
     _OFFSETS[key] = s_tgt - s_src
@@ -217,14 +298,58 @@ def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     """`railnav.navigation.bank.convert_state` (``s`` by `_target_s`), and for filters
     whose speed is signed also between tracks that run opposite ways there: ``s`` from the
     projection, ``v`` (and its covariances) negated."""
+    return converted_pairs([source], [target], [x], [P])[0]
+
+
+def converted_pairs(sources, targets, xs, Ps) -> list[tuple[Array, Array]]:
+    """`converted` of each pair ``(sources[k], targets[k], xs[k], Ps[k])``, in order, the
+    track points of all pairs evaluated together (`trackmodel.network_points.points_on`:
+    the same numbers as `trackmodel.track.Track.at` point by point)."""
+    if not sources:
+        return []
+    s_raw = [float(x[f.layout.index("s")]) for x, f in zip(xs, sources)]
+    s_src = [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_raw, sources)]
+    # the sources' points and the first Newton points need nothing from each other: together
+    first = _first_wave(sources, targets, s_src)
+    both = points_on([f.track for f in sources] + [targets[k].track for k in first],
+                     s_src + list(first.values()))
+    p_src = both[:len(sources)]
+    newton = dict(zip(first, both[len(sources):]))
+
+    def first_points(guessed, s_g):
+        if all(k in newton for k in guessed):
+            return [newton[k] for k in guessed]
+        return points_on([targets[k].track for k in guessed], s_g)
+
+    s_tgt = _target_s(sources, targets, p_src, s_src, first_points)
+    p_tgt = points_on([f.track for f in targets],
+                      [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)])
+    return [_converted(*args) for args in zip(sources, xs, Ps, s_raw, s_src, s_tgt, p_src,
+                                              p_tgt)]
+
+
+def _first_wave(sources, targets, s_src: list) -> dict[int, float]:
+    """``s_g`` of the pairs of `_target_s`'s first wave that have an offset to start from,
+    by pair index (what `_target_s` computes for them; the table is read, not changed)."""
+    out, seen = {}, set()
+    if len(_OFFSETS) + len(sources) > MAX_OFFSETS:
+        return out
+    for k, (a, b) in enumerate(zip(sources, targets)):
+        key = (id(a.track), id(b.track))
+        if key in seen:
+            continue
+        seen.add(key)
+        if key in _OFFSETS:
+            out[k] = min(max(s_src[k] + _OFFSETS[key], 0.0), b.track.length_m)
+    return out
+
+
+def _converted(source, x: Array, P: Array, s_raw: float, s_src: float, s_tgt: float,
+               p_src, p_tgt) -> tuple[Array, Array]:
+    """`converted` of one pair once the track points are known."""
     lay = source.layout
-    s_src = min(max(float(x[lay.index("s")]), 0.0), source.track.length_m)
-    p_src = source.track.at(s_src)
-    s_tgt = _target_s(source, target, p_src, s_src)
-    p_tgt = target.track.at(min(max(s_tgt, 0.0), target.track.length_m))
     if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0:
-        out = moved_state(source, x, s_tgt + (float(x[lay.index("s")]) - s_src), p_src,
-                          p_tgt)
+        out = moved_state(source, x, s_tgt + (s_raw - s_src), p_src, p_tgt)
         return out, P
     if not _signed_speed(source):
         raise RailnavError(f"the tracks run opposite ways at s = {s_src:.1f} m: an "
@@ -232,5 +357,5 @@ def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     flip = np.ones(x.size)
     flip[lay.index("v")] = -1.0
     out = x * flip
-    out[lay.index("s")] = s_tgt + (float(x[lay.index("s")]) - s_src) * -1.0
+    out[lay.index("s")] = s_tgt + (s_raw - s_src) * -1.0
     return out, P * np.outer(flip, flip)

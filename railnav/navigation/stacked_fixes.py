@@ -47,6 +47,8 @@ Array = npt.NDArray[np.float64]
 
 #: Node spacing of the track tables, m.
 GRID_STEP_M = 0.5
+#: Sets of hypotheses' elements whose table positions are kept (then forgotten together).
+MAX_KEY_SETS = 256
 
 
 def stackable(config, trip) -> bool:
@@ -65,6 +67,7 @@ class FixGrid:
         self._parts: dict[str, list] = {n: [] for n in names}
         self._table: dict[str, Array] | None = None
         self._size = 0
+        self._keyed: dict[tuple, tuple[Array, Array]] = {}   # keys -> lengths, offsets
 
     def _add(self, key: tuple[str, int]) -> None:
         track = self.tracks.track(*key)
@@ -90,9 +93,16 @@ class FixGrid:
         if self._table is None:
             self._table = {n: np.concatenate(v) for n, v in self._parts.items()}
         tab = self._table
-        length = np.array([self._length[k] for k in keys])
-        node = np.rint(np.clip(s, 0.0, length) / GRID_STEP_M)
-        idx = np.array([self._offset[k] for k in keys]) + node.astype(int)
+        cached = self._keyed.get(tuple(keys))
+        if cached is None:
+            cached = (np.array([self._length[k] for k in keys]),
+                      np.array([self._offset[k] for k in keys]))
+            if len(self._keyed) >= MAX_KEY_SETS:
+                self._keyed.clear()
+            self._keyed[tuple(keys)] = cached
+        length, offset = cached
+        node = np.rint(np.minimum(np.maximum(s, 0.0), length) / GRID_STEP_M)  # np.clip
+        idx = offset + node.astype(int)
         d = s - np.minimum(node * GRID_STEP_M, length)     # beyond an end: extrapolated
         C, u, du = tab["C"][idx], tab["u"][idx], tab["du"][idx]
         step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
@@ -101,15 +111,21 @@ class FixGrid:
                 "E": tab["E"][idx] + tab["dE"][idx] * d, "h": tab["h"][idx] + u[:, 2] * d}
 
 
-def _axes(pt: dict) -> dict[str, Array]:
-    """ENU unit vectors of the track frame at the points (`railnav.filters.fix_rows`)."""
-    A, E = pt["A"], pt["E"]
-    sa, ca, se = np.sin(A), np.cos(A), np.sin(E)
-    along_h, cross, up = (np.zeros((A.size, 3)) for _ in range(3))
+def _axes(pt: dict, up: bool = True) -> dict[str, Array]:
+    """ENU unit vectors of the track frame at the points (`railnav.filters.fix_rows`);
+    without ``"up"`` unless `up`."""
+    A = pt["A"]
+    sa, ca = np.sin(A), np.cos(A)
+    along_h, cross = np.zeros((A.size, 3)), np.zeros((A.size, 3))
     along_h[:, 0], along_h[:, 1] = sa, ca
     cross[:, 0], cross[:, 1] = ca, -sa
-    up[:, 0], up[:, 1], up[:, 2] = -se * sa, -se * ca, np.cos(E)
-    return {"along": pt["u"], "along_h": along_h, "cross": cross, "up": up}
+    out = {"along": pt["u"], "along_h": along_h, "cross": cross}
+    if up:
+        E = pt["E"]
+        se = np.sin(E)
+        out["up"] = np.zeros((A.size, 3))
+        out["up"][:, 0], out["up"][:, 1], out["up"][:, 2] = -se * sa, -se * ca, np.cos(E)
+    return out
 
 
 def _dot(a: Array, b: Array) -> Array:
@@ -161,6 +177,7 @@ class StackedFixStepper:
         zero = np.zeros(len(fx))
         self._r0 = geodetic_to_ecef(fx.lat, fx.lon, zero)
         self._normal = geodetic_to_ecef(fx.lat, fx.lon, zero + 1.0) - self._r0
+        self._label_sets: dict[tuple, np.ndarray] = {}
 
     def step(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """Propagate every hypothesis from sample `a` to sample `b` and update it there
@@ -177,9 +194,11 @@ class StackedFixStepper:
             x, P, screens, evidence, rows = self._update(keys, x, P, pt, fix)
         for k, h in enumerate(hyps):
             h.x, h.P = x[k].copy(), P[k].copy()
-        tangent = np.einsum("kij,kj->ki", pt["C"], pt["u"])
+        points = None               # one hypothesis has nothing abreast (hypothesis_points)
+        if len(hyps) > 1:
+            points = (pt["r"], np.einsum("kij,kj->ki", pt["C"], pt["u"]))
         return CycleOutcome(screens, None, None, (b - a) * len(hyps), False,
-                            evidence=evidence, evidence_rows=rows, points=(pt["r"], tangent))
+                            evidence=evidence, evidence_rows=rows, points=points)
 
     def _propagate(self, x: Array, P: Array, steps: Array) -> Array:
         """``x`` in place and the new ``P`` after the steps (module docstring): the
@@ -206,8 +225,8 @@ class StackedFixStepper:
         """The fix rows at the prior: names, innovations (K, m), ∂h/∂[s, v] (K, m, 2) and
         variances (K, m) (`railnav.filters.fix_rows`)."""
         fx, cfg = self.fixes, self.config.fix_model
-        ax = _axes(pt)
         has_h = cfg.use_height and bool(np.isfinite(fx.h_m[f]))
+        ax = _axes(pt, up=has_h)
         h = np.full(x.shape[0], fx.h_m[f]) if has_h else pt["h"]
         r_fix = self._r0[f] + h[:, None] * self._normal[f]
         d_n = np.einsum("kji,kj->ki", pt["C"], r_fix - pt["r"])
@@ -222,7 +241,7 @@ class StackedFixStepper:
         for kind, a, extra, h_s in spec:
             names.append(kind)
             nu.append(_dot(a, d_n))
-            H.append(np.column_stack([h_s, np.zeros(K)]))
+            H.append((h_s, None))                    # ∂/∂v: 0
             R.append(np.einsum("ki,ij,kj->k", a, cov, a) + extra)
         v = fx.v_n_mps[f]
         if cfg.use_speed and np.all(np.isfinite(v[:2])):
@@ -230,15 +249,23 @@ class StackedFixStepper:
             au = _dot(a, pt["u"])
             names.append("fix_speed")
             nu.append(a @ np.nan_to_num(v) - x[:, 1] * au)
-            H.append(np.column_stack([x[:, 1] * _dot(a, pt["du"]), au]))
+            H.append((x[:, 1] * _dot(a, pt["du"]), au))
             R.append(np.full(K, float(fx.sigma_speed_mps[f]) ** 2))
-        return names, np.stack(nu, 1), np.stack(H, 1), np.stack(R, 1)
+        return names, np.stack(nu, 1), H, np.stack(R, 1)
+
+    @staticmethod
+    def _jacobian(H: list) -> Array:
+        """`_rows`' ``(∂/∂s, ∂/∂v)`` of each row (None: 0) as (K, m, 2)."""
+        K = H[0][0].shape[0]
+        return np.stack([np.column_stack([h_s, np.zeros(K) if h_v is None else h_v])
+                         for h_s, h_v in H], 1)
 
     def _update(self, keys, x: Array, P: Array, pt: dict, f: int):
         """Screen, gate and update with fix `f`; the evidence (module docstring)."""
         names, nu, H, R = self._rows(pt, x, f)
         if "fix_speed" not in names:                 # one row on s: scalar arithmetic
-            return self._scalar_update(names, x, P, nu, H[:, 0, 0], R, f)
+            return self._scalar_update(names, x, P, nu, H[0][0], R, f)
+        H = self._jacobian(H)
         S = np.einsum("kma,kab,knb->kmn", H, P, H) + np.einsum("km,mn->kmn", R,
                                                                np.eye(R.shape[1]))
         r2 = nu ** 2 / np.diagonal(S, axis1=1, axis2=2)
@@ -253,8 +280,7 @@ class StackedFixStepper:
         A = np.eye(2)[None] - np.einsum("kam,kmb->kab", gain, Hk)
         P = np.einsum("kab,kbc,kdc->kad", A, P, A) + np.einsum("kam,km,kbm->kab", gain, R, gain)
         P = 0.5 * (P + P.transpose(0, 2, 1))
-        quality = FIX_SV_PREFIX + str(self.fixes.quality[f])
-        labels = np.array([f"{quality}/{n}" for n in names], dtype=object)
+        labels = self._labels(names, f)
         screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
         if not passed.any():
             return x, P, screens, np.zeros(x.shape[0]), 0
@@ -263,6 +289,17 @@ class StackedFixStepper:
         log_det = 2.0 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
         evidence = -0.5 * (np.sum(white ** 2, axis=1) + log_det + nu.shape[1] * LOG_2PI)
         return x, P, screens, evidence, int(nu.shape[1])
+
+    def _labels(self, names, f: int):
+        """The row keys of fix `f` (``fix_sv/QUALITY/kind``), one array per quality and
+        kinds (read-only: shared by the cycles)."""
+        key = (str(self.fixes.quality[f]), tuple(names))
+        out = self._label_sets.get(key)
+        if out is None:
+            out = np.array([f"{FIX_SV_PREFIX}{key[0]}/{n}" for n in names], dtype=object)
+            out.flags.writeable = False
+            self._label_sets[key] = out
+        return out
 
     def _scalar_update(self, names, x: Array, P: Array, nu: Array, h: Array, R: Array,
                        f: int):
@@ -279,9 +316,9 @@ class StackedFixStepper:
         x = x + gain * nu[:, :1]
         P = P - np.einsum("ka,kb->kab", gain, gain) * var[:, 0][:, None, None]
         P = 0.5 * (P + P.transpose(0, 2, 1))
-        quality = FIX_SV_PREFIX + str(self.fixes.quality[f])
-        labels = np.array([f"{quality}/{n}" for n in names], dtype=object)
-        S = np.einsum("km,mn->kmn", var, np.eye(var.shape[1]))
+        labels = self._labels(names, f)
+        S = np.zeros(var.shape + var.shape[1:])
+        S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var   # diag(var), as einsum
         screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
         if not passed.any():
             return x, P, screens, np.zeros(x.shape[0]), 0

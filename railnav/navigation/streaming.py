@@ -7,7 +7,10 @@ come (`railnav.navigation.loop.ChunkLoop`: the same chunking and track re-linear
 `railnav.navigate`), and each segment's stored estimates are compared with its truth
 (`railnav.evaluation.metrics.error_series`), added to running statistics
 (`railnav.evaluation.running_stats.RunningSummary`) and appended to the output files, then dropped.
-Nothing grows with the trip but the output files.
+Nothing grows with the trip but the output files. The divergence monitor
+(`railnav.navigation.monitor`, track-based filters) runs as in `railnav.navigate`: the
+``status`` and protection-level columns are written with the estimates and its counts are in
+``summary.json`` (``statistics.monitor``); its records are dropped once counted.
 
 GNSS epochs are declared at the nominal epoch times (every ``1/gnss_rate_hz`` s outside the
 outages) before their observations exist; an epoch is served from its segment's
@@ -51,7 +54,14 @@ from railnav.evaluation.running_stats import RunningCounts, RunningSummary
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
-from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, estimates_frame
+from railnav.navigation.monitor import STATUSES
+from railnav.navigation.navigator import run_monitor
+from railnav.navigation.result import (
+    CSV_DECIMALS,
+    CSV_FLOAT_FORMAT,
+    estimates_frame,
+    integrity_columns,
+)
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import navigator_config_for
 from railnav.simulation.trip_stream import TripSegment, epoch_step, trip_segments
@@ -182,9 +192,10 @@ def stream_simulated(track, scenario: Scenario, *, config: NavigatorConfig | Non
         out.mkdir(parents=True, exist_ok=True)
     with contextlib.ExitStack() as files:
         writer = _Writer(files, out, estimates_rate_hz)
-        stats, counts, left = _filter_stream(track, scenario, config, seed, systems, nav,
+        stats, counts, left, monitored = _filter_stream(track, scenario, config, seed, systems, nav,
                                              segment_s, window, writer, progress)
         summary = _summary(scenario, config, seed, systems, track, stats, counts, left,
+                           monitored,
                            time.perf_counter() - started)
         paths = writer.paths
         if out is not None:
@@ -198,11 +209,15 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
     """Run the engine over the segments; the running statistics, counters and left-track."""
     segments = trip_segments(scenario, track, seed=seed, config=config, nav=nav,
                              systems=systems, segment_s=segment_s)
+    stats = RunningSummary(window=window, outages=scenario.outages)
+    counts = RunningCounts()
     first = next(segments)
     registry = _EpochRegistry(scenario.gnss_rate_hz)
     filt_obj = make_filter(track, config, registry)
     initial = _initial_state(filt_obj, config, scenario, first, seed)
     loop = ChunkLoop(filt_obj, config, sample_interval_s=1.0 / scenario.imu_rate_hz)
+    loop.monitor = run_monitor(filt_obj, None, config)
+    monitored = None if loop.monitor is None else _Monitored(loop.monitor)
     current: dict = {}
 
     def chunks() -> Iterator:
@@ -216,8 +231,6 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
                 return
 
     epochs = _nominal_epochs(scenario, track, registry, loop)
-    stats = RunningSummary(window=window, outages=scenario.outages)
-    counts = RunningCounts()
     pending: list[FilterResult] = []
     owner: TripSegment | None = None
     total = _last_sample(scenario, track)
@@ -230,17 +243,19 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
     for part in loop.stream(chunks(), epochs, initial, progress=steps_done, total=total):
         segment = current["segment"]
         if owner is not None and segment is not owner:
-            _flush(pending, owner, segment, filt_obj, track, scenario, stats, counts, writer)
+            _flush(pending, owner, segment, filt_obj, track, scenario, stats, counts, writer,
+                   monitored)
             pending = []
         owner = segment
         pending.append(part)
     if pending:
-        _flush(pending, owner, None, filt_obj, track, scenario, stats, counts, writer)
+        _flush(pending, owner, None, filt_obj, track, scenario, stats, counts, writer,
+               monitored)
     left = loop.left
     if left is not None:
         log.warning("stopped at t=%.3f s: s = %.2f m is beyond the track's %s", left["time_s"],
                     left["s_m"], left["end"])
-    return stats, counts, left
+    return stats, counts, left, monitored
 
 
 def _initial_state(filt_obj, config: NavigatorConfig, scenario: Scenario,
@@ -289,7 +304,7 @@ def _nominal_epochs(scenario: Scenario, track, registry: _EpochRegistry,
 
 def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegment | None,
            filt_obj, track, scenario: Scenario, stats: RunningSummary, counts: RunningCounts,
-           writer) -> None:
+           writer, monitored: "_Monitored | None" = None) -> None:
     """Evaluate, summarize and write one segment's stored estimates; then forget them
     (`following`: the next segment, for the clock truth after this one's last epoch)."""
     result = concatenate_results(parts)
@@ -299,6 +314,8 @@ def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegme
         return
     estimates = estimates_frame(filt_obj, result.t, result.x, result.P,
                                 start_gps_time_s=scenario.start_gps_time_s)
+    if monitored is not None:              # the divergence monitor's status and the PL
+        estimates = monitored.columns(estimates, filt_obj.config)
     block = _Block(estimates, filt_obj, result.x, result.P, result.layout)
     errors = error_series(block, segment.truth_window, track,
                           clock_truth=functools.partial(segment.clock_truth,
@@ -348,10 +365,56 @@ class _Writer:
         self._header = False
 
 
+class _Monitored:
+    """The divergence monitor of a streamed run: its records are counted and dropped as
+    the blocks they cover are written (the last one kept: the status in force), so they
+    do not grow with the trip."""
+
+    def __init__(self, monitor) -> None:
+        self.monitor = monitor
+        self.rows = {k: 0 for k in STATUSES}
+        self.epochs = {k: 0 for k in STATUSES}
+        self.recoveries = 0
+        self._counted = 0                  # records at the head already counted (the kept one)
+
+    def columns(self, estimates: pd.DataFrame, config) -> pd.DataFrame:
+        """`estimates` with ``status`` and the protection columns (as a single-track run's,
+        `railnav.navigation.result.integrity_columns`), counted; the records up to its
+        last row are then counted and dropped."""
+        records = self.monitor.records
+        out = estimates.assign(**integrity_columns(estimates, self.monitor.frame(), config))
+        counts = out["status"].value_counts()
+        for k in STATUSES:
+            self.rows[k] += int(counts.get(k, 0))
+        t_end = float(estimates["time_s"].iloc[-1]) + EPOCH_TIME_TOL_S
+        done = sum(1 for r in records if r["time_s"] <= t_end)
+        for r in records[self._counted:done]:
+            self.epochs[r["status"]] += 1
+            self.recoveries += r["action"] != ""
+        if done:
+            del records[:done - 1]
+            self._counted = 1
+        return out
+
+    def statistics(self) -> dict:
+        """``statistics.monitor`` (the keys of `railnav.navigation.result.monitor_statistics`)."""
+        records = self.monitor.records
+        epochs, recoveries = dict(self.epochs), self.recoveries
+        for r in records[self._counted:]:
+            epochs[r["status"]] += 1
+            recoveries += r["action"] != ""
+        return {"epochs": epochs, "estimate_rows": dict(self.rows),
+                "recoveries": int(recoveries),
+                "final_status": str(records[-1]["status"]) if records else None}
+
+
 def _summary(scenario: Scenario, config: NavigatorConfig, seed: int, systems: str, track,
              stats: RunningSummary, counts: RunningCounts, left: dict | None,
-             runtime_s: float) -> dict:
+             monitored: _Monitored | None, runtime_s: float) -> dict:
     """``summary.json`` of a streamed run (the keys of `railnav.jobs.run`' summary)."""
+    statistics = counts.statistics()
+    if monitored is not None:
+        statistics["monitor"] = monitored.statistics()
     duration = counts.last_time_s - counts.first_time_s if stats.samples else 0.0
     if left is not None:
         left = dict(left, gps_time_s=left["time_s"] + scenario.start_gps_time_s)
@@ -360,5 +423,5 @@ def _summary(scenario: Scenario, config: NavigatorConfig, seed: int, systems: st
             "track": {"length_m": float(track.length_m), "earth": track.earth.name},
             "start_gps_time_s": scenario.start_gps_time_s, "duration_s": duration,
             "steps": counts.steps, "outages": [list(o) for o in scenario.outages],
-            "runtime_s": runtime_s, "statistics": counts.statistics(), "left_track": left,
+            "runtime_s": runtime_s, "statistics": statistics, "left_track": left,
             "errors": stats.summary()}

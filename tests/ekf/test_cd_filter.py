@@ -215,3 +215,16 @@ def test_bad_jump_covariance_is_refused(tracking_system, rng):
     bad = [Epoch(epochs[0].t, lambda x, P: EpochRows([], np.eye(3)))]
     with pytest.raises(ModelError, match="jump_covariance has shape"):
         CdFilter(model).run(samples, bad, x0=np.zeros(2), P0=np.eye(2))
+
+
+@pytest.mark.parametrize("P0, words", [
+    (np.array([[1.0, 2.0], [2.0, 1.0]]), "positive definiteness"),   # eigenvalues 3, -1
+    (np.array([[1.0, 0.0], [0.0, 0.0]]), "positive definiteness"),   # singular
+    (np.array([[1.0, 0.0], [0.0, np.nan]]), "non-finite")])
+def test_a_covariance_that_is_not_positive_definite_is_refused(tracking_system, P0, words):
+    """Edge table (closed form: the eigenvalues of each P0 are in its comment)."""
+    from ekf.errors import FilterDivergedError
+    filt = CdFilter(tracking_system.model("drv"))
+    with pytest.raises(FilterDivergedError, match=words):
+        filt.reset(np.zeros(2), P0)
+    filt.reset(np.zeros(2), np.diag([1.0, 1e-12]))          # tiny but positive: accepted

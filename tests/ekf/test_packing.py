@@ -24,3 +24,13 @@ def test_adapter_is_time_first():
     m = to_casadi(a)
     assert m.shape == (2, 3)
     np.testing.assert_array_equal(to_numpy(m), a)
+
+
+def test_diagonal_indices_pick_the_diagonal(rng):
+    """Reference: the diagonal of the unpacked matrices (`np.diagonal`), exactly."""
+    from ekf.packing import diagonal_indices
+    for n in (1, 2, 7, 11):
+        A = rng.standard_normal((5, n, n))
+        packed = pack_sym(A + np.swapaxes(A, 1, 2))
+        expected = np.diagonal(unpack_sym(packed), axis1=1, axis2=2)
+        assert np.array_equal(packed[:, diagonal_indices(n)], expected)

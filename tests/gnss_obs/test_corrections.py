@@ -126,3 +126,25 @@ def test_receiver_frame_is_geodetic():
     normal = np.array([np.cos(lat), 0.0, np.sin(lat)])
     el, _ = look_angles(r_rx, (r_rx + 2e7 * normal)[None, :])
     assert abs(el[0] - np.pi / 2) < ATOL_ANGLE_RAD
+
+
+@given(st.floats(min_value=-np.pi / 2, max_value=np.pi / 2, allow_nan=False),
+       st.floats(min_value=np.deg2rad(1.0), max_value=np.pi / 2))
+@settings(max_examples=300, deadline=None)
+def test_niell_of_one_latitude_is_the_batch_value(lat, el):
+    """Reference: the same receiver in a batch of two latitudes, which takes `np.interp`'s
+    own path (`_interp_lat`'s scalar path must give the same bits); the table's nodes
+    (15°..75°) and both sides of them are among the draws' range."""
+    doy = 100.0
+    one = niell_mapping(el, lat, 200.0, day_of_year=doy)
+    batch = niell_mapping(el, np.array([lat, 0.3]), 200.0, day_of_year=doy)
+    assert one[0] == batch[0][0] and one[1] == batch[1][0]
+
+
+@pytest.mark.parametrize("lat_deg", [0.0, 15.0, 30.0, 44.9, 45.0, 75.0, 80.0, -15.0, -60.0])
+def test_niell_table_nodes_and_beyond(lat_deg):
+    """Edge table: at the nodes and outside the table the scalar path equals the batch."""
+    lat = np.deg2rad(lat_deg)
+    one = niell_mapping(0.3, lat, 0.0, day_of_year=10.0)
+    batch = niell_mapping(0.3, np.array([lat, lat]), 0.0, day_of_year=10.0)
+    assert one[0] == batch[0][0] and one[1] == batch[1][0]

@@ -40,3 +40,15 @@ def test_many_rows_and_sparse_outputs(rng):
     assert out.shape == (A.shape[0], 6)
     for i in (0, _MAP_BLOCK - 1, _MAP_BLOCK, A.shape[0] - 1):
         assert np.array_equal(out[i], np.asarray(ca.densify(fn(A[i]))).T.reshape(-1))
+
+
+def test_vec3_of_scalars_equals_the_broadcast_stack():
+    """Reference: `np.stack` of the broadcast components (the general path)."""
+    from strapdown.backend import NumpyOps
+    parts = (np.float64(1.5), 2, np.array(-3.25))
+    fast = NumpyOps.vec3(*parts)
+    assert fast.shape == (3,) and fast.dtype == float
+    assert np.array_equal(fast, np.stack(np.broadcast_arrays(
+        *(np.asarray(p, dtype=float) for p in parts)), axis=-1))
+    rows = NumpyOps.vec3(np.zeros(4), 1.0, np.arange(4.0))
+    assert rows.shape == (4, 3) and np.array_equal(rows[:, 1], np.ones(4))

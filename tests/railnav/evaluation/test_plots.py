@@ -166,3 +166,28 @@ def test_issue18_spp_plot_has_sigma_bands_protection_levels_and_satellites():
     pl_ax = next(ax for ax in fig.axes if ax.get_ylabel().startswith("error, protection"))
     assert {"HPL", "VPL"} <= {ln.get_label() for ln in pl_ax.get_lines()}
     assert (6.5, 7.5) in _spans(east)             # the epoch without a fix
+
+
+def test_fixed_layout_keeps_labels_and_legend_inside_and_apart():
+    """The run's figures are laid out with fixed margins (`plot_style.fixed_margins`), not by
+    the constrained layout: drawn, every axis label and tick label lies inside the figure,
+    and the legend lies below the bottom axis' labels (reference: the drawn extents, from
+    the Agg renderer; 1 px of slack)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    result = _result(_track())
+    rng = np.random.default_rng(3)
+    errors = FakeErrors(T, *(5e-3 * rng.standard_normal(N) for _ in range(5)))
+    for fig in (estimates_figure(result), errors_figure(errors, result),
+                track_estimate_figure(_track(), result)):
+        FigureCanvasAgg(fig).draw()
+        renderer = fig.canvas.get_renderer()
+        page = fig.bbox
+        for ax in fig.axes:
+            for text in [ax.yaxis.label, ax.xaxis.label, *ax.get_yticklabels()]:
+                if text.get_text():
+                    box = text.get_window_extent(renderer)
+                    assert box.x0 >= page.x0 - 1 and box.x1 <= page.x1 + 1, text.get_text()
+                    assert box.y0 >= page.y0 - 1 and box.y1 <= page.y1 + 1, text.get_text()
+        for legend in fig.legends:
+            lowest = min(ax.get_tightbbox(renderer).y0 for ax in fig.axes)
+            assert legend.get_window_extent(renderer).y1 <= lowest + 1

@@ -124,3 +124,11 @@ def test_rows_equal_the_direct_model_and_its_derivatives(track, rng, s_ref):
     # attitude does not enter GNSS (no lever arm)
     att = LAYOUT.slice("attitude")
     assert not H_pr[:, att].any() and not H_rr[:, att].any()
+
+
+def test_cross3_is_numpys_cross_bit_for_bit(rng):
+    """Reference: `np.cross` (the rows' curvature term used it before)."""
+    from railnav.filters.gnss_rows import _cross3
+    for _ in range(200):
+        a, b = rng.standard_normal(3) * 10 ** rng.uniform(-8, 3), rng.standard_normal(3)
+        assert _cross3(a, b).tobytes() == np.cross(a, b).tobytes()

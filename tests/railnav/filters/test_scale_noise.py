@@ -6,7 +6,11 @@ References: (1) a Monte Carlo of the triad error ``(S + M) x_d`` with ``S``, ``M
 value (a clothoid) or steps (an arc without transition): the variance of the change of
 the effective bias must equal the summed variance the filter adds; (2) the χ² band of the
 NEES of a U-turn of 100 m radius at 20 m/s with the tactical grade (10 seeds; the mean was
-13 before, for 7 states, against the band's 10.0).
+13 before, for 7 states, against the band's 10.0); (3) the χ² band of the NEES at 100 m/s
+on a 100-m circle entered without a transition (3 seeds), which the steps given at the
+predicted crossing only missed (mean 75.6: seed 2 188, the roll pinned by the entry's first
+samples before the bias loosened, `railnav.filters.scale_noise`); (4) the spread's
+Gauss–Hermite rule against the moments of N(0, σ²).
 """
 from __future__ import annotations
 
@@ -14,7 +18,8 @@ import numpy as np
 import pytest
 
 from ekf.consistency import chi2_band
-from railnav.filters.scale_noise import bias_step_densities, kinematic_inputs
+from railnav.filters.scale_noise import (along_step_variances, bias_step_densities,
+                                         kinematic_inputs, step_nodes)
 from railnav.jobs.run import run_simulated
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import Scenario
@@ -64,6 +69,24 @@ def test_bias_variance_is_the_monte_carlo_variance_of_the_triad_error(steps):
                 assert np.var(error[:, axis]) / expected == pytest.approx(1.0, abs=RATIO_TOL)
 
 
+def test_along_track_force_step_is_the_monte_carlo_variance_of_the_triad_error():
+    """Braking from cruise, MEMS: the chunk-mean along-track specific force steps from 0 to
+    −1 m/s²; the variance given to the accelerometer biases is the Monte Carlo variance of
+    ``(S + M) Δf`` with ``Δf = (−1, 0, 0)``; no change or no scale factor: nothing."""
+    imu = imu_grade("mems")
+    added = along_step_variances(0.0, -1.0, imu)
+    rng = np.random.default_rng(15)
+    S = rng.normal(0.0, imu.accel_scale_factor_ppm * 1e-6, (DRAWS, 3))
+    M = rng.normal(0.0, imu.accel_misalignment_rad, (DRAWS, 3, 3))
+    M[:, [0, 1, 2], [0, 1, 2]] = 0.0
+    x = np.array([-1.0, 0.0, 0.0])
+    error = S * x + np.einsum("nij,j->ni", M, x)
+    for axis in range(3):
+        assert np.var(error[:, axis]) / added[axis] == pytest.approx(1.0, abs=RATIO_TOL)
+    assert along_step_variances(-1.0, -1.0, imu) is None
+    assert along_step_variances(0.0, -1.0, imu_grade("paper2017")) is None
+
+
 def test_no_noise_without_scale_factors_or_on_straights():
     assert bias_step_densities(_params(np.zeros(1))[0], _params(np.full(3, 0.01)),
                                SPEED_MPS, imu_grade("paper2017"), np.full(3, 0.01)) is None
@@ -82,3 +105,31 @@ def test_issue14_u_turn_nees_inside_band():
     means = [np.nanmean(e.nees) for e in errors]
     low, high = chi2_band(errors[0].nees_dof, len(seeds), 0.99)
     assert low <= np.mean(means) <= high
+
+
+def test_step_nodes_are_the_prior_of_s():
+    """Weights sum to 1; the offsets' mean is 0, variance σ², fourth moment 3σ⁴ (the
+    5-point rule is exact to degree 9); σ 0: one path, no offset."""
+    assert step_nodes(0.0) == [(0.0, 1.0)]
+    offsets, weights = np.array(step_nodes(2.5)).T
+    assert weights.sum() == pytest.approx(1.0, abs=1e-14)
+    assert weights @ offsets == pytest.approx(0.0, abs=1e-12)
+    assert weights @ offsets ** 2 == pytest.approx(2.5 ** 2, rel=1e-12)
+    assert weights @ offsets ** 4 == pytest.approx(3 * 2.5 ** 4, rel=1e-12)
+
+
+def test_issue14_circle_100mps_nees_inside_band():
+    """100 m/s on a 100-m circle (3 turns) entered from 1 km of straight without a
+    transition, tactical: the mean NEES of seeds 1-3 inside the 99 % χ² band of 3 runs
+    (measured 13.5 against [2.68, 13.80]: inside by little; 10 seeds in
+    benchmarks/results/consistency.json)."""
+    k = 1.0 / 100.0
+    track = Track([Section(1000.0, 90.0, 0.0)] + [Section(0.5 * np.pi * 100.0, None, None, k)]
+                  * 12 + [Section(1000.0, None, None)], Origin(50.45, 30.52, 100.0), WGS84)
+    scenario = Scenario(name="circle", profile=constant_speed(100.0), duration_s=70.0,
+                        imu_errors="tactical")
+    seeds = (1, 2, 3)
+    errors = [run_simulated(track, scenario, seed=seed).errors for seed in seeds]
+    means = [np.nanmean(e.nees) for e in errors]
+    low, high = chi2_band(errors[0].nees_dof, len(seeds), 0.99)
+    assert low <= np.mean(means) <= high, (means, low, high)

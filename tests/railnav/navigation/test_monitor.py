@@ -72,7 +72,7 @@ def test_lost_threshold_is_the_chi2_quantile(margin, expected):
 
 def test_consistent_fixes_raise_few_alarms(rng):
     """2000 epochs of fixes that disagree by N(0, 1) σ: no ``lost`` (p_lost = 1e-6 per
-    test), and ``degraded`` on at most ~1 % (4 tests at 1e-3, windows overlapping ×10,
+    test), and ``degraded`` on at most ~1 % (5 tests at 1e-3, windows overlapping ×10-30,
     plus the first `min_epochs`)."""
     n = 2000
     times = np.arange(float(n))
@@ -188,3 +188,107 @@ def test_injected_imu_bias_is_flagged(paper_track):
     lost = rows["status"] == "lost"
     assert np.isnan(rows.loc[lost, "protection_level_m"]).all()
     assert "LOST at the end of the run" in report(out, "out")
+
+
+# --- 100 m/s round R = 100 m (issue 14: the false `lost` of the merged monitor) ---------
+
+def _circle_scenario():
+    from railnav.simulation.profiles import constant_speed
+    from railnav.simulation.scenarios import Scenario
+    from tests.railnav.filters.test_joint_noise import SPEED_MPS
+    modelled = replace(imu_grade("tactical"), accel_scale_factor_ppm=0.0,
+                       gyro_scale_factor_ppm=0.0, accel_misalignment_rad=0.0,
+                       gyro_misalignment_rad=0.0, name="tactical-modelled")
+    return Scenario(name="circle", profile=constant_speed(SPEED_MPS), duration_s=28.0,
+                    imu_errors=modelled)
+
+
+def test_high_speed_circle_raises_no_false_lost():
+    """The consistent 100 m/s run round three full turns of R = 100 m
+    (`test_joint_noise`, NEES inside its χ² band): the merged monitor said ``lost`` on
+    160 of 280 epochs, its fix test comparing the filter with single-point fixes projected
+    on the whole track, where each fix lands on any of the three passes (628 m apart).
+    Now, over 4 seeds: no ``lost`` (a false ``lost`` has probability ≤ 2·p_lost per epoch,
+    so any in N epochs ≤ 2·p_lost·N ≈ 2e-4), and the fix disagreements, independent from
+    epoch to epoch (innovations) with variance ≤ 1 (the fix σ floor only widens them),
+    square-sum below χ²_N's 1e-3 upper quantile."""
+    from tests.railnav.filters.test_joint_noise import _circle_track
+    cfg = MonitorConfig()
+    statuses, d = [], []
+    for seed in range(1, 5):
+        offset_m = float(np.random.default_rng(seed).uniform(0.0, 1.0))
+        mon = run_simulated(_circle_track(offset_m), _circle_scenario(),
+                            seed=seed).result.monitor
+        statuses.append(mon["status"].to_numpy())
+        d.append(mon["fix_disagreement_sigma"].to_numpy())
+    status, d = np.concatenate(statuses), np.concatenate(d)
+    assert 2 * cfg.p_lost * status.size < 1e-3 and status.size >= 100
+    assert (status == "lost").sum() == 0
+    d = d[np.isfinite(d)]
+    assert d.size >= 0.9 * status.size
+    assert np.sum(d ** 2) <= stats.chi2.isf(1e-3, d.size)
+
+
+@pytest.mark.parametrize("fault", ["offset", "imu_bias"])
+def test_high_speed_circle_diverged_filter_is_flagged(fault):
+    """The same circle with a filter that is really off: started 50 m ahead of the truth
+    with σ_s 1 m, or with IMU biases (0.5 m/s², 0.01 rad/s) it is not told of. Every epoch
+    whose true along-track error exceeds 3σ_s is flagged, and the run ends ``lost`` (the
+    offset one from its first epoch; the bias shows first in the pseudo-observation NIS,
+    ``degraded``, and is ``lost`` once its fix disagreement accumulates)."""
+    from railnav.evaluation.metrics import error_series
+    from railnav.jobs.run import truth_start
+    from railnav.navigation.navigator import navigate
+    from railnav.simulation.trip import simulate_trip
+    from tests.railnav.filters.test_joint_noise import _circle_track
+    sc = _circle_scenario()
+    config = navigator_config_for(sc)
+    shift = 0.0
+    if fault == "offset":
+        config, shift = replace(config, initial_s_sigma_m=1.0), 50.0
+    else:
+        sc = replace(sc, imu_errors=replace(imu_grade(sc.imu_errors), accel_bias_mps2=0.5,
+                                            gyro_bias_radps=0.01, name="biased"))
+    trip = simulate_trip(sc, track=_circle_track(0.3), seed=1)
+
+    def start(filt):
+        x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0].copy()
+        x[filt.layout.index("s")] += shift
+        return truth_start(filt, trip, config, x_true=x)
+    result = navigate(trip.track, trip.sensor_data(), config, initial=start)
+    err = error_series(result, truth=trip.truth, track=trip.track,
+                       clock_truth=trip.clock_truth).to_frame()
+    rows = result.estimates.merge(err[["time_s", "along_track_m"]], on="time_s")
+    beyond = np.abs(rows["along_track_m"]) > 3 * rows["sigma_s_m"]
+    assert beyond.sum() >= 10                                   # really off
+    assert (rows.loc[beyond, "status"] != "ok").all()
+    if fault == "offset":                    # 50σ off at once: lost at the first epoch
+        assert rows.loc[rows.index[beyond][0], "status"] == "lost"
+    assert result.final_status == "lost"     # the bias: degraded first, then lost
+
+
+def test_fix_projects_on_the_pass_near_the_filter():
+    """A fix on the circle driven round three times (`test_joint_noise`) projects, over
+    the whole track, on any pass; near a prior on the first pass it takes that pass's
+    point, 2·(2πR) before the same place on the third (closed form, to within the
+    track's own closure of its repeated arcs), with the same σ
+    along the (identical) tangent."""
+    from tests.railnav.filters.test_joint_noise import RADIUS_M, _circle_track
+    track = _circle_track()
+    lap = 2 * np.pi * RADIUS_M
+    s_third = 1000.0 + 2 * lap + 0.3 * lap
+    pt = track.at(s_third)
+    cov = np.diag([4.0, 9.0, 25.0])[None]
+    fixes = TrackFixes.on_track(track, time_s=[0.0], lat=[float(pt.lat)], lon=[float(pt.lon)],
+                                cov_enu_m2=cov)
+    s_first = s_third - 2 * lap
+    # the passes of the track's repeated arcs close to within this (its own geometry)
+    closure = float(np.linalg.norm(np.asarray(track.at(s_first).r_e)
+                                   - np.asarray(track.at(s_third).r_e)))
+    assert closure < 0.05
+    s, sigma = fixes.near(0, s_first + 3.0)
+    assert s == pytest.approx(s_first, abs=closure + 1e-4)
+    u = np.asarray(track.at(s).u_n).reshape(3)               # the tangent where it lands
+    assert sigma == pytest.approx(np.sqrt(u @ cov[0] @ u), rel=1e-6)
+    s, _ = fixes.near(0, s_third - 2.0)
+    assert s == pytest.approx(s_third, abs=1e-3)

@@ -225,6 +225,13 @@ def test_streamed_run_equals_navigate_on_the_same_data(nav, filter_kind):
                                                           rel=RTOL_STREAM)
     assert got["statistics"]["gnss_epochs"] == result.n_epochs
     assert got["steps"] == 12000
+    # the divergence monitor runs in the stream as in navigate (track-based filters only)
+    mon = result.statistics().get("monitor")
+    assert (mon is None) == (filter_kind == "unconstrained")
+    if mon is not None:
+        assert got["statistics"]["monitor"]["epochs"] == mon["epochs"]
+        assert got["statistics"]["monitor"]["final_status"] == mon["final_status"]
+        assert sum(got["statistics"]["monitor"]["estimate_rows"].values()) > 0
 
 
 def test_outputs_decimated_and_atomic(tmp_path, nav, caplog):
