@@ -135,18 +135,19 @@ def _out_and_back(log: Path, work: Path, dwell_s: float) -> Path:
     return path
 
 
-def _log_figures(network, data: Path, name: str, python, seeds: int, work: Path) -> dict:
+def _log_figures(network, data: Path, name: str, python, seeds: int, work: Path,
+                 spawn: bool = False) -> dict:
     log = data / f"{name}.csv"
     truth_t, truth = _truth(network, log)
     geojson = data / "network_airport.geojson"
     out = {"truth_epochs": int(sum(x is not None for x in truth)),
-           "as_given": _ours(network, log, truth_t, truth, NetworkNavConfig()),
+           "as_given": _ours(network, log, truth_t, truth, NetworkNavConfig(spawn=spawn)),
            "as_given_tplib": _tplib(python, log, truth, geojson, work), "degraded": []}
     for seed in range(1, seeds + 1):
         path = work / f"{name}_spp{seed}.csv"
         degrade_log(log, path, seed=seed)
         ours = _ours(network, path, truth_t, truth,
-                     NetworkNavConfig(evidence_correlation_s=SPP_TAU_S))
+                     NetworkNavConfig(evidence_correlation_s=SPP_TAU_S, spawn=spawn))
         out["degraded"].append({"seed": seed, "ours": ours,
                                 "tplib": _tplib(python, path, truth, geojson, work)})
     return out
@@ -174,13 +175,17 @@ def main(argv=None) -> int:
                         help="a Python >= 3.12 with tp-lib installed (optional)")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--spawn", action="store_true",
+                        help="spawn hypotheses from the fixes when none agrees (NetworkNavConfig.spawn;"
+                             " results/network_brussels_spawn.json)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
     network = load_network(NETWORK)
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        logs = {name: _log_figures(network, args.data, name, args.tplib, args.seeds, work)
+        logs = {name: _log_figures(network, args.data, name, args.tplib, args.seeds, work,
+                                   spawn=args.spawn)
                 for name in LOGS}
         both = _out_and_back(args.data / f"{SPEED_LOG}.csv", work, SPEED_DWELL_S)
         started = time.perf_counter()

@@ -19,8 +19,6 @@ from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.attitude_rows import AttitudeRowBuilder
 from railnav.filters.car_body import chord_angles
 from railnav.filters.geometry_noise import QUADRATURE_HALF_WIDTH, angle_statistics
-from trackmodel.sections import Section
-from trackmodel.track import Track
 
 LAYOUT = StateLayout.from_blocks([("attitude", ("yaw", "pitch", "roll")), ("s", 1), ("v", 1)])
 #: The NEES states (v is not observed by the rows).
@@ -29,12 +27,8 @@ TRIALS = 800
 
 
 @pytest.fixture(scope="module")
-def track():
-    """200 m of straight, then an arc of R 500 m entered without a transition."""
-    return Track.from_sections([Section(200.0, azimuth_deg=350.0, elevation_deg=0.3),
-                                Section(400.0, curvature_1pm=1 / 500.0,
-                                        elevation_end_deg=-0.4)],
-                               lat=np.radians(47.0), lon=np.radians(8.0))
+def track(curve_onset_track):
+    return curve_onset_track      # tests/railnav/filters/conftest.py
 
 
 def _update(obs, x, P):

@@ -18,8 +18,6 @@ from railnav.filters.car_body import chord_offsets
 from railnav.filters.standstill_rows import build_zero_rate_rows, build_zero_speed_rows
 from strapdown.euler import C_b_n, euler_from_C_b_n, relative_dcm
 from strapdown.frames import omega_ie_n
-from trackmodel.sections import Section
-from trackmodel.track import Track
 
 LAYOUT = StateLayout.from_blocks([("attitude", ("yaw", "pitch", "roll")), ("s", 1), ("v", 1),
                                   ("gyro_bias", ("b_gx", "b_gy", "b_gz")),
@@ -40,11 +38,8 @@ def _fd_jacobian(model, x, p):
 
 
 @pytest.fixture(scope="module")
-def track():
-    return Track.from_sections([Section(200.0, azimuth_deg=350.0, elevation_deg=0.3),
-                                Section(400.0, curvature_1pm=1 / 500.0,
-                                        elevation_end_deg=-0.4)],
-                               lat=np.radians(47.0), lon=np.radians(8.0))
+def track(curve_onset_track):
+    return curve_onset_track      # tests/railnav/filters/conftest.py
 
 
 def _state(rng, yaw=0.1):
