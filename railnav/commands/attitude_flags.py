@@ -11,6 +11,9 @@ only (start-up: `railnav.commands`).
 * ``--standstill``: standstill detection from the IMU (vetoed by odometer and fix speeds) and
   its zero-speed and zero-yaw-rate rows (`railnav.filters.standstill`, `StandstillConfig`
   defaults);
+* ``--recover``: the divergence monitor's recovery (`railnav.navigation.monitor`,
+  ``MonitorConfig(recover=True)``: a restart from the epoch's single-point fix when
+  ``lost``; the ``monitor`` keyword of ``run_files`` and of `navigator_config_for`);
 * ``--car-body``: a simulated trip's IMU on a car body: chord between bogies, suspension,
   mounting (`railnav.simulation.car_body_motion`, `CarBodyMotion` defaults).
 """
@@ -35,6 +38,10 @@ def add_attitude_arguments(p) -> None:
                    help="constrained filter: detect standstills from the IMU (variance and "
                         "level over 1-s windows; vetoed by odometer and fix speeds) and "
                         "apply zero-speed and zero-yaw-rate rows")
+    p.add_argument("--recover", action="store_true",
+                   help="when the divergence monitor says lost, restart the filter from the "
+                        "epoch's single-point fix (off by default: the status column still "
+                        "says lost)")
     p.add_argument("--car-body", action="store_true",
                    help="simulated trip: the IMU on a car body (chord between bogies, "
                         "suspension motion 1/2/3 mrad at 1 Hz, mounting N(0, 1 deg))")
@@ -50,6 +57,9 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
     if mine and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
         raise ConfigError(f"{', '.join(mine)}: one track only (not with --network or "
                           "several tracks)")
+    if args.recover and (getattr(args, "network", None) is not None
+                         or len(args.tracks) > 1):
+        raise ConfigError("--recover: one track only (on a network: --spawn)")
     if args.car_body and (files or len(args.tracks) > 1
                           or getattr(args, "network", None) is not None):
         raise ConfigError("--car-body: shapes a simulated trip on one track (not with sensor "
@@ -57,11 +67,16 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
 
 
 def attitude_config(args: argparse.Namespace) -> dict:
-    """``track_attitude`` and ``standstill`` (the configs' defaults, or None when off)."""
+    """``track_attitude`` and ``standstill`` (the configs' defaults, or None when off), and
+    ``monitor`` with recovery when ``--recover`` (absent otherwise: the default monitor)."""
     from railnav.filters.attitude_config import TrackAttitudeConfig
     from railnav.filters.standstill import StandstillConfig
-    return {"track_attitude": TrackAttitudeConfig() if args.track_attitude else None,
-            "standstill": StandstillConfig() if args.standstill else None}
+    out = {"track_attitude": TrackAttitudeConfig() if args.track_attitude else None,
+           "standstill": StandstillConfig() if args.standstill else None}
+    if getattr(args, "recover", False):
+        from railnav.navigation.monitor import MonitorConfig
+        out["monitor"] = MonitorConfig(recover=True)
+    return out
 
 
 def car_body_scenario(args: argparse.Namespace, scenario):

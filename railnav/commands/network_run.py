@@ -24,7 +24,8 @@ def nav_config(args: argparse.Namespace):
     from railnav.jobs.network import with_nav
     from railnav.navigation.hypotheses import NetworkNavConfig
     return with_nav(NetworkNavConfig(), max_hypotheses=getattr(args, "max_hypotheses", None),
-                    crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None))
+                    crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None),
+                    spawn=getattr(args, "spawn", False) or None)
 
 
 def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:

@@ -35,13 +35,19 @@ def add_network_arguments(p) -> None:
                         "its last coordinate); default: every netelement near the first fix")
     p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
                    help="--network: most live hypotheses (default 16)")
+    p.add_argument("--spawn", action="store_true",
+                   help="--network, with --fixes: when no live hypothesis agrees with the "
+                        "last fixes, start new ones from the fix (NetworkNavConfig.spawn; "
+                        "off by default: on real logs that leave the network it spawns "
+                        "falsely)")
 
 
 def _check_network_flags(args: argparse.Namespace) -> None:
     """The network flags against the others (part of `check_flags`)."""
     if args.network is None:
         mine = [flag for flag, value in (("--start", args.start),
-                                         ("--max-hypotheses", args.max_hypotheses))
+                                         ("--max-hypotheses", args.max_hypotheses),
+                                         ("--spawn", args.spawn or None))
                 if value is not None]
         if mine:
             raise ConfigError(f"{', '.join(mine)}: only with --network")
@@ -63,6 +69,8 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         others.append("--export")
     if others:
         raise ConfigError(f"{', '.join(others)}: not with --network")
+    if args.spawn and args.fixes is None:
+        raise ConfigError("--spawn: needs --fixes (new hypotheses start from the fixes)")
     parse_start(args.start)
 
 

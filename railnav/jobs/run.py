@@ -175,7 +175,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               odometer_path=None, balises_path=None, wheel_circumference_m=None,
               pulses_per_rev=None, odometer_model=None, balise_model=None,
               lever_arms=None, smooth: bool = False, track_attitude=None,
-              standstill=None) -> RunOutcome:
+              standstill=None, monitor=None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -244,6 +244,10 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     track_attitude, standstill : optional
         `NavigatorConfig` fields (default None: off) applied to whichever configuration
         (`railnav.filters.attitude_rows`, `railnav.filters.standstill_rows`).
+    monitor : railnav.navigation.monitor.MonitorConfig, optional
+        The divergence monitor applied to whichever configuration (default None: the
+        configuration's own, on without recovery; ``MonitorConfig(recover=True)`` is
+        ``railnav run --recover``).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -258,6 +262,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     config = replace(config, rts_smoothing=True) if smooth else config
     if track_attitude is not None or standstill is not None:
         config = replace(config, track_attitude=track_attitude, standstill=standstill)
+    if monitor is not None:
+        config = replace(config, monitor=monitor)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,

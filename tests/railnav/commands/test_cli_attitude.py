@@ -4,6 +4,7 @@ layers over the API (the same run through `run_simulated` gives the same estimat
 flags that cannot apply are one-line errors with exit 2."""
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -50,6 +51,8 @@ DOUBLE = [str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")]
     ([CURVY, "--standstill", "--filter", "gnss-only"], "only with the constrained filter"),
     ([CURVY, "--car-body", "--imu", "imu.csv"], "--car-body"),
     ([*DOUBLE, "--track-attitude"], "one track only"),
+    ([*DOUBLE, "--recover"], "--recover: one track only"),
+    ([CURVY, "--spawn"], "--spawn: only with --network"),
 ])
 def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
     code = main(["-q", "run", *argv, "--out", str(tmp_path / "o")])
@@ -57,3 +60,28 @@ def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
     assert code == 2
     assert err.startswith("error: ") and message in err and "\n" not in err
     assert not (tmp_path / "o").exists()
+
+
+def test_recover_restarts_a_lost_filter(tmp_path, capsys):
+    """``--recover`` is the monitor's recovery (`MonitorConfig(recover=True)`): a MEMS IMU
+    that the filter is told is navigation grade diverges (the truth from the simulation:
+    along-track RMS beyond 1 km, the run ends lost, no restart); with the flag the monitor
+    restarts it from the epoch's fix and the error against the same truth falls by more
+    than 10x."""
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", str(TRACKS_DIR / "paper2017.csv"), "--imu-grade", "mems",
+                 "--duration-s", "60", "--out", str(sim)]) == 0
+    files = ["--imu", str(sim / "imu.csv"), "--obs", str(sim / "gnss_obs.rnx"),
+             "--nav", str(sim / "gnss_nav.rnx"), "--imu-grade", "navigation", "--no-plots"]
+    rms, recoveries = {}, {}
+    for flag in ([], ["--recover"]):
+        out = tmp_path / ("recover" if flag else "plain")
+        assert main(["run", str(TRACKS_DIR / "paper2017.csv"), *files, *flag,
+                     "--out", str(out)]) == 0
+        text = capsys.readouterr().out
+        summary = json.loads((out / "summary.json").read_text())
+        rms[bool(flag)] = summary["errors"]["all"]["along_track_m"]["rms"]
+        recoveries[bool(flag)] = summary["statistics"]["monitor"]["recoveries"]
+        assert ("LOST at the end" in text) is (not flag)
+    assert rms[False] > 1000.0 and recoveries[False] == 0
+    assert recoveries[True] >= 1 and rms[True] < 0.1 * rms[False]

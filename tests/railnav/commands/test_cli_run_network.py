@@ -120,3 +120,24 @@ def test_network_run_start_not_in_the_network(tmp_path, capsys):
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert err == "error: no netelement 'nope' in the network" and not out.exists()
+
+
+def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):
+    """``--spawn`` is `NetworkNavConfig(spawn=True)`: told to start on 88_L_2016, 5.6 m
+    abreast of the train's 88_L_3842, the run without it is wrong on the epochs the log's
+    own carrier-fixed rows put on 3842 (issue 13's netelement truth); with it, one spawn
+    and the share right rises above the run without (and ``--spawn`` needs fixes)."""
+    share, spawns = {}, {}
+    for flag in ([], ["--spawn"]):
+        out = tmp_path / ("spawn" if flag else "plain")
+        assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--truth",
+                     str(EXCERPT), "--start", "88_L_2016", *flag, "--no-plots",
+                     "--out", str(out)]) == 0
+        route = json.loads((out / "summary.json").read_text())["route"]
+        share[bool(flag)] = route["truth"]["share_right"]
+        spawns[bool(flag)] = len(route["spawns"])
+    assert spawns[False] == 0 and spawns[True] >= 1
+    assert share[True] > share[False]
+    assert main(["-q", "run", "--network", BRUSSELS, "--obs", "x.rnx", "--nav", "y.rnx",
+                 "--spawn", "--out", str(tmp_path / "o")]) == 2
+    assert "--spawn: needs --fixes" in capsys.readouterr().err
