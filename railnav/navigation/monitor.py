@@ -328,8 +328,6 @@ POSITION_ROW_KINDS = ("pseudorange", "fix_along", "fix_cross", "fix_up")
 #: The epoch's fix is solved from all its data (`FilterMonitor._screened_out`) when the
 #: fault screen kept at least this share of the position rows, and this many, out.
 SCREENED_SHARE, SCREENED_MIN_ROWS = 0.25, 2
-#: The snapshot's χ² exclusion (FDE) and Huber weights: `gnss_obs.spp.SppConfig`'s defaults.
-SNAPSHOT_P_FALSE_ALARM, SNAPSHOT_MAX_EXCLUSIONS, SNAPSHOT_HUBER_K = 1e-3, 4, 1.5
 
 
 def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
@@ -344,8 +342,8 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     prior, for ``s`` and the receiver clocks (`clock_columns`: unknown, so the prior's
     clock does not enter), every other state held at the prior; GNSS rows with the
     single-point solution's χ² fault exclusion and Huber weights
-    (`gnss_obs.raim.fault_detection_exclusion`, `SNAPSHOT_*`). The solution
-    ``s_prior + δs`` depends on this epoch's measurements only (to first order in the
+    (`gnss_obs.raim.fault_detection_exclusion` with `gnss_obs.spp.SppConfig`'s defaults).
+    The solution ``s_prior + δs`` depends on this epoch's measurements only (to first order in the
     prior's error: the rows are exact to second order in ``s − s_prior``), so
     ``δs`` has the variance ``σ² + σ²_s,prior`` when both are right. It is linearised at
     the prior's ``s``, so a track that passes the same place twice (a loop) gives no
@@ -362,6 +360,7 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     None: fewer rows than unknowns, or a singular geometry.
     """
     from gnss_obs.raim import fault_detection_exclusion, wls_step
+    from gnss_obs.spp import SppConfig
     if hasattr(observations, "observations"):            # ekf.EpochRows (a clock jump)
         observations = observations.observations
     if not observations:
@@ -396,9 +395,10 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     sigma = np.sqrt(R)
     try:
         if gnss and nu.size > len(cols):
-            step = fault_detection_exclusion(A, nu, sigma, p_false_alarm=SNAPSHOT_P_FALSE_ALARM,
-                                             max_exclusions=SNAPSHOT_MAX_EXCLUSIONS,
-                                             huber_k=SNAPSHOT_HUBER_K).step
+            spp = SppConfig()               # the receiver's own SPP exclusion and weights
+            step = fault_detection_exclusion(A, nu, sigma, p_false_alarm=spp.p_false_alarm,
+                                             max_exclusions=spp.max_exclusions,
+                                             huber_k=spp.huber_k).step
         else:
             step = wls_step(A, nu, sigma)
     except np.linalg.LinAlgError:
