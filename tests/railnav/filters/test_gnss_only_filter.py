@@ -19,7 +19,11 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.simulate import GnssSimConfig, default_nav_path, simulate_gnss
 from railnav.config import NavigatorConfig, SensorData
 from railnav.filters.constrained_model import ISB_RANDOM_WALK_M2PS
-from railnav.filters.gnss_only import GnssOnlyFilter, correlation_inflation
+from railnav.filters.gnss_only import (
+    GnssOnlyFilter,
+    correlation_inflation,
+    correlation_time_s,
+)
 from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.filters.robust_rows import huber_inflate, huber_variance_scale
 from railnav.jobs.run import run_simulated
@@ -102,6 +106,20 @@ def test_inflation_is_the_ar1_variance_of_the_mean(tau_s):
     exact = 1.0 + 2.0 * np.sum((1.0 - k / n) * rho ** k)
     assert correlation_inflation(tau_s, dt) == pytest.approx(exact, rel=RTOL_AR1_LIMIT)
     assert correlation_inflation(0.0, dt) == 1.0
+
+
+@pytest.mark.parametrize("speed_mps", [0.0, 0.5, -1.0, 4.0, 30.0])
+def test_moving_inflation_is_the_ar1_variance_of_the_mean_over_distance(speed_mps):
+    """Errors that decorrelate over a distance d, sampled every |v| Δt metres, are AR(1)
+    in the epoch index with ρ = exp(−|v| Δt / d); standing, ρ = exp(−Δt / τ): the
+    factor is the AR(1) sum with the shorter correlation's (the smaller) ρ."""
+    n, dt, tau_s, d_m = 100_000, 1.0, 20.0, 20.0
+    rho = min(math.exp(-dt / tau_s), math.exp(-abs(speed_mps) * dt / d_m))
+    k = np.arange(1, n)
+    exact = 1.0 + 2.0 * np.sum((1.0 - k / n) * rho ** k)
+    tau = correlation_time_s(tau_s, d_m, speed_mps)
+    assert correlation_inflation(tau, dt) == pytest.approx(exact, rel=RTOL_AR1_LIMIT)
+    assert correlation_time_s(tau_s, 0.0, speed_mps) == tau_s     # d = 0: the time alone
 
 
 def test_huber_scale_closed_form():
