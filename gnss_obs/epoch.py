@@ -23,6 +23,7 @@ The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -294,7 +295,8 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     """
     states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
-    known = not coarse and np.linalg.norm(r_rx_e) > MIN_RECEIVER_RADIUS_M
+    # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
+    known = not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
     if known:
         lat, lon, h = ecef_to_geodetic(r_rx_e)
         known = abs(h) < MAX_RECEIVER_HEIGHT_M
