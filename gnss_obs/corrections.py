@@ -309,7 +309,8 @@ def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, 
                        _MAX_IPP_LAT_SC)
     lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
     phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
-    sow = np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)
+    sow = float(gps_time_s) % WEEK_S if _receiver_scalar(gps_time_s) else \
+        np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)     # % is np.mod's modulo
     t_local = np.mod(_SEC_PER_SEMICIRCLE_LON * lam_i + sow, DAY_S)
     slant = 1.0 + 16.0 * (0.53 - el_sc) ** 3
     powers = phi_m[..., None] ** np.arange(4)
