@@ -206,8 +206,11 @@ def _log_likelihood(innov: Array, factor: tuple[Array, bool]) -> tuple[float, fl
 
 
 def _joseph(P: Array, K: Array, H: Array, R: Array) -> Array:
+    """``A P Aᵀ + K R Kᵀ`` with ``A = I − K H``; `R` a covariance or, shape (m,), the
+    variances of a diagonal one (``K * R`` is ``K @ diag(R)`` to the bit: the other
+    products are exact zeros)."""
     A = np.eye(P.shape[0]) - K @ H
-    P_post = A @ P @ A.T + K @ R @ K.T
+    P_post = A @ P @ A.T + ((K * R) if R.ndim == 1 else (K @ R)) @ K.T
     return 0.5 * (P_post + P_post.T)
 
 
@@ -295,7 +298,7 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
     elif accepted.any():
         K[:, accepted] = _batch_gain(P, H[accepted], R_mat[np.ix_(accepted, accepted)])
     x_post = x + K @ innov
-    P_post = _joseph(P, K, H, R_mat)
+    P_post = _joseph(P, K, H, R)
     return x_post, P_post, UpdateRecord(innov, S, nis, nis_c, accepted, log_lik, K)
 
 

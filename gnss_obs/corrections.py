@@ -22,6 +22,9 @@ JGR 101(B2), 1996; J.A. Klobuchar, IEEE Trans. AES-23(3), 1987; IS-GPS-200N.
 """
 from __future__ import annotations
 
+import bisect
+import math
+
 import numpy as np
 import numpy.typing as npt
 
@@ -71,6 +74,9 @@ _NIELL_WET = np.array([
     [1.4275268e-3, 1.5138625e-3, 1.4572752e-3, 1.5007428e-3, 1.7599082e-3],
     [4.3472961e-2, 4.6729510e-2, 4.3908931e-2, 4.4626982e-2, 5.4736038e-2]])
 _NIELL_HEIGHT = (2.53e-5, 5.49e-3, 1.14e-3)
+#: The tables in Python floats, for one receiver's latitude (`_interp_lat`).
+_NIELL_LAT_LIST = _NIELL_LAT_RAD.tolist()
+_NIELL_ROWS = {id(t): t.tolist() for t in (_NIELL_HYD_AVG, _NIELL_HYD_AMP, _NIELL_WET)}
 #: Day of year of the hydrostatic minimum (northern hemisphere); +half a year in the south.
 _NIELL_DOY_MIN = 28.0
 _YEAR_DAYS = 365.25
@@ -117,15 +123,32 @@ def standard_atmosphere(h: npt.ArrayLike, *, humidity: float = STANDARD_HUMIDITY
                         ) -> tuple[Array, Array, Array]:
     """Pressure (hPa), temperature (K) and water-vapour pressure (hPa) at height `h` (m).
 
-    Heights below 0 m are taken as 0 m (as RTKLIB does).
+    Heights below 0 m are taken as 0 m (as RTKLIB does). A scalar `h` (one receiver)
+    gives Python floats (`_receiver_scalar`).
     """
-    h = np.maximum(np.asarray(h, dtype=float), 0.0)
+    h = _floor_zero(h)
+    exp = math.exp if isinstance(h, float) else np.exp
     pressure = SEA_LEVEL_PRESSURE_HPA * (1.0 - _PRESSURE_HEIGHT_PER_M * h) ** _PRESSURE_EXPONENT
     temperature = SEA_LEVEL_TEMPERATURE_K - _LAPSE_RATE_K_PER_M * h
     t_c = temperature - 273.15
     # Magnus formula for the saturation vapour pressure over water, hPa.
-    vapour = humidity * 6.108 * np.exp(17.15 * t_c / (t_c + 234.7))
+    vapour = humidity * 6.108 * exp(17.15 * t_c / (t_c + 234.7))
     return pressure, temperature, vapour
+
+
+def _receiver_scalar(value) -> bool:
+    """Whether `value` is one finite number (a receiver's latitude or height): the
+    receiver terms are then computed in Python floats, whose arithmetic and `math`
+    functions (exp, cos, pow) give NumPy's bits at a fraction of the cost of 0-d arrays
+    (`tests/gnss_obs/test_corrections.py` checks the scalar path against the batch)."""
+    return np.ndim(value) == 0 and math.isfinite(value)
+
+
+def _floor_zero(h):
+    """``max(h, 0)``: a float for one finite height, else an array."""
+    if _receiver_scalar(h):
+        return max(float(h), 0.0)
+    return np.maximum(np.asarray(h, dtype=float), 0.0)
 
 
 def zenith_delays_m(lat: npt.ArrayLike, h: npt.ArrayLike, *,
@@ -142,9 +165,10 @@ def zenith_delays_m(lat: npt.ArrayLike, h: npt.ArrayLike, *,
         Relative humidity, 0-1.
     """
     pressure, temperature, vapour = standard_atmosphere(h, humidity=humidity)
-    h = np.maximum(np.asarray(h, dtype=float), 0.0)
-    zhd = _ZHD_M_PER_HPA * pressure / (1.0 - _ZHD_LAT * np.cos(2.0 * np.asarray(lat))
-                                      - _ZHD_HEIGHT_PER_M * h)
+    h = _floor_zero(h)
+    scalar = isinstance(h, float) and _receiver_scalar(lat)
+    cos_2lat = math.cos(2.0 * float(lat)) if scalar else np.cos(2.0 * np.asarray(lat))
+    zhd = _ZHD_M_PER_HPA * pressure / (1.0 - _ZHD_LAT * cos_2lat - _ZHD_HEIGHT_PER_M * h)
     zwd = _ZWD_M_PER_HPA * (_ZWD_T / temperature + _ZWD_OFFSET) * vapour
     return zhd, zwd
 
@@ -153,21 +177,21 @@ def _continued_fraction(sin_el: Array, a, b, c) -> Array:
     return (1.0 + a / (1.0 + b / (1.0 + c))) / (sin_el + a / (sin_el + b / (sin_el + c)))
 
 
-def _interp_lat(table: Array, abs_lat: Array) -> list[Array]:
+def _interp_lat(table: Array, abs_lat: Array) -> list:
     """`np.interp` of each row of `table` over `_NIELL_LAT_RAD` at `abs_lat`; for one
-    latitude (a receiver's), the rows at once with `np.interp`'s own arithmetic,
-    ``slope · (x − x_j) + y_j`` (the same bits, a fifth of the calls)."""
-    if np.ndim(abs_lat) == 0 and np.isfinite(abs_lat):
-        x, xp = float(abs_lat), _NIELL_LAT_RAD
+    latitude (a receiver's), the rows in Python floats with `np.interp`'s own arithmetic,
+    ``slope · (x − x_j) + y_j`` (the same bits, without NumPy calls)."""
+    if _receiver_scalar(abs_lat):
+        x, xp, rows = float(abs_lat), _NIELL_LAT_LIST, _NIELL_ROWS[id(table)]
         if x <= xp[0]:
-            return list(table[:, 0])
+            return [row[0] for row in rows]
         if x >= xp[-1]:
-            return list(table[:, -1])
-        j = int(np.searchsorted(xp, x, side="right")) - 1
+            return [row[-1] for row in rows]
+        j = bisect.bisect_right(xp, x) - 1
         if xp[j] == x:
-            return list(table[:, j])
-        slope = (table[:, j + 1] - table[:, j]) / (xp[j + 1] - xp[j])
-        return list(slope * (x - xp[j]) + table[:, j])
+            return [row[j] for row in rows]
+        dx = xp[j + 1] - xp[j]
+        return [(row[j + 1] - row[j]) / dx * (x - xp[j]) + row[j] for row in rows]
     return [np.interp(abs_lat, _NIELL_LAT_RAD, row) for row in table]
 
 
@@ -187,16 +211,22 @@ def niell_mapping(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike
         Day of year (1.0 = 1 January 00:00), fractional.
     """
     sin_el = np.sin(np.maximum(np.asarray(elevation, dtype=float), _MIN_ELEVATION_RAD))
-    lat = np.asarray(lat, dtype=float)
-    abs_lat = np.abs(lat)
-    doy = np.asarray(day_of_year, dtype=float) + np.where(lat < 0, 0.5 * _YEAR_DAYS, 0.0)
-    season = np.cos(2.0 * np.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
+    if _receiver_scalar(lat) and _receiver_scalar(day_of_year) and _receiver_scalar(h):
+        lat, h = float(lat), float(h)       # one receiver: its terms in floats
+        abs_lat = abs(lat)
+        doy = float(day_of_year) + (0.5 * _YEAR_DAYS if lat < 0 else 0.0)
+        season = math.cos(2.0 * math.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
+    else:
+        lat = np.asarray(lat, dtype=float)
+        abs_lat = np.abs(lat)
+        doy = np.asarray(day_of_year, dtype=float) + np.where(lat < 0, 0.5 * _YEAR_DAYS, 0.0)
+        season = np.cos(2.0 * np.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
     avg = _interp_lat(_NIELL_HYD_AVG, abs_lat)
     amp = _interp_lat(_NIELL_HYD_AMP, abs_lat)
     a, b, c = (m - s * season for m, s in zip(avg, amp))
     hydro = _continued_fraction(sin_el, a, b, c)
     ah, bh, ch = _NIELL_HEIGHT
-    h_km = np.asarray(h, dtype=float) * 1e-3
+    h_km = (h if isinstance(h, float) else np.asarray(h, dtype=float)) * 1e-3
     hydro = hydro + (1.0 / sin_el - _continued_fraction(sin_el, ah, bh, ch)) * h_km
     aw, bw, cw = _interp_lat(_NIELL_WET, abs_lat)
     wet = _continued_fraction(sin_el, aw, bw, cw)
@@ -205,6 +235,8 @@ def niell_mapping(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike
 
 def day_of_year(gps_time_s: npt.ArrayLike) -> Array:
     """Approximate fractional day of year of GPS time (±1 day: enough for seasonal terms)."""
+    if _receiver_scalar(gps_time_s):     # Python's % is np.mod's floored modulo (same bits)
+        return (float(gps_time_s) / DAY_S + _GPS_EPOCH_DOY) % _YEAR_DAYS + 1.0
     days = np.asarray(gps_time_s, dtype=float) / DAY_S + _GPS_EPOCH_DOY
     return np.mod(days, _YEAR_DAYS) + 1.0
 
@@ -277,7 +309,8 @@ def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, 
                        _MAX_IPP_LAT_SC)
     lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
     phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
-    sow = np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)
+    sow = float(gps_time_s) % WEEK_S if _receiver_scalar(gps_time_s) else \
+        np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)     # % is np.mod's modulo
     t_local = np.mod(_SEC_PER_SEMICIRCLE_LON * lam_i + sow, DAY_S)
     slant = 1.0 + 16.0 * (0.53 - el_sc) ** 3
     powers = phi_m[..., None] ** np.arange(4)

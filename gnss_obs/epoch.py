@@ -23,6 +23,8 @@ The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`
 from __future__ import annotations
 
 import logging
+import math
+from collections.abc import MutableMapping
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
@@ -40,7 +42,7 @@ from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["EpochData", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
+__all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
            "transmit_states", "transmit_states_batch",
            "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
 
@@ -57,9 +59,54 @@ MAX_RECEIVER_HEIGHT_M = 1.0e5
 _MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
 
 
+class EpochColumns(MutableMapping):
+    """Columns of one epoch: rows ``[start, stop)`` of a whole table's columns, sliced when
+    read (`split_epochs` cuts a file into hundreds of epochs of ~45 columns, of which the
+    per-epoch preparation reads a few); a column assigned to it replaces its slice.
+
+    Parameters
+    ----------
+    table : dict of str to ndarray
+        The whole table's columns (not copied; never modified).
+    start, stop : int
+        The epoch's rows.
+    """
+
+    __slots__ = ("table", "start", "stop", "_own")
+
+    def __init__(self, table: dict[str, np.ndarray], start: int, stop: int) -> None:
+        self.table, self.start, self.stop = table, int(start), int(stop)
+        self._own: dict[str, np.ndarray] = {}
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        own = self._own
+        if own and key in own:
+            return own[key]
+        return self.table[key][self.start:self.stop]
+
+    def __setitem__(self, key: str, value: np.ndarray) -> None:
+        self._own[key] = value
+
+    def __delitem__(self, key: str) -> None:
+        raise TypeError("epoch columns cannot be deleted")
+
+    def __iter__(self):
+        yield from self.table
+        yield from (k for k in self._own if k not in self.table)
+
+    def __len__(self) -> int:
+        return len(self.table) + sum(k not in self.table for k in self._own)
+
+    @property
+    def is_view(self) -> bool:
+        """No column was assigned: the epoch reads its table's rows only."""
+        return not self._own
+
+
 @dataclass(frozen=True)
 class EpochData:
-    """Measurements of one epoch with their selected ephemerides (aligned rows)."""
+    """Measurements of one epoch with their selected ephemerides (aligned rows; the
+    mappings of `split_epochs` are `EpochColumns`)."""
 
     gps_time_s: float
     meas: dict[str, np.ndarray]
@@ -98,9 +145,9 @@ def split_epochs(meas: pd.DataFrame, records: dict[str, pd.DataFrame],
     eph_cols = {c: eph[c].to_numpy()[ok] for c in eph.columns}
     t = meas_cols["gps_time_s"]
     edges = np.flatnonzero(np.diff(t)) + 1
-    bounds = zip(np.r_[0, edges], np.r_[edges, t.size])
-    return [EpochData(float(t[a]), {k: v[a:b] for k, v in meas_cols.items()},
-                      {k: v[a:b] for k, v in eph_cols.items()}) for a, b in bounds]
+    bounds = zip(np.r_[0, edges].tolist(), np.r_[edges, t.size].tolist())
+    return [EpochData(float(t[a]), EpochColumns(meas_cols, a, b), EpochColumns(eph_cols, a, b))
+            for a, b in bounds]
 
 
 @dataclass(frozen=True)
@@ -256,13 +303,37 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
     if not epochs:
         return []
     sizes = np.array([len(e) for e in epochs])
-    meas = {k: np.concatenate([e.meas[k] for e in epochs]) for k in epochs[0].meas}
-    eph = {k: np.concatenate([e.eph[k] for e in epochs]) for k in epochs[0].eph}
-    times = np.repeat([e.gps_time_s for e in epochs], sizes)
+    whole = _whole_table(epochs)
+    if whole is not None:    # `split_epochs` of one table: its columns as they are
+        meas, eph = whole
+        times = meas["gps_time_s"]       # each row's time is its epoch's
+    else:
+        meas = {k: np.concatenate([e.meas[k] for e in epochs]) for k in epochs[0].meas}
+        eph = {k: np.concatenate([e.eph[k] for e in epochs]) for k in epochs[0].eph}
+        times = np.repeat([e.gps_time_s for e in epochs], sizes)
     states, clock_m = transmit_states(EpochData(times, meas, eph), config, precise=precise)
-    bounds = np.concatenate([[0], np.cumsum(sizes)])
+    bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
     return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
              clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _whole_table(epochs: list[EpochData]) -> tuple[dict, dict] | None:
+    """The columns of the one table that `epochs` cut whole and in order, unmodified
+    (`split_epochs`), or None."""
+    first = epochs[0]
+    if not (isinstance(first.meas, EpochColumns) and isinstance(first.eph, EpochColumns)):
+        return None
+    meas, eph, row = first.meas.table, first.eph.table, 0
+    for e in epochs:
+        m, p = e.meas, e.eph
+        if not (isinstance(m, EpochColumns) and isinstance(p, EpochColumns)
+                and m.table is meas and p.table is eph and m.is_view and p.is_view
+                and m.start == row and p.start == row and p.stop == m.stop):
+            return None
+        row = m.stop
+    if row != len(meas["gps_time_s"]) or row != len(next(iter(eph.values()))):
+        return None
+    return meas, eph
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
@@ -294,7 +365,8 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     """
     states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
-    known = not coarse and np.linalg.norm(r_rx_e) > MIN_RECEIVER_RADIUS_M
+    # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
+    known = not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
     if known:
         lat, lon, h = ecef_to_geodetic(r_rx_e)
         known = abs(h) < MAX_RECEIVER_HEIGHT_M

@@ -73,18 +73,25 @@ class Channel:
         cfg = self.config
         self._failures.append(bool(failed))
         step = min(max(r, -clip), clip)
-        self._cusum = [max(0.0, self._cusum[0] + step - cfg.drift_allowance),
-                       max(0.0, self._cusum[1] - step - cfg.drift_allowance)]
-        for side in (0, 1):
-            if self._cusum[side] == 0.0 and self._open[side]:
-                self._influence[side] = 0.0
-                self._open[side] = False
-        drift = cfg.drift_threshold is not None and max(self._cusum) > cfg.drift_threshold
-        if drift or sum(self._failures) >= cfg.exclusion_failures:
+        up, down = self._cusum
+        self._cusum = cusum = [max(0.0, up + step - cfg.drift_allowance),
+                               max(0.0, down - step - cfg.drift_allowance)]
+        opened = self._open
+        if opened[0] or opened[1]:
+            for side in (0, 1):
+                if cusum[side] == 0.0 and opened[side]:
+                    self._influence[side] = 0.0
+                    opened[side] = False
+        drift = cfg.drift_threshold is not None and max(cusum) > cfg.drift_threshold
+        if drift or (failed and sum(self._failures) >= cfg.exclusion_failures):
             self.excluded, self._drifted = True, drift
             self._passes.clear()
             return True
         return False
+
+    def open_run(self) -> bool:
+        """Whether a CUSUM side is running (`add_influence` adds to something)."""
+        return self._cusum[0] > 0.0 or self._cusum[1] > 0.0
 
     def add_influence(self, delta_x: Array) -> None:
         """Add a used row's correction ``K_i ν_i`` (shape (n,)) to the open CUSUM runs."""

@@ -295,12 +295,17 @@ class RowScreen:
         if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
             return None
         channel = self._channel
-        admitted = np.array([not channel(k).excluded for k in keys])
-        members = (np.asarray(kind) == JUMP_ROW_KIND)[admitted]
-        if members.sum() < MIN_JUMP_ROWS:
+        admitted = np.fromiter((not channel(k).excluded for k in keys), dtype=bool,
+                               count=keys.size)
+        members = np.asarray(kind) == JUMP_ROW_KIND
+        every = bool(admitted.all())
+        if not every:
+            members = members[admitted]
+        if np.count_nonzero(members) < MIN_JUMP_ROWS:
             return None
-        sub = np.ix_(admitted, admitted)
-        offset, _, nis_offset, nis_residual = common_offset(nu[admitted], S[sub], members)
+        offset, _, nis_offset, nis_residual = common_offset(
+            nu, S, members) if every else common_offset(
+            nu[admitted], S[np.ix_(admitted, admitted)], members)
         if nis_offset <= chi2_threshold(1.0 - cfg.clock_jump_false_alarm, 1):
             return None
         if nis_residual > chi2_threshold(CLOCK_RESIDUAL_PROBABILITY, int(admitted.sum()) - 1):
@@ -329,13 +334,14 @@ class RowScreen:
         failed = prob > cfg.decision_probability
         clip = self._clip()
         excluded = []
+        channels, by_channel = self._channels, SCREEN_MODES[0]
         # Python floats and bools of the rows (the values float(r[i]), bool(failed[i]))
         for i, (key, mode, r_i, failed_i) in enumerate(zip(keys, modes, r.tolist(),
                                                            failed.tolist())):
-            if mode != SCREEN_MODES[0]:
+            if mode != by_channel:
                 status[i] = ROW_STATUSES[1] if failed_i else ROW_STATUSES[0]
                 continue
-            ch = self._channel(key)
+            ch = channels.get(key) or self._channel(key)
             if ch.excluded:
                 status[i] = ROW_STATUSES[2]
                 if ch.excluded_row(r_i, failed_i):
@@ -360,13 +366,15 @@ class RowScreen:
         screened without a channel keep none)."""
         if self.config is None or not used.any():
             return
-        H_u = H[used]
-        K_t = np.linalg.solve(S[np.ix_(used, used)], H_u @ P)   # Kᵀ, S symmetric
-        delta = K_t * nu[used][:, None]          # row k: K_k ν_k
+        every = bool(used.all())
+        H_u = H if every else H[used]
+        S_u = S if every else S[np.ix_(used, used)]
+        K_t = np.linalg.solve(S_u, H_u @ P)      # Kᵀ, S symmetric
+        delta = K_t * (nu if every else nu[used])[:, None]     # row k: K_k ν_k
         channels = self._channels
-        for key, delta_k in zip(keys[used], delta):
+        for key, delta_k in zip(keys if every else keys[used], delta):
             channel = channels.get(key)
-            if channel is not None:
+            if channel is not None and channel.open_run():
                 channel.add_influence(delta_k)
 
     def clear_records(self) -> None:

@@ -199,22 +199,32 @@ def pseudorange_parameters(track_part: Array, prepared: PreparedEpoch,
     -------
     ndarray, shape (N, k + 5 + len(isb_systems))
     """
-    n = len(prepared)
-    selector = (np.asarray(prepared.system)[:, None] == np.array(isb_systems, dtype=object)[None, :]
-                ).astype(float) if isb_systems else np.zeros((n, 0))
-    return np.column_stack([_receiver_part(track_part, n), prepared.sat_pos_e,
-                            prepared.sat_clock_m, prepared.delays_m, selector])
+    part = _receiver_part(track_part)
+    k, n = part.size, len(prepared)
+    out = np.empty((n, k + 5 + len(isb_systems)))
+    out[:, :k] = part
+    out[:, k:k + 3] = prepared.sat_pos_e
+    out[:, k + 3] = prepared.sat_clock_m
+    out[:, k + 4] = prepared.delays_m
+    if isb_systems:
+        out[:, k + 5:] = np.asarray(prepared.system)[:, None] == \
+            np.array(isb_systems, dtype=object)[None, :]
+    return out
 
 
 def range_rate_parameters(track_part: Array, prepared: PreparedEpoch) -> Array:
     """Range-rate row parameters, one row per satellite of `prepared`, shape (N, k + 7)
     (``track_part`` as in `pseudorange_parameters`)."""
-    n = len(prepared)
-    return np.column_stack([_receiver_part(track_part, n), prepared.sat_pos_e,
-                            prepared.sat_vel_e, prepared.sat_clock_drift_mps])
+    part = _receiver_part(track_part)
+    k = part.size
+    out = np.empty((len(prepared), k + 7))
+    out[:, :k] = part
+    out[:, k:k + 3] = prepared.sat_pos_e
+    out[:, k + 3:k + 6] = prepared.sat_vel_e
+    out[:, k + 6] = prepared.sat_clock_drift_mps
+    return out
 
 
-def _receiver_part(part: Array, n: int) -> Array:
-    """The receiver part of the rows repeated for `n` satellites, shape (n, k)."""
-    part = np.asarray(part, dtype=float).reshape(-1)
-    return np.broadcast_to(part, (n, part.size))
+def _receiver_part(part: Array) -> Array:
+    """The receiver part of the rows, shape (k,) (each row's first k parameters)."""
+    return np.asarray(part, dtype=float).reshape(-1)

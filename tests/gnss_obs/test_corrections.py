@@ -148,3 +148,21 @@ def test_niell_table_nodes_and_beyond(lat_deg):
     one = niell_mapping(0.3, lat, 0.0, day_of_year=10.0)
     batch = niell_mapping(0.3, np.array([lat, lat]), 0.0, day_of_year=10.0)
     assert one[0] == batch[0][0] and one[1] == batch[1][0]
+
+
+@given(st.floats(min_value=-np.pi / 2, max_value=np.pi / 2, allow_nan=False),
+       st.floats(min_value=-100.0, max_value=3000.0, allow_nan=False),
+       st.floats(min_value=0.0, max_value=2.0e9, allow_nan=False))
+@settings(max_examples=300, deadline=None)
+def test_troposphere_of_one_receiver_is_the_batch_value(lat, h, t):
+    """Reference: the same receiver in a batch of two (latitude, height, time), which takes
+    the NumPy path; one receiver's terms are Python floats (`_receiver_scalar`) and must
+    give the same bits, heights below 0 m included (floored)."""
+    el = np.deg2rad(np.array([3.0, 10.0, 35.0, 89.0]))
+    one = troposphere_delay_m(el, lat, h, gps_time_s=t)
+    both = [troposphere_delay_m(e, np.array([lat, 0.3]), np.array([h, 10.0]),
+                                gps_time_s=np.array([t, 1.0e9]))[0] for e in el]
+    assert one.tolist() == both
+    zenith = zenith_delays_m(lat, h)
+    batch = zenith_delays_m(np.array([lat, 0.3]), np.array([h, 10.0]))
+    assert zenith[0] == batch[0][0] and zenith[1] == batch[1][0]

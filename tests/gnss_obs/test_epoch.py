@@ -78,3 +78,29 @@ def test_transmit_states_batch_equals_epoch_by_epoch(nav, rover_obs):
         np.testing.assert_array_equal(clock_m, ref_clock)
         np.testing.assert_array_equal(states.r_e, ref_states.r_e)
         np.testing.assert_array_equal(states.clock_drift_sps, ref_states.clock_drift_sps)
+
+
+def test_transmit_states_batch_of_a_subset_or_modified_epochs(nav, rover_obs):
+    """Epochs that are not one table cut whole (every other epoch; an epoch whose
+    pseudoranges were replaced) take the stacking path: reference, `transmit_states` of
+    each epoch on its own, and the replaced column is the one used."""
+    cfg = MeasurementConfig(systems="GE")
+    table = rover_obs.table[rover_obs.table["gps_time_s"] < T_1240 + 10]
+    epochs = split_epochs(select_measurements(table, cfg), nav.records, cfg)
+    every_other = epochs[::2]
+    epochs[3].meas["pseudorange_m"] = epochs[3].meas["pseudorange_m"] + 1.0e4
+    for subset in (every_other, epochs):
+        batch = transmit_states_batch(subset, cfg)
+        for epoch, (states, clock_m) in zip(subset, batch, strict=True):
+            ref_states, ref_clock = transmit_states(epoch, cfg)
+            np.testing.assert_array_equal(clock_m, ref_clock)
+            np.testing.assert_array_equal(states.r_e, ref_states.r_e)
+    moved = transmit_states(epochs[3], cfg)[0].r_e
+    kept = transmit_states(split_epochs(select_measurements(table, cfg), nav.records,
+                                        cfg)[3], cfg)[0]
+    # transmitted 1e4 m / c = 33 µs earlier: the satellite is |v| · 33 µs (~0.1 m) back
+    # (to 1 %: one satellite's broadcast-model velocity differs from its position's
+    # 33-µs chord by 0.6 %; a stale column would move it by 0)
+    np.testing.assert_allclose(np.linalg.norm(moved - kept.r_e, axis=1),
+                               np.linalg.norm(kept.v_e, axis=1) * 1.0e4 / SPEED_OF_LIGHT_MPS,
+                               rtol=1e-2)
