@@ -141,9 +141,7 @@ def _chi2_sfs(values: Array, dofs: Array) -> list[float]:
     """Upper χ² tails ``P(χ²_dof > value)`` elementwise, 1 where ``dof <= 0``: one call of
     SciPy's ufunc for all of them (each element the bits of a call of its own)."""
     from scipy.special import chdtrc
-    with np.errstate(invalid="ignore"):
-        tails = chdtrc(dofs, values)
-    return np.where(dofs > 0, tails, 1.0).tolist()
+    return np.where(dofs > 0, chdtrc(dofs, values), 1.0).tolist()
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
