@@ -46,9 +46,10 @@ the fix has a speed) are re-initialised from it: the whole state through the fil
 start-from-fix code where the run has it (`TrackFixes.start`: ``filter.initial_from_fix``,
 `railnav.filters.common.start_on_track`; `railnav.navigation.fix_start.initial_at_fix`),
 so that attitude, IMU biases and clock start over too; else ``s`` and ``v`` alone (σ floored
-as ``start_on_track`` does), their rows and columns of ``P`` without correlations. Otherwise the ``s, v`` rows and columns of ``P`` are widened
-by the window's variance factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull
-the state back, and one noisy fix never replaces it.
+as ``start_on_track`` does), their rows and columns of ``P`` without correlations.
+Otherwise the ``s, v`` rows and columns of ``P`` are widened by the window's variance
+factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull the state back, and one
+noisy fix never replaces it.
 After a recovery the windows restart, and the status is ``degraded`` until
 `MonitorConfig.min_epochs` epochs have been seen again.
 
