@@ -87,7 +87,8 @@ class TrackFixes:
         `project_near`), where that point is about as near the fix as the whole-track
         projection's (`s_m`; `NEAR_TOL_M`): a track that passes the same place twice (a
         loop, a circle driven round more than once) projects a fix on either pass, and the
-        one near the filter is the one to compare with it. Without the fix's coordinates: ``s_m[j]``."""
+        one near the filter is the one to compare with it. Without the fix's coordinates:
+        ``s_m[j]``."""
         if self.track is None or self.lat is None:
             return float(self.s_m[j]), float(self.sigma_s_m[j])
         s_loc, dist_loc = project_near(self.track, self.lat[j], self.lon[j], s_guess)
