@@ -105,21 +105,69 @@ def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsSte
     H = np.asarray(H, dtype=float)
     z = np.asarray(z, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
-    A = H / sigma[:, None]
-    y = z / sigma
+    A, cov, gain, dx, whitened = _wls_core(H, z, sigma)
     n, k = A.shape
-    normal = A.T @ A
-    chol = linalg.cho_factor(normal)  # raises LinAlgError when singular
-    cov = linalg.cho_solve(chol, np.eye(k))
-    gain = cov @ A.T
-    dx = gain @ y
-    whitened = y - A @ dx
     leverage = np.einsum("ij,ji->i", A, gain)
     redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
     standardized = whitened / np.sqrt(redundancy)
     return WlsStep(dx=dx, cov=cov, residual=whitened * sigma, standardized=standardized,
                    test_statistic=float(whitened @ whitened), dof=n - k, leverage=leverage,
                    gain=gain)
+
+
+def _wls_core(H: Array, z: Array, sigma: Array) -> tuple[Array, Array, Array, Array, Array]:
+    """``A = H/σ``, the covariance, the gain, ``dx`` and the whitened post-fit residuals of
+    `wls_step` (float arrays in); the residuals alone are what `huber_wls` reweights by."""
+    A = H / sigma[:, None]
+    y = z / sigma
+    normal = A.T @ A
+    cov = _cholesky_inverse(normal)  # raises LinAlgError when singular
+    gain = cov @ A.T
+    dx = gain @ y
+    return A, cov, gain, dx, y - A @ dx
+
+
+#: LAPACK's Cholesky factorization and solve of float64 matrices, the routines
+#: `scipy.linalg.cho_factor` and `scipy.linalg.cho_solve` call.
+_POTRF, _POTRS = linalg.get_lapack_funcs(("potrf", "potrs"), (np.empty((1, 1)),))
+
+
+def _cholesky_inverse(normal: Array) -> Array:
+    """``normal⁻¹`` of a symmetric positive-definite (k, k) matrix by Cholesky.
+
+    The LAPACK calls of ``cho_solve(cho_factor(normal), eye(k))`` made directly, with the
+    same arguments (upper factor, inputs not overwritten), so the same bits; without
+    SciPy's batch and argument handling, ~20x its cost on the 2x2 to 5x5 matrices of a
+    single-epoch solution (per-epoch in the divergence monitor).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If `normal` is not positive definite (a singular geometry).
+    ValueError
+        If it has a NaN or infinity (as `scipy.linalg.cho_factor`).
+    """
+    if not np.isfinite(normal).all():
+        raise ValueError("array must not contain infs or NaNs")
+    chol, info = _POTRF(normal, lower=False, overwrite_a=False, clean=False)
+    if info > 0:
+        raise linalg.LinAlgError(f"{info}-th leading minor of the array is not positive "
+                                 "definite")
+    if info < 0:
+        raise ValueError(f"LAPACK reported an illegal value in {-info}-th argument on entry "
+                         "to POTRF")
+    cov, info = _POTRS(chol, _identity(normal.shape[0]), lower=False, overwrite_b=False)
+    if info != 0:
+        raise ValueError(f"illegal value in {-info}th argument of internal potrs")
+    return cov
+
+
+@lru_cache(maxsize=16)
+def _identity(k: int) -> Array:
+    """The (k, k) identity, read only (`_cholesky_inverse` solves against it)."""
+    eye = np.eye(k)
+    eye.flags.writeable = False
+    return eye
 
 
 def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber_k: float,
@@ -151,16 +199,17 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
     """
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     weight = np.ones(z.size)
-    step = wls_step(H, z, sigma)
-    for _ in range(max_iter):
-        u = np.abs(step.residual / sigma)
+    for _ in range(max_iter):        # the weights' solutions: their residuals alone
+        sigma_w = sigma / np.sqrt(weight)
+        residual = _wls_core(H, z, sigma_w)[4] * sigma_w
+        u = np.abs(residual / sigma)
         new = np.where(u <= huber_k, 1.0, huber_k / np.maximum(u, huber_k))
-        done = np.max(np.abs(new - weight), initial=0.0) < tol
+        change = np.abs(new - weight).max(initial=0.0)
         weight = new
-        step = wls_step(H, z, sigma / np.sqrt(weight))
-        if done:
+        if change < tol:
             break
-    return step, sigma / np.sqrt(weight)
+    sigma_w = sigma / np.sqrt(weight)
+    return wls_step(H, z, sigma_w), sigma_w
 
 
 @dataclass(frozen=True)
@@ -225,9 +274,11 @@ def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.Arr
         else:
             step, _ = huber_wls(H[kept], z[kept], sigma[kept], huber_k=huber_k)
         passed = step.dof >= 1 and step.test_statistic <= chi2_threshold(step.dof, p_false_alarm)
-        w = np.abs(step.standardized)
-        if passed or step.dof < 2 or (~kept).sum() >= max_exclusions or not np.any(w >= 0):
+        if passed or step.dof < 2 or (~kept).sum() >= max_exclusions:
             return FdeResult(step, kept, bool(passed))
+        w = np.abs(step.standardized)
+        if not np.any(w >= 0):
+            return FdeResult(step, kept, False)
         kept[np.flatnonzero(kept)[np.nanargmax(w)]] = False
 
 

@@ -44,9 +44,10 @@ from railnav.filters.protocol import Filter, filter_kind, make_filter
 from railnav.navigation.fix_start import initial_from_fixes
 from railnav.navigation.initialization import InitialState, initial_from_gnss
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, ChunkLoop
-from railnav.navigation.monitor import FilterMonitor, fix_log_track_fixes, spp_fix_at
+from railnav.navigation.monitor import FilterMonitor
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.sensors import imu_at_reference, track_sensor_epochs
+from railnav.navigation.track_fixes import fix_log_track_fixes, spp_fix_at
 
 __all__ = ["navigate", "TripSamples", "trip_samples", "Start", "run_monitor"]
 
@@ -128,7 +129,7 @@ def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=No
                 start_s: float = 0.0) -> FilterMonitor | None:
     """The divergence monitor of a run (`railnav.navigation.monitor`): for a track-based
     filter with ``config.monitor.enabled``; None otherwise. Its fix test solves each
-    epoch's own rows on the track (`railnav.navigation.monitor.snapshot_fix`); a recovery
+    epoch's own rows on the track (`railnav.navigation.track_fixes.snapshot_fix`); a recovery
     restarts from the run's position fix of the epoch or, without fixes, from the
     single-point fix of its GNSS observations, solved then (`spp_fix_at`; `data` None, a
     streamed run: the restart widens the covariance only). `start_s` is

@@ -33,7 +33,7 @@ import numpy.typing as npt
 import pandas as pd
 from scipy.special import ndtri
 
-from railnav.navigation.monitor import FIX_TIME_TOL_S
+from railnav.navigation.track_fixes import FIX_TIME_TOL_S
 
 __all__ = ["DEFAULT_INTEGRITY_RISK", "REPORTED_RISKS", "protection_columns",
            "along_track_protection", "row_test_threshold", "risk_column"]

@@ -54,7 +54,7 @@ see its documentation for the false spawns measured on the real logs.
 
 Limits: only runs with position fixes (`railnav.filters.fix_epochs.FixEpochs`) spawn; GNSS
 runs without fixes would need a single-point solution per epoch (the divergence monitor's
-`railnav.navigation.monitor.spp_track_fixes`, 5 s of a 7.6-s run) and do not spawn yet.
+`railnav.navigation.track_fixes.spp_track_fixes`, 5 s of a 7.6-s run) and do not spawn yet.
 """
 from __future__ import annotations
 

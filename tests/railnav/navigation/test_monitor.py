@@ -17,7 +17,8 @@ from scipy import stats
 from ekf.layout import StateLayout
 from railnav.commands.run_report import report
 from railnav.jobs.run import run_simulated
-from railnav.navigation.monitor import FilterMonitor, MonitorConfig, TrackFixes, status_at
+from railnav.navigation.monitor import FilterMonitor, MonitorConfig, status_at
+from railnav.navigation.track_fixes import TrackFixes
 from railnav.navigation.protection import along_track_protection
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
@@ -267,28 +268,127 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     assert result.final_status == "lost"     # the bias: degraded first, then lost
 
 
-def test_fix_projects_on_the_pass_near_the_filter():
-    """A fix on the circle driven round three times (`test_joint_noise`) projects, over
-    the whole track, on any pass; near a prior on the first pass it takes that pass's
-    point, 2·(2πR) before the same place on the third (closed form, to within the
-    track's own closure of its repeated arcs), with the same σ
-    along the (identical) tangent."""
-    from tests.railnav.filters.test_joint_noise import RADIUS_M, _circle_track
-    track = _circle_track()
-    lap = 2 * np.pi * RADIUS_M
-    s_third = 1000.0 + 2 * lap + 0.3 * lap
-    pt = track.at(s_third)
-    cov = np.diag([4.0, 9.0, 25.0])[None]
-    fixes = TrackFixes.on_track(track, time_s=[0.0], lat=[float(pt.lat)], lon=[float(pt.lon)],
-                                cov_enu_m2=cov)
-    s_first = s_third - 2 * lap
-    # the passes of the track's repeated arcs close to within this (its own geometry)
-    closure = float(np.linalg.norm(np.asarray(track.at(s_first).r_e)
-                                   - np.asarray(track.at(s_third).r_e)))
-    assert closure < 0.05
-    s, sigma = fixes.near(0, s_first + 3.0)
-    assert s == pytest.approx(s_first, abs=closure + 1e-4)
-    u = np.asarray(track.at(s).u_n).reshape(3)               # the tangent where it lands
-    assert sigma == pytest.approx(np.sqrt(u @ cov[0] @ u), rel=1e-6)
-    s, _ = fixes.near(0, s_third - 2.0)
-    assert s == pytest.approx(s_third, abs=1e-3)
+
+# --- the monitor's windows against a plain recomputation on real runs -----------------
+
+def _epoch_inputs(monkeypatch, paper_track, scenario, config):
+    """Run `scenario` and record, at each monitored epoch, what the module docstring's
+    statistics are built from: the prior, the snapshot fix (or the fix taken near the
+    prior), the epoch's GNSS innovations, variances and gate decisions, and the
+    pseudo-observation NIS; with the record the monitor wrote for it."""
+    from railnav.navigation import track_fixes
+    inputs, near = [], {}
+    epoch, near_fix = FilterMonitor.epoch, track_fixes.TrackFixes.near
+
+    def recording_near(self, j, s_guess):
+        out = near_fix(self, j, s_guess)
+        near[float(self.time_s[j])] = out
+        return out
+
+    def recording_epoch(self, chunk, x, P):
+        prior, snapshot = self._prior, self._snapshot
+        n_records = len(self.records)
+        out = epoch(self, chunk, x, P)
+        if len(self.records) > n_records:
+            pseudo_dof = int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1) \
+                if chunk.innov_c.ndim == 2 else 0
+            inputs.append(dict(prior=prior, snapshot=snapshot, innov=chunk.innov_d.copy(),
+                               S=chunk.s_d.copy(), accepted=np.asarray(chunk.accepted),
+                               nis_c=float(chunk.nis_c_sum), nis_c_dof=pseudo_dof,
+                               record=dict(self.records[-1]), config=self.config,
+                               p_reject=self.p_reject))
+        return out
+
+    monkeypatch.setattr(FilterMonitor, "epoch", recording_epoch)
+    monkeypatch.setattr(track_fixes.TrackFixes, "near", recording_near)
+    run_simulated(paper_track, scenario, config=config, seed=1)
+    for e in inputs:
+        e["near"] = near.get(e["prior"][0])
+    return inputs
+
+
+def _reference_statuses(inputs):
+    """The module docstring's tests computed the plain way: per-epoch sums in Python,
+    windows as lists, scipy.stats tails; the windows restart after a recovery."""
+    cfg, p_reject = inputs[0]["config"], inputs[0]["p_reject"]
+    window, small, seen, out = [], [], 0, []
+    for e in inputs:
+        time_s, _, var_prior = e["prior"]
+        d = d_raw = np.nan
+        if e["snapshot"] is not None:
+            ds, var_fix, white = e["snapshot"]
+            d_raw = ds / np.sqrt(var_fix + var_prior) if white else np.nan
+            d = ds / np.sqrt(max(var_fix, cfg.min_fix_sigma_m ** 2) + var_prior)
+        elif e["near"] is not None:
+            s_fix, sigma_fix = e["near"]
+            ds = s_fix - e["prior"][1]
+            d_raw = ds / np.sqrt(sigma_fix ** 2 + var_prior)
+            d = ds / np.sqrt(max(sigma_fix, cfg.min_fix_sigma_m) ** 2 + var_prior)
+        acc = e["accepted"]
+        nis = [nu * nu / s for nu, s, a in zip(e["innov"], e["S"], acc) if a]
+        window = (window + [dict(nis=sum(nis), n_acc=len(nis), n_rej=int(len(acc) - len(nis)),
+                                 d=d, nis_c=e["nis_c"], nis_c_dof=e["nis_c_dof"])])[
+            -cfg.window_epochs:]
+        small = (small + [d_raw])[-cfg.small_window_epochs:]
+        seen += 1
+        n_acc = sum(w["n_acc"] for w in window)
+        n_rej = sum(w["n_rej"] for w in window)
+        ds_ = [w["d"] for w in window if np.isfinite(w["d"])]
+        raw = [v for v in small if np.isfinite(v)]
+
+        def sf(value, dof):
+            return float(stats.chi2.sf(value, dof)) if dof > 0 else 1.0
+        tails = {
+            "p_gnss_nis": sf(sum(w["nis"] for w in window), n_acc),
+            "p_rejected": 1.0 if p_reject is None or n_rej == 0 else
+            float(stats.binom.sf(n_rej - 1, n_acc + n_rej, p_reject)),
+            "p_fix": min(1.0, 2.0 * min(sf(sum(v * v for v in ds_), len(ds_)),
+                                        sf(sum(ds_) ** 2 / max(len(ds_), 1),
+                                           min(len(ds_), 1)))),
+            "p_pseudo_nis": sf(sum(w["nis_c"] for w in window),
+                               sum(w["nis_c_dof"] for w in window)),
+            "p_fix_small": float(stats.chi2.cdf(sum(v * v for v in raw), len(raw)))
+            if raw else 1.0,
+            "fix_disagreement_sigma": abs(d) if np.isfinite(d) else np.nan,
+            "variance_factor": sum(v * v for v in ds_) / len(ds_) if ds_ else np.nan}
+        share = n_rej / (n_acc + n_rej) if n_acc + n_rej else 0.0
+        if tails["p_fix"] < cfg.p_lost or (tails["p_rejected"] < cfg.p_lost
+                                           and share >= cfg.lost_rejected_share):
+            status = "lost"
+        elif min(tails[k] for k in ("p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
+                                    "p_fix_small")) < cfg.p_degraded or seen < cfg.min_epochs:
+            status = "degraded"
+        else:
+            status = "ok"
+        out.append((time_s, status, tails))
+        if status == "lost" and cfg.recover:
+            window, small, seen = [], [], 0
+    return out
+
+
+@pytest.mark.parametrize("case", ["clean", "biased_recover"])
+def test_monitor_windows_equal_a_plain_recomputation(monkeypatch, paper_track, case):
+    """A 60-s paper2017 run (the 10- and 30-epoch windows fill; statuses ok and
+    degraded), and one whose filter is not told of 0.5 m/s², 0.01 rad/s IMU biases, with
+    recovery on (lost at every epoch, each a restart of the windows): every epoch's
+    status equals the plain recomputation's, and every tail and window statistic agrees
+    with it to 1e-9 (sums in another order; scipy.stats' tails)."""
+    sc = _scenario(60.0)
+    config = navigator_config_for(sc)
+    if case == "biased_recover":
+        sc = replace(sc, imu_errors=replace(imu_grade(sc.imu_errors), accel_bias_mps2=0.5,
+                                            gyro_bias_radps=0.01, name="biased"))
+        config = replace(config, monitor=replace(config.monitor, recover=True))
+    inputs = _epoch_inputs(monkeypatch, paper_track, sc, config)
+    reference = _reference_statuses(inputs)
+    assert len(inputs) >= 55
+    statuses = [e["record"]["status"] for e in inputs]
+    assert statuses == [status for _, status, _ in reference]
+    assert len(set(statuses)) >= (2 if case == "clean" else 1)
+    for e, (time_s, _, tails) in zip(inputs, reference):
+        rec = e["record"]
+        assert rec["time_s"] == time_s
+        for key, want in tails.items():
+            got = rec[key]
+            assert (np.isnan(got) and np.isnan(want)) or got == pytest.approx(
+                want, rel=1e-9, abs=1e-300), (time_s, key)
