@@ -329,13 +329,16 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     """Steps 2–4 of the module docstring (`share`: what the epoch's evidence counts)."""
     log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence,
                                    share=share)
-    points = track_points_of(hyps) if len(hyps) > 1 and outcome.points is None else None
-    r_e, u_e = hypothesis_points(hyps, tracks, outcome, track_points=points)
-    neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
-    transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
-    reweight(hyps, log_lik, transition)
-    mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight,
-               track_points=points)
+    if len(hyps) > 1:
+        points = track_points_of(hyps) if outcome.points is None else None
+        r_e, u_e = hypothesis_points(hyps, tracks, outcome, track_points=points)
+        neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
+        transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
+        reweight(hyps, log_lik, transition)
+        mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight,
+                   track_points=points)
+    else:                 # nothing abreast, nothing to mix: the weight is all there is
+        reweight(hyps, log_lik, np.eye(len(hyps)))
     recorder.epoch(time_s, hyps, outcome, log_lik)
     out = []
     for h in hyps:

@@ -104,7 +104,7 @@ class NetworkRecorder:
         self.steps += outcome.steps
         self._log_lik = {} if log_lik is None else _element_log_likelihoods(hyps, log_lik)
         if outcome.screens is not None:
-            best = int(np.argmax([h.log_weight for h in hyps]))
+            best = int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
             screens = outcome.screens
             if isinstance(screens, list):   # else a stepper's stacked screens, read-only:
                 screens, best = [screens[best]], 0  # their EpochScreen made in `result`

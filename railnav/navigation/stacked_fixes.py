@@ -114,8 +114,11 @@ class FixGrid:
         out, start = {}, 0
         for name, width in FixGrid._WIDTH.items():
             part = row[:, start:start + width]
-            out[name] = np.ascontiguousarray(part.reshape(-1, 3, 3) if name == "C" else
-                                             part if width > 1 else part[:, 0])
+            if name in _REDUCED:
+                out[name] = np.ascontiguousarray(part.reshape(-1, 3, 3) if name == "C"
+                                                 else part)
+            else:                           # elementwise use only: any layout, same bits
+                out[name] = part if width > 1 else part[:, 0]
             start += width
         return out
 
@@ -140,6 +143,12 @@ class FixGrid:
         step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
         return (r + np.einsum("kij,kj->ki", C, step_n),
                 np.einsum("kij,kj->ki", C, u + du * d[:, None]))
+
+
+#: The table's quantities that enter reductions (einsum, matrix products): taken as
+#: contiguous copies, as from separate tables (a reduction's summation may depend on the
+#: layout); the others enter elementwise arithmetic only.
+_REDUCED = ("C", "u", "du")
 
 
 def _axes(pt: dict, up: bool = True) -> dict[str, Array]:
@@ -167,8 +176,20 @@ class StackedScreens:
     """The epoch's screened fix rows of every hypothesis, as `EpochScreen` on demand (for
     ``innovations.csv`` of the most probable one)."""
 
-    def __init__(self, keys, nu: Array, S: Array, used: Array, config) -> None:
-        self.keys, self.nu, self.S, self.used, self.config = keys, nu, S, used, config
+    def __init__(self, keys, nu: Array, S: Array | None, used: Array, config, *,
+                 variances: Array | None = None) -> None:
+        self.keys, self.nu, self.used, self.config = keys, nu, used, config
+        self._S, self._var = S, variances
+
+    @property
+    def S(self) -> Array:
+        """Innovation covariances (K, m, m) (from the diagonal `variances` when given so:
+        built when first read)."""
+        if self._S is None:
+            var = self._var
+            self._S = np.zeros(var.shape + var.shape[1:])
+            self._S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var
+        return self._S
 
     def __len__(self) -> int:
         return self.nu.shape[0]
@@ -360,9 +381,8 @@ class StackedFixStepper:
         P = P - np.einsum("ka,kb->kab", gain, gain) * var[:, 0][:, None, None]
         P = 0.5 * (P + P.transpose(0, 2, 1))
         labels = self._labels(names, f)
-        S = np.zeros(var.shape + var.shape[1:])
-        S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var   # diag(var), as einsum
-        screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
+        screens = StackedScreens(labels, nu, None, kept, self.config.fault_detection,
+                                 variances=var)          # S = diag(var), made when read
         if not passed.any():
             return x, P, screens, np.zeros(x.shape[0]), 0
         evidence = -0.5 * np.sum(r2 + np.log(var) + LOG_2PI, axis=1)
