@@ -99,8 +99,11 @@ class NetworkNavConfig:
         an independent epoch that such a sequence brings over its correlation time; 0:
         white errors, every epoch counts whole.
     stacked : bool
-        Step fix-only runs all hypotheses at once (`railnav.navigation.stacked_fixes`);
-        False: filter object by filter object (the same arithmetic, ~10× slower).
+        Step fix-only runs all hypotheses at once (`railnav.navigation.stacked_fixes`),
+        and propagate the other filters' hypotheses together
+        (`railnav.navigation.hypothesis_step.EngineStepper`, `ekf.stacked`); False:
+        filter object by filter object through the engine (the same numbers: fix-only
+        runs ~10× slower, a bank of inertial filters 0-8 % slower).
     spawn : bool
         Start new hypotheses from the fix when no live one agrees with the fixes
         (`railnav.navigation.spawning`). Off by default: on the four real Brussels logs as
@@ -194,10 +197,15 @@ class Hypothesis:
     path: tuple = ()
     parent: int = -1
     id: int = field(default_factory=lambda: next(_IDS))
+    _indices: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def index(self, name: str) -> int:
-        """Position of state `name` in the filter's layout."""
-        return self.filt.layout.index(name)
+        """Position of state `name` in the filter's layout (looked up once per name: the
+        cycles ask for ``s`` and ``v`` tens of times each)."""
+        found = self._indices.get(name)
+        if found is None:
+            found = self._indices[name] = self.filt.layout.index(name)
+        return found
 
     @property
     def s_m(self) -> float:

@@ -45,6 +45,7 @@ import numpy.typing as npt
 
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
+from ekf.stacked import propagate_members
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
 from trackmodel.network_lines import TRANSITION_MAX_M
@@ -151,10 +152,16 @@ class EngineStepper:
         Raw inputs of the samples.
     tracks : railnav.navigation.net_tracks.OrientedTracks, optional
         For the joints' kinks.
+    stacked : bool
+        Propagate the hypotheses of one engine together (`ekf.stacked.propagate_members`:
+        the same numbers as the engine's ``reset`` and ``propagate`` one by one, without
+        its per-call bookkeeping); False: one by one through the engine.
     """
 
-    def __init__(self, config, t: Array, u: Array, tracks=None) -> None:
+    def __init__(self, config, t: Array, u: Array, tracks=None, *, stacked: bool = True
+                 ) -> None:
         self.config, self.t, self.u, self.tracks = config, t, u, tracks
+        self.stacked = stacked
         self._dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
         self._engines: dict[tuple, object] = {}
 
@@ -167,6 +174,8 @@ class EngineStepper:
     def step(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """Propagate every hypothesis from sample `a` to sample `b` and update it there
         with epoch `epoch` (an index of the trip's epoch schedule; None: no epoch)."""
+        if self.stacked and b > a:
+            return self._step_stacked(hyps, a, b, epoch)
         screens = [] if epoch is not None else None
         innov, cov = [], []
         t, u = self.t[a:b + 1], self.u[a:b + 1]
@@ -189,17 +198,57 @@ class EngineStepper:
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), continuous)
 
-    def _propagate(self, h, engine, t: Array, u: Array):
-        """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
-        and whether the filter has a continuous measurement."""
+    def _step_stacked(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
+        """`step` (``b > a``) with the propagation of each engine's hypotheses together: every
+        hypothesis's inputs from its prior, one `ekf.stacked.propagate_members` per
+        engine, then each one's update (the order of `step`'s calls per hypothesis: a
+        filter object's inputs and rows touch only its own state)."""
+        t, u = self.t[a:b + 1], self.u[a:b + 1]
+        groups: dict[int, list[int]] = {}
+        engines = [self._engine(h.filt) for h in hyps]
+        for k, engine in enumerate(engines):
+            groups.setdefault(id(engine), []).append(k)
+        states: list = [None] * len(hyps)
+        has = [False] * len(hyps)
+        for members in groups.values():
+            series = []
+            for k in members:
+                series.append(self._series(hyps[k], t, u))
+                has[k] = series[-1].r_c is not None
+            done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
+                                                           for k in members], series)
+            for k, state in zip(members, done):
+                states[k] = state
+        screens = [] if epoch is not None else None
+        innov, cov = [], []
+        for h, engine, state, has_c in zip(hyps, engines, states, has):
+            if has_c and state.outputs.innov.shape[0]:
+                innov.append(state.outputs.innov)
+                cov.append(unpack_sym(state.outputs.S))
+            engine.x, engine.P = state.x, state.P
+            if epoch is not None:
+                self._update(h, engine, epoch)
+                screens.append(h.filt.screen.last)
+                h.filt.screen.clear_records()
+            h.x, h.P = engine.x.copy(), engine.P.copy()
+        full = bool(innov) and len(innov) == len(hyps)
+        return CycleOutcome(screens, innov if full else None, cov if full else None,
+                            (b - a) * len(hyps), any(has))
+
+    def _series(self, h, t: Array, u: Array) -> InputSeries:
+        """The hypothesis's engine inputs of samples `t` (with any joint allowance)."""
         u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0]))
         extra = None if r_c is None else joint_allowance(h, self.tracks, t)
         if extra is not None:
             r_c = r_c + extra[:, None]
-        out = engine.propagate(InputSeries(t=t, u=u_c, p=p_c,
-                                            q_c=getattr(h.filt, "step_q_c", h.filt.q_c),
-                                            r_c=r_c))
-        return out, r_c is not None
+        return InputSeries(t=t, u=u_c, p=p_c, q_c=getattr(h.filt, "step_q_c", h.filt.q_c),
+                           r_c=r_c)
+
+    def _propagate(self, h, engine, t: Array, u: Array):
+        """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
+        and whether the filter has a continuous measurement."""
+        series = self._series(h, t, u)
+        return engine.propagate(series), series.r_c is not None
 
     @staticmethod
     def _update(h, engine, epoch: int) -> None:

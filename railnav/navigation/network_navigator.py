@@ -69,9 +69,11 @@ from railnav.navigation.network_weights import (
     abreast,
     crossing_matrix,
     cycle_evidence,
+    forget_offsets,
     hypothesis_points,
     mix_states,
     reweight,
+    track_points_of,
 )
 
 __all__ = ["navigate_network", "FilterFactory", "cycle_ends", "crossing_sample"]
@@ -178,8 +180,8 @@ def _grid_points(stepper):
         return None
 
     def points(hyps):
-        pt = grid.points([h.pieces[0][:2] for h in hyps], np.array([h.s_m for h in hyps]))
-        return pt["r"], np.einsum("kij,kj->ki", pt["C"], pt["u"])
+        return grid.track_points([h.pieces[0][:2] for h in hyps],
+                                 np.array([h.s_m for h in hyps]))
     return points
 
 
@@ -219,6 +221,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     """
     started = time.perf_counter()
     _check_inputs(config, data)
+    forget_offsets()              # this run's numbers: not those of the runs before it
     trip = trip_samples(data, config, outages=outages)
     tracks = OrientedTracks(network)
     factory = FilterFactory(tracks, config, trip)
@@ -227,7 +230,8 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     t, u, epoch_idx = trip.from_time(t0)
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
     stepper = StackedFixStepper(config, trip, tracks, t) if nav.stacked and \
-        stackable(config, trip) else EngineStepper(config, t, u, tracks)
+        stackable(config, trip) else EngineStepper(config, t, u, tracks,
+                                                          stacked=nav.stacked)
     run = _Run(network, tracks, factory, trip, data, config, nav, stepper,
                NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s),
                t, dict(zip(at_sample.tolist(), epoch_idx.tolist())))
@@ -325,11 +329,16 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     """Steps 2–4 of the module docstring (`share`: what the epoch's evidence counts)."""
     log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence,
                                    share=share)
-    r_e, u_e = hypothesis_points(hyps, tracks, outcome)
-    neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
-    transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
-    reweight(hyps, log_lik, transition)
-    mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight)
+    if len(hyps) > 1:
+        points = track_points_of(hyps) if outcome.points is None else None
+        r_e, u_e = hypothesis_points(hyps, tracks, outcome, track_points=points)
+        neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
+        transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
+        reweight(hyps, log_lik, transition)
+        mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight,
+                   track_points=points)
+    else:                 # nothing abreast, nothing to mix: the weight is all there is
+        reweight(hyps, log_lik, np.eye(len(hyps)))
     recorder.epoch(time_s, hyps, outcome, log_lik)
     out = []
     for h in hyps:

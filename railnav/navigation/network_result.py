@@ -50,18 +50,24 @@ NETWORK_COLUMNS = ("netelement", "netelement_offset_m", "direction",
                    "hypotheses")
 
 
-def _offset(tracks, h) -> float:
-    """The hypothesis's offset from its element's first coordinate, m."""
-    element, orientation, s = h.where()
+def _offset(tracks, h, where=None) -> float:
+    """The hypothesis's offset from its element's first coordinate, m (`where`: its
+    ``h.where()`` when known)."""
+    element, orientation, s = h.where() if where is None else where
     return float(tracks.offset_m(element, orientation, s))
 
 
-def _mixture_offset(hyps, w: Array, tracks, element: str) -> tuple[float, float]:
+def _mixture_offset(hyps, w: Array, tracks, element: str, spots=None) -> tuple[float, float]:
     """Moment-matched offset (m, from the element's first coordinate) and σ of the
-    hypotheses on `element`."""
-    on = [k for k, h in enumerate(hyps) if h.element == element]
+    hypotheses on `element` (`spots`: their ``where()``, when known)."""
+    spots = [h.where() for h in hyps] if spots is None else spots
+    on = [k for k, spot in enumerate(spots) if spot[0] == element]
+    if len(on) == 1:        # the general formula's numbers: ww = [1.0], off - mean = 0
+        h = hyps[on[0]]
+        i_s = h.index("s")
+        return _offset(tracks, h, spots[on[0]]), float(np.sqrt(h.P[i_s, i_s] + 0.0))
     ww = w[on] / w[on].sum()
-    off = np.array([_offset(tracks, hyps[k]) for k in on])
+    off = np.array([_offset(tracks, hyps[k], spots[k]) for k in on])
     var = np.array([hyps[k].P[hyps[k].index("s"), hyps[k].index("s")] for k in on])
     mean = float(ww @ off)
     return mean, float(np.sqrt(ww @ (var + (off - mean) ** 2)))
@@ -98,25 +104,29 @@ class NetworkRecorder:
         self.steps += outcome.steps
         self._log_lik = {} if log_lik is None else _element_log_likelihoods(hyps, log_lik)
         if outcome.screens is not None:
-            best = int(np.argmax([h.log_weight for h in hyps]))
-            self.innov.append((outcome.screens[best], time_s))
+            best = int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
+            screens = outcome.screens
+            if isinstance(screens, list):   # else a stepper's stacked screens, read-only:
+                screens, best = [screens[best]], 0  # their EpochScreen made in `result`
+            self.innov.append((screens, best, time_s))
 
     def cycle(self, time_s: float, hyps, *, evidence_rows: int, merges: int,
               pruned: float) -> None:
         """Record a cycle's hypotheses after branching, merging and pruning."""
         w = normalized_weights(hyps)
+        spots = [h.where() for h in hyps]             # (element, orientation, s) of each
         per_element: dict[str, float] = {}
-        for h, wk in zip(hyps, w):
-            per_element[h.element] = per_element.get(h.element, 0.0) + float(wk)
+        for spot, wk in zip(spots, w.tolist()):
+            per_element[spot[0]] = per_element.get(spot[0], 0.0) + wk
         element = max(per_element, key=per_element.get)
-        on = [k for k, h in enumerate(hyps) if h.element == element]
-        best = on[int(np.argmax(w[on]))]
+        on = [k for k, spot in enumerate(spots) if spot[0] == element]
+        best = on[int(np.argmax(w[on]))] if len(on) > 1 else on[0]
         h = hyps[best]
-        mean, sigma = _mixture_offset(hyps, w, self.tracks, element)
+        mean, sigma = _mixture_offset(hyps, w, self.tracks, element, spots)
         v = float(h.x[h.index("v")])
         self.rows.append({"time_s": time_s, "netelement": element,
-                          "netelement_offset_m": _offset(self.tracks, h),
-                          "direction": int(h.orientation * (1 if v >= 0 else -1)),
+                          "netelement_offset_m": _offset(self.tracks, h, spots[best]),
+                          "direction": int(spots[best][1] * (1 if v >= 0 else -1)),
                           "netelement_probability": per_element[element],
                           "mixture_offset_m": mean, "mixture_sigma_m": sigma,
                           "hypotheses": len(hyps), "evidence_rows": evidence_rows,
@@ -147,7 +157,8 @@ class NetworkRecorder:
             element_probability=tuple(self.element_probability),
             element_log_likelihood=tuple(self.element_log_likelihood),
             hypotheses=pd.DataFrame(self.hyp_rows),
-            innovations=_innovation_frame(self.innov, self.start_gps_time_s),
+            innovations=_innovation_frame([(screens[best], time_s) for screens, best, time_s
+                                           in self.innov], self.start_gps_time_s),
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
             spawns=tuple(self.spawns), status_records=self.status_records)

@@ -39,8 +39,8 @@ from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
 from trackmodel.network_points import points_on
 
-__all__ = ["cycle_evidence", "hypothesis_points", "abreast", "crossing_matrix",
-           "reweight", "mix_states", "converted", "converted_pairs"]
+__all__ = ["cycle_evidence", "hypothesis_points", "track_points_of", "abreast", "crossing_matrix",
+           "reweight", "mix_states", "converted", "converted_pairs", "forget_offsets"]
 
 Array = npt.NDArray[np.float64]
 
@@ -72,21 +72,30 @@ def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
     return log_lik, rows
 
 
-def hypothesis_points(hyps, tracks, outcome=None) -> tuple[Array, Array]:
+def hypothesis_points(hyps, tracks, outcome=None, *, track_points: list | None = None
+                      ) -> tuple[Array, Array]:
     """ECEF position (m) and ECEF unit tangent of the oriented track at each hypothesis's
     ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis); those of
-    the cycle's `outcome` when its stepper gave them."""
+    the cycle's `outcome` when its stepper gave them. `track_points`: the hypotheses'
+    `track_points_of` when known."""
     r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
     if len(hyps) < 2:                       # nothing to be abreast of
         return r, u
     if outcome is not None and outcome.points is not None:
         return outcome.points
-    tracks = [h.filt.track for h in hyps]
-    points = points_on(tracks, [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)])
+    points = track_points_of(hyps) if track_points is None else track_points
     for k, p in enumerate(points):
         r[k] = p.r_e
         u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
     return r, u
+
+
+def track_points_of(hyps) -> list:
+    """The track point (`trackmodel.network_points.points_on`) of each hypothesis at its
+    ``s`` clamped to its track: what `hypothesis_points` and the conversions of
+    `mix_states` start from, evaluated once for both."""
+    tracks = [h.filt.track for h in hyps]
+    return points_on(tracks, [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)])
 
 
 def _signed_speed(filt) -> bool:
@@ -192,19 +201,23 @@ def reweight(hyps, log_lik: Array, transition: Array) -> None:
         h.log_weight = float(lw)
 
 
-def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
+def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
+               track_points: list | None = None) -> None:
     """IMM restarts of the hypotheses that have something abreast (module docstring, 3).
 
     The states of all pairs the mixing uses are converted first, together
     (`converted_pairs`: the track points of all pairs in two evaluations instead of two per
-    pair; the same numbers)."""
+    pair; the same numbers). `track_points`: the hypotheses' `track_points_of`, when
+    known (the sources' points are then not evaluated again)."""
     K = len(hyps)
     if K < 2 or np.allclose(transition, np.eye(K)):
         return
     _, uses = imm_mixing(mu, transition, min_weight)
     pairs = [(i, j) for j, use in enumerate(uses) if use != [j] for i in use if i != j]
     done = converted_pairs([hyps[i].filt for i, _ in pairs], [hyps[j].filt for _, j in pairs],
-                           [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs])
+                           [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
+                           source_points=None if track_points is None else
+                           [track_points[i] for i, _ in pairs])
     table = dict(zip(pairs, done))
 
     def convert(i: int, j: int, x: Array, P: Array):
@@ -216,12 +229,20 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float) -> None:
         h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
 
 
-#: Offsets ``s_target − s_source`` found for pairs of tracks, for the next conversion.
+#: Offsets ``s_target − s_source`` found for pairs of tracks, for the next conversion
+#: (by the tracks' ``id``: forgotten at the start of each run, `forget_offsets`, so that a
+#: run's numbers do not depend on the runs before it in the process, whose freed tracks'
+#: ids new tracks may reuse).
 _OFFSETS: dict[tuple[int, int], float] = {}
 #: A Newton step longer than this (m) means the guess was poor: project instead.
 NEWTON_MAX_STEP_M = 1.0
 #: Pairs remembered at most (then forgotten together).
 MAX_OFFSETS = 10_000
+
+
+def forget_offsets() -> None:
+    """Forget the offsets found so far (a run's start: `_OFFSETS`)."""
+    _OFFSETS.clear()
 
 
 def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> list[float]:
@@ -301,20 +322,26 @@ def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     return converted_pairs([source], [target], [x], [P])[0]
 
 
-def converted_pairs(sources, targets, xs, Ps) -> list[tuple[Array, Array]]:
+def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = None
+                    ) -> list[tuple[Array, Array]]:
     """`converted` of each pair ``(sources[k], targets[k], xs[k], Ps[k])``, in order, the
     track points of all pairs evaluated together (`trackmodel.network_points.points_on`:
-    the same numbers as `trackmodel.track.Track.at` point by point)."""
+    the same numbers as `trackmodel.track.Track.at` point by point); `source_points`: the
+    sources' points at their clamped ``s`` when known."""
     if not sources:
         return []
     s_raw = [float(x[f.layout.index("s")]) for x, f in zip(xs, sources)]
     s_src = [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_raw, sources)]
     # the sources' points and the first Newton points need nothing from each other: together
     first = _first_wave(sources, targets, s_src)
-    both = points_on([f.track for f in sources] + [targets[k].track for k in first],
-                     s_src + list(first.values()))
-    p_src = both[:len(sources)]
-    newton = dict(zip(first, both[len(sources):]))
+    if source_points is None:
+        both = points_on([f.track for f in sources] + [targets[k].track for k in first],
+                         s_src + list(first.values()))
+        p_src, newton_points = both[:len(sources)], both[len(sources):]
+    else:
+        p_src = list(source_points)
+        newton_points = points_on([targets[k].track for k in first], list(first.values()))
+    newton = dict(zip(first, newton_points))
 
     def first_points(guessed, s_g):
         if all(k in newton for k in guessed):

@@ -83,16 +83,18 @@ class FixGrid:
         self._size += n
         self._table = None
 
-    def points(self, keys, s: Array) -> dict[str, Array]:
-        """The track quantities at ``s`` of hypotheses on oriented elements `keys`
-        (module docstring; beyond an element's end, expanded from its end node as the
-        fix rows expand the track from the clamped ``s``)."""
+    #: Columns of each quantity in the one table of nodes (`_columns`).
+    _WIDTH = {"r": 3, "C": 9, "u": 3, "du": 3, "A": 1, "E": 1, "dA": 1, "dE": 1, "h": 1}
+
+    def _nodes(self, keys, s: Array) -> tuple[Array, Array]:
+        """The table rows of the nodes nearest ``s`` on `keys` (K, 22) and ``δ = s −
+        s_node`` (beyond an element's end, from its end node)."""
         for key in keys:
             if key not in self._offset:
                 self._add(key)
-        if self._table is None:
-            self._table = {n: np.concatenate(v) for n, v in self._parts.items()}
-        tab = self._table
+        if self._table is None:        # one table: one gather per call, not nine
+            self._table = np.column_stack([np.concatenate(v).reshape(self._size, -1)
+                                           for v in self._parts.values()])
         cached = self._keyed.get(tuple(keys))
         if cached is None:
             cached = (np.array([self._length[k] for k in keys]),
@@ -102,13 +104,51 @@ class FixGrid:
             self._keyed[tuple(keys)] = cached
         length, offset = cached
         node = np.rint(np.minimum(np.maximum(s, 0.0), length) / GRID_STEP_M)  # np.clip
-        idx = offset + node.astype(int)
         d = s - np.minimum(node * GRID_STEP_M, length)     # beyond an end: extrapolated
-        C, u, du = tab["C"][idx], tab["u"][idx], tab["du"][idx]
+        return self._table[offset + node.astype(int)], d
+
+    @staticmethod
+    def _columns(row: Array) -> dict[str, Array]:
+        """The quantities of gathered table rows, by name (contiguous copies: the same
+        products as from separate tables)."""
+        out, start = {}, 0
+        for name, width in FixGrid._WIDTH.items():
+            part = row[:, start:start + width]
+            if name in _REDUCED:
+                out[name] = np.ascontiguousarray(part.reshape(-1, 3, 3) if name == "C"
+                                                 else part)
+            else:                           # elementwise use only: any layout, same bits
+                out[name] = part if width > 1 else part[:, 0]
+            start += width
+        return out
+
+    def points(self, keys, s: Array) -> dict[str, Array]:
+        """The track quantities at ``s`` of hypotheses on oriented elements `keys`
+        (module docstring; beyond an element's end, expanded from its end node as the
+        fix rows expand the track from the clamped ``s``)."""
+        row, d = self._nodes(keys, s)
+        tab = self._columns(row)
+        C, u, du = tab["C"], tab["u"], tab["du"]
         step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
-        return {"r": tab["r"][idx] + np.einsum("kij,kj->ki", C, step_n), "C": C,
-                "u": u + du * d[:, None], "du": du, "A": tab["A"][idx] + tab["dA"][idx] * d,
-                "E": tab["E"][idx] + tab["dE"][idx] * d, "h": tab["h"][idx] + u[:, 2] * d}
+        return {"r": tab["r"] + np.einsum("kij,kj->ki", C, step_n), "C": C,
+                "u": u + du * d[:, None], "du": du, "A": tab["A"] + tab["dA"] * d,
+                "E": tab["E"] + tab["dE"] * d, "h": tab["h"] + u[:, 2] * d}
+
+    def track_points(self, keys, s: Array) -> tuple[Array, Array]:
+        """ECEF position and unit tangent at ``s`` (those of `points`: ``r`` and ``C u``),
+        shapes (K, 3)."""
+        row, d = self._nodes(keys, s)
+        C = np.ascontiguousarray(row[:, 3:12].reshape(-1, 3, 3))
+        r, u, du = (np.ascontiguousarray(row[:, a:a + 3]) for a in (0, 12, 15))
+        step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
+        return (r + np.einsum("kij,kj->ki", C, step_n),
+                np.einsum("kij,kj->ki", C, u + du * d[:, None]))
+
+
+#: The table's quantities that enter reductions (einsum, matrix products): taken as
+#: contiguous copies, as from separate tables (a reduction's summation may depend on the
+#: layout); the others enter elementwise arithmetic only.
+_REDUCED = ("C", "u", "du")
 
 
 def _axes(pt: dict, up: bool = True) -> dict[str, Array]:
@@ -136,8 +176,20 @@ class StackedScreens:
     """The epoch's screened fix rows of every hypothesis, as `EpochScreen` on demand (for
     ``innovations.csv`` of the most probable one)."""
 
-    def __init__(self, keys, nu: Array, S: Array, used: Array, config) -> None:
-        self.keys, self.nu, self.S, self.used, self.config = keys, nu, S, used, config
+    def __init__(self, keys, nu: Array, S: Array | None, used: Array, config, *,
+                 variances: Array | None = None) -> None:
+        self.keys, self.nu, self.used, self.config = keys, nu, used, config
+        self._S, self._var = S, variances
+
+    @property
+    def S(self) -> Array:
+        """Innovation covariances (K, m, m) (from the diagonal `variances` when given so:
+        built when first read)."""
+        if self._S is None:
+            var = self._var
+            self._S = np.zeros(var.shape + var.shape[1:])
+            self._S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var
+        return self._S
 
     def __len__(self) -> int:
         return self.nu.shape[0]
@@ -178,6 +230,8 @@ class StackedFixStepper:
         self._r0 = geodetic_to_ecef(fx.lat, fx.lon, zero)
         self._normal = geodetic_to_ecef(fx.lat, fx.lon, zero + 1.0) - self._r0
         self._label_sets: dict[tuple, np.ndarray] = {}
+        #: `_composed_noise` of the cycles' steps, by their bytes.
+        self._composed: dict[bytes, tuple[float, float, float, float]] = {}
 
     def step(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """Propagate every hypothesis from sample `a` to sample `b` and update it there
@@ -206,20 +260,30 @@ class StackedFixStepper:
         the time left after step j (one Q for all hypotheses)."""
         if steps.size == 0:
             return P
-        q = self.q
-        total = float(steps.sum())
-        left = total - np.cumsum(steps)
-        # Q_j = q dt [[dt²/4, dt/2], [dt/2, 1]], carried to the cycle's end by Φ(τ)
-        a = steps * steps / 4.0 + steps * left + left * left
-        b = steps / 2.0 + left
-        Q_ss, Q_sv, Q_vv = q * float(np.sum(steps * a)), q * float(np.sum(steps * b)), \
-            q * total
+        key = steps.tobytes()             # cycles repeat their steps (a fix rate)
+        found = self._composed.get(key)
+        if found is None:
+            found = self._composed_noise(steps)
+            if len(self._composed) >= MAX_KEY_SETS:
+                self._composed.clear()
+            self._composed[key] = found
+        total, Q_ss, Q_sv, Q_vv = found
         x[:, 0] += x[:, 1] * total
         out = P.copy()
         out[:, 0, 0] = P[:, 0, 0] + 2.0 * total * P[:, 0, 1] + total * total * P[:, 1, 1] + Q_ss
         out[:, 0, 1] = out[:, 1, 0] = P[:, 0, 1] + total * P[:, 1, 1] + Q_sv
         out[:, 1, 1] = P[:, 1, 1] + Q_vv
         return out
+
+    def _composed_noise(self, steps: Array) -> tuple[float, float, float, float]:
+        """The steps' total time and ``Σ_j Φ(τ_j) Q_j Φ(τ_j)ᵀ``'s ``ss, sv, vv`` (`_propagate`)."""
+        q = self.q
+        total = float(steps.sum())
+        left = total - np.cumsum(steps)
+        # Q_j = q dt [[dt²/4, dt/2], [dt/2, 1]], carried to the cycle's end by Φ(τ)
+        a = steps * steps / 4.0 + steps * left + left * left
+        b = steps / 2.0 + left
+        return total, q * float(np.sum(steps * a)), q * float(np.sum(steps * b)), q * total
 
     def _rows(self, pt: dict, x: Array, f: int):
         """The fix rows at the prior: names, innovations (K, m), ∂h/∂[s, v] (K, m, 2) and
@@ -317,9 +381,8 @@ class StackedFixStepper:
         P = P - np.einsum("ka,kb->kab", gain, gain) * var[:, 0][:, None, None]
         P = 0.5 * (P + P.transpose(0, 2, 1))
         labels = self._labels(names, f)
-        S = np.zeros(var.shape + var.shape[1:])
-        S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var   # diag(var), as einsum
-        screens = StackedScreens(labels, nu, S, kept, self.config.fault_detection)
+        screens = StackedScreens(labels, nu, None, kept, self.config.fault_detection,
+                                 variances=var)          # S = diag(var), made when read
         if not passed.any():
             return x, P, screens, np.zeros(x.shape[0]), 0
         evidence = -0.5 * np.sum(r2 + np.log(var) + LOG_2PI, axis=1)

@@ -1,0 +1,66 @@
+"""Members of a bank propagated together (`ekf.stacked.propagate_members`) against the
+engine driven member by member (`ekf.CdFilter.reset` + `propagate`): the same posteriors
+and per-step outputs to the bit, and the same errors."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ekf.cd_filter import CdFilter
+from ekf.errors import FilterDivergedError, ModelError
+from ekf.series import InputSeries
+from ekf.stacked import propagate_members
+
+
+@pytest.fixture
+def engine(linear_system):
+    """The engine of a damped oscillator with a continuous measurement of its position."""
+    system = linear_system(A=np.array([[0.0, 1.0], [-0.4, -0.1]]),
+                           G=np.array([[0.0], [1.0]]), H=np.array([[1.0, 0.0]]),
+                           D=np.zeros((1, 1)))
+    return CdFilter(system.model("stacked_test"))
+
+
+def _members(rng, k: int):
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.05, 0.15, 40)])       # jittered samples
+    priors, series = [], []
+    for _ in range(k):
+        L = rng.normal(size=(2, 2))
+        priors.append((rng.normal(size=2), L @ L.T + 0.1 * np.eye(2)))
+        series.append(InputSeries(t=t, u=np.zeros((t.size, 0)),
+                                  q_c=rng.uniform(0.01, 0.1, (t.size, 1)),
+                                  r_c=rng.uniform(0.5, 2.0, (t.size, 1)),
+                                  z_c=rng.normal(size=(t.size, 1))))
+    return priors, series
+
+
+def test_members_together_equal_the_engine_one_by_one(engine):
+    priors, series = _members(np.random.default_rng(3), 4)
+    together = propagate_members(engine, priors, series)
+    for (x0, P0), samples, member in zip(priors, series, together):
+        engine.reset(x0, P0)
+        steps = engine.propagate(samples)
+        np.testing.assert_array_equal(member.x, engine.x)
+        np.testing.assert_array_equal(member.P, engine.P)
+        for name in ("x_next", "P_next", "x_filt", "P_filt", "innov", "S", "nis", "Phi"):
+            np.testing.assert_array_equal(getattr(member.outputs, name), getattr(steps, name))
+
+
+def test_a_single_sample_is_the_prior_symmetrized(engine):
+    P0 = np.array([[2.0, 0.5 + 1e-12], [0.5, 1.0]])
+    member, = propagate_members(engine, [(np.array([1.0, -1.0]), P0)],
+                                [InputSeries(t=np.array([3.0]), u=np.zeros((1, 0)),
+                                             q_c=np.array([0.1]))])
+    assert member.outputs is None
+    np.testing.assert_array_equal(member.P, 0.5 * (P0 + P0.T))
+    np.testing.assert_array_equal(member.x, [1.0, -1.0])
+
+
+def test_bad_priors_fail_as_the_engine_does(engine):
+    priors, series = _members(np.random.default_rng(4), 2)
+    with pytest.raises(ModelError, match="2 priors for 1 sample series"):
+        propagate_members(engine, priors, series[:1])
+    with pytest.raises(ModelError, match="x0 must be"):
+        propagate_members(engine, [(np.zeros(3), np.eye(3))], series[:1])
+    with pytest.raises(FilterDivergedError, match="initial covariance"):
+        propagate_members(engine, [(np.zeros(2), -np.eye(2))], series[:1])
