@@ -183,17 +183,9 @@ class EngineStepper:
         for h in hyps:
             engine = self._engine(h.filt)
             engine.reset(h.x, h.P)
-            if b > a:
-                out, has = self._propagate(h, engine, t, u)
-                continuous = continuous or has
-                if has and out.innov.shape[0]:
-                    innov.append(out.innov)
-                    cov.append(unpack_sym(out.S))
-            if epoch is not None:
-                self._update(h, engine, epoch)
-                screens.append(h.filt.screen.last)
-                h.filt.screen.clear_records()
-            h.x, h.P = engine.x.copy(), engine.P.copy()
+            out, has = self._propagate(h, engine, t, u) if b > a else (None, False)
+            continuous = continuous or has
+            self._finish(h, engine, epoch, out if has else None, screens, innov, cov)
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), continuous)
@@ -222,18 +214,25 @@ class EngineStepper:
         screens = [] if epoch is not None else None
         innov, cov = [], []
         for h, engine, state, has_c in zip(hyps, engines, states, has):
-            if has_c and state.outputs.innov.shape[0]:
-                innov.append(state.outputs.innov)
-                cov.append(unpack_sym(state.outputs.S))
             engine.x, engine.P = state.x, state.P
-            if epoch is not None:
-                self._update(h, engine, epoch)
-                screens.append(h.filt.screen.last)
-                h.filt.screen.clear_records()
-            h.x, h.P = engine.x.copy(), engine.P.copy()
+            self._finish(h, engine, epoch, state.outputs if has_c else None, screens, innov,
+                         cov)
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), any(has))
+
+    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov) -> None:
+        """After a hypothesis's propagation: its continuous innovations (`outputs`, None
+        without) to `innov`/`cov`, its update with `epoch` (its screen to `screens`), and
+        the engine's state back into the hypothesis."""
+        if outputs is not None and outputs.innov.shape[0]:
+            innov.append(outputs.innov)
+            cov.append(unpack_sym(outputs.S))
+        if epoch is not None:
+            self._update(h, engine, epoch)
+            screens.append(h.filt.screen.last)
+            h.filt.screen.clear_records()
+        h.x, h.P = engine.x.copy(), engine.P.copy()
 
     def _series(self, h, t: Array, u: Array) -> InputSeries:
         """The hypothesis's engine inputs of samples `t` (with any joint allowance)."""
