@@ -40,7 +40,7 @@ stopped keeps the cases done).
 
 What the misses come from (measured by ablation, same seeds; each simulated IMU error
 switched off in the simulation only, the filter still assuming the full grade;
-/work/wt/notes/consist3.md has the tables):
+``docs/consistency-ablations.md`` has the tables):
 
 * ``circle_100mps`` (NEES 12.8): three parts. (1) The joint lies on an IMU sample
   (t = 10.00 s). The rate step's sampling error is then ±Δω dt/2 = 5 mrad in every seed,
