@@ -92,6 +92,32 @@ def _check_covariance(P: Array, where: str) -> None:
         raise FilterDivergedError(f"covariance lost positive definiteness {where}")
 
 
+def checked_prior(n: int, x0: npt.ArrayLike, P0: npt.ArrayLike) -> tuple[Array, Array]:
+    """A prior as the engine starts from it: float copies, shapes ``(n,)`` and ``(n, n)``
+    checked, ``P0`` positive definite and symmetrized (`CdFilter.reset`,
+    `ekf.stacked.propagate_members`).
+
+    Raises
+    ------
+    ModelError
+        Wrong shapes.
+    FilterDivergedError
+        ``P0`` not finite or not positive definite.
+    """
+    x0, P0 = np.array(x0, dtype=float), np.array(P0, dtype=float)
+    if x0.shape != (n,) or P0.shape != (n, n):
+        raise ModelError(f"x0 must be ({n},) and P0 ({n}, {n}); got {x0.shape}, {P0.shape}")
+    _check_covariance(P0, "in the initial covariance")
+    return x0, 0.5 * (P0 + P0.T)
+
+
+def step_data(propagator, chunk: InputSeries) -> Array:
+    """The step data of a chunk's ``M − 1`` steps (``propagator.data.assemble`` of its
+    samples but the last; `CdFilter.propagate`, `ekf.stacked.propagate_members`)."""
+    return propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], np.diff(chunk.t),
+                                    chunk.q_c[:-1], chunk.r_c[:-1])
+
+
 class CdFilter:
     """Continuous–discrete EKF of a :class:`~ekf.model.CdModel`.
 
@@ -131,12 +157,7 @@ class CdFilter:
         P0 : array_like, shape (n, n)
             Symmetric positive definite.
         """
-        x0, P0 = np.array(x0, dtype=float), np.array(P0, dtype=float)
-        n = self.model.n
-        if x0.shape != (n,) or P0.shape != (n, n):
-            raise ModelError(f"x0 must be ({n},) and P0 ({n}, {n}); got {x0.shape}, {P0.shape}")
-        _check_covariance(P0, "in the initial covariance")
-        self.x, self.P = x0, 0.5 * (P0 + P0.T)
+        self.x, self.P = checked_prior(self.model.n, x0, P0)
         self.t, self._last, self._step_index = float("nan"), None, 0
 
     def update(self, observations: Sequence[Observation], *, gate: Gate | None = None,
@@ -210,10 +231,7 @@ class CdFilter:
                 raise ModelError("chunk times must continue after the previous chunk")
             chunk = _concat(self._last, chunk)
         n_samples = len(chunk)
-        data = self.propagator.data
-        dt = np.diff(chunk.t)
-        d = data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], dt, chunk.q_c[:-1],
-                          chunk.r_c[:-1])
+        d = step_data(self.propagator, chunk)
         cursor = 0
         while True:
             stop = n_samples - 1

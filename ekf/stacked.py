@@ -5,9 +5,10 @@ between two discrete updates: only their priors and per-step parameters differ.
 Driven one by one through `ekf.cd_filter.CdFilter` (``reset``, ``propagate``) each member
 pays the driver's per-call Python (the chunk bookkeeping, a recorder, the epoch
 search). `propagate_members` does what those calls do for all members in one pass:
-each member's prior symmetrized and checked as ``reset`` does, its step data assembled
-(`ekf.step.StepData.assemble`), its steps run by the engine's propagator (one compiled
-call per member: the same C function, so the same bits as ``CdFilter.propagate``), its
+each member's prior checked and symmetrized as ``reset`` does
+(`ekf.cd_filter.checked_prior`), its step data assembled as ``propagate`` does
+(`ekf.cd_filter.step_data`), its steps run by the engine's propagator (one compiled call
+per member: the same C function, so the same bits as ``CdFilter.propagate``), its
 posterior unpacked and checked.
 
 Equal to ``reset`` + ``propagate`` of each member in turn, to the bit
@@ -21,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ekf.cd_filter import CdFilter, _check_covariance
+from ekf.cd_filter import CdFilter, _check_covariance, checked_prior, step_data
 from ekf.errors import ModelError
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import StepOutputs
@@ -79,22 +80,14 @@ def propagate_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]],
     if len(priors) != len(samples):
         raise ModelError(f"{len(priors)} priors for {len(samples)} sample series")
     model, propagator = engine.model, engine.propagator
-    n = model.n
     out = []
     for (x_prior, P_prior), series in zip(priors, samples):
-        x0, P0 = np.array(x_prior, dtype=float), np.array(P_prior, dtype=float)
-        if x0.shape != (n,) or P0.shape != (n, n):
-            raise ModelError(f"x0 must be ({n},) and P0 ({n}, {n}); got {x0.shape}, "
-                             f"{P0.shape}")
-        _check_covariance(P0, "in the initial covariance")
-        P0 = 0.5 * (P0 + P0.T)
+        x0, P0 = checked_prior(model.n, x_prior, P_prior)
         chunk = series.shaped(model.n_u, model.n_p, model.n_c, model.n_w)
         if len(chunk) < 2:
             out.append(MemberState(x0, P0, None))
             continue
-        d = propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], np.diff(chunk.t),
-                                     chunk.q_c[:-1], chunk.r_c[:-1])
-        steps = propagator.run(x0, pack_sym(P0), d)
+        steps = propagator.run(x0, pack_sym(P0), step_data(propagator, chunk))
         P = unpack_sym(steps.P_next[-1])
         _check_covariance(P, f"at t={chunk.t[-1]:.6f} s")
         out.append(MemberState(steps.x_next[-1].copy(), P, steps))
