@@ -47,6 +47,8 @@ class StateLayout:
     blocks: tuple[tuple[str, int, int], ...]
     names: tuple[str, ...]
     _where: dict[str, tuple[int, int]] = field(init=False, repr=False, compare=False)
+    #: The index of each scalar block or component (`index`'s answer, looked up once).
+    _scalar: dict[str, int] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         where: dict[str, tuple[int, int]] = {}
@@ -66,6 +68,8 @@ class StateLayout:
         if len(set(self.names)) != len(self.names):
             raise ModelError(f"layout component names repeat: {self.names}")
         object.__setattr__(self, "_where", where)
+        object.__setattr__(self, "_scalar", {name: start for name, (start, stop)
+                                             in where.items() if stop - start == 1})
 
     @classmethod
     def from_blocks(cls, blocks: Sequence[BlockSpec]) -> "StateLayout":
@@ -120,6 +124,9 @@ class StateLayout:
         ModelError
             Unknown name, or a block of more than one component.
         """
+        found = self._scalar.get(name)
+        if found is not None:
+            return found
         start, stop = self._lookup(name)
         if stop - start != 1:
             raise ModelError(f"layout block {name!r} has {stop - start} components; "

@@ -197,15 +197,10 @@ class Hypothesis:
     path: tuple = ()
     parent: int = -1
     id: int = field(default_factory=lambda: next(_IDS))
-    _indices: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def index(self, name: str) -> int:
-        """Position of state `name` in the filter's layout (looked up once per name: the
-        cycles ask for ``s`` and ``v`` tens of times each)."""
-        found = self._indices.get(name)
-        if found is None:
-            found = self._indices[name] = self.filt.layout.index(name)
-        return found
+        """Position of state `name` in the filter's layout."""
+        return self.filt.layout.index(name)
 
     @property
     def s_m(self) -> float:
