@@ -128,21 +128,27 @@ class FixGrid:
         fix rows expand the track from the clamped ``s``)."""
         row, d = self._nodes(keys, s)
         tab = self._columns(row)
-        C, u, du = tab["C"], tab["u"], tab["du"]
-        step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
-        return {"r": tab["r"] + np.einsum("kij,kj->ki", C, step_n), "C": C,
-                "u": u + du * d[:, None], "du": du, "A": tab["A"] + tab["dA"] * d,
-                "E": tab["E"] + tab["dE"] * d, "h": tab["h"] + u[:, 2] * d}
+        r, u_at = _expanded(tab, d)
+        u = tab["u"]
+        return {"r": r, "C": tab["C"], "u": u_at, "du": tab["du"],
+                "A": tab["A"] + tab["dA"] * d, "E": tab["E"] + tab["dE"] * d,
+                "h": tab["h"] + u[:, 2] * d}
 
     def track_points(self, keys, s: Array) -> tuple[Array, Array]:
         """ECEF position and unit tangent at ``s`` (those of `points`: ``r`` and ``C u``),
         shapes (K, 3)."""
         row, d = self._nodes(keys, s)
-        C = np.ascontiguousarray(row[:, 3:12].reshape(-1, 3, 3))
-        r, u, du = (np.ascontiguousarray(row[:, a:a + 3]) for a in (0, 12, 15))
-        step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
-        return (r + np.einsum("kij,kj->ki", C, step_n),
-                np.einsum("kij,kj->ki", C, u + du * d[:, None]))
+        tab = self._columns(row)
+        r, u_at = _expanded(tab, d)
+        return r, np.einsum("kij,kj->ki", tab["C"], u_at)
+
+
+def _expanded(tab: dict[str, Array], d: Array) -> tuple[Array, Array]:
+    """ECEF position and ENU tangent ``δ = d`` past the nodes of `tab` (`FixGrid._columns`):
+    ``r + C (u δ + du δ²/2)`` and ``u + du δ``."""
+    C, u, du = tab["C"], tab["u"], tab["du"]
+    step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
+    return tab["r"] + np.einsum("kij,kj->ki", C, step_n), u + du * d[:, None]
 
 
 #: The table's quantities that enter reductions (einsum, matrix products): taken as
