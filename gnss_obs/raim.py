@@ -105,7 +105,12 @@ def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsSte
     H = np.asarray(H, dtype=float)
     z = np.asarray(z, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
-    A, cov, gain, dx, whitened = _wls_core(H, z, sigma)
+    return _step(sigma, _wls_core(H, z, sigma))
+
+
+def _step(sigma: Array, core: tuple[Array, Array, Array, Array, Array]) -> WlsStep:
+    """The `WlsStep` of `_wls_core`'s outputs at the standard deviations `sigma`."""
+    A, cov, gain, dx, whitened = core
     n, k = A.shape
     leverage = np.einsum("ij,ji->i", A, gain)
     redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
@@ -199,9 +204,11 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
     """
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     weight = np.ones(z.size)
+    core = sigma_core = None
     for _ in range(max_iter):        # the weights' solutions: their residuals alone
         sigma_w = sigma / np.sqrt(weight)
-        residual = _wls_core(H, z, sigma_w)[4] * sigma_w
+        core, sigma_core = _wls_core(H, z, sigma_w), sigma_w
+        residual = core[4] * sigma_w
         u = np.abs(residual / sigma)
         new = np.where(u <= huber_k, 1.0, huber_k / np.maximum(u, huber_k))
         change = np.abs(new - weight).max(initial=0.0)
@@ -209,6 +216,10 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
         if change < tol:
             break
     sigma_w = sigma / np.sqrt(weight)
+    # weights that did not change (no residual beyond huber_k): the last solution is the
+    # final one, the same function of the same arrays (same bits), not solved again
+    if sigma_core is not None and np.array_equal(sigma_w, sigma_core):
+        return _step(sigma_w, core), sigma_w
     return wls_step(H, z, sigma_w), sigma_w
 
 

@@ -65,7 +65,7 @@ from gnss_obs.raim import (
 from gnss_obs.spp_result import EpochFix, SppResult, assemble_result
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
-__all__ = ["SppConfig", "SppResult", "solve_spp"]
+__all__ = ["SppConfig", "SppResult", "solve_spp", "solve_spp_epoch"]
 
 log = logging.getLogger(__name__)
 
@@ -255,9 +255,11 @@ def _sky(epoch: EpochData, tx, ctx: _Context, r_e: Array, clocks: dict[str, floa
             "pr_residual_m": np.where(np.isfinite(b_sat), full.pseudorange_m - rho, np.nan)}
 
 
-def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array) -> EpochFix | None:
+def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None
+                 ) -> EpochFix | None:
     cfg = ctx.config
-    tx = transmit_states(epoch, cfg.measurement, precise=ctx.precise)
+    tx = transmit_states(epoch, cfg.measurement, precise=ctx.precise) if transmit is None \
+        else transmit
     pos = _position(epoch, tx, ctx, guess)
     if pos is None:
         return None
@@ -363,15 +365,7 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
                         f"{mc.systems!r}"
                         + (" with a base correction" if corrections is not None else ""))
     check_nav_coverage(obs, nav, mc.systems)
-    klob = None
-    if mc.ionosphere == "klobuchar":
-        alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
-        if alpha is None or beta is None:
-            log.warning("no Klobuchar coefficients in the navigation header: no ionosphere "
-                        "correction")
-        else:
-            klob = (np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float))
-    ctx = _Context(cfg, klob, precise)
+    ctx = _Context(cfg, _klobuchar(nav, mc), precise)
     epochs = _every_epoch(split_epochs(meas, nav.records, mc), obs.table)
     fixes: list[EpochFix | None] = []
     last: EpochFix | None = None
@@ -388,3 +382,49 @@ def solve_spp(obs, nav, config: SppConfig | None = None, *,
         log.warning("%d of %d epochs without a position fix (too few satellites or singular "
                     "geometry)", result.n_no_fix, len(epochs))
     return result
+
+
+def _klobuchar(nav, mc: MeasurementConfig) -> tuple[Array, Array] | None:
+    """The navigation header's Klobuchar coefficients for ``ionosphere="klobuchar"`` (a
+    warning when it has none), else None."""
+    if mc.ionosphere != "klobuchar":
+        return None
+    alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
+    if alpha is None or beta is None:
+        log.warning("no Klobuchar coefficients in the navigation header: no ionosphere "
+                    "correction")
+        return None
+    return np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
+
+
+def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
+                    approx_e: Array | None = None, transmit=None) -> EpochFix | None:
+    """The fix of one epoch as `solve_spp` solves an observation file of that epoch alone:
+    from the guess `approx_e` (the file's approximate position; the Earth's centre without
+    one), broadcast orbits.
+
+    Parameters
+    ----------
+    epoch : EpochData
+        One epoch of `gnss_obs.epoch.split_epochs` of the measurements
+        (`gnss_obs.measurements.select_measurements` with ``config.measurement``: the
+        selection and the ephemeris choice are made row by row, so an epoch cut from a
+        longer table is the epoch of a file holding it alone).
+    nav : RinexNav
+    config : SppConfig, optional
+    approx_e : ndarray, shape (3,), optional
+        ECEF, m (``obs.header.approx_position_e``).
+    transmit : optional
+        The epoch's `gnss_obs.epoch.transmit_states` when the caller has them
+        (`gnss_obs.epoch.transmit_states_batch`).
+
+    Returns
+    -------
+    EpochFix or None
+        None: too few satellites or a singular geometry (`solve_spp`'s row without a fix).
+    """
+    cfg = config or SppConfig()
+    if not len(epoch):
+        return None
+    ctx = _Context(cfg, _klobuchar(nav, cfg.measurement))
+    return _solve_epoch(epoch, ctx, _initial_guess(approx_e), transmit=transmit)

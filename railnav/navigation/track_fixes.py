@@ -136,16 +136,50 @@ def spp_track_fixes(track, data, config, *, start_s: float = 0.0, end_s: float =
     `railnav.navigation.initialization.GnssFix`)."""
     if data.obs is None or data.nav is None:
         return None
-    from gnss_obs.spp import SppConfig, solve_spp
-    from railnav.navigation.initialization import GnssFix
+    from gnss_obs.spp import solve_spp
     table = data.obs.table
     t = table["gps_time_s"].to_numpy() - data.start_gps_time_s
     sub = replace(data.obs, table=table[(t >= start_s - FIX_TIME_TOL_S)
                                         & (t <= end_s + FIX_TIME_TOL_S)])
     if len(sub.table) == 0:
         return None
-    spp = solve_spp(sub, data.nav, SppConfig(measurement=config.measurement,
-                                             elevation_mask_deg=config.elevation_mask_deg))
+    return _spp_on_track(track, data, solve_spp(sub, data.nav, _spp_config(config)), filt)
+
+
+def _spp_config(config):
+    """The single-point solution's settings of a run: its measurements and mask."""
+    from gnss_obs.spp import SppConfig
+    return SppConfig(measurement=config.measurement, elevation_mask_deg=config.elevation_mask_deg)
+
+
+@dataclass(frozen=True)
+class _Solutions:
+    """The `gnss_obs.SppResult` fields `_spp_on_track` reads, of one epoch's fix."""
+
+    gps_time_s: Array
+    systems: str
+    r_e: Array
+    v_e: Array
+    clock_bias_m: dict
+    clock_drift_mps: Array
+    cov_enu_m2: Array
+    cov_v_enu_m2ps2: Array
+
+    @classmethod
+    def of(cls, fix, systems: str) -> "_Solutions":
+        """`gnss_obs.spp_result.assemble_result`'s arrays of the one fix `fix`."""
+        return cls(gps_time_s=np.array([fix.gps_time_s], dtype=float), systems=systems,
+                   r_e=np.array([fix.r_e]).reshape(1, 3), v_e=np.array([fix.v_e]).reshape(1, 3),
+                   clock_bias_m={s: np.array([fix.clocks.get(s, np.nan)]) for s in systems},
+                   clock_drift_mps=np.array([fix.clock_drift_mps]),
+                   cov_enu_m2=np.array([fix.cov_enu]).reshape(1, 3, 3),
+                   cov_v_enu_m2ps2=np.array([fix.cov_v_enu]).reshape(1, 3, 3))
+
+
+def _spp_on_track(track, data, spp, filt) -> TrackFixes | None:
+    """Single-point fixes (`gnss_obs.SppResult` or `_Solutions`) on `track`, with the
+    filter's start from them (`spp_track_fixes`)."""
+    from railnav.navigation.initialization import GnssFix
     ok = np.all(np.isfinite(spp.r_e), axis=1)
     if not ok.any():
         return None
@@ -178,10 +212,74 @@ def spp_track_fixes(track, data, config, *, start_s: float = 0.0, end_s: float =
 def spp_fix_at(track, data, config, *, filt=None) -> Callable[[float], TrackFixes | None]:
     """``fix_at(time_s)``: the single-point fix of the one epoch at `time_s` on `track`
     (`spp_track_fixes` of that epoch alone, solved when asked: a recovery's restart), or
-    None."""
+    None.
+
+    When `filt` reads the run's GNSS epochs (``filt.rows.gnss``, a
+    `railnav.filters.gnss_epochs.GnssEpochs` of ``data`` without augmentation, with the
+    run's measurement settings), the epoch is taken from them (`_FilterEpochs`) and solved
+    by `gnss_obs.spp.solve_spp_epoch` with its satellites' states at transmission: the
+    same fix as `spp_track_fixes` gives, which selects the measurements and ephemerides of
+    the epoch again from the observation table (pandas, ~4x the solve itself).
+    """
+    own = _FilterEpochs.of(data, config, filt)
+
     def fix_at(time_s: float) -> TrackFixes | None:
-        return spp_track_fixes(track, data, config, start_s=time_s, end_s=time_s, filt=filt)
+        k = None if own is None else own.index_at(time_s)
+        if k is None:
+            return spp_track_fixes(track, data, config, start_s=time_s, end_s=time_s, filt=filt)
+        from gnss_obs.spp import solve_spp_epoch
+        cfg = _spp_config(config)
+        fix = solve_spp_epoch(own.gnss.epochs[k], data.nav, cfg,
+                              approx_e=data.obs.header.approx_position_e,
+                              transmit=own.gnss.transmit[k])
+        return None if fix is None else \
+            _spp_on_track(track, data, _Solutions.of(fix, cfg.measurement.systems), filt)
     return fix_at
+
+
+@dataclass(frozen=True, eq=False)
+class _FilterEpochs:
+    """A run's GNSS epochs (`railnav.filters.gnss_epochs.GnssEpochs`) where they are the
+    epochs `spp_track_fixes` would cut from ``data.obs`` (`spp_fix_at`).
+
+    Attributes
+    ----------
+    gnss : railnav.filters.gnss_epochs.GnssEpochs
+    obs_times_s : ndarray
+        The distinct epoch times of the whole observation table, s from the trip start.
+    """
+
+    gnss: object
+    obs_gps_time_s: Array
+    obs_times_s: Array
+
+    @classmethod
+    def of(cls, data, config, filt) -> "_FilterEpochs | None":
+        """The filter's epochs, or None where they may differ from the table's: no GNSS
+        epochs on `filt`, augmentation (base corrections, precise orbits), other
+        measurement settings."""
+        gnss = getattr(getattr(filt, "rows", None), "gnss", None)
+        if gnss is None or data is None or data.obs is None or data.nav is None \
+                or getattr(data, "augmentation", None) is not None \
+                or getattr(gnss, "config", None) != config.measurement \
+                or len(getattr(gnss, "transmit", ())) != len(gnss.epochs):
+            return None
+        gps_time = np.unique(data.obs.table["gps_time_s"].to_numpy())
+        return cls(gnss, gps_time, gps_time - data.start_gps_time_s)
+
+    def index_at(self, time_s: float) -> int | None:
+        """The filter's epoch at `time_s` when it is the only epoch of the table within
+        `FIX_TIME_TOL_S` of it (the epoch `spp_track_fixes` solves), else None."""
+        t = self.obs_times_s
+        a = int(np.searchsorted(t, time_s - FIX_TIME_TOL_S, side="left"))
+        b = int(np.searchsorted(t, time_s + FIX_TIME_TOL_S, side="right"))
+        if b - a != 1:
+            return None
+        mine = self.gnss.time_s
+        k = int(np.searchsorted(mine, t[a] - FIX_TIME_TOL_S))
+        if k < mine.size and self.gnss.epochs[k].gps_time_s == self.obs_gps_time_s[a]:
+            return k
+        return None
 
 
 def fix_log_track_fixes(track, fixes, *, filt=None, config=None) -> TrackFixes | None:

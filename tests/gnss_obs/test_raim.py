@@ -189,3 +189,25 @@ def test_wls_and_huber_equal_the_scipy_cholesky_solution_to_the_bit(rng):
         for got, want in zip((hstep.dx, hstep.cov, hstep.residual),
                              _reference_huber(H, z, sigma, 1.5)):
             np.testing.assert_array_equal(got, want)
+
+
+def test_huber_without_reweighting_is_the_plain_wls_step(rng):
+    """Residuals all within huber_k σ (the weights stay 1): `huber_wls` returns the solution
+    of its one iteration (not solved again), equal in every field to `wls_step` at the σ
+    (a second call); with a residual beyond huber_k, equal to `wls_step` at the inflated σ
+    it returns."""
+    fields = ("dx", "cov", "residual", "standardized", "leverage", "gain")
+    for trial in range(100):
+        H = _geometry(rng, n=int(rng.integers(5, 13)))
+        sigma = rng.uniform(0.5, 5.0, len(H))
+        # whitened post-fit residuals are a projection of z/σ: |r_i/σ_i| <= |z/σ| < 0.7
+        z = rng.uniform(-0.2, 0.2, len(H)) * sigma
+        if trial % 2:
+            z[0] += 40.0 * sigma[0]
+        hstep, sigma_eff = huber_wls(H, z, sigma, huber_k=1.5)
+        if trial % 2 == 0:
+            assert np.array_equal(sigma_eff, sigma)
+        want = wls_step(H, z, sigma_eff)
+        for name in fields:
+            np.testing.assert_array_equal(getattr(hstep, name), getattr(want, name))
+        assert (hstep.test_statistic, hstep.dof) == (want.test_statistic, want.dof)

@@ -36,3 +36,49 @@ def test_fix_projects_on_the_pass_near_the_filter():
     assert sigma == pytest.approx(np.sqrt(u @ cov[0] @ u), rel=1e-6)
     s, _ = fixes.near(0, s_third - 2.0)
     assert s == pytest.approx(s_third, abs=1e-3)
+
+
+def test_fix_at_from_the_filter_epochs_equals_the_fix_of_the_epoch_alone():
+    """`spp_fix_at` with the filter (its GNSS epochs and transmission states, solved by
+    `gnss_obs.spp.solve_spp_epoch`) gives, to the bit, the fix `spp_track_fixes` solves
+    from the epoch's rows of the observation table alone (pandas selection, `solve_spp`):
+    every field, the restart from it and the projection near a prior; on a 60-s
+    paper2017 trip, every 7th epoch, one inside an outage (no filter epoch: the table's
+    path) and one between epochs (no fix)."""
+    from railnav.filters.protocol import make_filter
+    from railnav.navigation.navigator import trip_samples
+    from railnav.navigation.track_fixes import _FilterEpochs, spp_fix_at, spp_track_fixes
+    from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+    from railnav.simulation.trip import navigator_config_for, simulate_trip
+    from trackmodel.io import read_track
+
+    scenario = get_scenario("paper2017").with_overrides(duration_s=60.0)
+    trip = simulate_trip(scenario, track=read_track(TRACKS_DIR / "paper2017.csv"), seed=3)
+    config = navigator_config_for(scenario)
+    data = trip.sensor_data()
+    outage = (20.0, 5.0)
+    samples = trip_samples(data, config, outages=[outage], track=trip.track, body=True)
+    filt = make_filter(trip.track, config, samples.gnss)
+    fix_at = spp_fix_at(trip.track, data, config, filt=filt)
+    times = [*samples.gnss.time_s[::7], 22.0, 30.5]
+    assert not np.any(np.isclose(samples.gnss.time_s, 22.0))      # inside the outage
+    own = _FilterEpochs.of(data, config, filt)                     # the filter's path is taken
+    assert [own.index_at(t) for t in times[:3]] == [0, 7, 14]
+    assert own.index_at(22.0) is None and own.index_at(30.5) is None
+    solved = 0
+    for time_s in times:
+        old = spp_track_fixes(trip.track, data, config, start_s=time_s, end_s=time_s,
+                              filt=filt)
+        new = fix_at(time_s)
+        assert (old is None) == (new is None)
+        if old is None:
+            continue
+        solved += 1
+        for name in ("time_s", "s_m", "sigma_s_m", "v_mps", "sigma_v_mps", "source", "lat",
+                     "lon", "cov_enu_m2"):
+            assert np.array_equal(getattr(old, name), getattr(new, name), equal_nan=True)
+        for a, b in zip(old.start(0), new.start(0)):
+            assert np.array_equal(a, b)
+        j = old.at(time_s)
+        assert old.near(j, float(old.s_m[j]) + 2.0) == new.near(j, float(new.s_m[j]) + 2.0)
+    assert solved == len(times) - 1                  # all but the time between epochs
