@@ -141,6 +141,8 @@ def _receiver_scalar(value) -> bool:
     receiver terms are then computed in Python floats, whose arithmetic and `math`
     functions (exp, cos, pow) give NumPy's bits at a fraction of the cost of 0-d arrays
     (`tests/gnss_obs/test_corrections.py` checks the scalar path against the batch)."""
+    if isinstance(value, float):          # a Python or NumPy float (np.float64 is one)
+        return math.isfinite(value)
     return np.ndim(value) == 0 and math.isfinite(value)
 
 

@@ -370,13 +370,14 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     if known:
         lat, lon, h = ecef_to_geodetic(r_rx_e)
         known = abs(h) < MAX_RECEIVER_HEIGHT_M
-    tau = np.linalg.norm(states.r_e - r_rx_e, axis=1) / SPEED_OF_LIGHT_MPS
+    # np.linalg.norm(d, axis=1)'s own reduction (sqrt of the row sums of d * d: the same
+    # bits), without its generic argument handling
+    d = states.r_e - r_rx_e
+    tau = np.sqrt(np.add.reduce(d * d, axis=1)) / SPEED_OF_LIGHT_MPS
     sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
     meas = epoch.meas
     n = len(epoch)
-    iono = np.zeros(n)
-    tropo = np.zeros(n)
-    elevation = azimuth = np.full(n, np.nan)
+    iono = tropo = None
     if known:
         elevation, azimuth = look_angles(r_rx_e, sat_pos_e, geodetic=(lat, lon))
         if config.troposphere:
@@ -386,6 +387,10 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
                 *klobuchar, lat=float(lat), lon=float(lon), elevation=elevation,
                 azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
                 * ionosphere_scale(meas["frequency_hz"])
+    else:
+        elevation = azimuth = np.full(n, np.nan)
+    iono = np.zeros(n) if iono is None else iono
+    tropo = np.zeros(n) if tropo is None else tropo
     sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
                                             frequency_hz=meas["frequency_hz"],
                                             frequency2_hz=meas["frequency2_hz"])

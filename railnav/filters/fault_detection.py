@@ -261,7 +261,9 @@ class RowScreen:
         self._n_states = x.size
         nu, H, R = evaluate_rows(observations, x)
         S = H @ P @ H.T + np.diag(R)
-        keys = np.array([f"{a}/{b}" for a, b in zip(sv, kind)], dtype=object)
+        # "<sv>/<kind>" of each row: the object arrays' elementwise str concatenation
+        keys = np.asarray(sv, dtype=object) + "/" + np.asarray(kind, dtype=object) \
+            if len(sv) else np.zeros(0, dtype=object)
         Q = np.zeros_like(P)
         jump = self._clock_jump(keys, kind, nu, S) if nu.size else None
         if jump is not None:
@@ -294,11 +296,15 @@ class RowScreen:
         cfg = self.config
         if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
             return None
-        channel = self._channel
-        admitted = np.fromiter((not channel(k).excluded for k in keys), dtype=bool,
-                               count=keys.size)
+        # no channel excluded (most epochs): every row admitted, without asking each
+        every = not any(ch.excluded for ch in self._channels.values())
+        admitted = None
+        if not every:
+            channel = self._channel
+            admitted = np.fromiter((not channel(k).excluded for k in keys), dtype=bool,
+                                   count=keys.size)
+            every = bool(admitted.all())
         members = np.asarray(kind) == JUMP_ROW_KIND
-        every = bool(admitted.all())
         if not every:
             members = members[admitted]
         if np.count_nonzero(members) < MIN_JUMP_ROWS:
@@ -308,7 +314,8 @@ class RowScreen:
             nu[admitted], S[np.ix_(admitted, admitted)], members)
         if nis_offset <= chi2_threshold(1.0 - cfg.clock_jump_false_alarm, 1):
             return None
-        if nis_residual > chi2_threshold(CLOCK_RESIDUAL_PROBABILITY, int(admitted.sum()) - 1):
+        n_admitted = keys.size if every else int(admitted.sum())
+        if nis_residual > chi2_threshold(CLOCK_RESIDUAL_PROBABILITY, n_admitted - 1):
             log.debug("common pseudorange offset %.1f m with an inconsistent residual: "
                       "not taken for a clock jump", offset)
             return None
