@@ -30,7 +30,7 @@ sys.path.insert(0, str(HERE))
 import bench_navigator  # noqa: E402  (the paper2017 trip and start live there)
 
 from railnav.navigation import monitor as monitor_module  # noqa: E402
-from railnav.navigation import track_fixes  # noqa: E402
+from railnav.navigation import navigator as navigator_module  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
 
 RESULTS = HERE / "results" / "monitor.json"
@@ -71,14 +71,17 @@ def _time_filter(trip, data, initial, configs: dict, repeats: int) -> dict:
 def _time_hooks(trip, data, initial, config) -> dict:
     totals: dict = defaultdict(lambda: [0.0, 0.0, 0])
     cls = monitor_module.FilterMonitor
-    saved = (cls.prior, cls.epoch, monitor_module.snapshot_fix, track_fixes.spp_track_fixes)
+    saved = (cls.prior, cls.epoch, monitor_module.snapshot_fix, navigator_module.spp_fix_at)
+
+    def spp_fix_at(*args, **kwargs):        # the run's fix_at, its calls timed
+        return _timed(totals, "spp_fix_at", saved[3](*args, **kwargs))
     cls.prior, cls.epoch = _timed(totals, "prior", cls.prior), _timed(totals, "epoch", cls.epoch)
     monitor_module.snapshot_fix = _timed(totals, "snapshot_fix", saved[2])
-    track_fixes.spp_track_fixes = _timed(totals, "spp_fix_at", saved[3])
+    navigator_module.spp_fix_at = spp_fix_at
     try:
         result = navigate(trip.track, data, config, initial=initial)
     finally:
-        cls.prior, cls.epoch, monitor_module.snapshot_fix, track_fixes.spp_track_fixes = saved
+        cls.prior, cls.epoch, monitor_module.snapshot_fix, navigator_module.spp_fix_at = saved
     epochs = len(result.monitor)
     wall = totals["prior"][0] + totals["epoch"][0]
     cpu = totals["prior"][1] + totals["epoch"][1]
