@@ -152,7 +152,7 @@ def _cholesky_inverse(normal: Array) -> Array:
     ValueError
         If it has a NaN or infinity (as `scipy.linalg.cho_factor`).
     """
-    if not np.isfinite(normal).all():
+    if not np.logical_and.reduce(np.isfinite(normal), axis=None):
         raise ValueError("array must not contain infs or NaNs")
     chol, info = _POTRF(normal, lower=False, overwrite_a=False, clean=False)
     if info > 0:
@@ -205,13 +205,15 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     weight = np.ones(z.size)
     core = sigma_core = None
-    for _ in range(max_iter):        # the weights' solutions: their residuals alone
-        sigma_w = sigma / np.sqrt(weight)
+    for k in range(max_iter):        # the weights' solutions: their residuals alone
+        # σ / sqrt(1) is σ to the bit: the first iteration's σ as it is
+        sigma_w = sigma if k == 0 else sigma / np.sqrt(weight)
         core, sigma_core = _wls_core(H, z, sigma_w), sigma_w
         residual = core[4] * sigma_w
         u = np.abs(residual / sigma)
         new = np.where(u <= huber_k, 1.0, huber_k / np.maximum(u, huber_k))
-        change = np.abs(new - weight).max(initial=0.0)
+        # ndarray.max(initial=0.0)'s reduction, without its Python wrapper
+        change = np.maximum.reduce(np.abs(new - weight), initial=0.0)
         weight = new
         if change < tol:
             break
@@ -279,11 +281,15 @@ def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.Arr
     """
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     kept = np.ones(z.size, dtype=bool)
+    # nothing excluded yet: the arrays as they are when they are what ``a[kept]`` makes
+    # (C-ordered copies: the products see the same layout)
+    every = all(a.flags.c_contiguous for a in (H, z, sigma))
     while True:
+        Hk, zk, sk = (H, z, sigma) if every else (H[kept], z[kept], sigma[kept])
         if huber_k is None:
-            step = wls_step(H[kept], z[kept], sigma[kept])
+            step = wls_step(Hk, zk, sk)
         else:
-            step, _ = huber_wls(H[kept], z[kept], sigma[kept], huber_k=huber_k)
+            step, _ = huber_wls(Hk, zk, sk, huber_k=huber_k)
         passed = step.dof >= 1 and step.test_statistic <= chi2_threshold(step.dof, p_false_alarm)
         if passed or step.dof < 2 or (~kept).sum() >= max_exclusions:
             return FdeResult(step, kept, bool(passed))
@@ -291,6 +297,7 @@ def fault_detection_exclusion(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.Arr
         if not np.any(w >= 0):
             return FdeResult(step, kept, False)
         kept[np.flatnonzero(kept)[np.nanargmax(w)]] = False
+        every = False
 
 
 @lru_cache(maxsize=256)
