@@ -72,7 +72,8 @@ class Observation:
         if R.shape not in ((z.size,), (z.size, z.size)):
             raise ModelError(f"{self.model.name}: R has shape {R.shape}, expected "
                              f"({z.size},) or ({z.size}, {z.size})")
-        if not (np.isfinite(z).all() and np.isfinite(R).all() and np.isfinite(p).all()):
+        # each finite (np.isfinite(a).all(); a count of a bool array is cheaper)
+        if not all(np.count_nonzero(np.isfinite(a)) == a.size for a in (z, R, p)):
             raise ModelError(f"{self.model.name}: non-finite z, R or p")
         for name, value in (("z", z), ("p", p), ("R", R)):
             object.__setattr__(self, name, value)
@@ -293,9 +294,10 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
     accepted = np.ones(m, dtype=bool) if gate is None else gate.accepted_rows(innov, S, groups)
     nis_c = innov ** 2 / np.diag(S)
     K = np.zeros((n, m))
-    if accepted.all():
+    n_accepted = np.count_nonzero(accepted)      # (all(), any() without their wrappers)
+    if n_accepted == m:
         K = _cho_solve(factor, PHt.T).T
-    elif accepted.any():
+    elif n_accepted:
         K[:, accepted] = _batch_gain(P, H[accepted], R_mat[np.ix_(accepted, accepted)])
     x_post = x + K @ innov
     P_post = _joseph(P, K, H, R)

@@ -401,4 +401,5 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
         iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
         pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
         cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
-    return prepared if np.isfinite(clock_m).all() else prepared.subset(np.isfinite(clock_m))
+    finite = np.isfinite(clock_m)
+    return prepared if np.count_nonzero(finite) == finite.size else prepared.subset(finite)

@@ -152,7 +152,7 @@ def _cholesky_inverse(normal: Array) -> Array:
     ValueError
         If it has a NaN or infinity (as `scipy.linalg.cho_factor`).
     """
-    if not np.logical_and.reduce(np.isfinite(normal), axis=None):
+    if np.count_nonzero(np.isfinite(normal)) != normal.size:   # .all(), cheaper
         raise ValueError("array must not contain infs or NaNs")
     chol, info = _POTRF(normal, lower=False, overwrite_a=False, clean=False)
     if info > 0:

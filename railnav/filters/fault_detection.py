@@ -288,7 +288,7 @@ class RowScreen:
         self._kind.append(np.asarray(kind, dtype=object))
         rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
                                      H=H[used], R=R[used], groups=np.arange(int(used.sum())))
-        return EpochRows(rows, Q) if Q.any() else rows
+        return EpochRows(rows, Q) if np.count_nonzero(Q) else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
                     ) -> tuple[float, float] | None:
@@ -371,9 +371,10 @@ class RowScreen:
                        H: Array, S: Array, P: Array) -> None:
         """Each used row's correction ``K_i ν_i`` of this update, to its channel (rows
         screened without a channel keep none)."""
-        if self.config is None or not used.any():
+        n_used = np.count_nonzero(used)          # (bool counts: any/all without wrappers)
+        if self.config is None or not n_used:
             return
-        every = bool(used.all())
+        every = n_used == used.size
         H_u = H if every else H[used]
         S_u = S if every else S[np.ix_(used, used)]
         K_t = np.linalg.solve(S_u, H_u @ P)      # Kᵀ, S symmetric

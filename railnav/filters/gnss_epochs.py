@@ -118,4 +118,4 @@ class GnssEpochs:
         prepared = prepare_epoch(epoch, self.config, r_rx_e=r_guess_e, klobuchar=self.klobuchar,
                                  transmit=self.transmit[index])
         ok = np.isfinite(prepared.pseudorange_m) & (prepared.elevation >= self.elevation_mask_rad)
-        return prepared if ok.all() else prepared.subset(ok)
+        return prepared if np.count_nonzero(ok) == ok.size else prepared.subset(ok)

@@ -22,7 +22,7 @@ ROW_STATUSES = ("used", "rejected", "excluded")
 def group_status(status: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Rows of a group with a row not used are rejected (`RowScreen.screen`)."""
     out = status.copy()
-    if not np.any(groups >= 0):          # no group (GNSS rows only): nothing to tie
+    if not np.count_nonzero(groups >= 0):      # no group (GNSS rows only): nothing to tie
         return out
     bad = np.unique(groups[(groups >= 0) & (status != ROW_STATUSES[0])])
     out[np.isin(groups, bad) & (status == ROW_STATUSES[0])] = ROW_STATUSES[1]
@@ -53,8 +53,9 @@ def subset_rows(observations: list[Observation], keep: npt.NDArray[np.bool_]
     for obs in observations:
         k = keep[start:start + obs.rows]
         start += obs.rows
-        if k.all():
+        n_kept = np.count_nonzero(k)             # (k.all(), k.any() without wrappers)
+        if n_kept == k.size:
             out.append(obs)
-        elif k.any():
+        elif n_kept:
             out.append(replace(obs, z=obs.z[k], R=obs.R[k], p=obs.p[k]))
     return out

@@ -373,9 +373,9 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     if not nus:
         return None
     nu, H, R = np.concatenate(nus), np.vstack(Hs), np.concatenate(Rs)
-    cols = [i_s] + [c for c in clock_columns if np.any(H[:, c] != 0.0)]
+    cols = [i_s] + [c for c in clock_columns if np.count_nonzero(H[:, c])]   # any != 0
     A = H[:, cols]
-    if nu.size < len(cols) or not np.any(A[:, 0] != 0.0):
+    if nu.size < len(cols) or not np.count_nonzero(A[:, 0]):
         return None
     sigma = np.sqrt(R)
     try:
