@@ -292,7 +292,7 @@ def kalman_update(x: Array, P: Array, innov: Array, H: Array, R: Array, *,
         return x_post, P_post, UpdateRecord(innov, S, nis, nis_c, accepted, log_lik, K)
     groups = np.arange(m) if groups is None else np.asarray(groups)
     accepted = np.ones(m, dtype=bool) if gate is None else gate.accepted_rows(innov, S, groups)
-    nis_c = innov ** 2 / np.diag(S)
+    nis_c = innov ** 2 / S.diagonal()               # (np.diag's view of it)
     K = np.zeros((n, m))
     n_accepted = np.count_nonzero(accepted)      # (all(), any() without their wrappers)
     if n_accepted == m:

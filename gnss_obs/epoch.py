@@ -227,7 +227,7 @@ def sagnac_rotation(r_sat_e: Array, v_sat_e: Array, tau_s: Array) -> tuple[Array
     """
     a = OMEGA_E_GPS * tau_s
     c, s = np.cos(a), np.sin(a)
-    both = np.stack([r_sat_e, v_sat_e])           # (2, N, 3): one pass for both
+    both = np.array([r_sat_e, v_sat_e])           # (2, N, 3): one pass for both
     x, y = both[..., 0], both[..., 1]
     out = np.empty_like(both)
     out[..., 0] = c * x + s * y

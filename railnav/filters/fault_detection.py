@@ -264,12 +264,12 @@ class RowScreen:
         # "<sv>/<kind>" of each row: the object arrays' elementwise str concatenation
         keys = np.asarray(sv, dtype=object) + "/" + np.asarray(kind, dtype=object) \
             if len(sv) else np.zeros(0, dtype=object)
-        Q = np.zeros_like(P)
+        Q = np.zeros(P.shape, dtype=P.dtype)      # np.zeros_like(P), without its wrapper
         jump = self._clock_jump(keys, kind, nu, S) if nu.size else None
         if jump is not None:
             Q[self.clock_index, self.clock_index] = jump[1]
             S = S + H @ Q @ H.T
-        r = nu / np.sqrt(np.diag(S)) if nu.size else nu
+        r = nu / np.sqrt(S.diagonal()) if nu.size else nu     # (np.diag's view of it)
         modes = np.full(keys.size, SCREEN_MODES[0], dtype=object) if modes is None else \
             np.asarray(modes, dtype=object)
         status, prob, newly_excluded = self._decide(keys, r, modes)

@@ -43,7 +43,8 @@ def evaluate_rows(observations: list[Observation], x: Array) -> tuple[Array, Arr
         nus.append(obs.z.reshape(-1) - z_pred)
         Hs.append(H)
         Rs.append(obs.R)
-    return np.concatenate(nus), np.vstack(Hs), np.concatenate(Rs)
+    # the (m_i, n) Jacobians stacked (np.vstack's concatenation, without its wrapper)
+    return np.concatenate(nus), np.concatenate(Hs), np.concatenate(Rs)
 
 
 def subset_rows(observations: list[Observation], keep: npt.NDArray[np.bool_]

@@ -372,7 +372,7 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
         start += m
     if not nus:
         return None
-    nu, H, R = np.concatenate(nus), np.vstack(Hs), np.concatenate(Rs)
+    nu, H, R = np.concatenate(nus), np.concatenate(Hs), np.concatenate(Rs)   # Hs 2-D
     cols = [i_s] + [c for c in clock_columns if np.count_nonzero(H[:, c])]   # any != 0
     A = H[:, cols]
     if nu.size < len(cols) or not np.count_nonzero(A[:, 0]):
