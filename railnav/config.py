@@ -105,8 +105,9 @@ class NavigatorConfig:
         inflated by ``(1 + ρ)/(1 − ρ)``, ``ρ = exp(−Δt/τ)`` (Δt the epoch interval): the
         variance of the mean of a long first-order Gauss–Markov sequence relative to
         white samples. 0: white (simulated data). Default 20 s: urban code multipath at
-        tram speeds (railnav.filters.gnss_only). The gnss-only filter inflates the rows
-        of code fixes (single-point, DGPS) alike; carrier (RTK) fixes keep their σ.
+        tram speeds (railnav.filters.gnss_only). With
+        ``fix_model.correlated_code_errors`` the gnss-only filter inflates the rows of code
+        fixes (single-point, DGPS) alike; carrier (RTK) fixes keep their σ.
     pseudorange_correlation_m : float
         GNSS-only filter: distance over which the pseudorange errors decorrelate as the
         antenna moves (code multipath depends on where the antenna is among the

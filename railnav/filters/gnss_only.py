@@ -20,14 +20,17 @@ fitted line): the range-rate variances get that angle's share, `heading_variance
 Doppler errors that the filter explained by moving ``s`` along the track's curvature
 (``δs ≈ δψ/κ``: on the urban drive's leg 1 part 4 the first epoch's update moved ``s`` by
 −5.95 m, −0.25 m of it from the pseudoranges). Code fixes (single-point, DGPS) get the
-same inflation (`GnssOnlyFilter._fix_rows`). Gross outliers are rejected by
+same inflation with ``config.fix_model.correlated_code_errors`` (`GnssOnlyFilter._fix_rows`). Gross outliers are rejected by
 the engine's χ² row gate (``config.gate_probability``). Optionally (`huber_k`) the rows
 are also down-weighted with Huber's weight at the prior (`railnav.filters.robust_rows`); it is off
 by default: at a prior made over-confident by correlated errors it down-weights the good
 rows too. Measured on the urban drive's first leg (``benchmarks/results/real_data.json``,
-horizontal RMS, GPS / GPS+Galileo): default 1.23 / 1.60 m (1.20 / 1.41 m with τ alone,
-which was tuned there and is worse on other pieces: `correlation_time_s`); white
-pseudoranges (τ = 0) 2.05 / 2.01 m; with Huber k = 1.5 1.22 / 1.63 m.
+horizontal RMS, GPS / GPS+Galileo): before the heading term, default 1.23 / 1.60 m on the
+395 epochs up to the track's end, where the filter stopped (1.20 / 1.41 m with τ alone,
+which was tuned there and is worse on other pieces: `correlation_time_s`); with it the
+default run no longer leaves the track's end while the car turns round there, and scores
+467 epochs, 1.76 / 2.00 m (SPP 3.15 / 3.25 m); on the same epochs as before, white
+pseudoranges (τ = 0) 2.05 → 2.08 m and Huber k = 1.5 1.22 → 1.24 m (GPS).
 """
 from __future__ import annotations
 
@@ -232,6 +235,9 @@ class GnssOnlyFilter:
         self.pseudorange_inflation = correlation_inflation(config.pseudorange_correlation_s,
                                                            interval)
         self.n_inflated = 0
+        #: The fix rows' factor standing, for the monitor (1: the fixes are taken as white).
+        self.fix_inflation = self.pseudorange_inflation \
+            if fixes is not None and config.fix_model.correlated_code_errors else 1.0
 
     def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
                t_prev: float) -> tuple[Array, Array, None]:
@@ -266,7 +272,8 @@ class GnssOnlyFilter:
 
     def _fix_rows(self, index: int, x: Array):
         """The rows of fix `index` (`railnav.filters.fix_rows.FixRowBuilder`); those of a
-        code fix (`CODE_FIX_QUALITIES`: a receiver's single-point or DGPS solution) with
+        code fix (`CODE_FIX_QUALITIES`: a receiver's single-point or DGPS solution), with
+        ``config.fix_model.correlated_code_errors``,
         their variances inflated by `inflation_at`, its position and its speed alike: their
         errors are its pseudoranges' and Dopplers', correlated from epoch to epoch the same
         way (the speed's too: with the position rows alone inflated, the fix-based filter
@@ -274,7 +281,8 @@ class GnssOnlyFilter:
         and stood 8 m behind, horizontal max 9.1 m against SPP's 8.8). Carrier (RTK)
         fixes keep their variances."""
         obs, sv, kind = self.fix_rows.observations(index, x)
-        if str(self.fix_rows.fixes.quality[index]) not in CODE_FIX_QUALITIES:
+        if not self.config.fix_model.correlated_code_errors or \
+                str(self.fix_rows.fixes.quality[index]) not in CODE_FIX_QUALITIES:
             return obs, sv, kind
         factor = self.inflation_at(float(x[self.layout.index("v")]))
         if factor != 1.0:
