@@ -17,7 +17,8 @@ default tolerances) and the filters started at the piece's first epoch, fed only
 
 Solutions on each piece: ``gnss-only`` (pseudoranges and Doppler, GPS L1, the run's
 defaults: `railnav.navigate`), ``fixes`` (the gnss-only filter on ``[s, v]`` from the SPP
-fixes, read back as a fix file, with ``FixModelConfig.correlated_code_errors``) and ``spp`` (`gnss_obs.solve_spp`, GPS L1 defaults), all
+fixes, read back as a fix file, with ``FixModelConfig.correlated_code_errors``) and
+``spp`` (`gnss_obs.solve_spp`, GPS L1 defaults), all
 scored on the same epochs (whole seconds where each has a position and the reference one).
 Per piece: epochs, horizontal RMS / max of each, "never worse than SPP" (RMS and max), the
 monitor's status counts, the epochs whose along-track error (reference projected on the

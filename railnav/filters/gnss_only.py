@@ -20,7 +20,8 @@ fitted line): the range-rate variances get that angle's share, `heading_variance
 Doppler errors that the filter explained by moving ``s`` along the track's curvature
 (``δs ≈ δψ/κ``: on the urban drive's leg 1 part 4 the first epoch's update moved ``s`` by
 −5.95 m, −0.25 m of it from the pseudoranges). Code fixes (single-point, DGPS) get the
-same inflation with ``config.fix_model.correlated_code_errors`` (`GnssOnlyFilter._fix_rows`). Gross outliers are rejected by
+same inflation with ``config.fix_model.correlated_code_errors``
+(`GnssOnlyFilter._fix_rows`). Gross outliers are rejected by
 the engine's χ² row gate (``config.gate_probability``). Optionally (`huber_k`) the rows
 are also down-weighted with Huber's weight at the prior (`railnav.filters.robust_rows`); it is off
 by default: at a prior made over-confident by correlated errors it down-weights the good

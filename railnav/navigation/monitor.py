@@ -31,9 +31,11 @@ statistic that is exact when the filter's σ are right:
   correlated with it: slow multipath the filter has followed, its σ built as if the errors
   were independent and too small. On the urban drive this is what flags the fix-based
   filter's steady 2-5 m along-track errors at σ_s 0.6 m (leg 1: 134 of 157 such epochs
-  unflagged without it, 7 with it); on the consistent simulations it adds no alarm. It is off for a filter that inflates its
+  unflagged without it, 7 with it); on the consistent simulations it adds no alarm.
+  It is off for a filter that inflates its
   rows for correlated errors (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real
-  data, its pseudoranges and its code fixes alike): there its fixes are correlated with it
+  data, its pseudoranges, and its code fixes with ``FixModelConfig.correlated_code_errors``:
+  `fix_inflation`): there its fixes are correlated with it
   by the filter's own model, and the test fired on every epoch (the fix-based filter
   ``degraded`` on 406 of 407 epochs of leg 1 once its fixes were inflated).
 

@@ -100,9 +100,10 @@ def test_constrained_filter_with_fixes_is_consistent():
 @pytest.mark.parametrize("speed_mps", [0.0, 15.0])
 def test_code_fixes_get_the_correlated_error_inflation(speed_mps):
     """The gnss-only filter's rows of a code fix (``single``, ``dgps``) with
-    ``FixModelConfig.correlated_code_errors`` and the default correlated-error model are its rows with white errors (τ = 0) times the AR(1)
+    ``FixModelConfig.correlated_code_errors`` and the default correlated-error model are
+    its rows with white errors (τ = 0) times the AR(1)
     variance-of-the-mean factor (1 + ρ)/(1 − ρ), ρ = exp(−Δt / min(τ, d/|v|)) written out
-    (Δt = 1 s, the fixes' interval; τ = d = 20 m/s defaults); carrier fixes
+    (Δt = 1 s, the fixes' interval; the defaults τ = 20 s, d = 20 m); carrier fixes
     (``rtk_fixed``, ``rtk_float``) keep their variances, and without the option (default)
     every fix's rows are the white ones."""
     import math
