@@ -105,7 +105,9 @@ class NavigatorConfig:
         inflated by ``(1 + ρ)/(1 − ρ)``, ``ρ = exp(−Δt/τ)`` (Δt the epoch interval): the
         variance of the mean of a long first-order Gauss–Markov sequence relative to
         white samples. 0: white (simulated data). Default 20 s: urban code multipath at
-        tram speeds (railnav.filters.gnss_only).
+        tram speeds (railnav.filters.gnss_only). With
+        ``fix_model.correlated_code_errors`` the gnss-only filter inflates the rows of code
+        fixes (single-point, DGPS) alike; carrier (RTK) fixes keep their σ.
     pseudorange_correlation_m : float
         GNSS-only filter: distance over which the pseudorange errors decorrelate as the
         antenna moves (code multipath depends on where the antenna is among the
@@ -118,6 +120,22 @@ class NavigatorConfig:
         below the single-point RMS (with τ alone, 2 of 9 pieces were above it); 5 m did as
         well on the pieces but worse on the first leg. The atmosphere's residual,
         correlated over minutes whatever the speed, is not in this model.
+    track_heading_sigma_rad : float
+        GNSS-only filter: 1σ of the angle between the antenna's velocity and the track's
+        tangent at ``s``, rad (the track's heading error, the vehicle's motion across
+        and along the normal of the track: a car that does not follow the fitted line, a
+        tram body's yaw). Each range-rate row gets the variance ``(σ_ψ v)² (e·n)²``, ``n``
+        the track's horizontal normal
+        (`railnav.filters.gnss_only.heading_variance_mps2`). Without it a heading
+        mismatch reads as a Doppler error the filter explains by moving ``s`` along the
+        curvature, ``δs ≈ δψ/κ``: metres at κ = 1e-3 /m. 0: the velocity is ``v t(s)``
+        exactly (simulated trips). Default 0.03 rad: the RMS angle between the urban
+        drive's reference velocity and its fitted tracks' tangents on the pieces with
+        no corner tighter than the fit follows is 0.03-0.05 rad (0.12-0.27 rad on the
+        pieces with one; ``benchmarks/bench_real_pieces.py``); the Doppler rows' weight
+        on ``s`` through the curvature is real where the track's heading is right, and
+        0.04 rad already cost the 3-minute excerpt (issue 7's test: GPS+Galileo RMS
+        0.504 of SPP's against 0.5; 0.03 rad: 0.488, GPS 0.423, none 0.470 and 0.386).
     fault_detection : railnav.filters.fault_detection.FaultDetectionConfig or None
         Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
         prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
@@ -170,6 +188,7 @@ class NavigatorConfig:
     along_accel_sigma_mps2: float = 1.0
     pseudorange_correlation_s: float = 20.0
     pseudorange_correlation_m: float = 20.0
+    track_heading_sigma_rad: float = 0.03
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
     fix_model: FixModelConfig = FixModelConfig()
     rts_smoothing: bool = False
@@ -219,7 +238,8 @@ class NavigatorConfig:
             if not isinstance(getattr(self, name), cls):
                 raise ConfigError(f"{name} must be a {cls.__name__}, got "
                                   f"{getattr(self, name)!r}")
-        for name in ("pseudorange_correlation_s", "pseudorange_correlation_m"):
+        for name in ("pseudorange_correlation_s", "pseudorange_correlation_m",
+                     "track_heading_sigma_rad"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a finite number >= 0, got {value!r}")

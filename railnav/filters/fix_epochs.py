@@ -49,12 +49,22 @@ class FixModelConfig:
         Use the fixes' ellipsoidal heights (an up row); off for tracks without heights.
     use_speed : bool
         Use the fixes' velocity or speed and course (a speed row).
+    correlated_code_errors : bool
+        GNSS-only filter: inflate the rows of code fixes (single-point, DGPS) like its
+        pseudoranges (``NavigatorConfig.pseudorange_correlation_s`` / ``_m``,
+        `railnav.filters.gnss_only.GnssOnlyFilter.inflation_at`): their errors are their
+        pseudoranges', correlated from epoch to epoch. Off by default: the network
+        navigator's stacked fix rows (`railnav.navigation.stacked_fixes`) do not have it
+        yet and must equal the per-filter rows. On the urban drive's SPP fixes it takes the
+        fix-based filter's epochs beyond 3σ_s from 315 to 9 of 952
+        (``benchmarks/bench_real_pieces.py``, which turns it on).
     """
 
     track_cross_sigma_m: float = 1.5
     track_vertical_sigma_m: float = 2.0
     use_height: bool = True
     use_speed: bool = True
+    correlated_code_errors: bool = False
 
     def __post_init__(self) -> None:
         for name in ("track_cross_sigma_m", "track_vertical_sigma_m"):

@@ -142,7 +142,8 @@ def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=No
     if fixes is not None:
         return FilterMonitor(filt.layout, fix_log_track_fixes(filt.track, fixes, filt=filt,
                                                               config=config),
-                             config.monitor, config.gate_probability, screen=screen)
+                             config.monitor, config.gate_probability, screen=screen,
+                             pseudorange_inflation=getattr(filt, "fix_inflation", 1.0))
     fix_at = spp_fix_at(filt.track, data, config, filt=filt) \
         if data is not None and data.obs is not None and data.nav is not None else None
     return FilterMonitor(filt.layout, None, config.monitor, config.gate_probability,

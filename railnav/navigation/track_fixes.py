@@ -336,7 +336,8 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     ambiguous projection, unlike a position fix projected on the whole track.
     A filter that inflates its pseudorange variances for errors correlated in time (the
     gnss-only filter's ``pseudorange_inflation``, ×40 for τ = 20 s at 1 Hz: the weight of
-    long averages) gives `pseudorange_inflation`; the snapshot keeps the inflated
+    long averages; it inflates its code fixes' position rows alike) gives
+    `pseudorange_inflation`; the snapshot keeps the inflated
     variances, and ``white`` is False: its error is then correlated with the prior's, and
     the lower tail (`FilterMonitor._small_tail`) does not hold (on the urban drive it fired
     on every epoch). Solving with ``R / inflation`` instead (one epoch's own σ) was tried:
@@ -391,5 +392,5 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     var = float(step.cov[0, 0])
     if not (np.isfinite(step.dx[0]) and np.isfinite(var) and var > 0.0):
         return None
-    return float(step.dx[0]), var, not (gnss and pseudorange_inflation != 1.0)
+    return float(step.dx[0]), var, pseudorange_inflation == 1.0
 

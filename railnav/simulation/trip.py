@@ -167,7 +167,8 @@ def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: st
     base = NavigatorConfig(filter=filter, imu_errors=imu_errors, oscillator=clock,
                            measurement=measurement, initial_attitude_sigma_rad=initial[0],
                            initial_s_sigma_m=initial[1], initial_v_sigma_mps=initial[2],
-                           pseudorange_correlation_s=0.0)   # the simulator's errors are white
+                           pseudorange_correlation_s=0.0,   # the simulator's errors are white
+                           track_heading_sigma_rad=0.0)     # and its velocity is v t(s)
     return base
 
 

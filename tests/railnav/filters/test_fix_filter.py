@@ -95,3 +95,46 @@ def test_constrained_filter_with_fixes_is_consistent():
     runs = [_run(seed, config, sc) for seed in SEEDS]
     _check(runs, dof=runs[0][1].nees_dof)
     assert runs[0][1].nees_dof == 7      # yaw, pitch, roll, s, v, clock bias and drift
+
+
+@pytest.mark.parametrize("speed_mps", [0.0, 15.0])
+def test_code_fixes_get_the_correlated_error_inflation(speed_mps):
+    """The gnss-only filter's rows of a code fix (``single``, ``dgps``) with
+    ``FixModelConfig.correlated_code_errors`` and the default correlated-error model are
+    its rows with white errors (τ = 0) times the AR(1)
+    variance-of-the-mean factor (1 + ρ)/(1 − ρ), ρ = exp(−Δt / min(τ, d/|v|)) written out
+    (Δt = 1 s, the fixes' interval; the defaults τ = 20 s, d = 20 m); carrier fixes
+    (``rtk_fixed``, ``rtk_float``) keep their variances, and without the option (default)
+    every fix's rows are the white ones."""
+    import math
+
+    from railnav.filters.fix_epochs import EpochSchedule, FixEpochs, FixModelConfig
+    from railnav.filters.gnss_only import GnssOnlyFilter
+    sc = Scenario(name="fix_test", profile=constant_speed(15.0), duration_s=20.0,
+                  imu_rate_hz=10.0)
+    trip = simulate_trip(sc, track=STRAIGHT, seed=2, gnss=False)
+    log = trip_fixes(trip, FixSimConfig(rate_hz=1.0, quality_mix=MIX, segment_s=2.0))
+    fixes = FixEpochs.from_table(log.table, start_gps_time_s=sc.start_gps_time_s)
+    correlated = NavigatorConfig(filter="gnss-only",
+                                 fix_model=FixModelConfig(correlated_code_errors=True))
+    white = NavigatorConfig(filter="gnss-only", pseudorange_correlation_s=0.0,
+                            fix_model=FixModelConfig(correlated_code_errors=True))
+    off = NavigatorConfig(filter="gnss-only")          # default: fixes white
+    rows = {}
+    for name, cfg in (("correlated", correlated), ("white", white), ("off", off)):
+        filt = GnssOnlyFilter(STRAIGHT, cfg, fixes=fixes,
+                              schedule=EpochSchedule.merge(np.zeros(0), fixes.time_s))
+        x = np.array([100.0, speed_mps])
+        rows[name] = [filt.observations(k, x, np.eye(2)) for k in range(len(fixes.time_s))]
+    tau = min(correlated.pseudorange_correlation_s,
+              correlated.pseudorange_correlation_m / speed_mps if speed_mps else math.inf)
+    rho = math.exp(-1.0 / tau)
+    factor = (1.0 + rho) / (1.0 - rho)
+    qualities = set()
+    for k, quality in enumerate(fixes.quality):
+        qualities.add(str(quality))
+        expected = factor if quality in ("single", "dgps") else 1.0
+        for a, b, c in zip(rows["correlated"][k], rows["white"][k], rows["off"][k]):
+            np.testing.assert_allclose(a.R, b.R * expected, rtol=1e-12)
+            np.testing.assert_array_equal(c.R, b.R)
+    assert qualities == {"rtk_fixed", "rtk_float", "dgps", "single"}
