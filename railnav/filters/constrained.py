@@ -39,7 +39,7 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
-                                          bias_step_densities, step_nodes)
+                                          path_bias_step_densities, step_nodes)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
@@ -156,7 +156,6 @@ class ConstrainedFilter:
         """
         s_pred = self.predict_s(t, u, x_prev, t_prev)
         params, nodes = self._grid.parameters(s_pred)
-        raw = params
         self._chunk_end = self._grid.point(int(nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
@@ -167,7 +166,7 @@ class ConstrainedFilter:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
         along = self._along_accel(t, u, x_prev) if self._along_noise else None
-        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step, sigma_s,
+        self.step_q_c = self._step_q_c(t, s_pred, x_prev, step, sigma_s,
                                        None if along is None else
                                        (along if self._along_prev is None
                                         else self._along_prev, along))
@@ -190,13 +189,13 @@ class ConstrainedFilter:
             else float(f.mean())
         return mean - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
 
-    def _step_q_c(self, t: Array, s_pred: Array, params: Array, x_prev: Array,
+    def _step_q_c(self, t: Array, s_pred: Array, x_prev: Array,
                   step: float, sigma_s: float = 0.0,
                   along: tuple[float, float] | None = None) -> Array:
         """`q_c` for the samples `t`, with what the steps of the predicted path add: the
         sampling error of the rate steps at joints (`railnav.filters.joint_noise`) and
         the bias steps of the unestimated scale factors and misalignments
-        (`railnav.filters.scale_noise`; `params`: the grid's track parameters)."""
+        (`railnav.filters.scale_noise`, `_path_bias`)."""
         steps = np.concatenate([np.diff(t), [step]])
         s_prev, speed = float(x_prev[self._i["s"]]), abs(float(x_prev[self._i["v"]]))
         nodes = step_nodes(sigma_s)
@@ -205,15 +204,8 @@ class ConstrainedFilter:
             one = self._joints.densities(s_prev + offset, s_pred + offset, speed, steps)
             if one is not None:
                 found.append((one[0], weight * one[1]))
-        bias = None
-        for offset, weight in nodes if self._bias_noise is not None else ():
-            path = params if offset == 0.0 else self._grid.parameters(
-                np.minimum(np.maximum(s_pred + offset, 0.0), self.track.length_m))[0]
-            prev = self._grid.parameters(np.array([min(max(s_prev + offset, 0.0),
-                                                       self.track.length_m)]))[0][0]
-            one = bias_step_densities(prev, path, speed, self.config.imu, steps)
-            if one is not None:
-                bias = weight * one if bias is None else bias + weight * one
+        bias = None if self._bias_noise is None else \
+            self._path_bias(s_pred, s_prev, speed, steps, nodes)
         extra = None if along is None or self._bias_noise is None else \
             along_step_variances(along[0], along[1], self.config.imu)
         if extra is not None:
@@ -228,6 +220,30 @@ class ConstrainedFilter:
         if bias is not None:
             q[:, self._bias_noise] += bias
         return q
+
+    def _path_bias(self, s_pred: Array, s_prev: float, speed: float, steps: Array,
+                   nodes: list[tuple[float, float]]) -> Array | None:
+        """The bias steps' densities along the spread's paths (`step_nodes`), weighted and
+        summed in the nodes' order; None when no path's input changes. The grid rows of
+        all paths (and of each path's sample before the first) in one lookup, their
+        densities in one `path_bias_step_densities` call: the grid's rows and the
+        densities are pure per row (the same numbers as path by path)."""
+        length = self.track.length_m
+        offsets = np.array([offset for offset, _ in nodes])
+        s_paths = np.minimum(np.maximum(s_pred[None, :] + offsets[:, None], 0.0), length)
+        s_prevs = np.minimum(np.maximum(s_prev + offsets, 0.0), length)
+        rows = self._grid.parameters(np.concatenate([s_prevs, s_paths.ravel()]))[0]
+        n_paths = offsets.size
+        found = path_bias_step_densities(rows[:n_paths],
+                                         rows[n_paths:].reshape(n_paths, s_pred.size, -1),
+                                         speed, self.config.imu, steps)
+        if found is None:
+            return None
+        bias = None
+        for (_, weight), one, changes in zip(nodes, *found):
+            if changes:
+                bias = weight * one if bias is None else bias + weight * one
+        return bias
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""

@@ -18,14 +18,19 @@ import numpy as np
 import pytest
 
 from ekf.consistency import chi2_band
+from railnav.filters.constrained import ConstrainedFilter
 from railnav.filters.scale_noise import (along_step_variances, bias_step_densities,
-                                         kinematic_inputs, step_nodes)
+                                         kinematic_inputs, path_bias_step_densities,
+                                         step_nodes)
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+from railnav.simulation.trip import navigator_config_for
 from railnav.jobs.run import run_simulated
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import Scenario
 from strapdown.imu_errors import imu_grade
 from strapdown.reduced import TRACK_PARAMETER_NAMES
 from trackmodel.earth import WGS84
+from trackmodel.io import read_track
 from trackmodel.sections import Section
 from trackmodel.track import Origin, Track
 
@@ -92,6 +97,58 @@ def test_no_noise_without_scale_factors_or_on_straights():
                                SPEED_MPS, imu_grade("paper2017"), np.full(3, 0.01)) is None
     assert bias_step_densities(_params(np.zeros(1))[0], _params(np.zeros(3)), SPEED_MPS,
                                imu_grade("tactical"), np.full(3, 0.01)) is None
+
+
+def test_paths_together_are_the_paths_one_by_one():
+    """`path_bias_step_densities` of five paths (a clothoid entered at different samples, a
+    straight, a vertical curve) equals `bias_step_densities` path by path, to the bit; the
+    straight's densities are 0 and flagged unchanged (one by one: None)."""
+    imu = imu_grade("tactical")
+    m = 40
+    ramps = [np.clip(np.linspace(-0.002 * j, 0.01, m), 0.0, None) for j in range(3)]
+    paths = [_params(r) for r in ramps] + [_params(np.zeros(m)), _params(np.zeros(m))]
+    paths[4][:, TRACK_PARAMETER_NAMES.index("du_U_ds")] = np.linspace(0.0, 1e-3, m)
+    prev = np.stack([p[0] * 0.9 for p in paths])
+    dt = np.linspace(0.009, 0.011, m)
+    together, changes = path_bias_step_densities(prev, np.stack(paths), SPEED_MPS, imu, dt)
+    for k, path in enumerate(paths):
+        one = bias_step_densities(prev[k], path, SPEED_MPS, imu, dt)
+        if one is None:
+            assert not changes[k] and np.all(together[k] == 0.0)
+        else:
+            assert changes[k] and np.array_equal(together[k], one)
+    assert list(changes) == [True, True, True, False, True]
+    assert path_bias_step_densities(prev, np.stack(paths), SPEED_MPS,
+                                    imu_grade("paper2017"), dt) is None
+
+
+@pytest.mark.parametrize("sigma_s_m", [0.0, 3.0, 40.0])
+def test_filter_paths_together_are_the_nodes_one_by_one(sigma_s_m):
+    """`ConstrainedFilter._path_bias` (one grid lookup and one density call for the
+    spread's paths) equals the paths looked up and weighted node by node on the grid, to
+    the bit, on `curvy`'s track through curves and near its start (paths clipped at 0)."""
+    scenario = get_scenario("curvy")
+    config = navigator_config_for(scenario)
+    track = read_track(TRACKS_DIR / scenario.default_track)
+    filt = ConstrainedFilter(track, config, None)
+    grid = filt._grid
+    steps = np.full(100, 0.01)
+    for s0 in (5.0, 700.0, 1500.0, 2300.0, track.length_m - 30.0):
+        s_pred = np.minimum(s0 + 20.0 * np.arange(1, 101) * 0.01, track.length_m)
+        nodes = step_nodes(sigma_s_m)
+        expected = None
+        for offset, weight in nodes:
+            path = grid.parameters(np.minimum(np.maximum(s_pred + offset, 0.0),
+                                              track.length_m))[0]
+            prev = grid.parameters(np.array([min(max(s0 + offset, 0.0),
+                                                 track.length_m)]))[0][0]
+            one = bias_step_densities(prev, path, 20.0, config.imu, steps)
+            if one is not None:
+                expected = weight * one if expected is None else expected + weight * one
+        got = filt._path_bias(s_pred, s0, 20.0, steps, nodes)
+        assert (got is None) == (expected is None)
+        if got is not None:
+            assert np.array_equal(got, expected)
 
 
 def test_issue14_u_turn_nees_inside_band():
