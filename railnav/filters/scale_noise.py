@@ -93,7 +93,8 @@ def step_nodes(sigma_s_m: float) -> list[tuple[float, float]]:
 def kinematic_inputs(params: Array, speed_mps: float, along_mps2=None
                      ) -> tuple[Array, Array]:
     """The track's kinematic specific force and angular rate in body axes (x forward,
-    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s); with
+    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s; scalar or
+    one per row, (N,)); with
     `along_mps2` (scalar or (N,)), the along-track acceleration as the x component.
 
     Returns
@@ -110,7 +111,7 @@ def kinematic_inputs(params: Array, speed_mps: float, along_mps2=None
     zero = np.zeros_like(k_l)
     along = zero if along_mps2 is None else np.broadcast_to(
         np.asarray(along_mps2, dtype=float), k_l.shape)
-    v = float(speed_mps)
+    v = float(speed_mps) if np.ndim(speed_mps) == 0 else np.asarray(speed_mps, dtype=float)
     return (np.column_stack([along, v * v * k_l, v * v * k_n]),
             np.column_stack([zero, -v * k_n, v * k_l]))
 
@@ -161,7 +162,8 @@ def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float
         Each path's track parameters at the sample before the first.
     params : ndarray, shape (P, M, 16)
         At the samples.
-    speed_mps : float
+    speed_mps : float or ndarray, shape (P,)
+        The speed, or each path's (paths of several hypotheses).
     imu : ImuErrors
     step_s : ndarray, shape (M,)
 
@@ -178,7 +180,8 @@ def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float
         return None
     n_paths, m = params.shape[0], params.shape[1] + 1
     rows = np.concatenate([params_prev[:, None, :], params], axis=1)
-    f_d, w_d = kinematic_inputs(rows.reshape(n_paths * m, rows.shape[2]), speed_mps)
+    speed = speed_mps if np.ndim(speed_mps) == 0 else np.repeat(speed_mps, m)
+    f_d, w_d = kinematic_inputs(rows.reshape(n_paths * m, rows.shape[2]), speed)
     f_d, w_d = f_d.reshape(n_paths, m, 3), w_d.reshape(n_paths, m, 3)
     d_f, d_w = np.abs(np.diff(f_d ** 2, axis=1)), np.abs(np.diff(w_d ** 2, axis=1))
     changes = d_f.any(axis=(1, 2)) | d_w.any(axis=(1, 2))
