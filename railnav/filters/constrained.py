@@ -39,7 +39,8 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
-                                          path_bias_step_densities, step_nodes)
+                                          path_bias_step_densities, step_nodes,
+                                          weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
@@ -53,17 +54,6 @@ Array = npt.NDArray[np.float64]
 #: Gravity for the along-track prediction is looked up once per this much track, m (it
 #: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
 _GRAVITY_CACHE_M = 1000.0
-
-
-def _weighted_paths(nodes: list[tuple[float, float]], found) -> Array | None:
-    """The paths' densities (`path_bias_step_densities`'s ``found``, None: none) weighted
-    by their nodes' weights and summed in the nodes' order, over the paths whose input
-    changes; None when none does."""
-    bias = None
-    for (_, weight), one, changes in zip(nodes, *(found or ((), ()))):
-        if changes:
-            bias = weight * one if bias is None else bias + weight * one
-    return bias
 
 
 def _bias_together(filters, pending: list[dict]) -> list:
@@ -215,8 +205,8 @@ class ConstrainedFilter:
         """`inputs` up to the bias steps' densities: the rest of its results, and the
         grid rows of the spread's paths (``paths``, None without bias noise)."""
         s_pred = self.predict_s(t, u, x_prev, t_prev)
-        params, nodes = self._grid.parameters(s_pred)
-        self._chunk_end = self._grid.point(int(nodes[-1]))
+        params, grid_nodes = self._grid.parameters(s_pred)
+        self._chunk_end = self._grid.point(int(grid_nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
         params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
@@ -231,7 +221,8 @@ class ConstrainedFilter:
         return {"u": u, "params": params,
                 "r_c": variance * remainder_correlation_s(sigma_s_m=sigma_s, speed_mps=speed,
                                                           step_s=step),
-                "t": t, "s_pred": s_pred, "x_prev": x_prev, "steps": steps, "nodes": nodes,
+                "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
+                "P_prev": P_prev, "steps": steps, "nodes": nodes,
                 "along": along, "speed": speed,
                 "paths": None if self._bias_noise is None else
                 self._path_rows(s_pred, float(x_prev[i_s]), nodes)}
@@ -276,7 +267,7 @@ class ConstrainedFilter:
             one = self._joints.densities(s_prev + offset, s_pred + offset, speed, steps)
             if one is not None:
                 joints.append((one[0], weight * one[1]))
-        bias = _weighted_paths(nodes, found)
+        bias = weighted_path_densities(nodes, found)
         extra = None if along is None or self._bias_noise is None else \
             along_step_variances(along[0], along[1], self.config.imu)
         if extra is not None:
@@ -311,7 +302,7 @@ class ConstrainedFilter:
         """The bias steps' densities along the spread's paths (`_path_rows`), weighted
         and summed in the nodes' order (as `_step_q_c` sums them); None when no path's
         input changes."""
-        return _weighted_paths(nodes, path_bias_step_densities(
+        return weighted_path_densities(nodes, path_bias_step_densities(
             *self._path_rows(s_pred, s_prev, nodes), speed, self.config.imu, steps))
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:

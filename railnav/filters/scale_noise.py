@@ -68,7 +68,8 @@ import numpy.typing as npt
 from strapdown.imu_errors import ImuErrors
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["bias_step_densities", "path_bias_step_densities", "kinematic_inputs", "step_nodes", "along_step_variances",
+__all__ = ["bias_step_densities", "path_bias_step_densities", "weighted_path_densities",
+           "kinematic_inputs", "step_nodes", "along_step_variances",
            "along_force_matters", "TYPICAL_ALONG_CHANGE_MPS2"]
 
 Array = npt.NDArray[np.float64]
@@ -188,6 +189,17 @@ def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float
     variance = np.concatenate([_axis_variances(d_f, sf_a, m_a),
                                _axis_variances(d_w, sf_g, m_g)], axis=2)
     return variance / np.asarray(step_s, dtype=float)[None, :, None], changes
+
+
+def weighted_path_densities(nodes: list[tuple[float, float]], found) -> Array | None:
+    """The spread's total: each path's densities (`path_bias_step_densities`'s result,
+    None: none) times its node's weight (`step_nodes`), summed in the nodes' order over
+    the paths whose input changes, shape (M, 6); None when none does."""
+    bias = None
+    for (_, weight), one, changes in zip(nodes, *(found or ((), ()))):
+        if changes:
+            bias = weight * one if bias is None else bias + weight * one
+    return bias
 
 
 def along_step_variances(along_prev_mps2: float, along_mps2: float, imu: ImuErrors
