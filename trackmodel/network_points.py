@@ -14,11 +14,13 @@ of each point is `Track.at`'s, element by element: the same numbers
 from __future__ import annotations
 
 import numpy as np
+import numpy.polynomial.chebyshev as cheb
 import numpy.typing as npt
 
 from trackmodel.earth import geodetic_to_ecef
 from trackmodel.loxodrome import loxodrome_position
 from trackmodel.sections import SectionArrays, tangent_frame
+from trackmodel.track import S_TOLERANCE_M
 
 __all__ = ["points_on", "TrackStack", "StackPoint"]
 
@@ -41,6 +43,21 @@ class StackPoint:
             setattr(self, name, values[name][m])
 
 
+def _keys(groups) -> npt.NDArray[np.complex128]:
+    """``m + i·s`` of each group's sorted distances `s` (m the group's index): complex
+    numbers sort lexicographically (real part, then imaginary), so one `np.searchsorted`
+    on the groups' keys concatenated finds a distance within its own group, by the same
+    float comparisons as a search in that group alone."""
+    return np.concatenate([_key(np.full(len(g), float(m)), np.asarray(g, dtype=float))
+                           for m, g in enumerate(groups)])
+
+
+def _key(m: Array, s: Array) -> npt.NDArray[np.complex128]:
+    out = np.empty(s.shape, dtype=np.complex128)
+    out.real, out.imag = m, s
+    return out
+
+
 class TrackStack:
     """The section tables of several tracks, stacked (module docstring).
 
@@ -51,37 +68,72 @@ class TrackStack:
 
     Notes
     -----
-    Reads the tracks' section tables and section starts (``table``, ``starts``) and asks
-    their Chebyshev chunks (``Track._chunks``) for positions on integrated sections.
+    Reads the tracks' section tables and section starts (``table``, ``starts``) and their
+    Chebyshev chunks (``Track._chunks``: ``s0``, ``length``, ``coef``, ``start``, stacked as
+    the sections are) for positions on integrated sections.
     """
 
     def __init__(self, tracks) -> None:
         self.tracks = tuple(tracks)
         self.earth = self.tracks[0].earth
         tables = [t.table for t in self.tracks]
-        self.first = np.cumsum([0] + [len(t.sections) for t in self.tracks])[:-1]
+        counts = np.array([len(t.sections) for t in self.tracks])
+        self.first = np.cumsum(np.concatenate([[0], counts]))[:-1]
+        self.last = self.first + counts - 1
+        self.lengths = np.array([t.length_m for t in self.tracks])
         self.table = SectionArrays(*(np.concatenate([getattr(tab, name) for tab in tables])
                                      for name in ("s_start", "length", "azimuth0",
                                                   "elevation0", "elevation1", "curvature0",
                                                   "curvature1")))
         self.starts = np.concatenate([t.starts[:-1] for t in self.tracks])
         self.is_loxodrome = self.table.is_loxodrome
+        self._section_keys = _keys([tab.s_start for tab in tables])
+        chunks = [t._chunks for t in self.tracks]
+        sizes = np.array([0 if c is None else len(c.s0) for c in chunks])
+        self._chunk_first = np.cumsum(np.concatenate([[0], sizes]))[:-1]
+        self._chunk_last = self._chunk_first + sizes - 1
+        have = [c for c in chunks if c is not None]
+        self._chunk_keys = _keys([[] if c is None else c.s0 for c in chunks])
+        if have:
+            self._chunk_s0 = np.concatenate([c.s0 for c in have])
+            self._chunk_length = np.concatenate([c.length for c in have])
+            self._chunk_coef = np.concatenate([c.coef for c in have], axis=1)
+            self._chunk_start = np.concatenate([c.start for c in have])
+
+    def _checked(self, which: npt.NDArray[np.intp], s: list[float]) -> Array:
+        """``s`` clamped to each point's track, as `trackmodel.track.Track.check_s` does
+        (out of a track, its own error, tracks taken in order)."""
+        flat = np.array(s, dtype=float)
+        length = self.lengths[which]
+        if not (np.all(np.isfinite(flat)) and np.all(flat >= -S_TOLERANCE_M)
+                and np.all(flat <= length + S_TOLERANCE_M)):
+            for m in sorted(set(which.tolist())):
+                self.tracks[m].check_s(flat[which == m])
+        return np.clip(flat, 0.0, length)
+
+    def _chunk_positions(self, which: npt.NDArray[np.intp], s: Array
+                         ) -> tuple[Array, Array, Array]:
+        """`trackmodel.integrated.ChebyshevSections.position` of each point on its track's
+        chunks, all at once (the chunk found in its track's alone; the series evaluated
+        element by element)."""
+        pos = np.searchsorted(self._chunk_keys, _key(which.astype(float), s), side="right")
+        first = self._chunk_first[which]
+        j = np.clip(pos - 1 - first, 0, self._chunk_last[which] - first) + first
+        x = 2.0 * (s - self._chunk_s0[j]) / self._chunk_length[j] - 1.0
+        d = cheb.chebval(x[:, None], self._chunk_coef[:, j, :], tensor=False)
+        out = self._chunk_start[j] + d
+        return out[:, 0], out[:, 1], out[:, 2]
 
     def points(self, which: list[int], s: list[float]) -> dict[str, Array]:
         """Fields (`StackPoint`) at ``s[k]`` on track ``which[k]``, shape (N,) or (N, 3)."""
-        which_a = np.asarray(which)
-        flat = np.empty(len(s))
-        k = np.empty(len(s), dtype=np.intp)
+        which_a = np.asarray(which, dtype=np.intp)
+        flat = self._checked(which_a, s)
+        # each point's section in its own track's table (`Track.section_of`), all at once
+        pos = np.searchsorted(self._section_keys, _key(which_a.astype(float), flat),
+                              side="right")
+        first = self.first[which_a]
+        k = np.clip(pos - 1 - first, 0, self.last[which_a] - first) + first
         lat, lon, h = np.empty(len(s)), np.empty(len(s)), np.empty(len(s))
-        chunked = []
-        for m in sorted(set(which)):                      # per track: s checked, section
-            at = np.flatnonzero(which_a == m)
-            track = self.tracks[m]
-            s_m = track.check_s(np.array([s[j] for j in at], dtype=float))
-            k_m = track.section_of(s_m)
-            flat[at], k[at] = s_m, k_m + self.first[m]
-            if not track.table.is_loxodrome[k_m].all():
-                chunked.append((m, at))
         lox = self.is_loxodrome[k]
         if lox.any():                                     # all tracks' straights at once
             kl, tab = k[lox], self.table
@@ -89,9 +141,9 @@ class TrackStack:
                 self.starts[kl, 0], self.starts[kl, 1], self.starts[kl, 2],
                 azimuth=tab.azimuth0[kl], elevation=tab.elevation0[kl],
                 t=flat[lox] - tab.s_start[kl], earth=self.earth)
-        for m, at in chunked:                             # per track: its Chebyshev chunks
-            part = at[~lox[at]]
-            lat[part], lon[part], h[part] = self.tracks[m]._chunks.position(flat[part])
+        if not lox.all():                                 # all tracks' Chebyshev chunks
+            part = ~lox
+            lat[part], lon[part], h[part] = self._chunk_positions(which_a[part], flat[part])
         ang = self.table.angles(k, flat - self.table.s_start[k])
         u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
         return {"s": flat, "lat": lat, "lon": lon, "h": h,

@@ -39,7 +39,8 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
-                                          bias_step_densities, step_nodes)
+                                          path_bias_step_densities, step_nodes,
+                                          weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
@@ -53,6 +54,34 @@ Array = npt.NDArray[np.float64]
 #: Gravity for the along-track prediction is looked up once per this much track, m (it
 #: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
 _GRAVITY_CACHE_M = 1000.0
+
+
+def _bias_together(filters, pending: list[dict]) -> list:
+    """`path_bias_step_densities` of every pending `ConstrainedFilter.inputs` that has
+    paths, in one call when they share the IMU grade and the steps (else filter by
+    filter), split back per filter (None where a filter has no paths)."""
+    out: list = [None] * len(pending)
+    have = [k for k, p in enumerate(pending) if p["paths"] is not None]
+    if not have:
+        return out
+    imu, steps = filters[have[0]].config.imu, pending[have[0]]["steps"]
+    if any(filters[k].config.imu != imu or not np.array_equal(pending[k]["steps"], steps)
+           for k in have):
+        for k in have:
+            out[k] = path_bias_step_densities(*pending[k]["paths"], pending[k]["speed"],
+                                              filters[k].config.imu, pending[k]["steps"])
+        return out
+    counts = [pending[k]["paths"][0].shape[0] for k in have]
+    found = path_bias_step_densities(
+        np.concatenate([pending[k]["paths"][0] for k in have]),
+        np.concatenate([pending[k]["paths"][1] for k in have]),
+        np.repeat([pending[k]["speed"] for k in have], counts), imu, steps)
+    if found is None:
+        return out
+    edges = np.cumsum([0, *counts])
+    for k, a, b in zip(have, edges[:-1], edges[1:]):
+        out[k] = (found[0][a:b], found[1][a:b])
+    return out
 
 
 class ConstrainedFilter:
@@ -154,10 +183,30 @@ class ConstrainedFilter:
             change the information per second of the pseudo-observation by nothing (a
             chunk of one short inserted step would otherwise weigh as a full sample).
         """
+        pending = self._start_inputs(t, u, x_prev, P_prev, t_prev)
+        return self._finish_inputs(pending, None if pending["paths"] is None else
+                                   path_bias_step_densities(*pending["paths"],
+                                                            pending["speed"], self.config.imu,
+                                                            pending["steps"]))
+
+    @staticmethod
+    def inputs_together(filters, t: Array, u: Array, priors, t_prev: float) -> list:
+        """`inputs` of several filters (a bank's hypotheses) over the same samples, each
+        from its own prior ``priors[k] = (x_prev, P_prev)``: the bias steps' densities of
+        all their spread's paths in one `path_bias_step_densities` call (pure per row:
+        each filter's numbers are those of its own `inputs`). Returns `inputs`'s tuple
+        for each filter, in order."""
+        pending = [f._start_inputs(t, u, x, P, t_prev) for f, (x, P) in zip(filters, priors)]
+        return [f._finish_inputs(p, found) for f, p, found
+                in zip(filters, pending, _bias_together(filters, pending))]
+
+    def _start_inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
+                      t_prev: float) -> dict:
+        """`inputs` up to the bias steps' densities: the rest of its results, and the
+        grid rows of the spread's paths (``paths``, None without bias noise)."""
         s_pred = self.predict_s(t, u, x_prev, t_prev)
-        params, nodes = self._grid.parameters(s_pred)
-        raw = params
-        self._chunk_end = self._grid.point(int(nodes[-1]))
+        params, grid_nodes = self._grid.parameters(s_pred)
+        self._chunk_end = self._grid.point(int(grid_nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
         params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
@@ -167,13 +216,26 @@ class ConstrainedFilter:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
         along = self._along_accel(t, u, x_prev) if self._along_noise else None
-        self.step_q_c = self._step_q_c(t, s_pred, raw, x_prev, step, sigma_s,
-                                       None if along is None else
+        steps = np.concatenate([np.diff(t), [step]])
+        nodes = step_nodes(sigma_s)
+        return {"u": u, "params": params,
+                "r_c": variance * remainder_correlation_s(sigma_s_m=sigma_s, speed_mps=speed,
+                                                          step_s=step),
+                "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
+                "P_prev": P_prev, "steps": steps, "nodes": nodes,
+                "along": along, "speed": speed,
+                "paths": None if self._bias_noise is None else
+                self._path_rows(s_pred, float(x_prev[i_s]), nodes)}
+
+    def _finish_inputs(self, pending: dict, found) -> tuple[Array, Array, Array]:
+        """`inputs`'s results from `_start_inputs` and the densities of its paths
+        (`path_bias_step_densities`'s, None without)."""
+        along = pending["along"]
+        self.step_q_c = self._step_q_c(pending, found, None if along is None else
                                        (along if self._along_prev is None
                                         else self._along_prev, along))
         self._along_prev = along
-        return u, params, variance * remainder_correlation_s(sigma_s_m=sigma_s,
-                                                             speed_mps=speed, step_s=step)
+        return pending["u"], pending["params"], pending["r_c"]
 
     def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
         """The chunk's time-mean specific force along the body x axis (traction, braking
@@ -190,44 +252,58 @@ class ConstrainedFilter:
             else float(f.mean())
         return mean - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
 
-    def _step_q_c(self, t: Array, s_pred: Array, params: Array, x_prev: Array,
-                  step: float, sigma_s: float = 0.0,
-                  along: tuple[float, float] | None = None) -> Array:
-        """`q_c` for the samples `t`, with what the steps of the predicted path add: the
-        sampling error of the rate steps at joints (`railnav.filters.joint_noise`) and
-        the bias steps of the unestimated scale factors and misalignments
-        (`railnav.filters.scale_noise`; `params`: the grid's track parameters)."""
-        steps = np.concatenate([np.diff(t), [step]])
-        s_prev, speed = float(x_prev[self._i["s"]]), abs(float(x_prev[self._i["v"]]))
-        nodes = step_nodes(sigma_s)
-        found = []
+    def _step_q_c(self, pending: dict, found, along: tuple[float, float] | None = None
+                  ) -> Array:
+        """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
+        predicted path add: the sampling error of the rate steps at joints
+        (`railnav.filters.joint_noise`) and the bias steps of the unestimated scale
+        factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
+        of the spread's paths)."""
+        t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
+            pending["nodes"]
+        s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]
+        joints = []
         for offset, weight in nodes:
             one = self._joints.densities(s_prev + offset, s_pred + offset, speed, steps)
             if one is not None:
-                found.append((one[0], weight * one[1]))
-        bias = None
-        for offset, weight in nodes if self._bias_noise is not None else ():
-            path = params if offset == 0.0 else self._grid.parameters(
-                np.minimum(np.maximum(s_pred + offset, 0.0), self.track.length_m))[0]
-            prev = self._grid.parameters(np.array([min(max(s_prev + offset, 0.0),
-                                                       self.track.length_m)]))[0][0]
-            one = bias_step_densities(prev, path, speed, self.config.imu, steps)
-            if one is not None:
-                bias = weight * one if bias is None else bias + weight * one
+                joints.append((one[0], weight * one[1]))
+        bias = weighted_path_densities(nodes, found)
         extra = None if along is None or self._bias_noise is None else \
             along_step_variances(along[0], along[1], self.config.imu)
         if extra is not None:
             span = float(np.sum(steps))
             extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
             bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
-        if not found and bias is None:
+        if not joints and bias is None:
             return self.q_c
         q = np.tile(self.q_c, (t.size, 1))
-        for rows, extra in found:
+        for rows, extra in joints:
             np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
         if bias is not None:
             q[:, self._bias_noise] += bias
         return q
+
+    def _path_rows(self, s_pred: Array, s_prev: float, nodes: list[tuple[float, float]]
+                   ) -> tuple[Array, Array]:
+        """Grid rows of the spread's paths (`step_nodes`: the predicted path shifted by
+        each node's offset, clamped to the track), ``(P, 16)`` at each path's sample
+        before the first and ``(P, M, 16)`` at the samples: one grid lookup for all (the
+        grid's rows are pure per row: the same numbers as path by path)."""
+        length = self.track.length_m
+        offsets = np.array([offset for offset, _ in nodes])
+        s_paths = np.minimum(np.maximum(s_pred[None, :] + offsets[:, None], 0.0), length)
+        s_prevs = np.minimum(np.maximum(s_prev + offsets, 0.0), length)
+        rows = self._grid.parameters(np.concatenate([s_prevs, s_paths.ravel()]))[0]
+        n_paths = offsets.size
+        return rows[:n_paths], rows[n_paths:].reshape(n_paths, s_pred.size, -1)
+
+    def _path_bias(self, s_pred: Array, s_prev: float, speed: float, steps: Array,
+                   nodes: list[tuple[float, float]]) -> Array | None:
+        """The bias steps' densities along the spread's paths (`_path_rows`), weighted
+        and summed in the nodes' order (as `_step_q_c` sums them); None when no path's
+        input changes."""
+        return weighted_path_densities(nodes, path_bias_step_densities(
+            *self._path_rows(s_pred, s_prev, nodes), speed, self.config.imu, steps))
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""

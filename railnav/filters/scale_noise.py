@@ -68,7 +68,8 @@ import numpy.typing as npt
 from strapdown.imu_errors import ImuErrors
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["bias_step_densities", "kinematic_inputs", "step_nodes", "along_step_variances",
+__all__ = ["bias_step_densities", "path_bias_step_densities", "weighted_path_densities",
+           "kinematic_inputs", "step_nodes", "along_step_variances",
            "along_force_matters", "TYPICAL_ALONG_CHANGE_MPS2"]
 
 Array = npt.NDArray[np.float64]
@@ -93,7 +94,8 @@ def step_nodes(sigma_s_m: float) -> list[tuple[float, float]]:
 def kinematic_inputs(params: Array, speed_mps: float, along_mps2=None
                      ) -> tuple[Array, Array]:
     """The track's kinematic specific force and angular rate in body axes (x forward,
-    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s); with
+    y left, z up), at the track parameters `params` (N, 16) and a speed (m/s; scalar or
+    one per row, (N,)); with
     `along_mps2` (scalar or (N,)), the along-track acceleration as the x component.
 
     Returns
@@ -110,14 +112,14 @@ def kinematic_inputs(params: Array, speed_mps: float, along_mps2=None
     zero = np.zeros_like(k_l)
     along = zero if along_mps2 is None else np.broadcast_to(
         np.asarray(along_mps2, dtype=float), k_l.shape)
-    v = float(speed_mps)
+    v = float(speed_mps) if np.ndim(speed_mps) == 0 else np.asarray(speed_mps, dtype=float)
     return (np.column_stack([along, v * v * k_l, v * v * k_n]),
             np.column_stack([zero, -v * k_n, v * k_l]))
 
 
 def _axis_variances(change_sq: Array, sigma_sf: float, sigma_m: float) -> Array:
-    """``σ_sf² c_i + σ_m² Σ_{j≠i} c_j`` for ``c = |Δ(x²)|`` (N, 3)."""
-    total = change_sq.sum(axis=1, keepdims=True)
+    """``σ_sf² c_i + σ_m² Σ_{j≠i} c_j`` for ``c = |Δ(x²)|`` (..., 3)."""
+    total = change_sq.sum(axis=-1, keepdims=True)
     return sigma_sf ** 2 * change_sq + sigma_m ** 2 * (total - change_sq)
 
 
@@ -144,16 +146,60 @@ def bias_step_densities(params_prev: Array, params: Array, speed_mps: float, imu
         change between sample ``k − 1`` and ``k`` given to the step from ``k``; None when
         the grade has no scale factor or misalignment, or the input does not change.
     """
+    found = path_bias_step_densities(np.asarray(params_prev)[None, :],
+                                     np.asarray(params)[None, :, :], speed_mps, imu, step_s)
+    return None if found is None or not found[1][0] else found[0][0]
+
+
+def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float,
+                             imu: ImuErrors, step_s: Array) -> tuple[Array, Array] | None:
+    """`bias_step_densities` of P paths over the same steps at once (the spread's paths,
+    `step_nodes`): one `kinematic_inputs` call on all their rows (pure per row: the same
+    numbers as path by path).
+
+    Parameters
+    ----------
+    params_prev : ndarray, shape (P, 16)
+        Each path's track parameters at the sample before the first.
+    params : ndarray, shape (P, M, 16)
+        At the samples.
+    speed_mps : float or ndarray, shape (P,)
+        The speed, or each path's (paths of several hypotheses).
+    imu : ImuErrors
+    step_s : ndarray, shape (M,)
+
+    Returns
+    -------
+    (ndarray (P, M, 6), ndarray of bool (P,)) or None
+        Each path's densities and whether its input changes (where not, its densities are
+        0 and `bias_step_densities` gives None); None when the grade has no scale factor
+        or misalignment.
+    """
     sf_a, sf_g = imu.accel_scale_factor_ppm * _PPM, imu.gyro_scale_factor_ppm * _PPM
     m_a, m_g = imu.accel_misalignment_rad, imu.gyro_misalignment_rad
     if sf_a == sf_g == m_a == m_g == 0.0:
         return None
-    f_d, w_d = kinematic_inputs(np.vstack([params_prev[None, :], params]), speed_mps)
-    d_f, d_w = np.abs(np.diff(f_d ** 2, axis=0)), np.abs(np.diff(w_d ** 2, axis=0))
-    if not (d_f.any() or d_w.any()):
-        return None
-    variance = np.hstack([_axis_variances(d_f, sf_a, m_a), _axis_variances(d_w, sf_g, m_g)])
-    return variance / np.asarray(step_s, dtype=float)[:, None]
+    n_paths, m = params.shape[0], params.shape[1] + 1
+    rows = np.concatenate([params_prev[:, None, :], params], axis=1)
+    speed = speed_mps if np.ndim(speed_mps) == 0 else np.repeat(speed_mps, m)
+    f_d, w_d = kinematic_inputs(rows.reshape(n_paths * m, rows.shape[2]), speed)
+    f_d, w_d = f_d.reshape(n_paths, m, 3), w_d.reshape(n_paths, m, 3)
+    d_f, d_w = np.abs(np.diff(f_d ** 2, axis=1)), np.abs(np.diff(w_d ** 2, axis=1))
+    changes = d_f.any(axis=(1, 2)) | d_w.any(axis=(1, 2))
+    variance = np.concatenate([_axis_variances(d_f, sf_a, m_a),
+                               _axis_variances(d_w, sf_g, m_g)], axis=2)
+    return variance / np.asarray(step_s, dtype=float)[None, :, None], changes
+
+
+def weighted_path_densities(nodes: list[tuple[float, float]], found) -> Array | None:
+    """The spread's total: each path's densities (`path_bias_step_densities`'s result,
+    None: none) times its node's weight (`step_nodes`), summed in the nodes' order over
+    the paths whose input changes, shape (M, 6); None when none does."""
+    bias = None
+    for (_, weight), one, changes in zip(nodes, *(found or ((), ()))):
+        if changes:
+            bias = weight * one if bias is None else bias + weight * one
+    return bias
 
 
 def along_step_variances(along_prev_mps2: float, along_mps2: float, imu: ImuErrors

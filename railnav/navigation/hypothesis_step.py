@@ -203,10 +203,9 @@ class EngineStepper:
         states: list = [None] * len(hyps)
         has = [False] * len(hyps)
         for members in groups.values():
-            series = []
-            for k in members:
-                series.append(self._series(hyps[k], t, u))
-                has[k] = series[-1].r_c is not None
+            series = self._group_series([hyps[k] for k in members], t, u)
+            for k, one in zip(members, series):
+                has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
                                                            for k in members], series)
             for k, state in zip(members, done):
@@ -234,9 +233,24 @@ class EngineStepper:
             h.filt.screen.clear_records()
         h.x, h.P = engine.x.copy(), engine.P.copy()
 
-    def _series(self, h, t: Array, u: Array) -> InputSeries:
-        """The hypothesis's engine inputs of samples `t` (with any joint allowance)."""
-        u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0]))
+    def _group_series(self, hyps, t: Array, u: Array) -> list[InputSeries]:
+        """`_series` of hypotheses of one engine: their filters' inputs together where the
+        filters are of one kind that has ``inputs_together`` (the same numbers as each
+        one's ``inputs``: `railnav.filters.constrained.ConstrainedFilter.inputs_together`),
+        else one by one."""
+        kind = type(hyps[0].filt)
+        together = getattr(kind, "inputs_together", None)
+        if together is None or len(hyps) < 2 or any(type(h.filt) is not kind for h in hyps):
+            return [self._series(h, t, u) for h in hyps]
+        inputs = together([h.filt for h in hyps], t, u, [(h.x, h.P) for h in hyps],
+                          float(t[0]))
+        return [self._series(h, t, u, one) for h, one in zip(hyps, inputs)]
+
+    def _series(self, h, t: Array, u: Array, inputs=None) -> InputSeries:
+        """The hypothesis's engine inputs of samples `t` (with any joint allowance;
+        `inputs`: its filter's ``inputs`` when already computed)."""
+        u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0])) if inputs is None \
+            else inputs
         extra = None if r_c is None else joint_allowance(h, self.tracks, t)
         if extra is not None:
             r_c = r_c + extra[:, None]

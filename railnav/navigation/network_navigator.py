@@ -69,11 +69,11 @@ from railnav.navigation.network_weights import (
     abreast,
     crossing_matrix,
     cycle_evidence,
+    cycle_points,
     forget_offsets,
     hypothesis_points,
     mix_states,
     reweight,
-    track_points_of,
 )
 
 __all__ = ["navigate_network", "FilterFactory", "cycle_ends", "crossing_sample"]
@@ -330,13 +330,13 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
     log_lik, rows = cycle_evidence(outcome, len(hyps), continuous=nav.continuous_evidence,
                                    share=share)
     if len(hyps) > 1:
-        points = track_points_of(hyps) if outcome.points is None else None
+        points, newton = cycle_points(hyps) if outcome.points is None else (None, None)
         r_e, u_e = hypothesis_points(hyps, tracks, outcome, track_points=points)
         neighbours = abreast(hyps, r_e, u_e, nav.crossing_radius_m)
         transition = crossing_matrix(neighbours, nav.crossing_rate_per_s, dt_s)
         reweight(hyps, log_lik, transition)
         mix_states(hyps, normalized_weights(hyps), transition, nav.min_mixing_weight,
-                   track_points=points)
+                   track_points=points, newton_points=newton)
     else:                 # nothing abreast, nothing to mix: the weight is all there is
         reweight(hyps, log_lik, np.eye(len(hyps)))
     recorder.epoch(time_s, hyps, outcome, log_lik)

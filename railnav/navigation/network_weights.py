@@ -39,7 +39,8 @@ from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
 from trackmodel.network_points import points_on
 
-__all__ = ["cycle_evidence", "hypothesis_points", "track_points_of", "abreast", "crossing_matrix",
+__all__ = ["cycle_evidence", "hypothesis_points", "track_points_of", "cycle_points", "abreast",
+           "crossing_matrix",
            "reweight", "mix_states", "converted", "converted_pairs", "forget_offsets"]
 
 Array = npt.NDArray[np.float64]
@@ -96,6 +97,25 @@ def track_points_of(hyps) -> list:
     `mix_states` start from, evaluated once for both."""
     tracks = [h.filt.track for h in hyps]
     return points_on(tracks, [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)])
+
+
+def cycle_points(hyps) -> tuple[list, dict]:
+    """`track_points_of` the hypotheses and, in the same evaluation, the first Newton
+    points that `converted_pairs` wants for the pairs `mix_states` may convert: for each
+    ordered pair ``(i, j)`` whose pair of tracks has an offset (`_target_s`), the point of
+    j's track at ``s_i`` plus that offset, clamped, as ``{(i, j): (s_g, point)}`` (the
+    same numbers as evaluated there: `points_on` is pure per point)."""
+    tracks = [h.filt.track for h in hyps]
+    s = [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)]
+    pairs, s_g = [], []
+    for i, a in enumerate(tracks):
+        for j, b in enumerate(tracks):
+            offset = _OFFSETS.get((id(a), id(b))) if i != j else None
+            if offset is not None:
+                pairs.append((i, j))
+                s_g.append(min(max(s[i] + offset, 0.0), b.length_m))
+    both = points_on(tracks + [tracks[j] for _, j in pairs], s + s_g)
+    return both[:len(hyps)], {p: (g, q) for p, g, q in zip(pairs, s_g, both[len(hyps):])}
 
 
 def _signed_speed(filt) -> bool:
@@ -202,13 +222,15 @@ def reweight(hyps, log_lik: Array, transition: Array) -> None:
 
 
 def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
-               track_points: list | None = None) -> None:
+               track_points: list | None = None, newton_points: dict | None = None) -> None:
     """IMM restarts of the hypotheses that have something abreast (module docstring, 3).
 
     The states of all pairs the mixing uses are converted first, together
     (`converted_pairs`: the track points of all pairs in two evaluations instead of two per
     pair; the same numbers). `track_points`: the hypotheses' `track_points_of`, when
-    known (the sources' points are then not evaluated again)."""
+    known (the sources' points are then not evaluated again); `newton_points`: the first
+    Newton points of `cycle_points`, when known (used where they are at the ``s`` the
+    conversion asks for)."""
     K = len(hyps)
     if K < 2 or np.allclose(transition, np.eye(K)):
         return
@@ -217,7 +239,9 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
     done = converted_pairs([hyps[i].filt for i, _ in pairs], [hyps[j].filt for _, j in pairs],
                            [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
                            source_points=None if track_points is None else
-                           [track_points[i] for i, _ in pairs])
+                           [track_points[i] for i, _ in pairs],
+                           first_guesses=None if newton_points is None else
+                           [newton_points.get(pair) for pair in pairs])
     table = dict(zip(pairs, done))
 
     def convert(i: int, j: int, x: Array, P: Array):
@@ -322,12 +346,14 @@ def converted(source, target, x: Array, P: Array) -> tuple[Array, Array]:
     return converted_pairs([source], [target], [x], [P])[0]
 
 
-def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = None
-                    ) -> list[tuple[Array, Array]]:
+def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = None,
+                    first_guesses: list | None = None) -> list[tuple[Array, Array]]:
     """`converted` of each pair ``(sources[k], targets[k], xs[k], Ps[k])``, in order, the
     track points of all pairs evaluated together (`trackmodel.network_points.points_on`:
     the same numbers as `trackmodel.track.Track.at` point by point); `source_points`: the
-    sources' points at their clamped ``s`` when known."""
+    sources' points at their clamped ``s`` when known; `first_guesses`: for each pair,
+    ``(s_g, point)`` of its target's track, or None (`cycle_points`), used as the first
+    wave's Newton point where ``s_g`` is the one that wave asks for."""
     if not sources:
         return []
     s_raw = [float(x[f.layout.index("s")]) for x, f in zip(xs, sources)]
@@ -340,7 +366,14 @@ def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = No
         p_src, newton_points = both[:len(sources)], both[len(sources):]
     else:
         p_src = list(source_points)
-        newton_points = points_on([targets[k].track for k in first], list(first.values()))
+        known = {k: first_guesses[k][1] for k in first if first_guesses is not None
+                 and first_guesses[k] is not None and first_guesses[k][0] == first[k]}
+        order = list(first)
+        newton_points = [known.get(k) for k in order]
+        missing = [m for m, k in enumerate(order) if k not in known]
+        for m, p in zip(missing, points_on([targets[order[m]].track for m in missing],
+                                           [first[order[m]] for m in missing])):
+            newton_points[m] = p
     newton = dict(zip(first, newton_points))
 
     def first_points(guessed, s_g):

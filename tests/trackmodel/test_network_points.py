@@ -60,3 +60,26 @@ def test_points_on_refuses_s_off_the_track(tracks):
     from trackmodel.errors import TrackError
     with pytest.raises(TrackError):
         points_on([tracks[0]], [tracks[0].length_m + 100.0])
+
+
+def test_points_on_at_every_joint_and_chunk_start_together(tracks):
+    """Points exactly at each section joint and each Chebyshev chunk start (where the
+    search of `TrackStack` over all tracks' tables at once must pick the section and chunk
+    that `Track.at` picks in the track's own table), on all nine tracks in one call."""
+    pick, s = [], []
+    for t in tracks:
+        spots = list(t.table.s_start) + ([] if t._chunks is None else list(t._chunks.s0))
+        spots += [min(x + 1e-9, t.length_m) for x in spots] + [t.length_m]
+        pick += [t] * len(spots)
+        s += [float(x) for x in spots]
+    assert any(t._chunks is not None for t in tracks)
+    for t, sk, p in zip(pick, s, points_on(pick, s)):
+        assert _same(t, sk, p) == [], (sk, t.length_m)
+
+
+def test_points_on_names_the_track_off_which_s_lies(tracks):
+    from trackmodel.errors import TrackError
+    with pytest.raises(TrackError, match=f"<= {tracks[3].length_m!r} m"):
+        points_on([tracks[0], tracks[3], tracks[3]], [1.0, 2.0, tracks[3].length_m + 5.0])
+    with pytest.raises(TrackError, match="finite"):
+        points_on([tracks[0], tracks[3]], [1.0, float("nan")])

@@ -18,14 +18,19 @@ import numpy as np
 import pytest
 
 from ekf.consistency import chi2_band
+from railnav.filters.constrained import ConstrainedFilter
 from railnav.filters.scale_noise import (along_step_variances, bias_step_densities,
-                                         kinematic_inputs, step_nodes)
+                                         kinematic_inputs, path_bias_step_densities,
+                                         step_nodes)
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+from railnav.simulation.trip import navigator_config_for
 from railnav.jobs.run import run_simulated
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import Scenario
 from strapdown.imu_errors import imu_grade
 from strapdown.reduced import TRACK_PARAMETER_NAMES
 from trackmodel.earth import WGS84
+from trackmodel.io import read_track
 from trackmodel.sections import Section
 from trackmodel.track import Origin, Track
 
@@ -94,6 +99,62 @@ def test_no_noise_without_scale_factors_or_on_straights():
                                imu_grade("tactical"), np.full(3, 0.01)) is None
 
 
+def test_paths_together_are_the_paths_one_by_one():
+    """`path_bias_step_densities` of five paths (a clothoid entered at different samples, a
+    straight, a vertical curve) equals `bias_step_densities` path by path, to the bit; the
+    straight's densities are 0 and flagged unchanged (one by one: None)."""
+    imu = imu_grade("tactical")
+    m = 40
+    ramps = [np.clip(np.linspace(-0.002 * j, 0.01, m), 0.0, None) for j in range(3)]
+    paths = [_params(r) for r in ramps] + [_params(np.zeros(m)), _params(np.zeros(m))]
+    paths[4][:, TRACK_PARAMETER_NAMES.index("du_U_ds")] = np.linspace(0.0, 1e-3, m)
+    prev = np.stack([p[0] * 0.9 for p in paths])
+    dt = np.linspace(0.009, 0.011, m)
+    together, changes = path_bias_step_densities(prev, np.stack(paths), SPEED_MPS, imu, dt)
+    for k, path in enumerate(paths):
+        one = bias_step_densities(prev[k], path, SPEED_MPS, imu, dt)
+        if one is None:
+            assert not changes[k] and np.all(together[k] == 0.0)
+        else:
+            assert changes[k] and np.array_equal(together[k], one)
+    assert list(changes) == [True, True, True, False, True]
+    assert path_bias_step_densities(prev, np.stack(paths), SPEED_MPS,
+                                    imu_grade("paper2017"), dt) is None
+
+
+@pytest.mark.parametrize("sigma_s_m", [0.0, 3.0, 40.0])
+def test_filter_paths_together_are_the_nodes_one_by_one(sigma_s_m):
+    """`ConstrainedFilter._path_bias` (one grid lookup and one density call for the
+    spread's paths) equals the paths looked up and weighted node by node on the grid, to
+    the bit, on `curvy`'s track at curves' ends, a vertical curve, near its start (paths
+    clipped at 0) and its end."""
+    scenario = get_scenario("curvy")
+    config = navigator_config_for(scenario)
+    track = read_track(TRACKS_DIR / scenario.default_track)
+    filt = ConstrainedFilter(track, config, None)
+    grid = filt._grid
+    steps = np.full(100, 0.01)
+    found = 0
+    for s0 in (5.0, 2490.0, 4310.0, 4810.0, 9400.0, track.length_m - 30.0):
+        s_pred = np.minimum(s0 + 20.0 * np.arange(1, 101) * 0.01, track.length_m)
+        nodes = step_nodes(sigma_s_m)
+        expected = None
+        for offset, weight in nodes:
+            path = grid.parameters(np.minimum(np.maximum(s_pred + offset, 0.0),
+                                              track.length_m))[0]
+            prev = grid.parameters(np.array([min(max(s0 + offset, 0.0),
+                                                 track.length_m)]))[0][0]
+            one = bias_step_densities(prev, path, 20.0, config.imu, steps)
+            if one is not None:
+                expected = weight * one if expected is None else expected + weight * one
+        got = filt._path_bias(s_pred, s0, 20.0, steps, nodes)
+        assert (got is None) == (expected is None)
+        if got is not None:
+            found += 1
+            assert np.array_equal(got, expected)
+    assert found >= 3                         # the curves' ends and the vertical curve
+
+
 def test_issue14_u_turn_nees_inside_band():
     k = 1.0 / 100.0
     track = Track([Section(500.0, 90.0, 0.0), Section(np.pi * 100.0, None, None, k),
@@ -133,3 +194,47 @@ def test_issue14_circle_100mps_nees_inside_band():
     means = [np.nanmean(e.nees) for e in errors]
     low, high = chi2_band(errors[0].nees_dof, len(seeds), 0.99)
     assert low <= np.mean(means) <= high, (means, low, high)
+
+
+@pytest.mark.parametrize("grade", ["tactical", "mems"])
+def test_filters_inputs_together_are_their_inputs_one_by_one(grade):
+    """`ConstrainedFilter.inputs_together` of three filters (curvy's track and two
+    parallels, each from its own prior: speeds, σ_s and biases differ) over five chunks
+    in a row equals each filter's own `inputs` (fresh filters, the same calls), to the
+    bit: inputs, track parameters, geometry noise and the per-step ``q_c`` (the MEMS
+    grade adds the along-track force's steps, which carry state from chunk to chunk)."""
+    from dataclasses import replace
+    from trackmodel.offset import offset_track
+    scenario = replace(get_scenario("curvy"), imu_errors=grade)
+    config = navigator_config_for(scenario)
+    base = read_track(TRACKS_DIR / scenario.default_track)
+    tracks = [base, offset_track(base, 4.5), offset_track(base, -4.5)]
+    together = [ConstrainedFilter(t, config, None) for t in tracks]
+    alone = [ConstrainedFilter(t, config, None) for t in tracks]
+    layout = together[0].layout
+    rng = np.random.default_rng(3)
+    priors = []
+    for k, s0 in enumerate((4300.0, 4310.0, 9330.0)):     # entering curves
+        x = np.zeros(layout.size)
+        x[layout.index("s")], x[layout.index("v")] = s0, 15.0 + 5.0 * k
+        P = np.diag(np.full(layout.size, 1e-6))
+        P[layout.index("s"), layout.index("s")] = (0.5 + 4.0 * k) ** 2
+        priors.append((x, P))
+    t0 = 10.0
+    for chunk in range(5):
+        t = t0 + 0.01 * np.arange(101)
+        u = np.column_stack([rng.normal(0.3, 0.05, t.size), rng.normal(0.0, 0.1, t.size),
+                             np.full(t.size, 9.81), np.zeros((t.size, 2)),
+                             rng.normal(0.02, 0.001, t.size)])
+        got = ConstrainedFilter.inputs_together(together, t, u, priors, float(t[0]))
+        for filt, (x, P), one in zip(alone, priors, got):
+            ref = filt.inputs(t, u, x, P, float(t[0]))
+            for a, b in zip(one, ref):
+                assert np.array_equal(a, b)
+        for f, g in zip(together, alone):
+            assert np.array_equal(f.step_q_c, g.step_q_c)
+        assert any(np.ndim(f.step_q_c) == 2 for f in together)
+        priors = [(x + 0.0, P) for x, P in priors]
+        for x, _ in priors:
+            x[layout.index("s")] += 20.0
+        t0 = float(t[-1])

@@ -1,0 +1,62 @@
+"""The first Newton points of the mixing's conversions evaluated with the hypotheses'
+track points (`railnav.navigation.network_weights.cycle_points`) against the conversions
+evaluating them themselves (`converted_pairs` without them): the same states and
+covariances to the bit, the same offsets remembered for the next cycle."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from railnav.filters.constrained import ConstrainedFilter
+from railnav.navigation import network_weights as nw
+from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
+from railnav.simulation.trip import navigator_config_for
+from trackmodel.io import read_track
+from trackmodel.offset import offset_track
+
+
+def _hyps(filters, s_values):
+    out = []
+    for filt, s in zip(filters, s_values):
+        x = np.zeros(filt.layout.size)
+        x[filt.layout.index("s")], x[filt.layout.index("v")] = s, 20.0
+        P = np.diag(np.linspace(1e-6, 1e-2, filt.layout.size))
+        out.append(SimpleNamespace(filt=filt, x=x, P=P, s_m=float(s)))
+    return out
+
+
+def _convert(hyps, pairs, points, guesses):
+    return nw.converted_pairs([hyps[i].filt for i, _ in pairs],
+                              [hyps[j].filt for _, j in pairs],
+                              [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
+                              source_points=[points[i] for i, _ in pairs],
+                              first_guesses=guesses)
+
+
+def test_cycle_points_give_the_conversions_their_own_numbers():
+    config = navigator_config_for(get_scenario("curvy"))
+    base = read_track(TRACKS_DIR / "double_a.csv")
+    tracks = [offset_track(base, -4.5), base, offset_track(base, 4.5), base]
+    filters = [ConstrainedFilter(t, config, None) for t in tracks]
+    pairs = [(i, j) for j in range(4) for i in range(4) if i != j]
+    nw.forget_offsets()
+    try:
+        first = _hyps(filters, [1000.0, 1001.0, 999.0, 1003.0])
+        _convert(first, pairs, nw.track_points_of(first), None)   # offsets by projection
+        hyps = _hyps(filters, [1020.0, 1021.5, 1018.0, 1024.0])
+        table = dict(nw._OFFSETS)
+        ref = _convert(hyps, pairs, nw.track_points_of(hyps), None)
+        ref_table = dict(nw._OFFSETS)
+        nw._OFFSETS.clear()
+        nw._OFFSETS.update(table)
+        points, newton = nw.cycle_points(hyps)
+        assert set(newton) == set(pairs)       # every pair of tracks has an offset by now
+        got = _convert(hyps, pairs, points, [newton.get(p) for p in pairs])
+        assert nw._OFFSETS == ref_table
+        for (x_a, P_a), (x_b, P_b) in zip(got, ref):
+            assert np.array_equal(x_a, x_b) and np.array_equal(P_a, P_b)
+        for p, q in zip(points, nw.track_points_of(hyps)):
+            assert all(np.array_equal(getattr(p, f), getattr(q, f)) for f in p.__slots__)
+    finally:
+        nw.forget_offsets()
