@@ -17,9 +17,11 @@ them):
 Figures: horizontal RMS / 95 %, vertical RMS, and the horizontal error split along/across
 the track (each position and the reference projected on the track: ``Δs`` and
 ``Δcross``). Sensitivity of gnss-only (the design choices of `railnav.filters.gnss_only`):
-white pseudorange errors (τ = 0), σ_a = 0.5 m/s², Huber row weights, and the dual-frequency
+white pseudorange errors (τ = 0), σ_a = 0.5 m/s², Huber row weights, the dual-frequency
 ionosphere-free combination (with the SPP on the same measurements) to show what the
-ionosphere residual costs. Also: the reference's distance to the track (the fit's part).
+ionosphere residual costs, and the filter with the ``additive`` pseudorange σ model
+calibrated on this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`; SPP with its own).
+Also: the reference's distance to the track (the fit's part).
 
 Writes ``benchmarks/results/real_data.json``. Run: ``python benchmarks/bench_real_data.py
 --data DIR`` (about a minute, most of it gnss-lib-py; ``--skip-gnss-lib-py`` for seconds).
@@ -41,7 +43,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
 from bench_spp_real import run_gnss_lib_py  # noqa: E402
 
-from gnss_obs.measurements import MeasurementConfig  # noqa: E402
+from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
 from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
@@ -173,13 +175,14 @@ def sensitivity(track, obs, nav, obs_path, nav_path, reference) -> dict:
     variants = {"default": ({}, {}), "white pseudoranges (tau 0)": (
         {"pseudorange_correlation_s": 0.0}, {}), "sigma_a 0.5 m/s2": (
         {"along_accel_sigma_mps2": 0.5}, {}), "huber k 1.5": ({}, {"huber_k": 1.5}),
-        "iono-free": ({"ionosphere": "iono-free"}, {})}
+        "iono-free": ({"ionosphere": "iono-free"}, {}),
+        "urban sigmas (filter only)": ({"sigmas": URBAN_CODE_SIGMAS}, {})}
     for systems in ("G", "GE"):
         for label, (cfg_kw, filt_kw) in variants.items():
             measurement = {k: v for k, v in cfg_kw.items() if k == "ionosphere"}
-            nav_kw = {k: v for k, v in cfg_kw.items() if k != "ionosphere"}
-            cfg = replace(base, measurement=MeasurementConfig(systems=systems, **measurement),
-                          **nav_kw)
+            nav_kw = {k: v for k, v in cfg_kw.items() if k not in ("ionosphere", "sigmas")}
+            cfg = replace(base, measurement=MeasurementConfig(
+                systems=systems, **measurement, **cfg_kw.get("sigmas", {})), **nav_kw)
             sol, sec, _ = gnss_only(track, obs_path, nav_path, cfg, **filt_kw)
             ref_sol, _ = spp(obs, nav, systems, **measurement)
             scored = score(track, {"gnss-only": sol, "SPP": ref_sol}, reference)

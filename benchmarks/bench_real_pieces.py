@@ -24,6 +24,10 @@ Per piece: epochs, horizontal RMS / max of each, "never worse than SPP" (RMS and
 monitor's status counts, the epochs whose along-track error (reference projected on the
 piece's track) exceeds 3σ_s, and how many of those the monitor left ``ok``.
 
+``--urban-sigmas``: the two filters with the ``additive`` pseudorange σ model calibrated on
+this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`), SPP with its own (the default);
+``benchmarks/results/real_pieces_urban_sigmas.json``.
+
 Writes ``benchmarks/results/real_pieces.json``. Run: ``python benchmarks/bench_real_pieces.py
 --data DIR`` (a few minutes).
 """
@@ -45,7 +49,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
 
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
-from gnss_obs.measurements import MeasurementConfig  # noqa: E402
+from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
 from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
@@ -174,8 +178,13 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--no-recovery", action="store_true",
                         help="the monitor flags but never changes the state (the baseline)")
+    parser.add_argument("--urban-sigmas", action="store_true",
+                        help="the filters use the additive pseudorange σ model "
+                             "(gnss_obs.measurements.URBAN_CODE_SIGMAS); SPP keeps its own")
     args = parser.parse_args(argv)
     config = NavigatorConfig(filter="gnss-only")
+    if args.urban_sigmas:
+        config = replace(config, measurement=replace(config.measurement, **URBAN_CODE_SIGMAS))
     # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
     config = replace(config, monitor=replace(config.monitor, recover=not args.no_recovery),
                      # SPP fixes: their errors are their pseudoranges', correlated alike
@@ -203,6 +212,7 @@ def main(argv=None) -> int:
                   f"{r['fixes']['epochs_beyond_3sigma']}", flush=True)
     out = {"data": "gnss_urban_drive", "tightest_track_radius_m": TIGHTEST_TRACK_RADIUS_M,
            "recovery": not args.no_recovery,
+           **({"filters_measurement_sigmas": URBAN_CODE_SIGMAS} if args.urban_sigmas else {}),
            "pieces": results,
            "all_never_worse_than_spp": all(r[k]["never_worse_than_spp"] for r in results.values()
                                            for k in ("gnss-only", "fixes")),

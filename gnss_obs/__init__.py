@@ -26,9 +26,10 @@ GPS time                    `WEEK_S` (``constants``); `GPS_EPOCH`,
                             `gps_time_s_to_utc_iso` (``gpstime``)
 errors                      `GnssError`, `GnssInputError` (``errors``)
 positioning                 `solve_spp`, `SppConfig`, `SppResult` (``spp``)
-measurement selection       `MeasurementConfig`, `IONOSPHERE_MODELS`,
-                            `select_measurements`, `glonass_channels`
-                            (``measurements``)
+measurement selection       `MeasurementConfig`, `IONOSPHERE_MODELS`, `SIGMA_MODELS`,
+                            `URBAN_CODE_SIGMAS`, `select_measurements`,
+                            `glonass_channels` (``measurements``);
+                            `known_position_residuals` (``residuals``)
 epochs and models           `EpochData`, `PreparedEpoch`, `split_epochs`,
                             `prepare_epoch`, `transmit_states_batch` (``epoch``);
                             `build_measurement_model` (``observables``);
@@ -71,7 +72,9 @@ _EXPORTS = {
     "GnssError": "errors", "GnssInputError": "errors",
     "solve_spp": "spp", "SppConfig": "spp", "SppResult": "spp",
     "MeasurementConfig": "measurements", "IONOSPHERE_MODELS": "measurements",
+    "URBAN_CODE_SIGMAS": "measurements", "SIGMA_MODELS": "measurements",
     "select_measurements": "measurements", "glonass_channels": "measurements",
+    "known_position_residuals": "residuals",
     "EpochData": "epoch", "PreparedEpoch": "epoch", "split_epochs": "epoch",
     "prepare_epoch": "epoch", "transmit_states_batch": "epoch",
     "build_measurement_model": "observables",

@@ -249,18 +249,36 @@ def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementCon
                        frequency_hz: Array, frequency2_hz: Array) -> tuple[Array, Array]:
     """Pseudorange (m) and range-rate (m/s) standard deviations per satellite.
 
-    ``σ = σ_zenith / sin(max(el, 5°)) · 10^(max(cn0_ref - C/N0, 0) / 20)``, times the noise
-    gain ``sqrt(f1⁴ + f2⁴) / (f1² - f2²)`` of the ionosphere-free combination for the
-    pseudorange. Unknown elevation (NaN) or C/N0 gives factor 1.
+    Range rate, and the pseudorange with ``config.sigma_model == "product"``:
+    ``σ = σ_zenith / sin(max(el, 5°)) · 10^(max(cn0_ref - C/N0, 0) / 20)``. Pseudorange
+    with ``"additive"`` (RTKLIB's ``varerr`` with its SNR term, demo5):
+    ``σ² = σ_pr² + σ_el² / sin²(max(el, 5°)) + σ_cn0² · 10^(max(cn0_ref - C/N0, 0)/10)``,
+    the elevation term only with ``elevation_weighting`` and the C/N0 term only with a
+    finite ``cn0_ref_dbhz`` (no weighting: ``σ_pr`` alone, as the simulator draws it).
+    The pseudorange σ is then multiplied by the noise gain ``sqrt(f1⁴ + f2⁴) / (f1² - f2²)``
+    of the ionosphere-free combination. Unknown elevation (NaN) counts as zenith and
+    unknown C/N0 as no deficit.
     """
-    factor = np.ones_like(elevation)
+    inv_sin = np.ones_like(elevation)
     if config.elevation_weighting:
         el = np.where(np.isfinite(elevation), elevation, np.pi / 2)
-        factor = factor / np.sin(np.maximum(el, _MIN_WEIGHT_ELEVATION_RAD))
+        inv_sin = 1.0 / np.sin(np.maximum(el, _MIN_WEIGHT_ELEVATION_RAD))
+    amplitude = np.ones_like(elevation)        # C/N0 deficit as an amplitude ratio
     if np.isfinite(config.cn0_ref_dbhz):
         deficit = np.where(np.isfinite(cn0_dbhz), config.cn0_ref_dbhz - cn0_dbhz, 0.0)
-        factor = factor * 10.0 ** (np.maximum(deficit, 0.0) / 20.0)
-    sigma_pr = config.sigma_pr_m * factor
+        amplitude = 10.0 ** (np.maximum(deficit, 0.0) / 20.0)
+    factor = inv_sin * amplitude
+    if config.sigma_model == "additive":
+        var = np.full_like(factor, config.sigma_pr_m ** 2)
+        if config.elevation_weighting:
+            var = var + (config.sigma_pr_elevation_m * inv_sin) ** 2
+        if np.isfinite(config.cn0_ref_dbhz):
+            var = var + (config.sigma_pr_cn0_m * amplitude) ** 2
+        sigma_pr = np.sqrt(var)
+    else:
+        sigma_pr = config.sigma_pr_m * factor
+        if config.sigma_pr_floor_m > 0.0:
+            sigma_pr = np.sqrt(config.sigma_pr_floor_m ** 2 + sigma_pr ** 2)
     if config.iono_free:
         g1, g2 = frequency_hz ** 2, frequency2_hz ** 2
         sigma_pr = sigma_pr * np.sqrt(g1 * g1 + g2 * g2) / (g1 - g2)

@@ -29,7 +29,8 @@ from gnss_obs.corrections import IONOSPHERE_MODELS
 from gnss_obs.ephemeris import GALILEO_MESSAGES
 from gnss_obs.errors import GnssError
 
-__all__ = ["MeasurementConfig", "PRIMARY_SIGNALS", "SECONDARY_SIGNALS", "IONOSPHERE_MODELS",
+__all__ = ["MeasurementConfig", "SIGMA_MODELS", "URBAN_CODE_SIGMAS",
+           "PRIMARY_SIGNALS", "SECONDARY_SIGNALS", "IONOSPHERE_MODELS",
            "MEASUREMENT_COLUMNS", "select_measurements", "glonass_channels"]
 
 log = logging.getLogger(__name__)
@@ -45,6 +46,35 @@ SECONDARY_SIGNALS: dict[str, tuple[str, ...]] = {
     "G": ("2W", "2L", "2X", "2S"), "E": ("7Q", "7X", "7I"), "C": ("7I", "7X"),
     "R": ("2C", "2P"), "J": ("2L", "2X", "2S"),
 }
+
+#: Pseudorange σ models of `MeasurementConfig.sigma_model`.
+SIGMA_MODELS = ("product", "additive")
+
+#: The ``additive`` pseudorange σ model's constants for a car-mounted receiver in city
+#: streets (`MeasurementConfig` fields; ``cn0_ref_dbhz`` 45, the default). Calibrated by
+#: `benchmarks/bench_pseudorange_sigma.py` on the shared urban drive (Septentrio
+#: mosaic-X5, GPS L1 C/A + Galileo E1, Klobuchar, broadcast orbits): the pseudorange
+#: residuals at the PPK reference trajectory (`gnss_obs.residuals`) of 12:43:00 GPST to
+#: the U-turn (SoW 45966), elevations ≥ 10°, 2443 measurements, fitted by non-negative
+#: least squares of the squared residuals on ``[1, 1/sin²el, 10^(max(45 - C/N0, 0)/10)]``
+#: (clipping the residuals at 20 or 30 m moves the constants by at most 0.08 m).
+#: Normalized residual RMS on the pieces left out: 1.00 (12:40:00-12:42:59, the shipped
+#: excerpt; the old ``product`` default: 0.83), 1.00 (the U-turn and leg 2; old: 1.58);
+#: by C/N0 class < 35 / 35-45 / ≥ 45 dB-Hz: 1.55 / 0.74 / 0.58 and 0.77 / 1.09 / 0.93
+#: (old: 0.46 / 0.77 / 1.19 and 0.28 / 1.33 / 2.17). The static base station 15 km away
+#: (open sky, geodetic antenna, C/N0 ≥ 40) sees 0.49: its errors are the orbit, clock and
+#: atmosphere floor (1.5 m RMS) without the streets' multipath, so the model is
+#: pessimistic there (`benchmarks/results/pseudorange_sigma.json`).
+#:
+#: Opt-in, not the default: honest per-measurement σ did not make the filters honest. In
+#: the gnss-only filter on the drive's 9 pieces (`benchmarks/bench_real_pieces.py
+#: --urban-sigmas`, SPP with the default) epochs beyond 3σ_s went from 101 to 123 of 952
+#: and filter/piece pairs worse than SPP from 3 to 5 of 18; as SPP weights, its horizontal
+#: RMS went from 3.14 to 3.80 m. The weak signals' errors are heavy-tailed (NLOS), and the
+#: default's steep C/N0 down-weighting protects the solutions; what σ_s misses is how long
+#: the errors last (`pseudorange_autocorrelation` in the JSON: 0.93 at 60 s on the U-turn).
+URBAN_CODE_SIGMAS = {"sigma_model": "additive", "sigma_pr_m": 2.34,
+                     "sigma_pr_elevation_m": 1.07, "sigma_pr_cn0_m": 0.35}
 
 #: Columns of the `select_measurements` table.
 MEASUREMENT_COLUMNS = ["gps_time_s", "sv", "system", "prn", "signal", "band", "frequency_hz",
@@ -65,15 +95,32 @@ class MeasurementConfig:
         (no model), or no correction.
     troposphere : bool
         Apply the Saastamoinen + Niell delay (`gnss_obs.corrections`).
+    sigma_model : {"product", "additive"}
+        Pseudorange σ model (`gnss_obs.epoch.measurement_sigmas`): ``product``
+        ``σ_pr / sin(el) · 10^(max(cn0_ref - C/N0, 0) / 20)``; ``additive``, the
+        RTKLIB form ``σ² = σ_pr² + σ_el² / sin²(el) + σ_cn0² · 10^(max(cn0_ref - C/N0, 0)
+        / 10)`` (`URBAN_CODE_SIGMAS` for its constants calibrated on real urban data). The
+        range rate keeps the product form under both.
     sigma_pr_m : float
-        Pseudorange standard deviation at zenith and high C/N0, m.
+        Pseudorange standard deviation at zenith and high C/N0 (``product``), or the
+        constant term (``additive``), m.
+    sigma_pr_floor_m : float
+        ``product``: a constant term added in quadrature, ``σ² = σ_floor² + σ_product²``
+        (0: the product alone), m.
+    sigma_pr_elevation_m : float
+        ``additive``: the term divided by ``sin(el)``, m.
+    sigma_pr_cn0_m : float
+        ``additive``: the term grown by the C/N0 deficit, m.
     sigma_rr_mps : float
         Range-rate (Doppler) standard deviation at zenith and high C/N0, m/s.
     elevation_weighting : bool
-        Scale the standard deviations by ``1 / sin(elevation)``.
+        Scale the standard deviations by ``1 / sin(elevation)`` (``additive``: keep the
+        elevation term; False drops it).
     cn0_ref_dbhz : float
         C/N0 at and above which no C/N0 penalty applies; below it the standard deviation
-        grows by ``10^((cn0_ref - C/N0) / 20)`` (the amplitude ratio). NaN disables it.
+        grows by ``10^((cn0_ref - C/N0) / 20)`` (the amplitude ratio; ``additive``: its
+        term's variance by ``10^((cn0_ref - C/N0) / 10)``). NaN disables it (and drops
+        the ``additive`` C/N0 term).
     galileo_message : {"inav", "fnav"}
         Galileo navigation message whose clock is used (see `gnss_obs.ephemeris`).
     """
@@ -81,7 +128,11 @@ class MeasurementConfig:
     systems: str = "GE"
     ionosphere: str = "klobuchar"
     troposphere: bool = True
+    sigma_model: str = "product"
     sigma_pr_m: float = 1.0
+    sigma_pr_floor_m: float = 0.0
+    sigma_pr_elevation_m: float = 0.0
+    sigma_pr_cn0_m: float = 0.0
     sigma_rr_mps: float = 0.05
     elevation_weighting: bool = True
     cn0_ref_dbhz: float = 45.0
@@ -97,10 +148,17 @@ class MeasurementConfig:
                             f"got {self.ionosphere!r}")
         if self.galileo_message not in GALILEO_MESSAGES:
             raise GnssError(f"galileo_message must be one of {sorted(GALILEO_MESSAGES)}")
+        if self.sigma_model not in SIGMA_MODELS:
+            raise GnssError(f"sigma_model must be one of {SIGMA_MODELS}, "
+                            f"got {self.sigma_model!r}")
         for name in ("sigma_pr_m", "sigma_rr_mps"):
             value = getattr(self, name)
             if not (np.isfinite(value) and value > 0):
                 raise GnssError(f"{name} must be a finite number > 0, got {value!r}")
+        for name in ("sigma_pr_floor_m", "sigma_pr_elevation_m", "sigma_pr_cn0_m"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0):
+                raise GnssError(f"{name} must be a finite number >= 0, got {value!r}")
 
     @property
     def iono_free(self) -> bool:
