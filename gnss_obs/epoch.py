@@ -42,7 +42,8 @@ from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
+__all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch",
+           "prepare_epochs", "sagnac_rotation",
            "transmit_states", "transmit_states_batch",
            "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
 
@@ -362,44 +363,95 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     -------
     PreparedEpoch
         Satellites whose clock for the used signal is known (no NaN group delay).
+
+    Raises
+    ------
+    ValueError
+        `r_rx_e` is not one 3-vector.
+    """
+    r_rx_e = np.asarray(r_rx_e, dtype=float)
+    if r_rx_e.shape != (3,):
+        raise ValueError(f"r_rx_e must have shape (3,), got {r_rx_e.shape}")
+    return prepare_epochs(epoch, config, r_rx_e=r_rx_e[None, :], klobuchar=klobuchar,
+                          transmit=transmit, coarse=coarse)[0]
+
+
+def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
+                   klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
+                   transmit=None, coarse: bool = False,
+                   elevation_mask_rad: float | None = None) -> list[PreparedEpoch]:
+    """`prepare_epoch` at K receiver guesses at once (a bank's hypotheses).
+
+    What does not depend on the guess (the satellites at transmission, their clocks, the
+    measurements) is shared; the flight time, Sagnac rotation, look angles, ionosphere
+    and σ of all K guesses are computed together, elementwise (each guess's numbers are
+    those of its own `prepare_epoch`, to the bit); the troposphere's receiver terms are
+    Python floats per guess (`gnss_obs.corrections.troposphere_delay_m`, called as
+    `prepare_epoch` calls it).
+
+    Parameters
+    ----------
+    epoch, config, klobuchar, transmit, coarse
+        As `prepare_epoch`.
+    r_rx_e : array_like, shape (K, 3)
+        Receiver position guesses, ECEF, m.
+    elevation_mask_rad : float, optional
+        Keep only the satellites with a finite pseudorange at or above this elevation
+        (rad; NaN elevations, at an unknown guess, are below it).
+
+    Returns
+    -------
+    list of PreparedEpoch
+        One per guess, in order: its satellites with a known clock (and above the mask).
     """
     states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
+    if r_rx_e.ndim != 2 or r_rx_e.shape[1] != 3:
+        raise ValueError(f"r_rx_e must have shape (K, 3), got {r_rx_e.shape}")
+    n_rx, meas, n = r_rx_e.shape[0], epoch.meas, len(epoch)
     # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
-    known = not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
-    if known:
-        lat, lon, h = ecef_to_geodetic(r_rx_e)
-        known = abs(h) < MAX_RECEIVER_HEIGHT_M
-    # np.linalg.norm(d, axis=1)'s own reduction (sqrt of the row sums of d * d: the same
+    known = np.array([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
+                      for r in r_rx_e.tolist()], dtype=bool)
+    rows = np.flatnonzero(known)
+    if rows.size:
+        lat, lon, h = ecef_to_geodetic(r_rx_e[rows])
+        height_ok = np.abs(h) < MAX_RECEIVER_HEIGHT_M
+        rows, lat, lon, h = rows[height_ok], lat[height_ok], lon[height_ok], h[height_ok]
+    # np.linalg.norm(d, axis=-1)'s own reduction (sqrt of the sums of d * d: the same
     # bits), without its generic argument handling
-    d = states.r_e - r_rx_e
-    tau = np.sqrt(np.add.reduce(d * d, axis=1)) / SPEED_OF_LIGHT_MPS
-    sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
-    meas = epoch.meas
-    n = len(epoch)
-    iono = tropo = None
-    if known:
-        elevation, azimuth = look_angles(r_rx_e, sat_pos_e, geodetic=(lat, lon))
+    d = states.r_e[None, :, :] - r_rx_e[:, None, :]                     # (K, N, 3)
+    tau = np.sqrt(np.add.reduce(d * d, axis=2)) / SPEED_OF_LIGHT_MPS
+    sat_pos_e, sat_vel_e = sagnac_rotation(np.broadcast_to(states.r_e, d.shape),
+                                           np.broadcast_to(states.v_e, d.shape), tau)
+    elevation, azimuth = np.full((n_rx, n), np.nan), np.full((n_rx, n), np.nan)
+    iono, tropo = np.zeros((n_rx, n)), np.zeros((n_rx, n))
+    if rows.size:
+        el, az = look_angles(r_rx_e[rows, None, :], sat_pos_e[rows],
+                             geodetic=(lat[:, None], lon[:, None]))
+        elevation[rows], azimuth[rows] = el, az
         if config.troposphere:
-            tropo = troposphere_delay_m(elevation, lat, h, gps_time_s=epoch.gps_time_s)
+            for j, k in enumerate(rows.tolist()):   # the receiver terms in floats, per guess
+                tropo[k] = troposphere_delay_m(el[j], lat[j], h[j],
+                                               gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:
-            iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
-                *klobuchar, lat=float(lat), lon=float(lon), elevation=elevation,
-                azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
-                * ionosphere_scale(meas["frequency_hz"])
-    else:
-        elevation = azimuth = np.full(n, np.nan)
-    iono = np.zeros(n) if iono is None else iono
-    tropo = np.zeros(n) if tropo is None else tropo
+            iono[rows] = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
+                *klobuchar, lat=lat[:, None], lon=lon[:, None], elevation=el, azimuth=az,
+                gps_time_s=epoch.gps_time_s) * ionosphere_scale(meas["frequency_hz"])
     sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
                                             frequency_hz=meas["frequency_hz"],
                                             frequency2_hz=meas["frequency2_hz"])
-    prepared = PreparedEpoch(
-        gps_time_s=epoch.gps_time_s, sv=meas["sv"], system=meas["system"],
-        sat_pos_e=sat_pos_e, sat_vel_e=sat_vel_e, sat_clock_m=clock_m,
-        sat_clock_drift_mps=SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
-        iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
-        pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
-        cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
-    finite = np.isfinite(clock_m)
-    return prepared if np.count_nonzero(finite) == finite.size else prepared.subset(finite)
+    clock_drift = SPEED_OF_LIGHT_MPS * states.clock_drift_sps
+    ok = np.broadcast_to(np.isfinite(clock_m), (n_rx, n))
+    if elevation_mask_rad is not None:
+        ok = ok & np.isfinite(meas["pseudorange_m"]) & (elevation >= elevation_mask_rad)
+    out = []
+    for k in range(n_rx):
+        one = PreparedEpoch(
+            gps_time_s=epoch.gps_time_s, sv=meas["sv"], system=meas["system"],
+            sat_pos_e=sat_pos_e[k], sat_vel_e=sat_vel_e[k], sat_clock_m=clock_m,
+            sat_clock_drift_mps=clock_drift, iono_m=iono[k], tropo_m=tropo[k],
+            elevation=elevation[k], azimuth=azimuth[k], pseudorange_m=meas["pseudorange_m"],
+            range_rate_mps=meas["range_rate_mps"], cn0_dbhz=meas["cn0_dbhz"],
+            sigma_pr_m=sigma_pr[k], sigma_rr_mps=sigma_rr[k])
+        out.append(one if np.count_nonzero(ok[k]) == n else one.subset(ok[k]))
+    return out

@@ -82,8 +82,8 @@ from railnav.filters.row_sets import (
     subset_rows,
 )
 
-__all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "ROW_STATUSES",
-           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
+__all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "screen_together",
+           "ROW_STATUSES", "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
 
 log = logging.getLogger(__name__)
 
@@ -408,3 +408,25 @@ class RowScreen:
             "status": np.concatenate([e.status for e in self.epochs]),
             "fault_probability": np.concatenate([e.fault_probability for e in self.epochs]),
             "clock_jump_m": np.repeat([e.clock_jump_m for e in self.epochs], sizes)})
+
+
+def screen_together(screens, stacked, priors) -> list:
+    """`RowScreen.screen` of several screens (a bank's hypotheses) at one epoch.
+
+    Parameters
+    ----------
+    screens : sequence of RowScreen
+    stacked : sequence of tuple
+        Each screen's rows ``(observations, sv, kind, modes, groups)``
+        (`railnav.filters.fix_rows.stack_epoch_rows`).
+    priors : sequence of (ndarray (n,), ndarray (n, n))
+        Each screen's prior state and covariance.
+
+    Returns
+    -------
+    list
+        What each screen's `RowScreen.screen` returns, in order.
+    """
+    return [screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
+            for screen, (rows, sv, kind, modes, groups), (x, P)
+            in zip(screens, stacked, priors)]
