@@ -36,7 +36,7 @@ from gnss_obs.corrections import (
     ionosphere_scale,
     klobuchar_delay_s,
     look_angles,
-    troposphere_delay_m,
+    troposphere_delays_m,
 )
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
 from gnss_obs.measurements import MeasurementConfig
@@ -384,10 +384,9 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
 
     What does not depend on the guess (the satellites at transmission, their clocks, the
     measurements) is shared; the flight time, Sagnac rotation, look angles, ionosphere
-    and σ of all K guesses are computed together, elementwise (each guess's numbers are
-    those of its own `prepare_epoch`, to the bit); the troposphere's receiver terms are
-    Python floats per guess (`gnss_obs.corrections.troposphere_delay_m`, called as
-    `prepare_epoch` calls it).
+    and σ of all K guesses are computed together, elementwise, and the troposphere from
+    each guess's receiver terms (`gnss_obs.corrections.troposphere_delays_m`): each
+    guess's numbers are those it would have alone, to the bit.
 
     Parameters
     ----------
@@ -430,9 +429,7 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
                              geodetic=(lat[:, None], lon[:, None]))
         elevation[rows], azimuth[rows] = el, az
         if config.troposphere:
-            for j, k in enumerate(rows.tolist()):   # the receiver terms in floats, per guess
-                tropo[k] = troposphere_delay_m(el[j], lat[j], h[j],
-                                               gps_time_s=epoch.gps_time_s)
+            tropo[rows] = troposphere_delays_m(el, lat, h, gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:
             iono[rows] = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
                 *klobuchar, lat=lat[:, None], lon=lon[:, None], elevation=el, azimuth=az,
