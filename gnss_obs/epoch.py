@@ -36,6 +36,7 @@ from gnss_obs.corrections import (
     ionosphere_scale,
     klobuchar_delay_s,
     look_angles,
+    troposphere_delay_m,
     troposphere_delays_m,
 )
 from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
@@ -372,8 +373,7 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     r_rx_e = np.asarray(r_rx_e, dtype=float)
     if r_rx_e.shape != (3,):
         raise ValueError(f"r_rx_e must have shape (3,), got {r_rx_e.shape}")
-    return prepare_epochs(epoch, config, r_rx_e=r_rx_e[None, :], klobuchar=klobuchar,
-                          transmit=transmit, coarse=coarse)[0]
+    return _prepared(epoch, config, r_rx_e, klobuchar, transmit, coarse, None)[0]
 
 
 def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
@@ -392,8 +392,9 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
     ----------
     epoch, config, klobuchar, transmit, coarse
         As `prepare_epoch`.
-    r_rx_e : array_like, shape (K, 3)
-        Receiver position guesses, ECEF, m.
+    r_rx_e : array_like, shape (K, 3), or (3,)
+        Receiver position guesses, ECEF, m (one guess, shape (3,): a list of one,
+        computed as `prepare_epoch` computes it).
     elevation_mask_rad : float, optional
         Keep only the satellites with a finite pseudorange at or above this elevation
         (rad; NaN elevations, at an unknown guess, are below it).
@@ -403,52 +404,95 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
     list of PreparedEpoch
         One per guess, in order: its satellites with a known clock (and above the mask).
     """
-    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
-    if r_rx_e.ndim != 2 or r_rx_e.shape[1] != 3:
-        raise ValueError(f"r_rx_e must have shape (K, 3), got {r_rx_e.shape}")
-    n_rx, meas, n = r_rx_e.shape[0], epoch.meas, len(epoch)
+    if r_rx_e.ndim not in (1, 2) or r_rx_e.shape[-1] != 3:
+        raise ValueError(f"r_rx_e must have shape (K, 3) or (3,), got {r_rx_e.shape}")
+    return _prepared(epoch, config, r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad)
+
+
+def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuchar,
+              transmit, coarse: bool, elevation_mask_rad: float | None
+              ) -> list[PreparedEpoch]:
+    """`prepare_epoch` (`r_rx_e` shape (3,)) and `prepare_epochs` (shape (K, 3)): the
+    guess-dependent arrays with the guesses' axis leading (none for one guess), the
+    receiver terms of one guess as Python floats, of K guesses as (K, 1) columns."""
+    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
+    several = r_rx_e.ndim == 2
+    guesses = r_rx_e if several else r_rx_e[None, :]
+    lead, meas, n = r_rx_e.shape[:-1], epoch.meas, len(epoch)
     # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
-    known = np.array([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
-                      for r in r_rx_e.tolist()], dtype=bool)
-    rows = np.flatnonzero(known)
+    rows = np.flatnonzero([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
+                           for r in guesses.tolist()])
     if rows.size:
-        lat, lon, h = ecef_to_geodetic(r_rx_e[rows])
+        lat, lon, h = ecef_to_geodetic(guesses[rows] if several else r_rx_e)
         height_ok = np.abs(h) < MAX_RECEIVER_HEIGHT_M
-        rows, lat, lon, h = rows[height_ok], lat[height_ok], lon[height_ok], h[height_ok]
+        if several:
+            rows, lat, lon, h = rows[height_ok], lat[height_ok], lon[height_ok], h[height_ok]
+        elif not height_ok:
+            rows = rows[:0]
     # np.linalg.norm(d, axis=-1)'s own reduction (sqrt of the sums of d * d: the same
     # bits), without its generic argument handling
-    d = states.r_e[None, :, :] - r_rx_e[:, None, :]                     # (K, N, 3)
-    tau = np.sqrt(np.add.reduce(d * d, axis=2)) / SPEED_OF_LIGHT_MPS
-    sat_pos_e, sat_vel_e = sagnac_rotation(np.broadcast_to(states.r_e, d.shape),
-                                           np.broadcast_to(states.v_e, d.shape), tau)
-    elevation, azimuth = np.full((n_rx, n), np.nan), np.full((n_rx, n), np.nan)
-    iono, tropo = np.zeros((n_rx, n)), np.zeros((n_rx, n))
+    d = states.r_e - r_rx_e[..., None, :]                           # (..., N, 3)
+    tau = np.sqrt(np.add.reduce(d * d, axis=-1)) / SPEED_OF_LIGHT_MPS
+    if several:
+        sat_pos_e, sat_vel_e = sagnac_rotation(np.broadcast_to(states.r_e, d.shape),
+                                               np.broadcast_to(states.v_e, d.shape), tau)
+    else:
+        sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
+    iono = tropo = None
     if rows.size:
-        el, az = look_angles(r_rx_e[rows, None, :], sat_pos_e[rows],
-                             geodetic=(lat[:, None], lon[:, None]))
-        elevation[rows], azimuth[rows] = el, az
+        # the guesses' rows and their receiver terms: (K, 1) columns, or one guess's floats
+        pick, column = (rows, lambda a: a[:, None]) if several else (Ellipsis, float)
+        elevation, azimuth = look_angles(r_rx_e[pick][..., None, :], sat_pos_e[pick],
+                                         geodetic=(column(lat), column(lon)))
         if config.troposphere:
-            tropo[rows] = troposphere_delays_m(el, lat, h, gps_time_s=epoch.gps_time_s)
+            tropo = (troposphere_delays_m if several else troposphere_delay_m)(
+                elevation, lat, h, gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:
-            iono[rows] = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
-                *klobuchar, lat=lat[:, None], lon=lon[:, None], elevation=el, azimuth=az,
-                gps_time_s=epoch.gps_time_s) * ionosphere_scale(meas["frequency_hz"])
+            iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
+                *klobuchar, lat=column(lat), lon=column(lon), elevation=elevation,
+                azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
+                * ionosphere_scale(meas["frequency_hz"])
+        if several and rows.size < guesses.shape[0]:      # some guesses unknown
+            elevation, azimuth, iono, tropo = (
+                None if a is None else _fill(a, rows, lead + (n,), fill)
+                for a, fill in ((elevation, np.nan), (azimuth, np.nan), (iono, 0.0),
+                                (tropo, 0.0)))
+    else:
+        elevation = azimuth = np.full(lead + (n,), np.nan)
+    iono = np.zeros(lead + (n,)) if iono is None else iono
+    tropo = np.zeros(lead + (n,)) if tropo is None else tropo
     sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
                                             frequency_hz=meas["frequency_hz"],
                                             frequency2_hz=meas["frequency2_hz"])
-    clock_drift = SPEED_OF_LIGHT_MPS * states.clock_drift_sps
-    ok = np.broadcast_to(np.isfinite(clock_m), (n_rx, n))
+    ok = np.isfinite(clock_m)
     if elevation_mask_rad is not None:
         ok = ok & np.isfinite(meas["pseudorange_m"]) & (elevation >= elevation_mask_rad)
-    out = []
-    for k in range(n_rx):
-        one = PreparedEpoch(
-            gps_time_s=epoch.gps_time_s, sv=meas["sv"], system=meas["system"],
-            sat_pos_e=sat_pos_e[k], sat_vel_e=sat_vel_e[k], sat_clock_m=clock_m,
-            sat_clock_drift_mps=clock_drift, iono_m=iono[k], tropo_m=tropo[k],
-            elevation=elevation[k], azimuth=azimuth[k], pseudorange_m=meas["pseudorange_m"],
-            range_rate_mps=meas["range_rate_mps"], cn0_dbhz=meas["cn0_dbhz"],
-            sigma_pr_m=sigma_pr[k], sigma_rr_mps=sigma_rr[k])
-        out.append(one if np.count_nonzero(ok[k]) == n else one.subset(ok[k]))
+    shared = {"gps_time_s": epoch.gps_time_s, "sv": meas["sv"], "system": meas["system"],
+              "sat_clock_m": clock_m,
+              "sat_clock_drift_mps": SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
+              "pseudorange_m": meas["pseudorange_m"], "range_rate_mps": meas["range_rate_mps"],
+              "cn0_dbhz": meas["cn0_dbhz"]}
+    own = (sat_pos_e, sat_vel_e, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr)
+    if not several:
+        return [_guess_epoch(shared, own, ok)]
+    ok = np.broadcast_to(ok, lead + (n,))
+    return [_guess_epoch(shared, tuple(a[k] for a in own), ok[k])
+            for k in range(guesses.shape[0])]
+
+
+def _guess_epoch(shared: dict, own: tuple, ok: npt.NDArray[np.bool_]) -> PreparedEpoch:
+    """One guess's `PreparedEpoch`: the `shared` fields and its own arrays (in the order
+    of `_prepared`'s ``own``), its satellites `ok`."""
+    pos, vel, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr = own
+    one = PreparedEpoch(**shared, sat_pos_e=pos, sat_vel_e=vel, iono_m=iono, tropo_m=tropo,
+                        elevation=elevation, azimuth=azimuth, sigma_pr_m=sigma_pr,
+                        sigma_rr_mps=sigma_rr)
+    return one if np.count_nonzero(ok) == ok.size else one.subset(ok)
+
+
+def _fill(values: Array, rows: Array, shape: tuple, fill: float) -> Array:
+    """`values` of the guesses `rows` in an array of `shape` filled with `fill`."""
+    out = np.full(shape, fill)
+    out[rows] = values
     return out

@@ -490,6 +490,10 @@ def _fault_probabilities(configs, r: list) -> list:
     """`fault_probability` of each screen's normalized innovations ``r²`` (None for a
     screen without a configuration), in one call for the screens of one configuration
     (elementwise: each row's number is its own)."""
+    if len(r) == 1:                                 # one screen: nothing to stack
+        cfg = configs[0]
+        return [None if cfg is None else fault_probability(
+            r[0] * r[0], prior=cfg.fault_prior, scale=cfg.fault_scale)]
     out: list = [None] * len(r)
     have = [k for k, cfg in enumerate(configs) if cfg is not None]
     for cfg in dict.fromkeys(configs[k] for k in have):

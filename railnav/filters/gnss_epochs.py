@@ -114,12 +114,12 @@ class GnssEpochs:
 
     def prepare(self, index: int, r_guess_e: Array) -> PreparedEpoch:
         """Satellites of epoch `index` usable at the receiver guess (ECEF, m, shape (3,))."""
-        return self.prepare_together(index, np.asarray(r_guess_e, dtype=float)[None, :])[0]
+        return self.prepare_together(index, r_guess_e)[0]
 
     def prepare_together(self, index: int, r_guess_e: Array) -> list[PreparedEpoch]:
-        """`prepare` at K receiver guesses (ECEF, m, shape (K, 3); a bank's hypotheses):
-        `gnss_obs.epoch.prepare_epochs`, each guess's satellites those of its own
-        `prepare`."""
+        """`prepare` at K receiver guesses (ECEF, m, shape (K, 3); a bank's hypotheses; or
+        one, shape (3,)): `gnss_obs.epoch.prepare_epochs`, each guess's satellites those of
+        its own `prepare`."""
         return prepare_epochs(self.epochs[index], self.config, r_rx_e=r_guess_e,
                               klobuchar=self.klobuchar, transmit=self.transmit[index],
                               elevation_mask_rad=self.elevation_mask_rad)

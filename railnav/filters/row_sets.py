@@ -105,6 +105,8 @@ def influence_gains(rows: list[tuple[Array, Array, Array]]) -> list[Array]:
 def _by_shape(fun, rows: list[tuple]) -> list:
     """``fun(*row)`` of each row, the rows whose arrays have equal shapes stacked into one
     call (`fun` broadcasts over a leading axis)."""
+    if len(rows) == 1:                              # one filter: nothing to stack
+        return [fun(*rows[0])]
     out: list = [None] * len(rows)
     groups: dict[tuple, list[int]] = {}
     for k, row in enumerate(rows):
