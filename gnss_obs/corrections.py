@@ -32,8 +32,8 @@ from gnss_obs.constants import DAY_S, FREQUENCY_HZ, WEEK_S
 from trackmodel.earth import WGS84, C_n_e, Ellipsoid, ecef_to_geodetic
 
 __all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
-           "troposphere_delay_m", "troposphere_delays_m", "klobuchar_delay_s", "ionosphere_scale", "day_of_year",
-           "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
+           "troposphere_delay_m", "troposphere_delays_m", "klobuchar_delay_s",
+           "ionosphere_scale", "day_of_year", "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
 
 Array = npt.NDArray[np.float64]
 

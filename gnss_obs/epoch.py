@@ -1,8 +1,10 @@
 """Per-epoch measurement preparation: satellites at transmission, corrections, weights.
 
-For each epoch, `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
+For each epoch (`gnss_obs.epoch_table.split_epochs`, re-exported here with `EpochData` and
+`EpochColumns`), `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
 and broadcast ephemerides into a `PreparedEpoch` of arrays over satellites that the
-measurement models (`gnss_obs.observables`) consume:
+measurement models (`gnss_obs.observables`) consume (`prepare_epochs`: at K receiver
+guesses at once, a bank's hypotheses):
 
 * **transmission time** from the measured pseudorange (RTKLIB's method):
   ``t_tx = t_rx - P/c - δt_sv(t_tx)``. Since ``P = c(τ + δt_r - δt_sv)`` and the time tag is
@@ -24,12 +26,10 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import MutableMapping
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS
 from gnss_obs.corrections import (
@@ -39,7 +39,8 @@ from gnss_obs.corrections import (
     troposphere_delay_m,
     troposphere_delays_m,
 )
-from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
+from gnss_obs.ephemeris import group_delay_s, satellite_states
+from gnss_obs.epoch_table import EpochColumns, EpochData, split_epochs, whole_table
 from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic
 
@@ -59,97 +60,6 @@ MIN_RECEIVER_RADIUS_M = 1.0e6
 MAX_RECEIVER_HEIGHT_M = 1.0e5
 #: Elevation floor of the 1/sin(elevation) weighting, rad.
 _MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
-
-
-class EpochColumns(MutableMapping):
-    """Columns of one epoch: rows ``[start, stop)`` of a whole table's columns, sliced when
-    read (`split_epochs` cuts a file into hundreds of epochs of ~45 columns, of which the
-    per-epoch preparation reads a few); a column assigned to it replaces its slice.
-
-    Parameters
-    ----------
-    table : dict of str to ndarray
-        The whole table's columns (not copied; never modified).
-    start, stop : int
-        The epoch's rows.
-    """
-
-    __slots__ = ("table", "start", "stop", "_own")
-
-    def __init__(self, table: dict[str, np.ndarray], start: int, stop: int) -> None:
-        self.table, self.start, self.stop = table, int(start), int(stop)
-        self._own: dict[str, np.ndarray] = {}
-
-    def __getitem__(self, key: str) -> np.ndarray:
-        own = self._own
-        if own and key in own:
-            return own[key]
-        return self.table[key][self.start:self.stop]
-
-    def __setitem__(self, key: str, value: np.ndarray) -> None:
-        self._own[key] = value
-
-    def __delitem__(self, key: str) -> None:
-        raise TypeError("epoch columns cannot be deleted")
-
-    def __iter__(self):
-        yield from self.table
-        yield from (k for k in self._own if k not in self.table)
-
-    def __len__(self) -> int:
-        return len(self.table) + sum(k not in self.table for k in self._own)
-
-    @property
-    def is_view(self) -> bool:
-        """No column was assigned: the epoch reads its table's rows only."""
-        return not self._own
-
-
-@dataclass(frozen=True)
-class EpochData:
-    """Measurements of one epoch with their selected ephemerides (aligned rows; the
-    mappings of `split_epochs` are `EpochColumns`)."""
-
-    gps_time_s: float
-    meas: dict[str, np.ndarray]
-    eph: dict[str, np.ndarray]
-
-    def __len__(self) -> int:
-        return len(self.meas["sv"])
-
-
-def split_epochs(meas: pd.DataFrame, records: dict[str, pd.DataFrame],
-                 config: MeasurementConfig) -> list[EpochData]:
-    """Select ephemerides for a whole measurement table once and cut it into epochs.
-
-    Parameters
-    ----------
-    meas : pandas.DataFrame
-        `select_measurements` output, sorted by time.
-    records : dict of str to pandas.DataFrame
-        `RinexNav.records`.
-    config : MeasurementConfig
-
-    Returns
-    -------
-    list of EpochData
-        One per distinct ``gps_time_s`` in time order; satellites without a valid
-        ephemeris are left out (counted in the log).
-    """
-    eph = select_ephemeris(records, meas["sv"].to_numpy(), meas["gps_time_s"].to_numpy(),
-                           galileo_message=config.galileo_message)
-    ok = eph["ephemeris_ok"].to_numpy()
-    if not ok.all():
-        missing = sorted(set(meas["sv"].to_numpy()[~ok]))
-        log.warning("%d of %d measurements have no valid ephemeris (%s)", (~ok).sum(), ok.size,
-                    " ".join(missing))
-    meas_cols = {c: meas[c].to_numpy()[ok] for c in meas.columns}
-    eph_cols = {c: eph[c].to_numpy()[ok] for c in eph.columns}
-    t = meas_cols["gps_time_s"]
-    edges = np.flatnonzero(np.diff(t)) + 1
-    bounds = zip(np.r_[0, edges].tolist(), np.r_[edges, t.size].tolist())
-    return [EpochData(float(t[a]), EpochColumns(meas_cols, a, b), EpochColumns(eph_cols, a, b))
-            for a, b in bounds]
 
 
 @dataclass(frozen=True)
@@ -305,7 +215,7 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
     if not epochs:
         return []
     sizes = np.array([len(e) for e in epochs])
-    whole = _whole_table(epochs)
+    whole = whole_table(epochs)
     if whole is not None:    # `split_epochs` of one table: its columns as they are
         meas, eph = whole
         times = meas["gps_time_s"]       # each row's time is its epoch's
@@ -317,25 +227,6 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
     bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
     return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
              clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
-
-
-def _whole_table(epochs: list[EpochData]) -> tuple[dict, dict] | None:
-    """The columns of the one table that `epochs` cut whole and in order, unmodified
-    (`split_epochs`), or None."""
-    first = epochs[0]
-    if not (isinstance(first.meas, EpochColumns) and isinstance(first.eph, EpochColumns)):
-        return None
-    meas, eph, row = first.meas.table, first.eph.table, 0
-    for e in epochs:
-        m, p = e.meas, e.eph
-        if not (isinstance(m, EpochColumns) and isinstance(p, EpochColumns)
-                and m.table is meas and p.table is eph and m.is_view and p.is_view
-                and m.start == row and p.start == row and p.stop == m.stop):
-            return None
-        row = m.stop
-    if row != len(meas["gps_time_s"]) or row != len(next(iter(eph.values()))):
-        return None
-    return meas, eph
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,

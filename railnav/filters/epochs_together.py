@@ -9,7 +9,7 @@ all hypotheses in one pass where it vectorizes:
   (`railnav.filters.common.gnss_rows_together`, `gnss_obs.epoch.prepare_epochs`: the
   transmission states, clocks and measurements shared; flight time, Sagnac, look
   angles, ionosphere and σ elementwise over all guesses);
-* the fault screen of all hypotheses' rows (`railnav.filters.fault_detection.screen_together`:
+* the fault screen of all hypotheses' rows (`railnav.filters.screens_together.screen_together`:
   innovation covariances, normalized innovations and fault probabilities stacked; each
   screen's channels stepped in its own order).
 
@@ -20,13 +20,13 @@ composition (GNSS rows, fix rows, sensor and body rows, `stack_epoch_rows`, scre
 """
 from __future__ import annotations
 
-import numpy.typing as npt
 import numpy as np
+import numpy.typing as npt
 
 from railnav.filters.common import gnss_rows_together
 from railnav.filters.constrained import ConstrainedFilter
-from railnav.filters.fault_detection import screen_together
 from railnav.filters.fix_rows import stack_epoch_rows
+from railnav.filters.screens_together import screen_together
 
 __all__ = ["observations_together"]
 

@@ -70,22 +70,16 @@ import numpy.typing as npt
 import pandas as pd
 
 from ekf.gating import chi2_threshold
-from ekf.outliers import common_offset, fault_probability, fault_threshold
+from ekf.outliers import common_offset, fault_threshold
 from ekf.series import EpochRows
 from ekf.update import EvaluatedObservations, Observation
 from railnav.errors import ConfigError
 from railnav.filters.fault_channels import Channel
-from railnav.filters.row_sets import (
-    ROW_STATUSES,
-    evaluate_rows,
-    group_status,
-    influence_gains,
-    innovation_covariances,
-    subset_rows,
-)
+from railnav.filters.row_sets import ROW_STATUSES, group_status, subset_rows
+from railnav.filters.screens_together import screen_together
 
-__all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "screen_together",
-           "ROW_STATUSES", "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
+__all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "ROW_STATUSES",
+           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
 
 log = logging.getLogger(__name__)
 
@@ -402,7 +396,7 @@ class RowScreen:
                        K_t: Array | None) -> None:
         """Each used row's correction ``K_i ν_i`` of this update, to its channel (rows
         screened without a channel keep none); ``K_t`` the used rows' ``Kᵀ``
-        (`influence_gains` of `_influence_rows`), None: none."""
+        (`railnav.filters.row_sets.influence_gains` of `_influence_rows`), None: none."""
         if K_t is None:
             return
         every = K_t.shape[0] == used.size
@@ -436,71 +430,3 @@ class RowScreen:
             "status": np.concatenate([e.status for e in self.epochs]),
             "fault_probability": np.concatenate([e.fault_probability for e in self.epochs]),
             "clock_jump_m": np.repeat([e.clock_jump_m for e in self.epochs], sizes)})
-
-
-def screen_together(screens, stacked, priors) -> list:
-    """`RowScreen.screen` of several screens (a bank's hypotheses) at one epoch, the
-    arithmetic of all at once where it stacks (`railnav.filters.row_sets`: innovation
-    covariances, gains; the fault probabilities of all rows in one call); each screen's
-    channels are stepped by its own rows in their order. `RowScreen.screen` is the case of
-    one screen: each screen's statuses, records and rows are those of its own call, to the
-    bit.
-
-    Parameters
-    ----------
-    screens : sequence of RowScreen
-    stacked : sequence of tuple
-        Each screen's rows ``(observations, sv, kind, modes, groups)``
-        (`railnav.filters.fix_rows.stack_epoch_rows`; `RowScreen.screen`'s arguments).
-    priors : sequence of (ndarray (n,), ndarray (n, n))
-        Each screen's prior state and covariance.
-
-    Returns
-    -------
-    list
-        What each screen's `RowScreen.screen` returns, in order.
-    """
-    evaluated = [evaluate_rows(rows[0], x) for rows, (x, _) in zip(stacked, priors)]
-    covariances = innovation_covariances([(H, P, R) for (_, H, R), (_, P)
-                                          in zip(evaluated, priors)])
-    pending = [screen._start(rows[1], rows[2], x, P, nu, H, S, rows[3])
-               for screen, rows, (x, P), (nu, H, _), S
-               in zip(screens, stacked, priors, evaluated, covariances)]
-    probs = _fault_probabilities([screen.config for screen in screens],
-                                 [one["r"] for one in pending])
-    for screen, one, prob, rows, (nu, H, R), (_, P) in zip(screens, pending, probs, stacked,
-                                                        evaluated, priors):
-        screen._rows_used(one, prob, rows[4], H, R, P)
-    selected = [screen._influence_rows(one["used"], H, one["S"])
-                for screen, one, (_, H, _) in zip(screens, pending, evaluated)]
-    have = [k for k, rows in enumerate(selected) if rows is not None]
-    gains: list = [None] * len(screens)
-    for k, K_t in zip(have, influence_gains([(*selected[k], pending[k]["P_used"])
-                                             for k in have])):
-        gains[k] = K_t
-    out = []
-    for screen, one, K_t, rows, (x, _), (nu, H, R) in zip(screens, pending, gains, stacked,
-                                                       priors, evaluated):
-        screen._add_influence(one["keys"], one["used"], nu, K_t)
-        out.append(screen._record(one, rows[0], rows[1], rows[2], x, nu, H, R))
-    return out
-
-
-def _fault_probabilities(configs, r: list) -> list:
-    """`fault_probability` of each screen's normalized innovations ``r²`` (None for a
-    screen without a configuration), in one call for the screens of one configuration
-    (elementwise: each row's number is its own)."""
-    if len(r) == 1:                                 # one screen: nothing to stack
-        cfg = configs[0]
-        return [None if cfg is None else fault_probability(
-            r[0] * r[0], prior=cfg.fault_prior, scale=cfg.fault_scale)]
-    out: list = [None] * len(r)
-    have = [k for k, cfg in enumerate(configs) if cfg is not None]
-    for cfg in dict.fromkeys(configs[k] for k in have):
-        members = [k for k in have if configs[k] == cfg]
-        found = fault_probability(np.concatenate([r[k] * r[k] for k in members]),
-                                  prior=cfg.fault_prior, scale=cfg.fault_scale)
-        edges = np.cumsum([0, *(r[k].size for k in members)]).tolist()
-        for k, a, b in zip(members, edges[:-1], edges[1:]):
-            out[k] = found[a:b]
-    return out
