@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from ekf.series import EpochRows
+from ekf.update import discrete_update
 from gnss_obs.corrections import troposphere_delay_m, troposphere_delays_m
 from gnss_obs.epoch import prepare_epoch, prepare_epochs
 from railnav.filters.epochs_together import observations_together
@@ -99,6 +100,14 @@ def _parts(rows):
     return rows, jump
 
 
+def _posterior(rows, x, P):
+    """The discrete update of the prior with an ``observations`` result (its jump
+    covariance added first, as `railnav.navigation.hypothesis_step.EngineStepper` adds it)."""
+    rows, jump = _parts(rows)
+    x_post, P_post, _ = discrete_update(x, P if jump is None else P + jump, rows)
+    return x_post, P_post
+
+
 def _assert_same_rows(a, b):
     (rows_a, jump_a), (rows_b, jump_b) = _parts(a), _parts(b)
     assert (jump_a is None) == (jump_b is None)
@@ -133,7 +142,7 @@ def _assert_same_screen(fa, fb):
 
 def test_bank_epoch_equals_each_filter_alone(bank):
     """Every epoch of EPOCHS: K-wise and one by one give the same rows, screen records,
-    channel states and update rows; the faulted satellite is rejected (or its channel
+    channel states, update rows and posterior; the faulted satellite is rejected (or its channel
     excluded) by the tight hypothesis while another hypothesis uses it; the clock jump is
     declared (an `ekf.EpochRows` with its covariance) by the tight one only."""
     together, alone = _filters(bank), _filters(bank)
@@ -142,9 +151,11 @@ def test_bank_epoch_equals_each_filter_alone(bank):
         priors = _priors(bank, together, e)
         found = observations_together(together, e, priors)
         expected = [f.observations(e, x, P) for f, (x, P) in zip(alone, priors)]
-        for fa, fb, a, b in zip(together, alone, found, expected):
+        for fa, fb, a, b, (x, P) in zip(together, alone, found, expected, priors):
             _assert_same_rows(a, b)
             _assert_same_screen(fa, fb)
+            for post_a, post_b in zip(_posterior(a, x, P), _posterior(b, x, P)):
+                np.testing.assert_array_equal(post_a, post_b, strict=True)
         key = f"{bank['faulty']}/pseudorange"
         status = [dict(zip(f.screen.last.keys, f.screen.last.status)).get(key)
                   for f in together]
