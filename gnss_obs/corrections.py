@@ -32,8 +32,8 @@ from gnss_obs.constants import DAY_S, FREQUENCY_HZ, WEEK_S
 from trackmodel.earth import WGS84, C_n_e, Ellipsoid, ecef_to_geodetic
 
 __all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
-           "troposphere_delay_m", "klobuchar_delay_s", "ionosphere_scale", "day_of_year",
-           "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
+           "troposphere_delay_m", "troposphere_delays_m", "klobuchar_delay_s",
+           "ionosphere_scale", "day_of_year", "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
 
 Array = npt.NDArray[np.float64]
 
@@ -213,6 +213,12 @@ def niell_mapping(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike
         Day of year (1.0 = 1 January 00:00), fractional.
     """
     sin_el = np.sin(np.maximum(np.asarray(elevation, dtype=float), _MIN_ELEVATION_RAD))
+    return _niell_map(sin_el, _niell_terms(lat, h, day_of_year))
+
+
+def _niell_terms(lat, h, day_of_year) -> tuple:
+    """The receiver's terms of `niell_mapping`: hydrostatic ``a, b, c``, the height
+    correction's ``h`` in km, wet ``a, b, c`` (Python floats for one receiver)."""
     if _receiver_scalar(lat) and _receiver_scalar(day_of_year) and _receiver_scalar(h):
         lat, h = float(lat), float(h)       # one receiver: its terms in floats
         abs_lat = abs(lat)
@@ -226,13 +232,18 @@ def niell_mapping(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike
     avg = _interp_lat(_NIELL_HYD_AVG, abs_lat)
     amp = _interp_lat(_NIELL_HYD_AMP, abs_lat)
     a, b, c = (m - s * season for m, s in zip(avg, amp))
+    h_km = (h if isinstance(h, float) else np.asarray(h, dtype=float)) * 1e-3
+    return (a, b, c, h_km, *_interp_lat(_NIELL_WET, abs_lat))
+
+
+def _niell_map(sin_el: Array, terms: tuple) -> tuple[Array, Array]:
+    """`niell_mapping` from the sines of the elevations and the receiver's terms
+    (`_niell_terms`; columns of K receivers' terms broadcast against (K, N) sines)."""
+    a, b, c, h_km, aw, bw, cw = terms
     hydro = _continued_fraction(sin_el, a, b, c)
     ah, bh, ch = _NIELL_HEIGHT
-    h_km = (h if isinstance(h, float) else np.asarray(h, dtype=float)) * 1e-3
     hydro = hydro + (1.0 / sin_el - _continued_fraction(sin_el, ah, bh, ch)) * h_km
-    aw, bw, cw = _interp_lat(_NIELL_WET, abs_lat)
-    wet = _continued_fraction(sin_el, aw, bw, cw)
-    return hydro, wet
+    return hydro, _continued_fraction(sin_el, aw, bw, cw)
 
 
 def day_of_year(gps_time_s: npt.ArrayLike) -> Array:
@@ -269,6 +280,39 @@ def troposphere_delay_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.Arr
     zhd, zwd = zenith_delays_m(lat, h, humidity=humidity)
     m_h, m_w = niell_mapping(elevation, lat, h, day_of_year=day_of_year(gps_time_s))
     return zhd * m_h + zwd * m_w
+
+
+def troposphere_delays_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike, *,
+                         gps_time_s: float, humidity: float = STANDARD_HUMIDITY) -> Array:
+    """`troposphere_delay_m` of K receivers at one time (a bank's hypotheses): each
+    receiver's terms in Python floats, as `troposphere_delay_m` computes one receiver's,
+    then the satellites' part of all at once (each row's numbers are those of its own
+    `troposphere_delay_m` call, to the bit).
+
+    Parameters
+    ----------
+    elevation : array_like, shape (K, N)
+        Satellite elevations seen from each receiver, rad.
+    lat, h : array_like, shape (K,)
+        Receiver geodetic latitudes (rad) and ellipsoidal heights (m), finite.
+    gps_time_s : float
+        GPS time, s.
+    humidity : float
+        As `troposphere_delay_m`.
+
+    Returns
+    -------
+    ndarray, shape (K, N)
+        Slant delays, m.
+    """
+    doy = day_of_year(gps_time_s)
+    terms = [(*zenith_delays_m(la, hk, humidity=humidity), *_niell_terms(la, hk, doy))
+             for la, hk in zip(np.asarray(lat, dtype=float).tolist(),
+                               np.asarray(h, dtype=float).tolist())]
+    columns = np.array(terms, dtype=float).T[:, :, None]             # (9, K, 1)
+    sin_el = np.sin(np.maximum(np.asarray(elevation, dtype=float), _MIN_ELEVATION_RAD))
+    m_h, m_w = _niell_map(sin_el, tuple(columns[2:]))
+    return columns[0] * m_h + columns[1] * m_w
 
 
 # --- Klobuchar -----------------------------------------------------------------------------

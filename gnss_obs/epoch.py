@@ -1,8 +1,10 @@
 """Per-epoch measurement preparation: satellites at transmission, corrections, weights.
 
-For each epoch, `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
+For each epoch (`gnss_obs.epoch_table.split_epochs`, re-exported here with `EpochData` and
+`EpochColumns`), `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
 and broadcast ephemerides into a `PreparedEpoch` of arrays over satellites that the
-measurement models (`gnss_obs.observables`) consume:
+measurement models (`gnss_obs.observables`) consume (`prepare_epochs`: at K receiver
+guesses at once, a bank's hypotheses):
 
 * **transmission time** from the measured pseudorange (RTKLIB's method):
   ``t_tx = t_rx - P/c - δt_sv(t_tx)``. Since ``P = c(τ + δt_r - δt_sv)`` and the time tag is
@@ -24,12 +26,10 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import MutableMapping
 from dataclasses import dataclass, fields, replace
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS
 from gnss_obs.corrections import (
@@ -37,12 +37,15 @@ from gnss_obs.corrections import (
     klobuchar_delay_s,
     look_angles,
     troposphere_delay_m,
+    troposphere_delays_m,
 )
-from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
+from gnss_obs.ephemeris import group_delay_s, satellite_states
+from gnss_obs.epoch_table import EpochColumns, EpochData, split_epochs, whole_table
 from gnss_obs.measurements import MeasurementConfig
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch", "sagnac_rotation",
+__all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch",
+           "prepare_epochs", "sagnac_rotation",
            "transmit_states", "transmit_states_batch",
            "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
 
@@ -57,97 +60,6 @@ MIN_RECEIVER_RADIUS_M = 1.0e6
 MAX_RECEIVER_HEIGHT_M = 1.0e5
 #: Elevation floor of the 1/sin(elevation) weighting, rad.
 _MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
-
-
-class EpochColumns(MutableMapping):
-    """Columns of one epoch: rows ``[start, stop)`` of a whole table's columns, sliced when
-    read (`split_epochs` cuts a file into hundreds of epochs of ~45 columns, of which the
-    per-epoch preparation reads a few); a column assigned to it replaces its slice.
-
-    Parameters
-    ----------
-    table : dict of str to ndarray
-        The whole table's columns (not copied; never modified).
-    start, stop : int
-        The epoch's rows.
-    """
-
-    __slots__ = ("table", "start", "stop", "_own")
-
-    def __init__(self, table: dict[str, np.ndarray], start: int, stop: int) -> None:
-        self.table, self.start, self.stop = table, int(start), int(stop)
-        self._own: dict[str, np.ndarray] = {}
-
-    def __getitem__(self, key: str) -> np.ndarray:
-        own = self._own
-        if own and key in own:
-            return own[key]
-        return self.table[key][self.start:self.stop]
-
-    def __setitem__(self, key: str, value: np.ndarray) -> None:
-        self._own[key] = value
-
-    def __delitem__(self, key: str) -> None:
-        raise TypeError("epoch columns cannot be deleted")
-
-    def __iter__(self):
-        yield from self.table
-        yield from (k for k in self._own if k not in self.table)
-
-    def __len__(self) -> int:
-        return len(self.table) + sum(k not in self.table for k in self._own)
-
-    @property
-    def is_view(self) -> bool:
-        """No column was assigned: the epoch reads its table's rows only."""
-        return not self._own
-
-
-@dataclass(frozen=True)
-class EpochData:
-    """Measurements of one epoch with their selected ephemerides (aligned rows; the
-    mappings of `split_epochs` are `EpochColumns`)."""
-
-    gps_time_s: float
-    meas: dict[str, np.ndarray]
-    eph: dict[str, np.ndarray]
-
-    def __len__(self) -> int:
-        return len(self.meas["sv"])
-
-
-def split_epochs(meas: pd.DataFrame, records: dict[str, pd.DataFrame],
-                 config: MeasurementConfig) -> list[EpochData]:
-    """Select ephemerides for a whole measurement table once and cut it into epochs.
-
-    Parameters
-    ----------
-    meas : pandas.DataFrame
-        `select_measurements` output, sorted by time.
-    records : dict of str to pandas.DataFrame
-        `RinexNav.records`.
-    config : MeasurementConfig
-
-    Returns
-    -------
-    list of EpochData
-        One per distinct ``gps_time_s`` in time order; satellites without a valid
-        ephemeris are left out (counted in the log).
-    """
-    eph = select_ephemeris(records, meas["sv"].to_numpy(), meas["gps_time_s"].to_numpy(),
-                           galileo_message=config.galileo_message)
-    ok = eph["ephemeris_ok"].to_numpy()
-    if not ok.all():
-        missing = sorted(set(meas["sv"].to_numpy()[~ok]))
-        log.warning("%d of %d measurements have no valid ephemeris (%s)", (~ok).sum(), ok.size,
-                    " ".join(missing))
-    meas_cols = {c: meas[c].to_numpy()[ok] for c in meas.columns}
-    eph_cols = {c: eph[c].to_numpy()[ok] for c in eph.columns}
-    t = meas_cols["gps_time_s"]
-    edges = np.flatnonzero(np.diff(t)) + 1
-    bounds = zip(np.r_[0, edges].tolist(), np.r_[edges, t.size].tolist())
-    return [EpochData(float(t[a]), EpochColumns(meas_cols, a, b), EpochColumns(eph_cols, a, b))
-            for a, b in bounds]
 
 
 @dataclass(frozen=True)
@@ -321,7 +233,7 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
     if not epochs:
         return []
     sizes = np.array([len(e) for e in epochs])
-    whole = _whole_table(epochs)
+    whole = whole_table(epochs)
     if whole is not None:    # `split_epochs` of one table: its columns as they are
         meas, eph = whole
         times = meas["gps_time_s"]       # each row's time is its epoch's
@@ -333,25 +245,6 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
     bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
     return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
              clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
-
-
-def _whole_table(epochs: list[EpochData]) -> tuple[dict, dict] | None:
-    """The columns of the one table that `epochs` cut whole and in order, unmodified
-    (`split_epochs`), or None."""
-    first = epochs[0]
-    if not (isinstance(first.meas, EpochColumns) and isinstance(first.eph, EpochColumns)):
-        return None
-    meas, eph, row = first.meas.table, first.eph.table, 0
-    for e in epochs:
-        m, p = e.meas, e.eph
-        if not (isinstance(m, EpochColumns) and isinstance(p, EpochColumns)
-                and m.table is meas and p.table is eph and m.is_view and p.is_view
-                and m.start == row and p.start == row and p.stop == m.stop):
-            return None
-        row = m.stop
-    if row != len(meas["gps_time_s"]) or row != len(next(iter(eph.values()))):
-        return None
-    return meas, eph
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
@@ -380,44 +273,135 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
     -------
     PreparedEpoch
         Satellites whose clock for the used signal is known (no NaN group delay).
+
+    Raises
+    ------
+    ValueError
+        `r_rx_e` is not one 3-vector.
     """
-    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
     r_rx_e = np.asarray(r_rx_e, dtype=float)
+    if r_rx_e.shape != (3,):
+        raise ValueError(f"r_rx_e must have shape (3,), got {r_rx_e.shape}")
+    return _prepared(epoch, config, r_rx_e, klobuchar, transmit, coarse, None)[0]
+
+
+def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
+                   klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
+                   transmit=None, coarse: bool = False,
+                   elevation_mask_rad: float | None = None) -> list[PreparedEpoch]:
+    """`prepare_epoch` at K receiver guesses at once (a bank's hypotheses).
+
+    What does not depend on the guess (the satellites at transmission, their clocks, the
+    measurements) is shared; the flight time, Sagnac rotation, look angles, ionosphere
+    and σ of all K guesses are computed together, elementwise, and the troposphere from
+    each guess's receiver terms (`gnss_obs.corrections.troposphere_delays_m`): each
+    guess's numbers are those it would have alone, to the bit.
+
+    Parameters
+    ----------
+    epoch, config, klobuchar, transmit, coarse
+        As `prepare_epoch`.
+    r_rx_e : array_like, shape (K, 3), or (3,)
+        Receiver position guesses, ECEF, m (one guess, shape (3,): a list of one,
+        computed as `prepare_epoch` computes it).
+    elevation_mask_rad : float, optional
+        Keep only the satellites with a finite pseudorange at or above this elevation
+        (rad; NaN elevations, at an unknown guess, are below it).
+
+    Returns
+    -------
+    list of PreparedEpoch
+        One per guess, in order: its satellites with a known clock (and above the mask).
+    """
+    r_rx_e = np.asarray(r_rx_e, dtype=float)
+    if r_rx_e.ndim not in (1, 2) or r_rx_e.shape[-1] != 3:
+        raise ValueError(f"r_rx_e must have shape (K, 3) or (3,), got {r_rx_e.shape}")
+    return _prepared(epoch, config, r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad)
+
+
+def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuchar,
+              transmit, coarse: bool, elevation_mask_rad: float | None
+              ) -> list[PreparedEpoch]:
+    """`prepare_epoch` (`r_rx_e` shape (3,)) and `prepare_epochs` (shape (K, 3)): the
+    guess-dependent arrays with the guesses' axis leading (none for one guess), the
+    receiver terms of one guess as Python floats, of K guesses as (K, 1) columns."""
+    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
+    several = r_rx_e.ndim == 2
+    guesses = r_rx_e if several else r_rx_e[None, :]
+    lead, meas, n = r_rx_e.shape[:-1], epoch.meas, len(epoch)
     # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
-    known = not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
-    if known:
-        lat, lon, h = ecef_to_geodetic(r_rx_e)
-        known = abs(h) < MAX_RECEIVER_HEIGHT_M
-    # np.linalg.norm(d, axis=1)'s own reduction (sqrt of the row sums of d * d: the same
+    rows = np.flatnonzero([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
+                           for r in guesses.tolist()])
+    if rows.size:
+        lat, lon, h = ecef_to_geodetic(guesses[rows] if several else r_rx_e)
+        height_ok = np.abs(h) < MAX_RECEIVER_HEIGHT_M
+        if several:
+            rows, lat, lon, h = rows[height_ok], lat[height_ok], lon[height_ok], h[height_ok]
+        elif not height_ok:
+            rows = rows[:0]
+    # np.linalg.norm(d, axis=-1)'s own reduction (sqrt of the sums of d * d: the same
     # bits), without its generic argument handling
-    d = states.r_e - r_rx_e
-    tau = np.sqrt(np.add.reduce(d * d, axis=1)) / SPEED_OF_LIGHT_MPS
-    sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
-    meas = epoch.meas
-    n = len(epoch)
+    d = states.r_e - r_rx_e[..., None, :]                           # (..., N, 3)
+    tau = np.sqrt(np.add.reduce(d * d, axis=-1)) / SPEED_OF_LIGHT_MPS
+    if several:
+        sat_pos_e, sat_vel_e = sagnac_rotation(np.broadcast_to(states.r_e, d.shape),
+                                               np.broadcast_to(states.v_e, d.shape), tau)
+    else:
+        sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
     iono = tropo = None
-    if known:
-        elevation, azimuth = look_angles(r_rx_e, sat_pos_e, geodetic=(lat, lon))
+    if rows.size:
+        # the guesses' rows and their receiver terms: (K, 1) columns, or one guess's floats
+        pick, column = (rows, lambda a: a[:, None]) if several else (Ellipsis, float)
+        elevation, azimuth = look_angles(r_rx_e[pick][..., None, :], sat_pos_e[pick],
+                                         geodetic=(column(lat), column(lon)))
         if config.troposphere:
-            tropo = troposphere_delay_m(elevation, lat, h, gps_time_s=epoch.gps_time_s)
+            tropo = (troposphere_delays_m if several else troposphere_delay_m)(
+                elevation, lat, h, gps_time_s=epoch.gps_time_s)
         if config.ionosphere == "klobuchar" and klobuchar is not None:
             iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
-                *klobuchar, lat=float(lat), lon=float(lon), elevation=elevation,
+                *klobuchar, lat=column(lat), lon=column(lon), elevation=elevation,
                 azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
                 * ionosphere_scale(meas["frequency_hz"])
+        if several and rows.size < guesses.shape[0]:      # some guesses unknown
+            elevation, azimuth, iono, tropo = (
+                None if a is None else _fill(a, rows, lead + (n,), fill)
+                for a, fill in ((elevation, np.nan), (azimuth, np.nan), (iono, 0.0),
+                                (tropo, 0.0)))
     else:
-        elevation = azimuth = np.full(n, np.nan)
-    iono = np.zeros(n) if iono is None else iono
-    tropo = np.zeros(n) if tropo is None else tropo
+        elevation = azimuth = np.full(lead + (n,), np.nan)
+    iono = np.zeros(lead + (n,)) if iono is None else iono
+    tropo = np.zeros(lead + (n,)) if tropo is None else tropo
     sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
                                             frequency_hz=meas["frequency_hz"],
                                             frequency2_hz=meas["frequency2_hz"])
-    prepared = PreparedEpoch(
-        gps_time_s=epoch.gps_time_s, sv=meas["sv"], system=meas["system"],
-        sat_pos_e=sat_pos_e, sat_vel_e=sat_vel_e, sat_clock_m=clock_m,
-        sat_clock_drift_mps=SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
-        iono_m=iono, tropo_m=tropo, elevation=elevation, azimuth=azimuth,
-        pseudorange_m=meas["pseudorange_m"], range_rate_mps=meas["range_rate_mps"],
-        cn0_dbhz=meas["cn0_dbhz"], sigma_pr_m=sigma_pr, sigma_rr_mps=sigma_rr)
-    finite = np.isfinite(clock_m)
-    return prepared if np.count_nonzero(finite) == finite.size else prepared.subset(finite)
+    ok = np.isfinite(clock_m)
+    if elevation_mask_rad is not None:
+        ok = ok & np.isfinite(meas["pseudorange_m"]) & (elevation >= elevation_mask_rad)
+    shared = {"gps_time_s": epoch.gps_time_s, "sv": meas["sv"], "system": meas["system"],
+              "sat_clock_m": clock_m,
+              "sat_clock_drift_mps": SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
+              "pseudorange_m": meas["pseudorange_m"], "range_rate_mps": meas["range_rate_mps"],
+              "cn0_dbhz": meas["cn0_dbhz"]}
+    own = (sat_pos_e, sat_vel_e, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr)
+    if not several:
+        return [_guess_epoch(shared, own, ok)]
+    ok = np.broadcast_to(ok, lead + (n,))
+    return [_guess_epoch(shared, tuple(a[k] for a in own), ok[k])
+            for k in range(guesses.shape[0])]
+
+
+def _guess_epoch(shared: dict, own: tuple, ok: npt.NDArray[np.bool_]) -> PreparedEpoch:
+    """One guess's `PreparedEpoch`: the `shared` fields and its own arrays (in the order
+    of `_prepared`'s ``own``), its satellites `ok`."""
+    pos, vel, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr = own
+    one = PreparedEpoch(**shared, sat_pos_e=pos, sat_vel_e=vel, iono_m=iono, tropo_m=tropo,
+                        elevation=elevation, azimuth=azimuth, sigma_pr_m=sigma_pr,
+                        sigma_rr_mps=sigma_rr)
+    return one if np.count_nonzero(ok) == ok.size else one.subset(ok)
+
+
+def _fill(values: Array, rows: Array, shape: tuple, fill: float) -> Array:
+    """`values` of the guesses `rows` in an array of `shape` filled with `fill`."""
+    out = np.full(shape, fill)
+    out[rows] = values
+    return out

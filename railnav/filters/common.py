@@ -31,7 +31,8 @@ from railnav.filters.gnss_rows import (
 from railnav.filters.track_frame import antenna_track_part
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
-__all__ = ["EpochRowBuilder", "GnssRowBuilder", "track_estimates", "ROW_KINDS",
+__all__ = ["EpochRowBuilder", "GnssRowBuilder", "gnss_rows_together", "track_estimates",
+           "ROW_KINDS",
            "ESTIMATE_COLUMNS", "estimate_columns",
            "state_columns", "scalar_point", "REFERENCE_REUSE_M", "common_columns",
            "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M",
@@ -83,7 +84,11 @@ class EpochRowBuilder:
         part : ndarray, shape (k,)
             The receiver part of every row (`railnav.filters.gnss_rows.pseudorange_parameters`).
         """
-        prepared = self.gnss.prepare(index, r_guess_e)
+        return self.rows_of(self.gnss.prepare(index, r_guess_e), part)
+
+    def rows_of(self, prepared, part: Array) -> list[Observation]:
+        """The rows of a prepared epoch (`railnav.filters.gnss_epochs.GnssEpochs.prepare`)
+        with the receiver part `part` (as `rows_at`), recorded in `rows_sv`, `rows_kind`."""
         obs, sv, kind = [], [], []
         if len(prepared):
             obs.append(Observation(self.rows.pseudorange, prepared.pseudorange_m[:, None],
@@ -135,6 +140,13 @@ class GnssRowBuilder(EpochRowBuilder):
             to second order in ``s − s_ref``); queried at ``s`` when absent or farther than
             `REFERENCE_REUSE_M`.
         """
+        part = self.receiver_part(x, reference)
+        return self.rows_at(index, part[1:4], part)
+
+    def receiver_part(self, x: Array, reference=None) -> Array:
+        """The receiver part of the rows at the prior state ``x`` (`observations`'s
+        `reference`): `railnav.filters.gnss_rows.track_rows` of the antenna; its
+        ``[1:4]`` is the receiver guess (ECEF, m)."""
         s = min(max(float(x[self.i_s]), 0.0), self.track.length_m)
         point = reference
         if point is None or abs(float(point.s) - s) > REFERENCE_REUSE_M:
@@ -143,7 +155,36 @@ class GnssRowBuilder(EpochRowBuilder):
         antenna = self.config.lever_arms.antenna_m
         if any(antenna):             # the rows of the antenna (railnav.filters.track_frame)
             part = antenna_track_part(self.track, part, antenna)
-        return self.rows_at(index, part[1:4], part)
+        return part
+
+
+def gnss_rows_together(builders, index: int, states, references) -> list[list[Observation]]:
+    """`GnssRowBuilder.observations` of several builders (a bank's hypotheses, on one GNSS
+    data set) at GNSS epoch `index`: the satellites prepared at all their receiver guesses
+    at once (`railnav.filters.gnss_epochs.GnssEpochs.prepare_together`: each builder's rows
+    those of its own `observations`, to the bit).
+
+    Parameters
+    ----------
+    builders : sequence of GnssRowBuilder
+    index : int
+    states : sequence of ndarray, shape (n,)
+        Each builder's prior state.
+    references : sequence of trackmodel.TrackPoint or None
+        Each builder's reference point (`GnssRowBuilder.observations`).
+
+    Returns
+    -------
+    list of list of ekf.Observation
+        Each builder's rows, in order.
+    """
+    builders = list(builders)
+    parts = [b.receiver_part(x, ref) for b, x, ref in zip(builders, states, references)]
+    gnss = builders[0].gnss if builders else None
+    if any(b.gnss is not gnss for b in builders):
+        return [b.rows_at(index, part[1:4], part) for b, part in zip(builders, parts)]
+    prepared = gnss.prepare_together(index, np.array([part[1:4] for part in parts]))
+    return [b.rows_of(one, part) for b, one, part in zip(builders, prepared, parts)]
 
 
 def scalar_point(points, i: int):

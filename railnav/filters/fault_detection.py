@@ -70,17 +70,13 @@ import numpy.typing as npt
 import pandas as pd
 
 from ekf.gating import chi2_threshold
-from ekf.outliers import common_offset, fault_probability, fault_threshold
+from ekf.outliers import common_offset, fault_threshold
 from ekf.series import EpochRows
 from ekf.update import EvaluatedObservations, Observation
 from railnav.errors import ConfigError
 from railnav.filters.fault_channels import Channel
-from railnav.filters.row_sets import (
-    ROW_STATUSES,
-    evaluate_rows,
-    group_status,
-    subset_rows,
-)
+from railnav.filters.row_sets import ROW_STATUSES, group_status, subset_rows
+from railnav.filters.screens_together import screen_together
 
 __all__ = ["FaultDetectionConfig", "RowScreen", "EpochScreen", "ROW_STATUSES",
            "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
@@ -258,9 +254,13 @@ class RowScreen:
             the update does not evaluate them again); an `ekf.EpochRows` with the
             clock-jump covariance when a jump was declared.
         """
+        return screen_together([self], [(observations, sv, kind, modes, groups)], [(x, P)])[0]
+
+    def _start(self, sv, kind, x: Array, P: Array, nu: Array, H: Array, S: Array,
+               modes) -> dict:
+        """`screen` up to the row tests: the rows' keys, the clock-jump test (its
+        covariance ``Q`` and ``S`` with it), the normalized innovations and modes."""
         self._n_states = x.size
-        nu, H, R = evaluate_rows(observations, x)
-        S = H @ P @ H.T + np.diag(R)
         # "<sv>/<kind>" of each row: the object arrays' elementwise str concatenation
         keys = np.asarray(sv, dtype=object) + "/" + np.asarray(kind, dtype=object) \
             if len(sv) else np.zeros(0, dtype=object)
@@ -272,17 +272,32 @@ class RowScreen:
         r = nu / np.sqrt(S.diagonal()) if nu.size else nu     # (np.diag's view of it)
         modes = np.full(keys.size, SCREEN_MODES[0], dtype=object) if modes is None else \
             np.asarray(modes, dtype=object)
-        status, prob, newly_excluded = self._decide(keys, r, modes)
+        return {"keys": keys, "Q": Q, "jump": jump, "S": S, "r": r, "modes": modes}
+
+    def _rows_used(self, pending: dict, prob: Array, groups, H: Array, R: Array,
+                   P: Array) -> None:
+        """`screen` from the fault probabilities `prob` of `pending`'s rows (`_start`;
+        None without a configuration) to the used rows: statuses, exclusions (their
+        contamination into ``Q``, and ``S`` again), into `pending`."""
+        status, prob, newly_excluded = self._decide(pending["keys"], pending["r"],
+                                                    pending["modes"], prob)
         if groups is not None:
             status = group_status(status, np.asarray(groups))
+        Q = pending["Q"]
         for key in newly_excluded:   # what the channel pulled in before it was caught
             delta = self._channels[key].contamination()
             Q += np.outer(delta, delta)
         if newly_excluded:
-            S = H @ (P + Q) @ H.T + np.diag(R)
-        used = status == ROW_STATUSES[0]
-        self._add_influence(keys, used, nu, H, S, P + Q)
-        self.epochs.append(EpochScreen(keys, nu, S, status, prob,
+            pending["S"] = H @ (P + Q) @ H.T + np.diag(R)
+        pending.update(status=status, prob=prob, used=status == ROW_STATUSES[0],
+                       P_used=P + Q)
+
+    def _record(self, pending: dict, observations, sv, kind, x: Array, nu: Array, H: Array,
+                R: Array) -> list[Observation] | EpochRows:
+        """The end of `screen`: the epoch recorded, the used rows for the update."""
+        used, Q, jump = pending["used"], pending["Q"], pending["jump"]
+        self.epochs.append(EpochScreen(pending["keys"], nu, pending["S"], pending["status"],
+                                       pending["prob"],
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
@@ -327,16 +342,16 @@ class RowScreen:
             self._channels[key] = Channel(self.config, self._n_states)
         return self._channels[key]
 
-    def _decide(self, keys: np.ndarray, r: Array, modes: np.ndarray
+    def _decide(self, keys: np.ndarray, r: Array, modes: np.ndarray, prob: Array | None
                 ) -> tuple[np.ndarray, Array, list[str]]:
-        """Status and fault probability of each row from its normalized innovation `r`
-        and its screen mode, and the channels excluded at this epoch; updates the
-        channels."""
+        """Status and fault probability of each row from its normalized innovation `r`,
+        its fault probability `prob` (`fault_probability` of ``r²``; None without a
+        configuration) and its screen mode, and the channels excluded at this epoch;
+        updates the channels."""
         cfg = self.config
         status = np.full(keys.size, ROW_STATUSES[0], dtype=object)
         if cfg is None:
             return status, np.full(keys.size, np.nan), []
-        prob = fault_probability(r * r, prior=cfg.fault_prior, scale=cfg.fault_scale)
         prob = np.where(modes == SCREEN_MODES[2], np.nan, prob)
         failed = prob > cfg.decision_probability
         clip = self._clip()
@@ -367,17 +382,24 @@ class RowScreen:
             self._clip_value = float(np.sqrt(self.config.nis_threshold))
         return self._clip_value
 
-    def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
-                       H: Array, S: Array, P: Array) -> None:
-        """Each used row's correction ``K_i ν_i`` of this update, to its channel (rows
-        screened without a channel keep none)."""
+    def _influence_rows(self, used: npt.NDArray[np.bool_], H: Array, S: Array
+                        ) -> tuple[Array, Array] | None:
+        """``H`` and ``S`` of the used rows, whose gains `_add_influence` needs (None: no
+        influence to add)."""
         n_used = np.count_nonzero(used)          # (bool counts: any/all without wrappers)
         if self.config is None or not n_used:
-            return
+            return None
         every = n_used == used.size
-        H_u = H if every else H[used]
-        S_u = S if every else S[np.ix_(used, used)]
-        K_t = np.linalg.solve(S_u, H_u @ P)      # Kᵀ, S symmetric
+        return (H, S) if every else (H[used], S[np.ix_(used, used)])
+
+    def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
+                       K_t: Array | None) -> None:
+        """Each used row's correction ``K_i ν_i`` of this update, to its channel (rows
+        screened without a channel keep none); ``K_t`` the used rows' ``Kᵀ``
+        (`railnav.filters.row_sets.influence_gains` of `_influence_rows`), None: none."""
+        if K_t is None:
+            return
+        every = K_t.shape[0] == used.size
         delta = K_t * (nu if every else nu[used])[:, None]     # row k: K_k ν_k
         channels = self._channels
         for key, delta_k in zip(keys if every else keys[used], delta):

@@ -20,7 +20,7 @@ from gnss_obs.dgps import apply_corrections
 from gnss_obs.epoch import (
     EpochData,
     PreparedEpoch,
-    prepare_epoch,
+    prepare_epochs,
     split_epochs,
     transmit_states_batch,
 )
@@ -113,9 +113,13 @@ class GnssEpochs:
         return len(self.epochs)
 
     def prepare(self, index: int, r_guess_e: Array) -> PreparedEpoch:
-        """Satellites of epoch `index` usable at the receiver guess (ECEF, m)."""
-        epoch = self.epochs[index]
-        prepared = prepare_epoch(epoch, self.config, r_rx_e=r_guess_e, klobuchar=self.klobuchar,
-                                 transmit=self.transmit[index])
-        ok = np.isfinite(prepared.pseudorange_m) & (prepared.elevation >= self.elevation_mask_rad)
-        return prepared if np.count_nonzero(ok) == ok.size else prepared.subset(ok)
+        """Satellites of epoch `index` usable at the receiver guess (ECEF, m, shape (3,))."""
+        return self.prepare_together(index, r_guess_e)[0]
+
+    def prepare_together(self, index: int, r_guess_e: Array) -> list[PreparedEpoch]:
+        """`prepare` at K receiver guesses (ECEF, m, shape (K, 3); a bank's hypotheses; or
+        one, shape (3,)): `gnss_obs.epoch.prepare_epochs`, each guess's satellites those of
+        its own `prepare`."""
+        return prepare_epochs(self.epochs[index], self.config, r_rx_e=r_guess_e,
+                              klobuchar=self.klobuchar, transmit=self.transmit[index],
+                              elevation_mask_rad=self.elevation_mask_rad)

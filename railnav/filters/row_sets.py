@@ -1,6 +1,12 @@
 """Row arithmetic of the fault screen (`railnav.filters.fault_detection.RowScreen`):
 innovations, Jacobians and variances of an epoch's rows at the prior, the rows of a subset,
-and the statuses of row groups (a GNSS fix's rows are used together or not at all)."""
+and the statuses of row groups (a GNSS fix's rows are used together or not at all).
+
+`innovation_covariances` and `influence_gains` take the rows of several filters (a bank's
+hypotheses, `railnav.filters.fault_detection.screen_together`) and compute those of equal
+shapes in one stacked call (NumPy's stacked ``matmul`` and ``solve`` make each matrix's
+BLAS/LAPACK call as for that matrix alone: each filter's numbers are its own, to the bit).
+"""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -10,7 +16,8 @@ import numpy.typing as npt
 
 from ekf.update import Observation
 
-__all__ = ["evaluate_rows", "subset_rows", "group_status", "ROW_STATUSES"]
+__all__ = ["evaluate_rows", "subset_rows", "group_status", "innovation_covariances",
+           "influence_gains", "ROW_STATUSES"]
 
 Array = npt.NDArray[np.float64]
 
@@ -59,4 +66,56 @@ def subset_rows(observations: list[Observation], keep: npt.NDArray[np.bool_]
             out.append(obs)
         elif n_kept:
             out.append(replace(obs, z=obs.z[k], R=obs.R[k], p=obs.p[k]))
+    return out
+
+
+def innovation_covariances(rows: list[tuple[Array, Array, Array]]) -> list[Array]:
+    """``S = H P Hᵀ + diag(R)`` of each filter's rows (module docstring).
+
+    Parameters
+    ----------
+    rows : list of (H (m, n), P (n, n), R (m,))
+
+    Returns
+    -------
+    list of ndarray, shape (m, m)
+    """
+    def covariance(H: Array, P: Array, R: Array) -> Array:
+        m = R.shape[-1]
+        D = np.zeros(R.shape + (m,))                 # np.diag(R) of each, stacked
+        D[..., np.arange(m), np.arange(m)] = R
+        return H @ P @ np.swapaxes(H, -1, -2) + D
+    return _by_shape(covariance, rows)
+
+
+def influence_gains(rows: list[tuple[Array, Array, Array]]) -> list[Array]:
+    """``Kᵀ = S⁻¹ H P`` of each filter's used rows (``S`` symmetric; module docstring).
+
+    Parameters
+    ----------
+    rows : list of (H (m, n), S (m, m), P (n, n))
+
+    Returns
+    -------
+    list of ndarray, shape (m, n)
+    """
+    return _by_shape(lambda H, S, P: np.linalg.solve(S, H @ P), rows)
+
+
+def _by_shape(fun, rows: list[tuple]) -> list:
+    """``fun(*row)`` of each row, the rows whose arrays have equal shapes stacked into one
+    call (`fun` broadcasts over a leading axis)."""
+    if len(rows) == 1:                              # one filter: nothing to stack
+        return [fun(*rows[0])]
+    out: list = [None] * len(rows)
+    groups: dict[tuple, list[int]] = {}
+    for k, row in enumerate(rows):
+        groups.setdefault(tuple(a.shape for a in row), []).append(k)
+    for members in groups.values():
+        if len(members) == 1:
+            out[members[0]] = fun(*rows[members[0]])
+            continue
+        found = fun(*(np.stack(parts) for parts in zip(*(rows[k] for k in members))))
+        for k, one in zip(members, found):
+            out[k] = one
     return out

@@ -46,6 +46,7 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
 from ekf.stacked import propagate_members
+from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
 from trackmodel.network_lines import TRANSITION_MAX_M
@@ -193,8 +194,9 @@ class EngineStepper:
     def _step_stacked(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """`step` (``b > a``) with the propagation of each engine's hypotheses together: every
         hypothesis's inputs from its prior, one `ekf.stacked.propagate_members` per
-        engine, then each one's update (the order of `step`'s calls per hypothesis: a
-        filter object's inputs and rows touch only its own state)."""
+        engine, then the epoch's rows of all (`railnav.filters.epochs_together`), then each
+        one's update (the order of `step`'s calls per hypothesis: a filter object's
+        inputs and rows touch only its own state)."""
         t, u = self.t[a:b + 1], self.u[a:b + 1]
         groups: dict[int, list[int]] = {}
         engines = [self._engine(h.filt) for h in hyps]
@@ -211,24 +213,28 @@ class EngineStepper:
             for k, state in zip(members, done):
                 states[k] = state
         screens = [] if epoch is not None else None
+        rows = [None] * len(hyps) if epoch is None else observations_together(
+            [h.filt for h in hyps], epoch, [(state.x, state.P) for state in states])
         innov, cov = [], []
-        for h, engine, state, has_c in zip(hyps, engines, states, has):
+        for h, engine, state, has_c, one in zip(hyps, engines, states, has, rows):
             engine.x, engine.P = state.x, state.P
             self._finish(h, engine, epoch, state.outputs if has_c else None, screens, innov,
-                         cov)
+                         cov, one)
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), any(has))
 
-    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov) -> None:
+    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov,
+                rows=None) -> None:
         """After a hypothesis's propagation: its continuous innovations (`outputs`, None
-        without) to `innov`/`cov`, its update with `epoch` (its screen to `screens`), and
-        the engine's state back into the hypothesis."""
+        without) to `innov`/`cov`, its update with `epoch` (its screen to `screens`; `rows`:
+        its filter's rows of the epoch when already built), and the engine's state back
+        into the hypothesis."""
         if outputs is not None and outputs.innov.shape[0]:
             innov.append(outputs.innov)
             cov.append(unpack_sym(outputs.S))
         if epoch is not None:
-            self._update(h, engine, epoch)
+            self._update(h, engine, epoch, rows)
             screens.append(h.filt.screen.last)
             h.filt.screen.clear_records()
         h.x, h.P = engine.x.copy(), engine.P.copy()
@@ -264,8 +270,11 @@ class EngineStepper:
         return engine.propagate(series), series.r_c is not None
 
     @staticmethod
-    def _update(h, engine, epoch: int) -> None:
-        rows = h.filt.observations(epoch, engine.x, engine.P)
+    def _update(h, engine, epoch: int, rows=None) -> None:
+        """The hypothesis's update with `epoch` (`rows`: its filter's rows at the engine's
+        prior, when already built: `railnav.filters.epochs_together`)."""
+        if rows is None:
+            rows = h.filt.observations(epoch, engine.x, engine.P)
         if isinstance(rows, EpochRows):
             if rows.jump_covariance is not None:
                 engine.P = engine.P + rows.jump_covariance
