@@ -163,6 +163,12 @@ class NavigatorConfig:
         Constrained filter: detect standstills from the IMU (vetoed by the odometer and the
         fixes' speed) and apply zero-speed and zero-yaw-rate rows
         (`railnav.filters.standstill_rows`); None (default): off.
+    one_sided : bool
+        Constrained filter: near the onset of a curve with a large σ_s, bound what the
+        curvature pseudo-observation tells ``s`` by the prior truncated at the onset
+        (`railnav.filters.one_sided`). Default True: it acts only when σ_s exceeds 2 m
+        within 4σ_s of an onset (long outages), where it stops the σ collapse of
+        ``outage_20min``; elsewhere the runs are bit-identical.
     rts_smoothing : bool
         Keep every filter step's moments and transition for the Rauch–Tung–Striebel
         smoother (`railnav.navigation.smoothing.smooth_result`); costs
@@ -199,6 +205,7 @@ class NavigatorConfig:
     monitor: MonitorConfig = MonitorConfig()
     track_attitude: TrackAttitudeConfig | None = None
     standstill: StandstillConfig | None = None
+    one_sided: bool = True
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)
