@@ -12,7 +12,9 @@ against ``|μ − c|`` the line lends ``s`` far more information than the trunca
 Measured on ``outage_20min`` seed 5 (tactical, 20-min outage, ``curvy``): at the clothoid
 start (9343.6 m) the estimate is 122 m (3.3σ) ahead of the truth; from 520 to 525 s the
 rows took σ_s from 37 to 7.2 m with an 88-m error, where the truncated prior keeps about
-21 m; the curvature rows then made a 16σ speed update and σ_s fell to 0.19 m for good.
+21 m; the curvature rows then made a 16σ speed update and σ_s fell to 0.19 m for good
+(end of the trip: −14 km, σ_s 6.8 m). With the bound: σ_s 19.5 m at 525 s, end −1.0 m
+(σ_s 0.90 m).
 
 **The bound.** Whatever the measurement shows, the posterior of ``s`` is the prior
 truncated on one side of ``c``, so its variance is at least the smaller of the two
@@ -22,13 +24,25 @@ that it holds far in the tail),
 
 ``Var[s | s < c] = σ² (1 − β λ − λ²)``   (`truncated_variance`).
 
-`OneSidedLimit` compares, for each input chunk (≤ 1 s of IMU samples), the posterior
-variance of ``s`` at the chunk's end that the rows would give with that floor, and where
-the rows give less it scales their whole noise density (``S_c = D Q_c Dᵀ + R_c``, the
-accelerometer's white noise plus the geometry noise ``r_c``) by the smallest factor
-``λ_R ≥ 1`` that meets the floor: ``r_c ← λ_R (r_c + D Q_c Dᵀ) − D Q_c Dᵀ``. The EKF then
-draws from the chunk at most the information of the truncation; its mean moves less too
-(the gain shrinks with the information).
+**Per episode, not per chunk.** An *episode* starts at the first input chunk (≤ 1 s of
+IMU samples) whose chunk-end estimate has an onset within ±`WINDOW_SIGMAS`·σ_s, and
+lasts while that onset stays within the window of the episode's prior propagated at
+constant speed (``Φ P_(s,v) Φᵀ``). What "not past ``c`` yet" says over many chunks is
+one truncation of that prior, not one per chunk: applied chunk by chunk from each
+chunk's own prior, the floor re-cut a prior already cut, and on seed 5 σ_s still fell
+32 → 25 → 15 → 6 → 0.2 m over 526–530 s (end −14 km as without it). So the episode has a
+budget of precision of ``s``: ``1/floor − 1/σ_ep²`` of its propagated prior (at the
+chunk-end mean), less what the earlier chunks used. The used share is measured from the
+filter's own variance (its prior against the previous chunk's prediction, so that it is
+the EKF's real information and not this module's model of it). Each chunk's floor is then
+``1/(1/σ²_prior + remaining budget)``. Where the rows would leave less variance at the
+chunk's end, `OneSidedLimit` scales their whole noise density
+(``S_c = D Q_c Dᵀ + R_c``: the accelerometer's white noise plus the geometry noise
+``r_c``) by the smallest factor ``λ_R ≥ 1`` that meets the floor:
+``r_c ← λ_R (r_c + D Q_c Dᵀ) − D Q_c Dᵀ``. With the budget spent the rows are switched
+off (``λ_R`` = `MAX_INFLATION`) until the episode ends. The EKF then draws at most the
+truncation's information from the rows; its mean moves less too, because the gain
+shrinks with the information.
 
 **How the rows' information is counted.** Over the ``(s, v)`` block only, referred to the
 chunk's end: each sample's rows have ``∂h/∂s = −v² P⊥ d²u/ds²`` and
@@ -41,18 +55,29 @@ process noise over ≤ 1 s). Leaving the attitude and bias states out overstates
 rows' information on ``s`` (they share the residual), so the factor errs on the safe side.
 
 **When it acts** (else ``r_c`` is returned unchanged, the same array: bit-identical runs):
-σ_s at the chunk's end above `geometry_noise.STATISTICAL_MIN_SIGMA_M` (2 m: with GNSS σ_s
-is decimetres), an onset within ±`WINDOW_SIGMAS`·σ_s of the chunk-end estimate (the
-nearest is used), and the rows' variance below the floor. Far from an onset the floor,
-``≈ σ²/β²``, is below what the rows give, so it never acts there.
+σ_s at the chunk's end above `geometry_noise.STATISTICAL_MIN_SIGMA_M` (2 m; with GNSS σ_s
+is decimetres, and an episode ends when σ_s falls to 2 m), an onset within the window, and
+the rows' variance below the floor. Far from an onset the floor, ``≈ σ²/β²``, is below
+what the rows give, so it never acts there.
 
-Limits: one onset per chunk (the nearest; two onsets within the window would each cut the
-prior); the chunk's floor is applied chunk by chunk, so a train that stays on one side for
-many chunks still gets each chunk's truncation (that is real information: the train is
-not past ``c`` at any of those times); the information past the onset that the growth of
-a clothoid's curvature carries is given up within the window; the attitude rows
-(`railnav.filters.attitude_rows`) have their own geometry noise and are not bounded here.
-Units: m, s, m/s, (m/s²)²·s for densities.
+Limits:
+
+- One onset per episode (the nearest at its start); two onsets within the window would
+  each cut the prior.
+- Within the window it gives up the information that a clothoid's growing curvature
+  carries past the onset.
+- With the budget spent the rows' attitude information is lost too, for the episode's
+  few seconds.
+- The attitude rows (`railnav.filters.attitude_rows`) have their own geometry noise and
+  are not bounded here.
+- A discrete update during an episode (GNSS back) counts as used precision until σ_s
+  falls below 2 m and ends the episode.
+- The network navigator's Gaussian sum (`railnav.navigation.s_split`) runs its
+  hypotheses without it. A bound that widens one hypothesis's rows widens the common
+  covariance of the continuous evidence (the widest S over the hypotheses) and blinds the
+  weights: with it, ``bench_network_outage`` seed 5 was lost for good.
+
+Units: m, s, m/s; densities in (m/s²)²·s.
 """
 from __future__ import annotations
 
