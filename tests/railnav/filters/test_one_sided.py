@@ -114,3 +114,43 @@ def test_without_onsets_in_reach_the_runs_are_bit_identical():
     for name in runs[0].columns:
         a, b = runs[0][name].to_numpy(), runs[1][name].to_numpy()
         assert np.array_equal(a, b) or (a.dtype == object and list(a) == list(b)), name
+
+
+def _near_onset_inputs(one_sided_filters: int, *, together: bool):
+    """`ConstrainedFilter` inputs of 1 s of IMU samples from a prior at the clothoid start
+    of ``curvy`` (9343.6 m) with σ_s 10 m, at 23 m/s: `inputs` of one fresh filter, or
+    `inputs_together` of ``one_sided_filters`` fresh filters (bound on)."""
+    from railnav.filters.constrained import ConstrainedFilter
+    track = _curvy()
+    config = navigator_config_for(get_scenario("curvy").with_overrides(imu_errors="tactical"))
+
+    def make(flag: bool):
+        filt = ConstrainedFilter(track, replace(config, one_sided=flag))
+        filt.sample_interval_s = 0.01
+        return filt
+
+    probe = make(True)
+    lay, point = probe.layout, track.at(9343.6)
+    x = np.zeros(len(lay.names))
+    x[lay.index("s")], x[lay.index("v")] = 9343.6, 23.0
+    x[lay.index("yaw")], x[lay.index("pitch")] = float(point.azimuth), float(point.elevation)
+    P = probe.initial_covariance(sigma_s_m=10.0, sigma_v_mps=0.2)
+    t = 500.0 + 0.01 * np.arange(1, 101)
+    u = np.tile([9.81 * math.sin(float(point.elevation)), 0.0, 9.81, 0.0, 0.0, 0.0],
+                (t.size, 1))
+    if together:
+        return ConstrainedFilter.inputs_together([make(True) for _ in range(one_sided_filters)],
+                                                 t, u, [(x, P)] * one_sided_filters, 500.0)
+    return make(bool(one_sided_filters)).inputs(t, u, x, P, 500.0)
+
+
+def test_the_hook_scales_r_c_alike_in_inputs_and_inputs_together():
+    """Near the onset with σ_s 10 m the bound scales the rows' density (the geometry noise
+    grows); a bank's `inputs_together` gives each filter the same arrays as its own
+    `inputs`."""
+    on, off = _near_onset_inputs(1, together=False), _near_onset_inputs(0, together=False)
+    assert np.all(on[2] >= off[2]) and np.any(on[2] > 1.5 * off[2])
+    assert np.array_equal(on[0], off[0]) and np.array_equal(on[1], off[1])
+    for one in _near_onset_inputs(2, together=True):
+        for a, b in zip(one, on):
+            assert np.array_equal(a, b)
