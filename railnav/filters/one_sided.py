@@ -213,7 +213,11 @@ class OneSidedLimit:
         density = r_c + accel
         info = self._information(t, s_pred, params, float(x_prev[self._i_v]), density,
                                  t_prev)
-        factor = _factor_for(np.linalg.inv(prior), info, floor)
+        try:
+            prior_info = np.linalg.inv(prior)
+        except np.linalg.LinAlgError:                               # v known exactly
+            return r_c
+        factor = _factor_for(prior_info, info, floor)
         if factor <= 1.0:
             return r_c
         self.last_factor, self.chunks_scaled = factor, self.chunks_scaled + 1
