@@ -168,7 +168,9 @@ class NavigatorConfig:
         curvature pseudo-observation tells ``s`` by the prior truncated at the onset
         (`railnav.filters.one_sided`). Default True: it acts only when σ_s exceeds 2 m
         within 4σ_s of an onset (long outages), where it stops the σ collapse of
-        ``outage_20min``; elsewhere the runs are bit-identical.
+        ``outage_20min``; where it does not act, runs are bit-identical to it off. The
+        network navigator runs its hypotheses without it (its Gaussian sum carries a
+        multimodal ``s``).
     rts_smoothing : bool
         Keep every filter step's moments and transition for the Rauch–Tung–Striebel
         smoother (`railnav.navigation.smoothing.smooth_result`); costs
