@@ -163,6 +163,14 @@ class NavigatorConfig:
         Constrained filter: detect standstills from the IMU (vetoed by the odometer and the
         fixes' speed) and apply zero-speed and zero-yaw-rate rows
         (`railnav.filters.standstill_rows`); None (default): off.
+    one_sided : bool
+        Constrained filter: near the onset of a curve with a large σ_s, bound what the
+        curvature pseudo-observation tells ``s`` by the prior truncated at the onset
+        (`railnav.filters.one_sided`). Default True: it acts only when σ_s exceeds 2 m
+        within 4σ_s of an onset (long outages), where it stops the σ collapse of
+        ``outage_20min``; where it does not act, runs are bit-identical to it off. The
+        network navigator runs its hypotheses without it (its Gaussian sum carries a
+        multimodal ``s``).
     rts_smoothing : bool
         Keep every filter step's moments and transition for the Rauch–Tung–Striebel
         smoother (`railnav.navigation.smoothing.smooth_result`); costs
@@ -199,6 +207,7 @@ class NavigatorConfig:
     monitor: MonitorConfig = MonitorConfig()
     track_attitude: TrackAttitudeConfig | None = None
     standstill: StandstillConfig | None = None
+    one_sided: bool = True
 
     def __post_init__(self) -> None:
         filter_kind(self.filter)

@@ -38,6 +38,7 @@ from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
+from railnav.filters.one_sided import OneSidedLimit
 from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
                                           path_bias_step_densities, step_nodes,
                                           weighted_path_densities)
@@ -135,6 +136,10 @@ class ConstrainedFilter:
         self._chunk_end = None   # the track at the last sample of the latest chunk
         self._grid = TrackParameterGrid(track)
         self._joints = JointRateNoise(track)
+        #: The bound on the rows' information near an onset (`railnav.filters.one_sided`;
+        #: None with ``config.one_sided`` off).
+        self.one_sided = OneSidedLimit(track, self.layout, self.model.noise_names) \
+            if config.one_sided else None
         self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
@@ -229,13 +234,19 @@ class ConstrainedFilter:
 
     def _finish_inputs(self, pending: dict, found) -> tuple[Array, Array, Array]:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
-        (`path_bias_step_densities`'s, None without)."""
+        (`path_bias_step_densities`'s, None without); with ``config.one_sided``, ``r_c``
+        bounded near an onset (`railnav.filters.one_sided`)."""
         along = pending["along"]
         self.step_q_c = self._step_q_c(pending, found, None if along is None else
                                        (along if self._along_prev is None
                                         else self._along_prev, along))
         self._along_prev = along
-        return pending["u"], pending["params"], pending["r_c"]
+        r_c = pending["r_c"]
+        if self.one_sided is not None:
+            r_c = self.one_sided(pending["t"], pending["s_pred"], pending["params"], r_c,
+                                 pending["x_prev"], pending["P_prev"], self.step_q_c,
+                                 float(pending["t_prev"]))
+        return pending["u"], pending["params"], r_c
 
     def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
         """The chunk's time-mean specific force along the body x axis (traction, braking
