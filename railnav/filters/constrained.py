@@ -343,16 +343,26 @@ class ConstrainedFilter:
         (`GnssRowBuilder`, `railnav.filters.fix_rows.FixRowBuilder`,
         `railnav.filters.sensor_rows.SensorRows`), those the fault screen lets through
         (with a clock jump's covariance when it sees one)."""
-        g, f = (index, -1) if self.schedule is None else self.schedule.split(index)
+        g, f = self.epoch_split(index)
         gnss = None if g < 0 else (self.rows.observations(g, x, self._chunk_end),
                                    self.rows.rows_sv[-1], self.rows.rows_kind[-1])
+        rows, sv, kind, modes, groups = self.epoch_rows(index, f, gnss, x, P)
+        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
+
+    def epoch_split(self, index: int) -> tuple[int, int]:
+        """The GNSS and fix epochs of schedule epoch `index` (−1: none)."""
+        return (index, -1) if self.schedule is None else self.schedule.split(index)
+
+    def epoch_rows(self, index: int, f: int, gnss, x: Array, P: Array) -> tuple:
+        """Epoch `index`'s rows before the screen: the GNSS rows `gnss` (``(rows, sv,
+        kind)``, None without), fix epoch `f`'s rows, the sensor and body rows, stacked
+        (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple); `observations`, and
+        `railnav.filters.epochs_together` for a bank."""
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:
             extra = [*extra, *self.body.parts(self.schedule, index, x, P)]
-        rows, sv, kind, modes, groups = stack_epoch_rows(gnss, fix, gnss_mode="channel",
-                                                         fix_group=f, extra=extra)
-        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
+        return stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

@@ -14,9 +14,9 @@ all hypotheses in one pass where it vectorizes:
   screen's channels stepped in its own order).
 
 Every hypothesis's rows, screen decisions and update rows are those of its own
-``observations`` call, to the bit (`tests/filters/test_epochs_together.py`). The
-composition (GNSS rows, fix rows, sensor and body rows, `stack_epoch_rows`, screen) is
-`ConstrainedFilter.observations`'s; filters of another kind are asked one by one.
+``observations`` call, to the bit (`tests/railnav/filters/test_epochs_together.py`). The
+rows before the screen are each filter's own `ConstrainedFilter.epoch_rows`; filters of
+another kind are asked one by one.
 """
 from __future__ import annotations
 
@@ -25,7 +25,6 @@ import numpy.typing as npt
 
 from railnav.filters.common import gnss_rows_together
 from railnav.filters.constrained import ConstrainedFilter
-from railnav.filters.fix_rows import stack_epoch_rows
 from railnav.filters.screens_together import screen_together
 
 __all__ = ["observations_together"]
@@ -59,8 +58,7 @@ def observations_together(filters, index: int, priors) -> list:
             out[k] = filters[k].observations(index, *priors[k])
     if not together:
         return out
-    splits = [(index, -1) if filters[k].schedule is None else filters[k].schedule.split(index)
-              for k in together]
+    splits = [filters[k].epoch_split(index) for k in together]
     gnss: dict[int, tuple] = {}
     with_gnss = [j for j, (g, _) in enumerate(splits) if g >= 0]
     for g in sorted({splits[j][0] for j in with_gnss}):
@@ -72,14 +70,7 @@ def observations_together(filters, index: int, priors) -> list:
             gnss[j] = (rows, b.rows_sv[-1], b.rows_kind[-1])
     stacked = []
     for j, k in enumerate(together):
-        filt, (x, P) = filters[k], priors[k]
-        f = splits[j][1]
-        fix = None if f < 0 else filt.fix_rows.observations(f, x)
-        extra = filt.sensors.parts(filt.schedule, index, x, P) if filt.sensors else []
-        if filt.body:
-            extra = [*extra, *filt.body.parts(filt.schedule, index, x, P)]
-        stacked.append(stack_epoch_rows(gnss.get(j), fix, gnss_mode="channel", fix_group=f,
-                                        extra=extra))
+        stacked.append(filters[k].epoch_rows(index, splits[j][1], gnss.get(j), *priors[k]))
     screened = screen_together([filters[k].screen for k in together], stacked,
                                [priors[k] for k in together])
     for k, rows in zip(together, screened):
