@@ -26,15 +26,20 @@ WINDOW_S = 0.05  # s: 5 to 6 samples at 100 Hz (odd and even counts, cut at the 
 
 
 def _loop_median(t, u, window_s):
-    """The running median the slow way: each window selected and `np.median`-ed."""
-    return np.array([np.median(u[np.abs(t - t_k) <= 0.5 * window_s + 1e-9], axis=0)
-                     for t_k in t])
+    """The running median the slow way: each window (centred, shrunk at the ends to the
+    samples there are) selected and `np.median`-ed."""
+    out = []
+    for t_k in t:
+        half = min(0.5 * window_s, t_k - t[0], t[-1] - t_k)
+        out.append(np.median(u[np.abs(t - t_k) <= half + 1e-9], axis=0))
+    return np.array(out)
 
 
 @pytest.mark.parametrize("window_s", [0.0, 0.03, 0.25, 10.0])
 def test_window_median_equals_per_sample_median(rng, window_s):
     """Irregular times (jitter, a gap, an inserted sample) so windows hold odd and even
-    counts, and windows cut at both ends; 10 s: every window is the whole series."""
+    counts, and windows shrunk at both ends (the first and last samples alone); 10 s:
+    every window reaches an end of the series."""
     t = np.cumsum(rng.uniform(0.004, 0.016, 400))
     t[200:] += 0.3                                     # a gap
     t = np.sort(np.concatenate([t, [t[100] + 1e-4]]))  # an inserted sample
@@ -42,8 +47,18 @@ def test_window_median_equals_per_sample_median(rng, window_s):
     got = window_median(t, u, window_s)
     want = _loop_median(t, u, window_s)
     assert np.array_equal(got, want)
+    assert np.array_equal(got[[0, -1]], u[[0, -1]])
     if window_s == 0.0:
         assert np.array_equal(got, u)
+
+
+@pytest.mark.parametrize("at", [3, 10, 17])
+def test_window_median_keeps_a_step_at_its_sample(at):
+    """A step of the input (a curve entered without a transition) stays at its sample,
+    mid-series and near either end (a one-sided window at the ends would move it)."""
+    t = np.arange(21) * DT
+    u = np.where(np.arange(21) >= at, 100.0, 0.0)[:, None]
+    assert np.array_equal(window_median(t, u, 10.5 * DT), u)
 
 
 def test_window_median_of_a_constant_plus_an_outlier_is_the_constant():
@@ -106,10 +121,14 @@ def test_window_step_matches_numpy_reference_with_H_at_the_median(rng, backend):
                   <= RTOL_SAME_ALGORITHM * scale + ROUNDOFF_OF_PRIOR * prior_scale)
     np.testing.assert_allclose(out.Phi[-1].reshape(7, 7), ref["Phi"],
                                rtol=RTOL_SAME_ALGORITHM, atol=1e-14)
-    # ... and it is not the step at the raw sample
-    raw = reference_step(model_np, X0, P0, u[0], u[1], np.zeros(0), z_c=series.z_c[0],
-                         dt=DT, q_c=series.q_c[0], r_c=series.r_c[0])
-    assert not np.allclose(out.P_filt[0], pack_sym(raw["P_filt"]), rtol=1e-6, atol=0)
+    # ... and it is not the step at the raw samples
+    x_raw, P_raw = X0, P0
+    for k in range(n_steps):
+        raw = reference_step(model_np, x_raw, P_raw, u[k], u[k + 1], np.zeros(0),
+                             z_c=series.z_c[k], dt=DT, q_c=series.q_c[k],
+                             r_c=series.r_c[k], opts=opts)
+        x_raw, P_raw = raw["x_next"], raw["P_next"]
+    assert not np.allclose(P_raw, P, rtol=1e-6, atol=0)
 
 
 def test_window_off_is_the_step_without_the_option_to_the_bit(rng):
