@@ -37,6 +37,8 @@ of the step. ``input_hold="linear"`` interpolates them (RK4 stages use ``u_k``,
 ``(u_k+u_{k+1})/2`` twice, ``u_{k+1}``); ``"zoh"`` holds ``u_k`` over the step (exact
 when ``u_k`` is the average of the input over the step, as IMU increments are). ``G`` is
 evaluated at the mean input of the step, ``h_c`` and ``D`` at ``u_k``.
+``transition="rk4"`` takes ``Φ`` as the exact Jacobian of the RK4 map;
+``"taylor2"`` as ``I + F dt + F² dt²/2`` with ``F = ∂f/∂x`` at the start of the step.
 
 Linearization input (``StepOptions.jacobian_window_s``): by default ``H = ∂h_c/∂x`` is
 evaluated at ``u_k`` too. When ``h_c`` depends on a state through the input (the track
@@ -48,8 +50,6 @@ carries a second input, ``u_lin`` (:func:`window_median` of the samples over a c
 window of that length), and ``H`` (in the update, in ``Φ̃ = Φ − J H`` and in the
 prediction's residual) is ``∂h_c/∂x`` at ``u_lin``, while the residual ``z_c − h_c`` and
 ``D`` stay at ``u_k``: ``h_c(x) ≈ h_c(x̂, u_k) + H(x̂, u_lin) (x − x̂)``.
-``transition="rk4"`` takes ``Φ`` as the exact Jacobian of the RK4 map;
-``"taylor2"`` as ``I + F dt + F² dt²/2`` with ``F = ∂f/∂x`` at the start of the step.
 """
 from __future__ import annotations
 
