@@ -75,9 +75,9 @@ switched off in the simulation only, the filter still assuming the full grade;
 * ``trip_10h`` (main 0f16378, seeds 1–4: NEES 262, 52.1, 54.1, 30.9; yaw mean z² 255,
   46.7, 46.9, 24.4): a bug, fixed. The pseudo-observation's Jacobian was evaluated at
   the raw IMU sample. Its yaw column is the along-track specific force, which on a
-  straight is accelerometer noise (``|H_yaw|²/R_k ≈ 1 rad⁻²`` a sample), so the filter drew yaw (and, through
-  the correlation, ``b_gz``) information from noise at 100 Hz. ``H`` is now evaluated at
-  a centred 0.5-s running median of the samples
+  straight is accelerometer noise (``|H_yaw|²/R_k ≈ 1 rad⁻²`` a sample), so the filter
+  drew yaw (and, through the correlation, ``b_gz``) information from noise at 100 Hz.
+  ``H`` is now evaluated at a centred 0.5-s running median of the samples
   (`railnav.filters.common.JACOBIAN_WINDOW_S`, `ekf.step.StepOptions.jacobian_window_s`).
   Seeds 1–4: NEES 10.8, 7.14, 9.11, 10.9 (yaw mean z² 3.72, 1.99, 1.98, 4.40; > 3σ_s
   0.18–0.32 %). Still weak: the yaw stays somewhat overconfident (z² 2–4), because the
