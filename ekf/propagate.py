@@ -113,7 +113,7 @@ class Propagator:
                  compile_options: CompileOptions = CompileOptions()) -> None:
         start = time.perf_counter()
         self.model = model
-        self.data = StepData.of(model)
+        self.data = StepData.of(model, step_options)
         self.step = build_step(model, step_options)
         if backend == "auto":
             backend = "compiled" if compiler_available(compile_options) else "casadi"

@@ -36,9 +36,18 @@ __all__ = ["EpochRowBuilder", "GnssRowBuilder", "gnss_rows_together", "track_est
            "ESTIMATE_COLUMNS", "estimate_columns",
            "state_columns", "scalar_point", "REFERENCE_REUSE_M", "common_columns",
            "states_from_values", "clock_from_fix", "start_on_track", "MIN_FIX_SIGMA_S_M",
-           "MIN_FIX_SIGMA_V_MPS"]
+           "MIN_FIX_SIGMA_V_MPS", "JACOBIAN_WINDOW_S"]
 
 Array = npt.NDArray[np.float64]
+
+#: Window of the running median of the IMU samples at which the track pseudo-observation's
+#: Jacobian is evaluated (`ekf.step.StepOptions.jacobian_window_s`), s. At the raw sample
+#: the Jacobian's yaw column on a straight is accelerometer noise, and the filter takes yaw
+#: information from it at the sample rate (the 10-h trip's yaw overconfidence,
+#: ``docs/consistency-ablations.md``). 0.5 s: 50 samples at 100 Hz (the noise in ``H``
+#: down ~6x), against ~1-s chunks (the window shrinks, centred, near their ends). The
+#: earlier helper's choice, not tuned.
+JACOBIAN_WINDOW_S = 0.5
 
 #: A reference track point this close to the prior's ``s`` (m) is used as it is: the rows'
 #: third-order expansion (`railnav.filters.gnss_rows`) errs by ~δ⁴|d²κ/ds²|/24 (zero on straights,

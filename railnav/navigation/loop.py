@@ -23,6 +23,8 @@ import numpy.typing as npt
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.gating import Gate
 from ekf.series import Epoch, InputSeries
+from ekf.step import StepOptions
+from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.navigation.initialization import InitialState
 
 __all__ = ["ChunkLoop", "beyond_track", "filter_engine", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
@@ -149,7 +151,10 @@ def _watched(monitor, time_s: float, rows, x: Array, P: Array):
 def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
     """The EKF engine of a run: the filter object's process model, the configured gate,
     estimates stored at ``config.output_rate_hz`` with their full covariance (and every
-    step for the RTS smoother with ``config.rts_smoothing``).
+    step for the RTS smoother with ``config.rts_smoothing``). A process with a continuous
+    measurement (the constrained filter's track pseudo-observation) has its Jacobian
+    evaluated at the running median of the inputs over `JACOBIAN_WINDOW_S`
+    (`ekf.step.StepOptions.jacobian_window_s`; the median of each chunk's samples).
 
     Parameters
     ----------
@@ -161,7 +166,8 @@ def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
     store_every = max(1, int(round(1.0 / (config.output_rate_hz * sample_interval_s))))
     gate = None if config.gate_probability is None else Gate(config.gate_probability,
                                                              scope="rows")
-    return CdFilter(filt.process, FilterConfig(gate=gate, store_every=store_every,
+    step = StepOptions(jacobian_window_s=JACOBIAN_WINDOW_S if filt.process.n_c else 0.0)
+    return CdFilter(filt.process, FilterConfig(step=step, gate=gate, store_every=store_every,
                                                full_covariance=True,
                                                time_tol_s=EPOCH_TIME_TOL_S,
                                                smoothing=config.rts_smoothing))

@@ -71,7 +71,8 @@ def _rk4_with_jacobian(m: NumpyModel, x: Array, u0: Array, u1: Array, p: Array, 
 
 def reference_step(m: NumpyModel, x: Array, P: Array, u0: Array, u1: Array, p: Array, *,
                    z_c: Array, dt: float, q_c: Array, r_c: Array,
-                   opts: StepOptions = StepOptions()) -> dict[str, Array]:
+                   opts: StepOptions = StepOptions(),
+                   u_lin: Array | None = None) -> dict[str, Array]:
     """One step of the continuous–discrete filter, in NumPy.
 
     Parameters
@@ -91,6 +92,9 @@ def reference_step(m: NumpyModel, x: Array, P: Array, u0: Array, u1: Array, p: A
     r_c : ndarray, shape (n_c,)
         Diagonal independent continuous-measurement noise density.
     opts : StepOptions
+    u_lin : ndarray, shape (n_u,), optional
+        Input at which ``H = ∂h_c/∂x`` is evaluated (default `u0`; ``h_c`` and ``D`` are
+        always at `u0`).
 
     Returns
     -------
@@ -105,7 +109,7 @@ def reference_step(m: NumpyModel, x: Array, P: Array, u0: Array, u1: Array, p: A
     x_filt, P_filt = x, P
     if m.h_c is not None:
         h = m.h_c(x, u0, p)
-        H = m.H_c(x, u0, p)
+        H = m.H_c(x, u0 if u_lin is None else u_lin, p)
         D = m.D(x, u0, p)
         S_c = (D * q_c) @ D.T + np.diag(r_c)
         R = S_c / dt
