@@ -114,6 +114,7 @@ def checked_prior(n: int, x0: npt.ArrayLike, P0: npt.ArrayLike) -> tuple[Array, 
 def step_data(propagator, chunk: InputSeries) -> Array:
     """The step data of a chunk's ``M − 1`` steps (``propagator.data.assemble`` of its
     samples but the last; `CdFilter.propagate`, `ekf.stacked.propagate_members`).
+    A chunk that carries its own ``u_lin`` (`ekf.series.InputSeries`) is linearized there.
 
     With ``StepOptions.jacobian_window_s > 0`` the linearization input ``u_lin`` is the
     centred running median (`ekf.step.window_median`) of the chunk's own ``M`` samples
@@ -124,7 +125,8 @@ def step_data(propagator, chunk: InputSeries) -> Array:
     `ekf.stacked.propagate_members` alike.
     """
     return propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], np.diff(chunk.t),
-                                    chunk.q_c[:-1], chunk.r_c[:-1], t=chunk.t)
+                                    chunk.q_c[:-1], chunk.r_c[:-1], t=chunk.t,
+                                    u_lin=chunk.u_lin)
 
 
 class CdFilter:
@@ -299,8 +301,11 @@ class CdFilter:
 
 
 def _concat(a: InputSeries, b: InputSeries) -> InputSeries:
+    """`a`'s samples then `b`'s (``u_lin`` only when both have it)."""
+    both = a.u_lin is not None and b.u_lin is not None
     return InputSeries(**{k: np.concatenate([getattr(a, k), getattr(b, k)], axis=0)
-                          for k in ("t", "u", "q_c", "p", "z_c", "r_c")})
+                          for k in ("t", "u", "q_c", "p", "z_c", "r_c")},
+                       u_lin=np.concatenate([a.u_lin, b.u_lin], axis=0) if both else None)
 
 
 class _Peekable:

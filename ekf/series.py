@@ -61,6 +61,12 @@ class InputSeries:
         Diagonal process-noise spectral density, [w]²·s (e.g. (m/s²)²·s).
     r_c : ndarray, shape (n_c,) or (M, n_c), optional
         Diagonal independent continuous-measurement noise density (default zeros).
+    u_lin : ndarray, shape (M, n_u), optional
+        The input at which each sample's continuous-measurement Jacobian is evaluated
+        (`ekf.step.StepOptions.jacobian_window_s`). None: `ekf.cd_filter.step_data`
+        computes it from the chunk's own samples (a driver that cuts one series into
+        chunks gives it when a chunk's window must see samples beyond the chunk, as
+        `railnav.navigation.loop.ChunkLoop` does across a stream's blocks).
     """
 
     t: Array
@@ -69,6 +75,7 @@ class InputSeries:
     p: Array | None = None
     z_c: Array | None = None
     r_c: Array | None = None
+    u_lin: Array | None = None
 
     def shaped(self, n_u: int, n_p: int, n_c: int, n_w: int) -> "InputSeries":
         """A copy with every field checked and broadcast to ``(M, ·)``.
@@ -87,6 +94,12 @@ class InputSeries:
                       r_c=_rows(self.r_c, m, n_c, "r_c"))
         if (fields["q_c"] < 0.0).any() or (fields["r_c"] < 0.0).any():
             raise ModelError("noise spectral densities must be >= 0")
+        if self.u_lin is not None:
+            u_lin = np.asarray(self.u_lin, dtype=float)
+            if u_lin.shape != (m, n_u) or not np.isfinite(u_lin).all():
+                raise ModelError(f"u_lin must be finite, shape ({m}, {n_u}); got "
+                                 f"{u_lin.shape}")
+            fields["u_lin"] = u_lin
         return InputSeries(**fields)
 
     def __len__(self) -> int:
@@ -96,7 +109,8 @@ class InputSeries:
         """Samples ``start:stop`` of a shaped series."""
         return InputSeries(t=self.t[start:stop], u=self.u[start:stop], q_c=self.q_c[start:stop],
                            p=self.p[start:stop], z_c=self.z_c[start:stop],
-                           r_c=self.r_c[start:stop])
+                           r_c=self.r_c[start:stop],
+                           u_lin=None if self.u_lin is None else self.u_lin[start:stop])
 
 
 @dataclass(frozen=True)

@@ -152,7 +152,8 @@ class StepData:
         return parts if self.n_lin else parts[:-1] + (parts[0],)
 
     def assemble(self, u: Array, p: Array, z_c: Array, dt: Array, q_c: Array,
-                 r_c: Array, *, t: Array | None = None) -> Array:
+                 r_c: Array, *, t: Array | None = None, u_lin: Array | None = None
+                 ) -> Array:
         """Data rows for ``N`` steps from ``N + 1`` input samples.
 
         Parameters
@@ -171,13 +172,18 @@ class StepData:
         t : ndarray, shape (N + 1,), optional
             Sample times, s (increasing); needed when ``n_lin > 0``: ``u_lin`` of step
             ``k`` is :func:`window_median` of these ``N + 1`` samples at ``t_k``.
+        u_lin : ndarray, shape (N + 1, n_u), optional
+            The linearization input of each sample, given (instead of computed from `t`
+            and `u`); its first ``N`` rows are used.
 
         Returns
         -------
         ndarray, shape (N, k_d)
         """
         parts = [u[:-1], u[1:], p, z_c, dt[:, None], q_c, r_c]
-        if self.n_lin:
+        if self.n_lin and u_lin is not None:
+            parts.append(np.asarray(u_lin, dtype=float)[:-1])
+        elif self.n_lin:
             if t is None:
                 raise ModelError("step data with a linearization window need the sample "
                                  "times t")

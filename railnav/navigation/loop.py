@@ -23,7 +23,7 @@ import numpy.typing as npt
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.gating import Gate
 from ekf.series import Epoch, InputSeries
-from ekf.step import StepOptions
+from ekf.step import StepOptions, window_median
 from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.navigation.initialization import InitialState
 
@@ -68,14 +68,25 @@ class ChunkLoop:
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
         self.monitor = None      # a railnav.navigation.monitor.FilterMonitor, optional
+        #: The last chunk's last sample ``(t, u)`` (its window's first sample).
+        self._carry: tuple[float, Array] | None = None
+        #: A chunk cut by a block's end: the next block's times and ``u_lin`` rows of its
+        #: rest (`chunks`'s `following`).
+        self._resume: tuple[Array, Array] | None = None
         if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
             filt.sample_interval_s = float(sample_interval_s)
 
-    def chunks(self, t: Array, u: Array, at_sample: npt.NDArray[np.intp]
+    def chunks(self, t: Array, u: Array, at_sample: npt.NDArray[np.intp], *,
+               following: tuple[Array, Array, npt.NDArray[np.intp]] | None = None
                ) -> Iterator[InputSeries]:
         """The engine's input chunks of samples ``t`` (module docstring).
 
-        Several calls may feed one stream with consecutive sample blocks (streaming).
+        Several calls may feed one stream with consecutive sample blocks (streaming). A
+        chunk then ends where a block ends; given the next block (`following`), the
+        chunks are linearized as one series would be: the Jacobian's running median
+        (`filter_engine`) of a chunk cut by the block's end is that of the chunk one
+        series would have had (through the next block's samples up to its epoch or
+        `MAX_CHUNK_S`), and the next call's first chunk ends where that one would.
 
         Parameters
         ----------
@@ -85,8 +96,11 @@ class ChunkLoop:
             Raw inputs of the samples (IMU ``[f_b, ω_ib_b]``).
         at_sample : ndarray of int
             Indices into `t` of the GNSS epoch samples, increasing.
+        following : (t, u, at_sample) of the next block, optional
+            The next call's arguments (streaming); without, a block's end is a chunk's.
         """
         engine, filt = self.engine, self.filt
+        window = engine.propagator.data.jacobian_window_s
         start = 0
         bounds = iter(at_sample)
         next_epoch = next(bounds, None)
@@ -100,12 +114,49 @@ class ChunkLoop:
                 next_epoch = next(bounds, None)
             if next_epoch is not None and next_epoch < stop:
                 stop = next_epoch + 1
+            resumed = self._resume if start == 0 else None
+            self._resume = None
+            if resumed is not None:          # the rest of a chunk cut by the last block
+                stop, u_lin = resumed[1].shape[0], resumed[1]
+                if not np.array_equal(t[:stop], resumed[0]):
+                    raise ValueError("a block's 'following' samples are not the next block")
+            elif window > 0.0:
+                u_lin = self._linearization(t, u, start, stop, following, window)
+            else:
+                u_lin = None
             t_prev = engine.t if np.isfinite(engine.t) else t[0]
             u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
                                         t_prev)
+            self._carry = (t[stop - 1], u[stop - 1])
             yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
-                              q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c)
+                              q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c,
+                              u_lin=None if u_lin is None else u_lin[:stop - start])
             start = stop
+
+    def _linearization(self, t: Array, u: Array, start: int, stop: int, following,
+                       window: float) -> Array:
+        """``u_lin`` of chunk ``start:stop`` (`ekf.step.window_median` over the previous
+        chunk's last sample and the chunk's, as `ekf.cd_filter.step_data` would). A
+        chunk cut by the block's end (`chunks`'s `following`) takes the one-series
+        chunk's samples of the next block too; their rows wait for the next call."""
+        t_c, u_c = t[start:stop], u[start:stop]
+        extra = 0
+        if stop == t.size and following is not None and stop - start < self.max_len:
+            t_f, u_f, at_f = following
+            extra = min(self.max_len - (stop - start), t_f.size)
+            later = np.asarray(at_f)[np.asarray(at_f) < extra]
+            if later.size:
+                extra = int(later[0]) + 1
+            t_c = np.concatenate([t_c, t_f[:extra]])
+            u_c = np.concatenate([u_c, u_f[:extra]], axis=0)
+        carry = self._carry is not None and np.isfinite(self.engine.t)
+        if carry:
+            t_c = np.concatenate([[self._carry[0]], t_c])
+            u_c = np.concatenate([self._carry[1][None, :], u_c], axis=0)
+        rows = window_median(t_c, u_c, window)[1 if carry else 0:]
+        if extra:
+            self._resume = (following[0][:extra], rows[stop - start:])
+        return rows
 
     def epochs(self, times: Iterable[float], indices: Iterable[int], *,
                observe: Callable | None = None) -> Iterator[Epoch]:
@@ -154,7 +205,8 @@ def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
     step for the RTS smoother with ``config.rts_smoothing``). A process with a continuous
     measurement (the constrained filter's track pseudo-observation) has its Jacobian
     evaluated at the running median of the inputs over `JACOBIAN_WINDOW_S`
-    (`ekf.step.StepOptions.jacobian_window_s`; the median of each chunk's samples).
+    (`ekf.step.StepOptions.jacobian_window_s`; the median of each chunk's samples, as
+    `ChunkLoop.chunks` cuts them, whether the samples come in one block or several).
 
     Parameters
     ----------

@@ -220,15 +220,25 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
     monitored = None if loop.monitor is None else _Monitored(loop.monitor)
     current: dict = {}
 
+    def blocks(segment: TripSegment):
+        times = segment.gnss.time_s if segment.gnss is not None else np.zeros(0)
+        return (segment.imu.time_s, segment.imu.u,
+                np.searchsorted(segment.imu.time_s, times - EPOCH_TIME_TOL_S))
+
     def chunks() -> Iterator:
-        for segment in itertools.chain([first], segments):
+        # one segment ahead: a chunk cut by a segment's end is linearized with the next
+        # segment's samples, as in one series (`ChunkLoop.chunks`'s `following`)
+        ahead = itertools.chain([first], segments)
+        segment = next(ahead)
+        while segment is not None:
+            following = next(ahead, None)
             current["segment"] = segment
             registry.register(segment.gnss)
-            times = segment.gnss.time_s if segment.gnss is not None else np.zeros(0)
-            at_sample = np.searchsorted(segment.imu.time_s, times - EPOCH_TIME_TOL_S)
-            yield from loop.chunks(segment.imu.time_s, segment.imu.u, at_sample)
+            yield from loop.chunks(*blocks(segment), following=None if following is None
+                                   else blocks(following))
             if loop.left is not None:
                 return
+            segment = following
 
     epochs = _nominal_epochs(scenario, track, registry, loop)
     pending: list[FilterResult] = []
