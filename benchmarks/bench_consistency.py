@@ -3,7 +3,8 @@
 Usage::
 
     nice -n 10 python benchmarks/bench_consistency.py [--quick] [--cases a,b] [--seeds N]
-                                                      [--first-seed K] [--update] [--out FILE]
+                                                      [--first-seed K] [--jobs J]
+                                                      [--update] [--out FILE]
 
 Cases (simulated truth; the filter assumes the IMU grade that is simulated, scale factors
 and misalignments included in the simulation but not in the filter's model):
@@ -27,7 +28,8 @@ outage_300s_body    the same trip with the car body (``car_body``: chord,       
 trip_10h            a 10-h streamed trip (`bench_studies.long_line`), tactical   4
 ==================  =========================================================  ======
 
-``--quick``: 3 seeds (1 for the 10-h trip, shortened to 1 h). ``--seeds N``: at most N
+``--quick``: 3 seeds (1 for the 10-h trip, shortened to 1 h). ``--jobs J``: the 10-h trip's
+seeds in J processes. ``--seeds N``: at most N
 seeds per case (the JSON's ``runs`` says how many). ``--first-seed K``: seeds from K
 (to run one case's seeds in parallel processes, each to its own ``--out``). ``--update``:
 keep the cases of an existing ``--out`` that are not run again (each case records its own
@@ -216,35 +218,47 @@ def _simulated_runs(track, scenario, seeds: int, first_seed: int = 1):
     return runs, dof
 
 
-def _streamed_runs(hours: float, seeds: int, first_seed: int = 1):
+def _streamed_runs(hours: float, seeds: int, first_seed: int = 1, jobs: int = 1):
     """The 10-h trip of `bench_studies` (paper2017's 20 m/s, tactical, GPS + Galileo, a
-    120-s outage every hour), estimates and errors at 1 Hz; seeds ``first_seed ..``. Each
-    seed's line also gives the mean z² of the yaw."""
+    120-s outage every hour), estimates and errors at 1 Hz; seeds ``first_seed ..``, in
+    `jobs` processes (the seeds are independent runs). Each seed's line also gives the
+    mean z² of the yaw."""
+    seed_list = list(range(first_seed, first_seed + seeds))
+    if jobs > 1 and len(seed_list) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+        with ProcessPoolExecutor(max_workers=min(jobs, len(seed_list))) as pool:
+            done = list(pool.map(_streamed_seed, [hours] * len(seed_list), seed_list))
+    else:
+        done = [_streamed_seed(hours, seed) for seed in seed_list]
+    for _, _, line in done:
+        print(line, flush=True)
+    return [run for run, _, _ in done], done[-1][1]
+
+
+def _streamed_seed(hours: float, seed: int):
+    """One seed of `_streamed_runs`: ``(run_series, dof, its line)``."""
     from bench_studies import long_line
     from railnav.navigation.streaming import stream_simulated
     scenario = replace(get_scenario("paper2017"), duration_s=hours * HOUR_S,
                        imu_errors="tactical", default_track=None,
                        outages=tuple((600.0 + HOUR_S * h, 120.0) for h in range(int(hours))))
     config = navigator_config_for(scenario, systems="GE")
-    runs, dof = [], 0
-    for seed in range(first_seed, first_seed + seeds):
-        with tempfile.TemporaryDirectory() as tmp:
-            outcome = stream_simulated(long_line(), scenario, config=config, seed=seed,
-                                       systems="GE", out_dir=tmp, estimates_rate_hz=1.0)
-            est = pd.read_csv(Path(tmp) / "estimates.csv")
-            err = pd.read_csv(Path(tmp) / "errors.csv")
-        runs.append(run_series(est, nees=err["nees"].to_numpy(),
-                               error_s_m=err["along_track_m"].to_numpy()))
-        dof = int(outcome.summary["errors"]["nees"]["dof"])
-        one = summarize_consistency(runs[-1:], dof=dof)
-        z_yaw = (err["yaw_rad"].to_numpy() / np.radians(est["sigma_yaw_deg"].to_numpy())
-                 if "yaw_rad" in err and "sigma_yaw_deg" in est else np.full(1, np.nan))
-        print(f"  10-h trip seed {seed}: NEES mean {one.nees_mean:.3g} over "
-              f"{one.nees_epochs} epochs (inside the 99 % band on "
-              f"{one.share_epochs_nees_inside:.1%}), beyond 3σ_s "
-              f"{one.share_beyond_3sigma:.2%}, yaw mean z² {np.nanmean(z_yaw ** 2):.3g}",
-              flush=True)
-    return runs, dof
+    with tempfile.TemporaryDirectory() as tmp:
+        outcome = stream_simulated(long_line(), scenario, config=config, seed=seed,
+                                   systems="GE", out_dir=tmp, estimates_rate_hz=1.0)
+        est = pd.read_csv(Path(tmp) / "estimates.csv")
+        err = pd.read_csv(Path(tmp) / "errors.csv")
+    run = run_series(est, nees=err["nees"].to_numpy(),
+                     error_s_m=err["along_track_m"].to_numpy())
+    dof = int(outcome.summary["errors"]["nees"]["dof"])
+    one = summarize_consistency([run], dof=dof)
+    z_yaw = (err["yaw_rad"].to_numpy() / np.radians(est["sigma_yaw_deg"].to_numpy())
+             if "yaw_rad" in err and "sigma_yaw_deg" in est else np.full(1, np.nan))
+    return run, dof, (f"  10-h trip seed {seed}: NEES mean {one.nees_mean:.3g} over "
+                      f"{one.nees_epochs} epochs (inside the 99 % band on "
+                      f"{one.share_epochs_nees_inside:.1%}), beyond 3σ_s "
+                      f"{one.share_beyond_3sigma:.2%}, yaw mean z² "
+                      f"{np.nanmean(z_yaw ** 2):.3g}")
 
 
 def main(argv=None) -> int:
@@ -255,6 +269,8 @@ def main(argv=None) -> int:
     parser.add_argument("--first-seed", type=int, default=1,
                         help="the first seed (seeds first .. first + N − 1; to split a case "
                              "over processes)")
+    parser.add_argument("--jobs", type=int, default=1,
+                        help="processes for the 10-h trip's seeds (default 1)")
     parser.add_argument("--update", action="store_true",
                         help="keep the other cases of an existing --out")
     parser.add_argument("--out", type=Path, default=RESULTS)
@@ -262,6 +278,9 @@ def main(argv=None) -> int:
     logging.basicConfig(level=logging.ERROR)
     if args.seeds is not None and args.seeds < 1:
         print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
+        return 2
+    if args.jobs < 1:
+        print(f"error: --jobs must be >= 1, got {args.jobs}", file=sys.stderr)
         return 2
     if args.first_seed < 1:
         print(f"error: --first-seed must be >= 1, got {args.first_seed}", file=sys.stderr)
@@ -286,7 +305,7 @@ def main(argv=None) -> int:
         started = time.perf_counter()
         spec = table[name]
         if spec[0] == "stream":
-            runs, dof = _streamed_runs(spec[1], spec[2], args.first_seed)
+            runs, dof = _streamed_runs(spec[1], spec[2], args.first_seed, args.jobs)
         else:
             runs, dof = _simulated_runs(*spec, args.first_seed)
         figures = summarize_consistency(runs, dof=dof).to_dict()
