@@ -46,6 +46,8 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
 from ekf.stacked import propagate_members
+from ekf.step import window_median
+from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
@@ -165,6 +167,16 @@ class EngineStepper:
         self.stacked = stacked
         self._dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
         self._engines: dict[tuple, object] = {}
+        #: The Jacobian's linearization input of every sample (`ekf.step.window_median`
+        #: of the whole trip, as `railnav.navigation.loop.ChunkLoop` gives a single
+        #: filter: the same window whatever the cycles), made on first use.
+        self._u_lin: Array | None = None
+
+    def _linearization(self, a: int, b: int) -> Array:
+        """``u_lin`` of samples ``a .. b`` (engines without a Jacobian window ignore it)."""
+        if self._u_lin is None:
+            self._u_lin = window_median(self.t, self.u, JACOBIAN_WINDOW_S)
+        return self._u_lin[a:b + 1]
 
     def _engine(self, filt):
         key = (type(filt).__name__, filt.layout.names)
@@ -184,7 +196,8 @@ class EngineStepper:
         for h in hyps:
             engine = self._engine(h.filt)
             engine.reset(h.x, h.P)
-            out, has = self._propagate(h, engine, t, u) if b > a else (None, False)
+            out, has = self._propagate(h, engine, t, u, self._linearization(a, b)) \
+                if b > a else (None, False)
             continuous = continuous or has
             self._finish(h, engine, epoch, out if has else None, screens, innov, cov)
         full = bool(innov) and len(innov) == len(hyps)
@@ -205,7 +218,8 @@ class EngineStepper:
         states: list = [None] * len(hyps)
         has = [False] * len(hyps)
         for members in groups.values():
-            series = self._group_series([hyps[k] for k in members], t, u)
+            series = self._group_series([hyps[k] for k in members], t, u,
+                                        self._linearization(a, b))
             for k, one in zip(members, series):
                 has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
@@ -239,7 +253,8 @@ class EngineStepper:
             h.filt.screen.clear_records()
         h.x, h.P = engine.x.copy(), engine.P.copy()
 
-    def _group_series(self, hyps, t: Array, u: Array) -> list[InputSeries]:
+    def _group_series(self, hyps, t: Array, u: Array, u_lin: Array | None = None
+                      ) -> list[InputSeries]:
         """`_series` of hypotheses of one engine: their filters' inputs together where the
         filters are of one kind that has ``inputs_together`` (the same numbers as each
         one's ``inputs``: `railnav.filters.constrained.ConstrainedFilter.inputs_together`),
@@ -247,26 +262,28 @@ class EngineStepper:
         kind = type(hyps[0].filt)
         together = getattr(kind, "inputs_together", None)
         if together is None or len(hyps) < 2 or any(type(h.filt) is not kind for h in hyps):
-            return [self._series(h, t, u) for h in hyps]
+            return [self._series(h, t, u, u_lin=u_lin) for h in hyps]
         inputs = together([h.filt for h in hyps], t, u, [(h.x, h.P) for h in hyps],
                           float(t[0]))
-        return [self._series(h, t, u, one) for h, one in zip(hyps, inputs)]
+        return [self._series(h, t, u, one, u_lin) for h, one in zip(hyps, inputs)]
 
-    def _series(self, h, t: Array, u: Array, inputs=None) -> InputSeries:
+    def _series(self, h, t: Array, u: Array, inputs=None, u_lin: Array | None = None
+                ) -> InputSeries:
         """The hypothesis's engine inputs of samples `t` (with any joint allowance;
-        `inputs`: its filter's ``inputs`` when already computed)."""
+        `inputs`: its filter's ``inputs`` when already computed; `u_lin`: the samples'
+        linearization input)."""
         u_c, p_c, r_c = h.filt.inputs(t, u, h.x, h.P, float(t[0])) if inputs is None \
             else inputs
         extra = None if r_c is None else joint_allowance(h, self.tracks, t)
         if extra is not None:
             r_c = r_c + extra[:, None]
         return InputSeries(t=t, u=u_c, p=p_c, q_c=getattr(h.filt, "step_q_c", h.filt.q_c),
-                           r_c=r_c)
+                           r_c=r_c, u_lin=u_lin)
 
-    def _propagate(self, h, engine, t: Array, u: Array):
+    def _propagate(self, h, engine, t: Array, u: Array, u_lin: Array | None = None):
         """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
         and whether the filter has a continuous measurement."""
-        series = self._series(h, t, u)
+        series = self._series(h, t, u, u_lin=u_lin)
         return engine.propagate(series), series.r_c is not None
 
     @staticmethod

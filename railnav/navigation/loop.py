@@ -23,7 +23,7 @@ import numpy.typing as npt
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.gating import Gate
 from ekf.series import Epoch, InputSeries
-from ekf.step import StepOptions, window_median
+from ekf.step import WINDOW_TOL_S, StepOptions, window_median
 from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.navigation.initialization import InitialState
 
@@ -68,11 +68,9 @@ class ChunkLoop:
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
         self.monitor = None      # a railnav.navigation.monitor.FilterMonitor, optional
-        #: The last chunk's last sample ``(t, u)`` (its window's first sample).
-        self._carry: tuple[float, Array] | None = None
-        #: A chunk cut by a block's end: the next block's times and ``u_lin`` rows of its
-        #: rest (`chunks`'s `following`).
-        self._resume: tuple[Array, Array] | None = None
+        #: The latest samples within a half window of the last chunk's end, ``(t, u)``
+        #: (the next chunk's windows look back to them).
+        self._history: tuple[Array, Array] = (np.zeros(0), np.zeros((0, 0)))
         if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
             filt.sample_interval_s = float(sample_interval_s)
 
@@ -114,49 +112,41 @@ class ChunkLoop:
                 next_epoch = next(bounds, None)
             if next_epoch is not None and next_epoch < stop:
                 stop = next_epoch + 1
-            resumed = self._resume if start == 0 else None
-            self._resume = None
-            if resumed is not None:          # the rest of a chunk cut by the last block
-                stop, u_lin = resumed[1].shape[0], resumed[1]
-                if not np.array_equal(t[:stop], resumed[0]):
-                    raise ValueError("a block's 'following' samples are not the next block")
-            elif window > 0.0:
-                u_lin = self._linearization(t, u, start, stop, following, window)
-            else:
-                u_lin = None
+            u_lin = None if window <= 0.0 else \
+                self._linearization(t, u, start, stop, following, window)
             t_prev = engine.t if np.isfinite(engine.t) else t[0]
             u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
                                         t_prev)
-            self._carry = (t[stop - 1], u[stop - 1])
+            if u_lin is not None:    # the samples the next chunk's windows look back to
+                t_h = np.concatenate([self._history[0], t[start:stop]])
+                u_h = np.concatenate([self._history[1], u[start:stop]], axis=0)
+                recent = t_h >= t[stop - 1] - 0.5 * window - WINDOW_TOL_S
+                self._history = (t_h[recent], u_h[recent])
             yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
                               q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c,
-                              u_lin=None if u_lin is None else u_lin[:stop - start])
+                              u_lin=u_lin)
             start = stop
 
     def _linearization(self, t: Array, u: Array, start: int, stop: int, following,
                        window: float) -> Array:
-        """``u_lin`` of chunk ``start:stop`` (`ekf.step.window_median` over the previous
-        chunk's last sample and the chunk's, as `ekf.cd_filter.step_data` would). A
-        chunk cut by the block's end (`chunks`'s `following`) takes the one-series
-        chunk's samples of the next block too; their rows wait for the next call."""
-        t_c, u_c = t[start:stop], u[start:stop]
-        extra = 0
-        if stop == t.size and following is not None and stop - start < self.max_len:
-            t_f, u_f, at_f = following
-            extra = min(self.max_len - (stop - start), t_f.size)
-            later = np.asarray(at_f)[np.asarray(at_f) < extra]
-            if later.size:
-                extra = int(later[0]) + 1
-            t_c = np.concatenate([t_c, t_f[:extra]])
-            u_c = np.concatenate([u_c, u_f[:extra]], axis=0)
-        carry = self._carry is not None and np.isfinite(self.engine.t)
-        if carry:
-            t_c = np.concatenate([[self._carry[0]], t_c])
-            u_c = np.concatenate([self._carry[1][None, :], u_c], axis=0)
-        rows = window_median(t_c, u_c, window)[1 if carry else 0:]
-        if extra:
-            self._resume = (following[0][:extra], rows[stop - start:])
-        return rows
+        """``u_lin`` of chunk ``start:stop``: `ekf.step.window_median` of the samples at
+        the chunk's times over the whole centred window, whatever the chunks: it looks
+        back into earlier chunks and blocks (``_history``) and ahead into the block and
+        the next one (`chunks`'s `following`); it shrinks only at the run's first and
+        last samples."""
+        half = 0.5 * window + WINDOW_TOL_S
+        if self._history[1].shape[1:] != u.shape[1:]:
+            self._history = (np.zeros(0), np.zeros((0,) + u.shape[1:]))
+        ahead = int(np.searchsorted(t, t[stop - 1] + half, side="right"))
+        t_c, u_c = [self._history[0], t[start:ahead]], [self._history[1], u[start:ahead]]
+        if ahead == t.size and following is not None:
+            more = int(np.searchsorted(following[0], t[-1] + half, side="right"))
+            t_c.append(following[0][:more])
+            u_c.append(following[1][:more])
+        t_c = np.concatenate(t_c)
+        u_c = np.concatenate(u_c, axis=0)
+        first = self._history[0].size
+        return window_median(t_c, u_c, window)[first:first + stop - start]
 
     def epochs(self, times: Iterable[float], indices: Iterable[int], *,
                observe: Callable | None = None) -> Iterator[Epoch]:
