@@ -114,15 +114,13 @@ def checked_prior(n: int, x0: npt.ArrayLike, P0: npt.ArrayLike) -> tuple[Array, 
 def step_data(propagator, chunk: InputSeries) -> Array:
     """The step data of a chunk's ``M − 1`` steps (``propagator.data.assemble`` of its
     samples but the last; `CdFilter.propagate`, `ekf.stacked.propagate_members`).
-    A chunk that carries its own ``u_lin`` (`ekf.series.InputSeries`) is linearized there.
 
     With ``StepOptions.jacobian_window_s > 0`` the linearization input ``u_lin`` is the
-    centred running median (`ekf.step.window_median`) of the chunk's own ``M`` samples
-    (in `CdFilter`, the previous chunk's last sample and the new ones): within a half
-    window of the chunk's first and last samples the window shrinks, centred, to the
-    samples there are. Nothing is carried over from chunk to chunk, so the data of a
-    chunk are those of its samples alone, in `CdFilter` and in
-    `ekf.stacked.propagate_members` alike.
+    chunk's own (`ekf.series.InputSeries.u_lin`: railnav's drivers give the median over
+    the whole window, across chunks) or, without it, the centred running median
+    (`ekf.step.window_median`) of the chunk's own ``M`` samples (in `CdFilter`, the
+    previous chunk's last sample and the new ones), shrinking within a half window of
+    the chunk's ends.
     """
     return propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], np.diff(chunk.t),
                                     chunk.q_c[:-1], chunk.r_c[:-1], t=chunk.t,

@@ -204,7 +204,8 @@ def window_median(t: Array, u: Array, window_s: float) -> Array:
     side puts the step up to a quarter window late or early (measured: 100 m/s on a
     100-m circle, seeds 1–3, NEES mean 13.5 at the raw samples, 15.1 with one-sided
     ends, 13.45 centred). A series processed in chunks sees each chunk's ends through
-    shrunken windows (`ekf.cd_filter.step_data`).
+    shrunken windows (`ekf.cd_filter.step_data`) unless the driver gives each chunk the
+    median of the whole series (`ekf.series.InputSeries.u_lin`).
 
     Vectorized: each window is a row of a padded index table whose missing entries are
     +inf, sorted along the window.

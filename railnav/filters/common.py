@@ -45,8 +45,8 @@ Array = npt.NDArray[np.float64]
 #: the Jacobian's yaw column on a straight is accelerometer noise, and the filter takes yaw
 #: information from it at the sample rate (the 10-h trip's yaw overconfidence,
 #: ``docs/consistency-ablations.md``). 0.5 s: 50 samples at 100 Hz (the noise in ``H``
-#: down ~6x), against ~1-s chunks (the window shrinks, centred, near their ends). The
-#: earlier helper's choice, not tuned.
+#: down ~6x), over the whole window across the ~1-s chunks (`railnav.navigation.loop`,
+#: `railnav.navigation.hypothesis_step`). Not tuned.
 JACOBIAN_WINDOW_S = 0.5
 
 #: A reference track point this close to the prior's ``s`` (m) is used as it is: the rows'

@@ -79,12 +79,11 @@ class ChunkLoop:
                ) -> Iterator[InputSeries]:
         """The engine's input chunks of samples ``t`` (module docstring).
 
-        Several calls may feed one stream with consecutive sample blocks (streaming). A
-        chunk then ends where a block ends; given the next block (`following`), the
-        chunks are linearized as one series would be: the Jacobian's running median
-        (`filter_engine`) of a chunk cut by the block's end is that of the chunk one
-        series would have had (through the next block's samples up to its epoch or
-        `MAX_CHUNK_S`), and the next call's first chunk ends where that one would.
+        Several calls may feed one stream with consecutive sample blocks (streaming); a
+        chunk then ends where a block ends. Each chunk carries ``u_lin``, the Jacobian's
+        running median (`filter_engine`) over the whole centred window: it looks back
+        into the earlier chunks and blocks and ahead into the block and, given it, the
+        next one (`following`), so that it is the same however the samples are cut.
 
         Parameters
         ----------
@@ -195,8 +194,8 @@ def filter_engine(filt, config, *, sample_interval_s: float) -> CdFilter:
     step for the RTS smoother with ``config.rts_smoothing``). A process with a continuous
     measurement (the constrained filter's track pseudo-observation) has its Jacobian
     evaluated at the running median of the inputs over `JACOBIAN_WINDOW_S`
-    (`ekf.step.StepOptions.jacobian_window_s`; the median of each chunk's samples, as
-    `ChunkLoop.chunks` cuts them, whether the samples come in one block or several).
+    (`ekf.step.StepOptions.jacobian_window_s`; `ChunkLoop.chunks` gives each chunk the
+    median over the whole window, across chunks and blocks).
 
     Parameters
     ----------
