@@ -88,12 +88,10 @@ switched off in the simulation only, the filter still assuming the full grade;
   drew yaw (and, through the correlation, ``b_gz``) information from noise at 100 Hz.
   ``H`` is now evaluated at a centred 0.5-s running median of the samples
   (`railnav.filters.common.JACOBIAN_WINDOW_S`, `ekf.step.StepOptions.jacobian_window_s`).
-  Seeds 1–4: NEES 11.0, 7.13, 9.24, 10.8 (yaw mean z² 3.97, 2.00, 2.11, 4.26; > 3σ_s
-  0.18–0.32 %; 9.53 over the four, band [3.78, 14.08]). Still weak: the yaw stays somewhat overconfident (z² 2–4), because the
-  window shrinks near each ~1-s chunk's ends (not at a stream's segment ends: those see
-  the next segment's samples, `ChunkLoop.chunks`; a window cut one-sided there gave 8.96,
-  6.35, 8.39, 8.99 but moved curvature steps: the 100 m/s circle's NEES rose). On a
-  straight σ_yaw is 3.2 % below its closed form after 890 s (`bench_yaw_straight.py`).
+  ``ChunkLoop.chunks`` gives each chunk the median over the whole window, across chunks
+  and stream segments. Seeds 1–4: NEES 8.62, 6.26, 8.27, 8.91 (8.01 over the four, band
+  [3.78, 14.08]; yaw mean z² 1.52, 1.11, 1.12, 2.40; > 3σ_s 0.16–0.33 %). On a straight
+  σ_yaw is 1.5 % below its closed form after 890 s (`bench_yaw_straight.py`).
   ``docs/consistency-ablations.md`` has the tables.
 """
 from __future__ import annotations
