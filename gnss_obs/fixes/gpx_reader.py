@@ -52,7 +52,11 @@ def read_fixes_gpx(path: str | os.PathLike) -> FixLog:
     if not kept:
         raise GnssInputError(f"no track or route point with a time and a fix "
                              f"({len(points)} points)", path=path)
-    stamps = np.array([_utc_naive(p.time) for p in kept], dtype="datetime64[ns]")
+    try:
+        stamps = np.array([_utc_naive(p.time) for p in kept], dtype="datetime64[ns]")
+    except ValueError as exc:        # e.g. a UTC offset of 24 h or more ("+31:00")
+        raise GnssInputError(f"a point's time is not a valid UTC time "
+                             f"({' '.join(str(exc).split())})", path=path) from None
     nan = np.nan
 
     def values(get) -> np.ndarray:

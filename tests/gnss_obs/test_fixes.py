@@ -240,6 +240,15 @@ def test_gpx_points(tmp_path):
     assert list(t["quality"]) == ["dgps", "single"]
 
 
+def test_gpx_time_offset_out_of_range_is_a_located_error(tmp_path):
+    """A UTC offset of 24 h or more (found by the fix readers' fuzz test) is bad input:
+    a GnssInputError naming the file, not Python's ValueError."""
+    path = tmp_path / "track.gpx"
+    path.write_text(GPX.replace("10:32:54.400+01:00", "10:32:54.400+31:00"))
+    with pytest.raises(GnssInputError, match="track.gpx.*not a valid UTC time"):
+        read_fixes(path)
+
+
 def test_csv_with_our_columns_and_iso_offsets(tmp_path):
     path = tmp_path / "fixes"
     path.write_text("timestamp,lat_deg,lon_deg,h_m,quality,sigma_east_m,sigma_north_m\n"
