@@ -64,8 +64,8 @@ from ekf.errors import ModelError
 from ekf.model import CdModel
 from ekf.packing import pack_sym_sx, packed_size, unpack_sym_sx
 
-__all__ = ["StepOptions", "StepData", "build_step", "window_median", "STEP_OUTPUTS",
-           "WINDOW_TOL_S"]
+__all__ = ["StepOptions", "StepData", "build_step", "window_median", "window_median_at",
+           "STEP_OUTPUTS", "WINDOW_TOL_S"]
 
 Array = npt.NDArray[np.float64]
 
@@ -243,6 +243,29 @@ def window_median(t: Array, u: Array, window_s: float) -> Array:
     table.sort(axis=1)
     rows = np.arange(t.size)
     return 0.5 * (table[rows, (count - 1) // 2] + table[rows, count // 2])
+
+
+def window_median_at(t: Array, u: Array, start: int, stop: int, window_s: float) -> Array:
+    """Rows ``start:stop`` of ``window_median(t, u, window_s)``, computed from the samples
+    within reach of them only (one more on each side, so that every window is the whole
+    series' one, to the bit): a chunk's rows without a pass over the whole series.
+
+    Parameters
+    ----------
+    t : ndarray, shape (M,)
+    u : ndarray, shape (M, n_u)
+    start, stop : int
+        ``0 <= start < stop <= M``.
+    window_s : float
+
+    Returns
+    -------
+    ndarray, shape (stop - start, n_u)
+    """
+    half = 0.5 * window_s + WINDOW_TOL_S
+    lo = max(int(np.searchsorted(t, t[start] - half, side="left")) - 1, 0)
+    hi = min(int(np.searchsorted(t, t[stop - 1] + half, side="right")) + 1, t.size)
+    return window_median(t[lo:hi], u[lo:hi], window_s)[start - lo:stop - lo]
 
 
 def _rk4(model: CdModel, x: ca.SX, u0: ca.SX, u1: ca.SX, p: ca.SX, dt: ca.SX,

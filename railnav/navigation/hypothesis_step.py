@@ -46,8 +46,7 @@ import numpy.typing as npt
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
 from ekf.stacked import propagate_members
-from ekf.step import window_median
-from railnav.filters.common import JACOBIAN_WINDOW_S
+from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
 from trackmodel.network import CONTINUOUS_KINK_RAD
@@ -167,16 +166,20 @@ class EngineStepper:
         self.stacked = stacked
         self._dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
         self._engines: dict[tuple, object] = {}
-        #: The Jacobian's linearization input of every sample (`ekf.step.window_median`
-        #: of the whole trip, as `railnav.navigation.loop.ChunkLoop` gives a single
-        #: filter: the same window whatever the cycles), made on first use.
-        self._u_lin: Array | None = None
+        #: The latest cycle's ``(a, b, window, u_lin)`` (`_linearization`).
+        self._lin: tuple | None = None
 
-    def _linearization(self, a: int, b: int) -> Array:
-        """``u_lin`` of samples ``a .. b`` (engines without a Jacobian window ignore it)."""
-        if self._u_lin is None:
-            self._u_lin = window_median(self.t, self.u, JACOBIAN_WINDOW_S)
-        return self._u_lin[a:b + 1]
+    def _linearization(self, engine, a: int, b: int) -> Array | None:
+        """``u_lin`` of samples ``a .. b`` for an engine with a Jacobian window
+        (`ekf.step.window_median_at` of the trip: the windows
+        `railnav.navigation.loop.ChunkLoop` gives a single filter, whatever the cycles;
+        once per cycle); None for one without."""
+        window = engine.propagator.data.jacobian_window_s
+        if window <= 0.0:
+            return None
+        if self._lin is None or self._lin[:3] != (a, b, window):
+            self._lin = (a, b, window, window_median_at(self.t, self.u, a, b + 1, window))
+        return self._lin[3]
 
     def _engine(self, filt):
         key = (type(filt).__name__, filt.layout.names)
@@ -196,7 +199,7 @@ class EngineStepper:
         for h in hyps:
             engine = self._engine(h.filt)
             engine.reset(h.x, h.P)
-            out, has = self._propagate(h, engine, t, u, self._linearization(a, b)) \
+            out, has = self._propagate(h, engine, t, u, self._linearization(engine, a, b)) \
                 if b > a else (None, False)
             continuous = continuous or has
             self._finish(h, engine, epoch, out if has else None, screens, innov, cov)
@@ -219,7 +222,7 @@ class EngineStepper:
         has = [False] * len(hyps)
         for members in groups.values():
             series = self._group_series([hyps[k] for k in members], t, u,
-                                        self._linearization(a, b))
+                                        self._linearization(engines[members[0]], a, b))
             for k, one in zip(members, series):
                 has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)

@@ -23,7 +23,7 @@ import numpy.typing as npt
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.gating import Gate
 from ekf.series import Epoch, InputSeries
-from ekf.step import WINDOW_TOL_S, StepOptions, window_median
+from ekf.step import WINDOW_TOL_S, StepOptions, window_median_at
 from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.navigation.initialization import InitialState
 
@@ -68,14 +68,14 @@ class ChunkLoop:
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
         self.monitor = None      # a railnav.navigation.monitor.FilterMonitor, optional
-        #: The latest samples within a half window of the last chunk's end, ``(t, u)``
+        #: The latest samples within a window of the last chunk's end, ``(t, u)``
         #: (the next chunk's windows look back to them).
         self._history: tuple[Array, Array] = (np.zeros(0), np.zeros((0, 0)))
         if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
             filt.sample_interval_s = float(sample_interval_s)
 
     def chunks(self, t: Array, u: Array, at_sample: npt.NDArray[np.intp], *,
-               following: tuple[Array, Array, npt.NDArray[np.intp]] | None = None
+               following: tuple[Array, Array] | None = None
                ) -> Iterator[InputSeries]:
         """The engine's input chunks of samples ``t`` (module docstring).
 
@@ -93,7 +93,7 @@ class ChunkLoop:
             Raw inputs of the samples (IMU ``[f_b, ω_ib_b]``).
         at_sample : ndarray of int
             Indices into `t` of the GNSS epoch samples, increasing.
-        following : (t, u, at_sample) of the next block, optional
+        following : (t, u) of the next block, optional
             The next call's arguments (streaming); without, a block's end is a chunk's.
         """
         engine, filt = self.engine, self.filt
@@ -119,7 +119,7 @@ class ChunkLoop:
             if u_lin is not None:    # the samples the next chunk's windows look back to
                 t_h = np.concatenate([self._history[0], t[start:stop]])
                 u_h = np.concatenate([self._history[1], u[start:stop]], axis=0)
-                recent = t_h >= t[stop - 1] - 0.5 * window - WINDOW_TOL_S
+                recent = t_h >= t[stop - 1] - window - WINDOW_TOL_S
                 self._history = (t_h[recent], u_h[recent])
             yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
                               q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c,
@@ -128,24 +128,22 @@ class ChunkLoop:
 
     def _linearization(self, t: Array, u: Array, start: int, stop: int, following,
                        window: float) -> Array:
-        """``u_lin`` of chunk ``start:stop``: `ekf.step.window_median` of the samples at
-        the chunk's times over the whole centred window, whatever the chunks: it looks
-        back into earlier chunks and blocks (``_history``) and ahead into the block and
-        the next one (`chunks`'s `following`); it shrinks only at the run's first and
-        last samples."""
-        half = 0.5 * window + WINDOW_TOL_S
+        """``u_lin`` of chunk ``start:stop``: `ekf.step.window_median_at` of the samples
+        around it, looking back into earlier chunks and blocks (``_history``) and ahead
+        into the block and the next one (`chunks`'s `following`): the whole series'
+        windows, which shrink only at the run's first and last samples."""
+        reach = window + WINDOW_TOL_S      # more than the half window each side needs
         if self._history[1].shape[1:] != u.shape[1:]:
             self._history = (np.zeros(0), np.zeros((0,) + u.shape[1:]))
-        ahead = int(np.searchsorted(t, t[stop - 1] + half, side="right"))
+        ahead = int(np.searchsorted(t, t[stop - 1] + reach, side="right"))
         t_c, u_c = [self._history[0], t[start:ahead]], [self._history[1], u[start:ahead]]
         if ahead == t.size and following is not None:
-            more = int(np.searchsorted(following[0], t[-1] + half, side="right"))
+            more = int(np.searchsorted(following[0], t[-1] + reach, side="right"))
             t_c.append(following[0][:more])
             u_c.append(following[1][:more])
-        t_c = np.concatenate(t_c)
-        u_c = np.concatenate(u_c, axis=0)
         first = self._history[0].size
-        return window_median(t_c, u_c, window)[first:first + stop - start]
+        return window_median_at(np.concatenate(t_c), np.concatenate(u_c, axis=0), first,
+                                first + stop - start, window)
 
     def epochs(self, times: Iterable[float], indices: Iterable[int], *,
                observe: Callable | None = None) -> Iterator[Epoch]:

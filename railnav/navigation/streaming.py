@@ -235,7 +235,7 @@ def _filter_stream(track, scenario, config, seed, systems, nav, segment_s, windo
             current["segment"] = segment
             registry.register(segment.gnss)
             yield from loop.chunks(*blocks(segment), following=None if following is None
-                                   else blocks(following))
+                                   else (following.imu.time_s, following.imu.u))
             if loop.left is not None:
                 return
             segment = following
