@@ -15,6 +15,7 @@ Time: ``t`` is seconds from the trip start.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
@@ -108,7 +109,7 @@ class ChunkLoop:
         next_epoch = next(bounds, None)
         self._lin = None
         while start < t.size and self.left is None:
-            if np.isfinite(engine.t):
+            if math.isfinite(engine.t):
                 self.left = beyond_track(filt, engine.x, engine.P, engine.t)
                 if self.left is not None:
                     return
@@ -119,7 +120,7 @@ class ChunkLoop:
                 stop = next_epoch + 1
             u_lin = None if window <= 0.0 else \
                 self._linearization(t, u, start, stop, following, window)
-            t_prev = engine.t if np.isfinite(engine.t) else t[0]
+            t_prev = engine.t if math.isfinite(engine.t) else t[0]
             u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
                                         t_prev)
             if u_lin is not None and stop == t.size:
