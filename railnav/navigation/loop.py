@@ -89,7 +89,9 @@ class ChunkLoop:
         chunk then ends where a block ends. Each chunk carries ``u_lin``, the Jacobian's
         running median (`filter_engine`) over the whole centred window: it looks back
         into the earlier chunks and blocks and ahead into the block and, given it, the
-        next one (`following`), so that it is the same however the samples are cut.
+        next one (`following`), so that it is the same however the samples are cut (into
+        blocks longer than the window: a shorter block between two others leaves the
+        rows before it one block of look-ahead, and their windows may shrink).
 
         Parameters
         ----------
