@@ -82,14 +82,20 @@ class FilterConfig:
             raise ModelError(f"time_tol_s must be >= 0, got {self.time_tol_s}")
 
 
-def _check_covariance(P: Array, where: str) -> None:
-    if not np.isfinite(P).all():
-        raise FilterDivergedError(f"covariance became non-finite {where}")
+def _check_covariance(P: Array, where: str | Callable[[], str]) -> None:
+    """Raise `FilterDivergedError` unless `P` is finite and positive definite; `where`
+    (or what it returns: a message formatted only when needed) says where."""
+    if np.count_nonzero(np.isfinite(P)) != P.size:       # (np.isfinite(P).all())
+        raise FilterDivergedError(f"covariance became non-finite {_text(where)}")
     # LAPACK's Cholesky (the factor is not used: only whether it exists), without
     # np.linalg.cholesky's wrapper (~15 µs a call, one call per span)
     _, info = lapack.dpotrf(P, lower=True, clean=False, overwrite_a=False)
     if info != 0:
-        raise FilterDivergedError(f"covariance lost positive definiteness {where}")
+        raise FilterDivergedError(f"covariance lost positive definiteness {_text(where)}")
+
+
+def _text(where: str | Callable[[], str]) -> str:
+    return where if isinstance(where, str) else where()
 
 
 def checked_prior(n: int, x0: npt.ArrayLike, P0: npt.ArrayLike) -> tuple[Array, Array]:
@@ -122,7 +128,8 @@ def step_data(propagator, chunk: InputSeries) -> Array:
     previous chunk's last sample and the new ones), shrinking within a half window of
     the chunk's ends.
     """
-    return propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], np.diff(chunk.t),
+    t = chunk.t
+    return propagator.data.assemble(chunk.u, chunk.p[:-1], chunk.z_c[:-1], t[1:] - t[:-1],
                                     chunk.q_c[:-1], chunk.r_c[:-1], t=chunk.t,
                                     u_lin=chunk.u_lin)
 
@@ -292,7 +299,7 @@ class CdFilter:
         out = self.propagator.run(self.x, pack_sym(self.P), d[start:stop])
         self.x = out.x_next[-1].copy()
         self.P = unpack_sym(out.P_next[-1])
-        _check_covariance(self.P, f"at t={t[stop]:.6f} s")
+        _check_covariance(self.P, lambda: f"at t={t[stop]:.6f} s")
         rec.steps(self._step_index, t[start:stop], out)
         self._step_index += stop - start
         self._last_outputs = out

@@ -7,6 +7,7 @@ each component.
 """
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,6 +125,10 @@ class FilterResult:
                              "sigma": np.sqrt(self.s_d), "accepted": self.accepted})
 
 
+#: `ekf.packing.diagonal_indices` of each state size, computed once (read-only arrays).
+_diagonal = functools.lru_cache(maxsize=8)(diagonal_indices)
+
+
 @dataclass
 class Recorder:
     """Accumulates a run's history span by span (see :class:`FilterResult`)."""
@@ -156,19 +161,20 @@ class Recorder:
         :class:`~ekf.propagate.StepOutputs`.
         """
         self.n_steps += t.size
-        if self.store_every == 1:     # every step: the arrays as they are (no copy)
-            keep = slice(None)
-        else:
-            keep = (first + np.arange(t.size)) % self.store_every == 0
-        self._add("t", t[keep])
-        self._add("x", out.x_filt[keep])
-        P_filt = out.P_filt[keep]
-        self._add("P_diag", P_filt[:, diagonal_indices(self.layout.size)])
+        every = self.store_every
+        # the steps whose global index is a multiple of store_every; copies when decimated
+        # (a view would keep the whole span's outputs alive with the stored rows)
+        keep = slice(None) if every == 1 else slice((-first) % every, None, every)
+        take = (lambda a: a) if every == 1 else (lambda a: a[keep].copy())
+        self._add("t", take(t))
+        self._add("x", take(out.x_filt))
+        P_filt = take(out.P_filt)
+        self._add("P_diag", P_filt[:, _diagonal(self.layout.size)])
         if self.full_covariance:
             self._add("P", P_filt)
-        self._add("innov_c", out.innov[keep])
+        self._add("innov_c", take(out.innov))
         if out.nis.size:
-            self._add("nis_c", out.nis[keep])
+            self._add("nis_c", take(out.nis))
             self.nis_c_sum += float(np.sum(out.nis))
             self.nis_c_count += int(out.nis.size)
         if self.smoothing:
@@ -183,10 +189,10 @@ class Recorder:
         self._add("nis_d", np.array([record.nis]))
         self._add("log_lik_d", np.array([record.log_likelihood]))
         self._add("m_d", np.array([m]))
-        self._add("accepted_d", np.array([int(np.sum(record.accepted))]))
+        self._add("accepted_d", np.array([np.count_nonzero(record.accepted)]))
         self._add("epoch_of", np.full(m, self.epochs))
         self._add("innov_d", record.innov)
-        self._add("s_d", np.diag(record.S).copy())
+        self._add("s_d", record.S.diagonal().copy())
         self._add("accepted", record.accepted)
         self.epochs += 1
 

@@ -63,6 +63,7 @@ import numpy.typing as npt
 from ekf.errors import ModelError
 from ekf.model import CdModel
 from ekf.packing import pack_sym_sx, packed_size, unpack_sym_sx
+from ekf.running_median import window_rows
 
 __all__ = ["StepOptions", "StepData", "build_step", "window_median", "window_median_at",
            "STEP_OUTPUTS", "WINDOW_TOL_S"]
@@ -207,8 +208,8 @@ def window_median(t: Array, u: Array, window_s: float) -> Array:
     shrunken windows (`ekf.cd_filter.step_data`) unless the driver gives each chunk the
     median of the whole series (`ekf.series.InputSeries.u_lin`).
 
-    Vectorized: each window is a row of a padded index table whose missing entries are
-    +inf, sorted along the window.
+    The windows' bounds are found in NumPy, their medians by `ekf.running_median`
+    (a compiled kernel that slides a sorted window; a NumPy sort without a compiler).
 
     Parameters
     ----------
@@ -235,14 +236,7 @@ def window_median(t: Array, u: Array, window_s: float) -> Array:
     half = np.minimum(0.5 * window_s, np.minimum(t - t[0], t[-1] - t)) + WINDOW_TOL_S
     lo = np.searchsorted(t, t - half, side="left")
     hi = np.searchsorted(t, t + half, side="right")
-    count = hi - lo
-    index = lo[:, None] + np.arange(int(count.max()))
-    valid = index < hi[:, None]
-    table = u[np.minimum(index, t.size - 1)]                       # (M, L, n_u)
-    table[~valid] = np.inf
-    table.sort(axis=1)
-    rows = np.arange(t.size)
-    return 0.5 * (table[rows, (count - 1) // 2] + table[rows, count // 2])
+    return window_rows(u, lo, hi)
 
 
 def window_median_at(t: Array, u: Array, start: int, stop: int, window_s: float) -> Array:

@@ -85,6 +85,16 @@ def _bias_together(filters, pending: list[dict]) -> list:
     return out
 
 
+def _shifted(a: Array, first: float) -> Array:
+    """``[first, a[0], ..., a[-2]]`` (``np.concatenate([[first], a[:-1]])``, without the
+    conversion of the list)."""
+    out = np.empty(a.size)
+    if a.size:
+        out[0] = first
+        out[1:] = a[:-1]
+    return out
+
+
 class ConstrainedFilter:
     """Model, inputs and GNSS rows of the constrained filter for one track.
 
@@ -221,7 +231,9 @@ class ConstrainedFilter:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
         along = self._along_accel(t, u, x_prev) if self._along_noise else None
-        steps = np.concatenate([np.diff(t), [step]])
+        steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
+        steps[:-1] = t[1:] - t[:-1]
+        steps[-1] = step
         nodes = step_nodes(sigma_s)
         return {"u": u, "params": params,
                 "r_c": variance * remainder_correlation_s(sigma_s_m=sigma_s, speed_mps=speed,
@@ -322,9 +334,9 @@ class ConstrainedFilter:
         gravity = self._gravity_near(x_prev[i["s"]])
         f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
         accel = f_x - gravity * np.sin(x_prev[i["pitch"]])
-        dt = np.diff(np.concatenate([[t_prev], t]))
+        dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
         v = x_prev[i["v"]] + np.cumsum(accel * dt)
-        v_mid = 0.5 * (np.concatenate([[x_prev[i["v"]]], v[:-1]]) + v)
+        v_mid = 0.5 * (_shifted(v, x_prev[i["v"]]) + v)
         s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
         return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
 

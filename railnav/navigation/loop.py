@@ -15,6 +15,7 @@ Time: ``t`` is seconds from the trip start.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
@@ -37,6 +38,9 @@ Progress = Callable[[int, int], None]
 EPOCH_TIME_TOL_S = 1e-6
 #: Longest chunk between track re-linearizations when no GNSS epoch comes (outages), s.
 MAX_CHUNK_S = 1.0
+#: Rows of the Jacobian's running median computed together, in one call (~41 s at 100 Hz,
+#: 200 kB: a long in-memory run does not hold a second copy of its samples).
+LIN_BATCH_SAMPLES = 4096
 #: A run stops when ``s`` is beyond a track end, and ``v`` points away from it, each by more
 #: than this many of its σ (3σ: a vehicle standing at an end is flagged with probability
 #: below 1e-3 per epoch even if the two errors were fully correlated).
@@ -68,9 +72,11 @@ class ChunkLoop:
         self.max_len = max(1, int(round(MAX_CHUNK_S / sample_interval_s)))
         self.left: dict | None = None
         self.monitor = None      # a railnav.navigation.monitor.FilterMonitor, optional
-        #: The latest samples within a window of the last chunk's end, ``(t, u)``
-        #: (the next chunk's windows look back to them).
+        #: The latest samples within a window of the last block's end, and one more,
+        #: ``(t, u)`` (the next block's windows look back to them).
         self._history: tuple[Array, Array] = (np.zeros(0), np.zeros((0, 0)))
+        #: ``(first, rows)``: the current block's ``u_lin`` from its sample ``first``.
+        self._lin: tuple[int, Array] | None = None
         if hasattr(filt, "sample_interval_s"):   # a filter that scales densities by it
             filt.sample_interval_s = float(sample_interval_s)
 
@@ -83,7 +89,9 @@ class ChunkLoop:
         chunk then ends where a block ends. Each chunk carries ``u_lin``, the Jacobian's
         running median (`filter_engine`) over the whole centred window: it looks back
         into the earlier chunks and blocks and ahead into the block and, given it, the
-        next one (`following`), so that it is the same however the samples are cut.
+        next one (`following`), so that it is the same however the samples are cut (into
+        blocks longer than the window: a shorter block between two others leaves the
+        rows before it one block of look-ahead, and their windows may shrink).
 
         Parameters
         ----------
@@ -101,8 +109,9 @@ class ChunkLoop:
         start = 0
         bounds = iter(at_sample)
         next_epoch = next(bounds, None)
+        self._lin = None
         while start < t.size and self.left is None:
-            if np.isfinite(engine.t):
+            if math.isfinite(engine.t):
                 self.left = beyond_track(filt, engine.x, engine.P, engine.t)
                 if self.left is not None:
                     return
@@ -113,14 +122,11 @@ class ChunkLoop:
                 stop = next_epoch + 1
             u_lin = None if window <= 0.0 else \
                 self._linearization(t, u, start, stop, following, window)
-            t_prev = engine.t if np.isfinite(engine.t) else t[0]
+            t_prev = engine.t if math.isfinite(engine.t) else t[0]
             u_c, p_c, r_c = filt.inputs(t[start:stop], u[start:stop], engine.x, engine.P,
                                         t_prev)
-            if u_lin is not None:    # the samples the next chunk's windows look back to
-                t_h = np.concatenate([self._history[0], t[start:stop]])
-                u_h = np.concatenate([self._history[1], u[start:stop]], axis=0)
-                recent = t_h >= t[stop - 1] - window - WINDOW_TOL_S
-                self._history = (t_h[recent], u_h[recent])
+            if u_lin is not None and stop == t.size:
+                self._keep_recent(t, u, window)
             yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
                               q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c,
                               u_lin=u_lin)
@@ -128,22 +134,50 @@ class ChunkLoop:
 
     def _linearization(self, t: Array, u: Array, start: int, stop: int, following,
                        window: float) -> Array:
-        """``u_lin`` of chunk ``start:stop``: `ekf.step.window_median_at` of the samples
-        around it, looking back into earlier chunks and blocks (``_history``) and ahead
-        into the block and the next one (`chunks`'s `following`): the whole series'
-        windows, which shrink only at the run's first and last samples."""
+        """``u_lin`` of chunk ``start:stop``: rows of the running median computed
+        `LIN_BATCH_SAMPLES` at a time (`_lin_rows`)."""
+        lin = self._lin
+        if lin is None or start < lin[0] or stop > lin[0] + lin[1].shape[0]:
+            last = max(stop, min(start + LIN_BATCH_SAMPLES, t.size))
+            self._lin = lin = (start, self._lin_rows(t, u, start, last, following, window))
+        return lin[1][start - lin[0]:stop - lin[0]]
+
+    def _lin_rows(self, t: Array, u: Array, start: int, stop: int, following,
+                  window: float) -> Array:
+        """Rows ``start:stop`` of the block's ``u_lin``: `ekf.step.window_median_at` of
+        the samples around them, looking back into earlier blocks (``_history``) and
+        ahead into the next one (`chunks`'s `following`): the whole series' windows,
+        which shrink only at the run's first and last samples."""
         reach = window + WINDOW_TOL_S      # more than the half window each side needs
         if self._history[1].shape[1:] != u.shape[1:]:
             self._history = (np.zeros(0), np.zeros((0,) + u.shape[1:]))
-        ahead = int(np.searchsorted(t, t[stop - 1] + reach, side="right"))
-        t_c, u_c = [self._history[0], t[start:ahead]], [self._history[1], u[start:ahead]]
+        back = max(int(np.searchsorted(t, t[start] - reach, side="left")) - 1, 0)
+        ahead = min(int(np.searchsorted(t, t[stop - 1] + reach, side="right")) + 1, t.size)
+        t_c, u_c = [t[back:ahead]], [u[back:ahead]]
+        first = start - back
+        if back == 0:
+            t_c.insert(0, self._history[0])
+            u_c.insert(0, self._history[1])
+            first += self._history[0].size
         if ahead == t.size and following is not None:
-            more = int(np.searchsorted(following[0], t[-1] + reach, side="right"))
+            more = int(np.searchsorted(following[0], t[-1] + reach, side="right")) + 1
             t_c.append(following[0][:more])
             u_c.append(following[1][:more])
-        first = self._history[0].size
         return window_median_at(np.concatenate(t_c), np.concatenate(u_c, axis=0), first,
                                 first + stop - start, window)
+
+    def _keep_recent(self, t: Array, u: Array, window: float) -> None:
+        """Keep in ``_history`` the samples the next block's windows look back to: those
+        within a window of the block's last one, and one more."""
+        reach = window + WINDOW_TOL_S
+        back = max(int(np.searchsorted(t, t[-1] - reach, side="left")) - 1, 0)
+        t_h, u_h = t[back:], u[back:]
+        if back == 0:
+            t_h = np.concatenate([self._history[0], t_h])
+            u_h = np.concatenate([self._history[1], u_h], axis=0)
+            keep = max(int(np.searchsorted(t_h, t_h[-1] - reach, side="left")) - 1, 0)
+            t_h, u_h = t_h[keep:], u_h[keep:]
+        self._history = (t_h.copy(), u_h.copy())
 
     def epochs(self, times: Iterable[float], indices: Iterable[int], *,
                observe: Callable | None = None) -> Iterator[Epoch]:
