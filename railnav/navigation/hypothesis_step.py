@@ -57,6 +57,9 @@ __all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
 
 Array = npt.NDArray[np.float64]
 
+#: The per-step outputs of the engine the weights use (`CycleOutcome.innov_c`, ``S_c``).
+CONTINUOUS_OUTPUTS = ("innov", "S")
+
 #: Half-width of the stretch around a kinked joint where the map's geometry is not
 #: trusted by the pseudo-observation, m: the longest transition a route line puts after
 #: a joint (`trackmodel.network_lines.TRANSITION_MAX_M`, a 1:9 turnout's curve).
@@ -226,7 +229,8 @@ class EngineStepper:
             for k, one in zip(members, series):
                 has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
-                                                           for k in members], series)
+                                                           for k in members], series,
+                                     keep=CONTINUOUS_OUTPUTS)
             for k, state in zip(members, done):
                 states[k] = state
         screens = [] if epoch is not None else None
