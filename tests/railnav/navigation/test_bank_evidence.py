@@ -61,3 +61,24 @@ def test_a_covariance_that_is_not_positive_definite_is_an_error(rng):
     b.S[:] = [[1.0, 2.0], [2.0, 1.0]]
     with pytest.raises(np.linalg.LinAlgError, match="filter 1"):
         common_log_likelihoods([a, b])
+
+
+def test_continuous_evidence_on_the_widest_covariance_of_each_step(rng):
+    """`common_continuous_log_likelihoods` (packed covariances): at each step every
+    hypothesis's innovation against the covariance of the largest determinant, step by
+    step with 2×2 closed forms."""
+    from ekf.packing import pack_sym
+    from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
+    K, N = 3, 6
+    innov = [rng.normal(size=(N, 2)) for _ in range(K)]
+    A = rng.normal(size=(K, N, 2, 2))
+    S = A @ A.swapaxes(-1, -2) + 0.5 * np.eye(2)
+    got = common_continuous_log_likelihoods(innov, [pack_sym(S[j]) for j in range(K)])
+    expected = np.zeros(K)
+    for k in range(N):
+        det = S[:, k, 0, 0] * S[:, k, 1, 1] - S[:, k, 0, 1] * S[:, k, 1, 0]
+        (a, b), (_, d) = S[int(np.argmax(det)), k]
+        for j in range(K):
+            x, y = innov[j][k]
+            expected[j] -= 0.5 * (d * x * x - 2 * b * x * y + a * y * y) / (a * d - b * b)
+    np.testing.assert_allclose(got, expected, rtol=RTOL_LOG_LIKELIHOOD)
