@@ -14,7 +14,8 @@
 All backends return the same :class:`StepOutputs`. :meth:`Propagator.run_members` runs
 a bank's K members over the same number of steps: with the compiled backend in one call
 (`ekf.lanes.CompiledMembers`, built on first use: the same bits as `run` member by
-member), storing only the per-step outputs asked for.
+member; a single member goes through `run`, as 4 lanes would cost it about twice the
+scalar step), storing only the per-step outputs asked for.
 """
 from __future__ import annotations
 
@@ -188,7 +189,8 @@ class Propagator:
             raise FilterError(f"member step data must have shape (K, N >= 1, "
                               f"{self.data.size}), got {d.shape}")
         indices = [STEP_OUTPUTS.index(name) for name in keep]
-        members = self._compiled_members()
+        # one member alone: the scalar loop (the lanes would step 3 idle copies of it)
+        members = self._compiled_members() if d.shape[0] > 1 else None
         if members is None:
             runs = [self.run(x, P, rows) for x, P, rows in zip(x0, P0_packed, d)]
             arrays = [[getattr(r, name) for r in runs] for name in STEP_OUTPUTS]
