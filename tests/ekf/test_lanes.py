@@ -29,8 +29,8 @@ def _every_operation(name: str) -> ca.Function:
            ca.cos(a), ca.tan(a), ca.asin(a), ca.acos(a), ca.atan(a), ca.exp(a), ca.log(b),
            ca.sinh(a), ca.cosh(a), ca.tanh(b), ca.floor(7 * a), ca.ceil(7 * a),
            ca.fabs(a), ca.erf(a), ca.sign(a), ca.sign(a * 0), ca.logic_not(a > 0),
-           b ** a, ca.constpow(b, 2.5), 2 * b, ca.atan2(a, b - 2), ca.fmod(7 * a, b), ca.fmin(a, b - 2),
-           ca.fmax(a, b - 2), ca.copysign(b, a), ca.hypot(a, b), a < b - 2, a <= 0,
+           b ** a, ca.constpow(b, 2.5), 2 * b, ca.atan2(a, b - 2), ca.fmod(7 * a, b),
+           ca.fmin(a, b - 2), ca.fmax(a, b - 2), ca.copysign(b, a), ca.hypot(a, b), a < b - 2, a <= 0,
            a == 0, a != 0, ca.logic_and(a > 0, b > 2), ca.logic_or(a > 0, b > 2),
            ca.if_else(a > 0, b, -b), ca.SX(np.pi) * a, ca.SX(-0.0) + a, ca.SX(np.inf) * 0 + a]
     x_next = ca.vertcat(x[0] + 0.01 * ca.sin(d[0] + x[1]), x[1] + 0.01 * ca.cos(x[0] * d[1]))
