@@ -17,7 +17,8 @@ On this machine, in one invocation (the load average is recorded before and afte
 * ``bank``: the network navigator on 8 tracks as a network without connections
   (`railnav.jobs.tracks.track_network`, `track_nav`), 8 hypotheses, the tracks of a
   line and its parallels every 4.5 m (`trackmodel.offset.offset_track`), 300 s of the
-  ``curvy`` scenario on one of them; × real time = 300 s / wall;
+  ``curvy`` scenario on one of them; × real time = 300 s / wall (and ``*_cpu``: / this
+  process's CPU time, median of the repeats);
 * ``streaming``: the 10-hour streamed trip of `bench_studies` in a subprocess, its peak
   resident memory (``--no-streaming`` skips it: about 2 minutes on a quiet machine);
 * ``stages``: where a ``railnav run data/tracks/paper2017.csv`` goes, in a fresh
@@ -132,15 +133,18 @@ def _bank(repeats: int) -> dict:
     first_start = time.perf_counter()
     run()                                                          # builds, compiles
     first = time.perf_counter() - first_start
-    times = []
+    times, cpu = [], []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, cpu_start = time.perf_counter(), time.process_time()
         bank = run()
         times.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - cpu_start)
     final = [bank.element_probability[-1].get(n, 0.0) for n in names]
     return {"hypotheses": BANK_HYPOTHESES, "spacing_m": BANK_SPACING_M,
             "trip_s": BANK_TRIP_S, "first_run_s": first, "run_s": times,
             "best_s": min(times), "real_time_factor": BANK_TRIP_S / min(times),
+            "cpu_s": cpu, "median_cpu_s": statistics.median(cpu),
+            "real_time_factor_cpu": BANK_TRIP_S / statistics.median(cpu),
             "true_track_probability_at_end": float(final[true_index])}
 
 

@@ -15,7 +15,9 @@ Typical use::
 
 Modules: ``layout`` (StateLayout), ``model`` (CdModel, MeasurementModel), ``step`` (the
 symbolic per-step function and its equations), ``compiled`` / ``propagate`` (running it;
-``library_cache``: the compiled libraries on disk, ``$RAILNAV_CACHE_DIR``),
+``library_cache``: the compiled libraries on disk, ``$RAILNAV_CACHE_DIR``; ``stacked`` /
+``lanes``: a bank's members propagated together, the step written for vector lanes, one
+member per lane, all members in one compiled call),
 ``update`` / ``gating`` (discrete updates), ``series`` / ``cd_filter`` / ``history`` (the
 driver), ``smoother``, ``consistency``, ``linear`` / ``correlated`` / ``bank`` (linear KF,
 a linear step with measurement noise correlated with the process noise, multiple-model

@@ -28,6 +28,7 @@ import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import casadi as ca
 import numpy as np
@@ -36,7 +37,7 @@ from ekf.errors import FilterError
 from ekf.library_cache import default_cache_dir, load_library
 
 __all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available",
-           "NATIVE_FLAGS", "has_avx2"]
+           "NATIVE_FLAGS", "has_avx2", "build_library", "address"]
 
 log = logging.getLogger(__name__)
 
@@ -157,21 +158,48 @@ def _c_source(fun: ca.Function, template: str, loop: str) -> str:
 def _load(fun: ca.Function, template: str, opts: CompileOptions
           ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
     loop = f"{fun.name()}_loop"
+    return build_library(fun, (template,), loop, lambda: _c_source(fun, template, loop),
+                         opts)
+
+
+def build_library(fun: ca.Function, templates: tuple[str, ...], entry: str,
+                  source: Callable[[], str], opts: CompileOptions
+                  ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
+    """The cached library of C written for `fun` (compiled on a cache miss) and its
+    function `entry` (returning ``int``).
+
+    Parameters
+    ----------
+    fun : casadi.Function
+    templates : tuple of str
+        Everything besides `fun` that the C is written from (templates, a version of the
+        writer): part of the cache key.
+    entry : str
+        The exported C function.
+    source : callable
+        ``source()`` writes the C (called only on a cache miss).
+    opts : CompileOptions
+
+    Returns
+    -------
+    library, entry function, compile seconds (0 when cached)
+    """
     command = opts.command()
-    key = _cache_key(fun, template, loop, command)
-    lib, seconds = load_library(opts.directory(), key, lambda path: _compile(
-        _c_source(fun, template, loop), command, path))
-    entry = getattr(lib, loop)
-    entry.restype = ctypes.c_int
-    return lib, entry, seconds
+    key = _cache_key(fun, templates, entry, command)
+    lib, seconds = load_library(opts.directory(), key,
+                                lambda path: _compile(source(), command, path))
+    function = getattr(lib, entry)
+    function.restype = ctypes.c_int
+    return lib, function, seconds
 
 
-def _cache_key(fun: ca.Function, template: str, loop: str, command: list[str]) -> str:
+def _cache_key(fun: ca.Function, templates: tuple[str, ...], entry: str,
+               command: list[str]) -> str:
     """What a library is, hashed without generating its code: the function (CasADi's
-    serialization, stable across processes), the C template and entry name, the compiler
+    serialization, stable across processes), the C templates and entry name, the compiler
     command and the CasADi version (whose code generator writes the C)."""
     digest = hashlib.sha256()
-    for part in (ca.__version__, template, loop, " ".join(command), fun.serialize()):
+    for part in (ca.__version__, *templates, entry, " ".join(command), fun.serialize()):
         digest.update(part.encode())
         digest.update(b"\0")
     return digest.hexdigest()[:24]
@@ -194,7 +222,7 @@ def _compile(source: str, command: list[str], target: Path) -> None:
         raise FilterError(f"compiling the step function failed: {result.stderr[-2000:]}")
 
 
-def _address(array: np.ndarray) -> int:
+def address(array: np.ndarray) -> int:
     """The data pointer of a C-contiguous array: ``array.ctypes.data`` (~4 µs a call, a
     new ``_ctypes`` object each time) through a ctypes view of its buffer (~1.4 µs), for a
     read-only array the ``ctypes`` attribute. The caller keeps `array` alive during the
@@ -203,6 +231,9 @@ def _address(array: np.ndarray) -> int:
         return ctypes.addressof(ctypes.c_char.from_buffer(array))
     except (TypeError, ValueError, BufferError):        # read-only, or not exportable
         return array.ctypes.data
+
+
+_address = address          # the name the loops' tests know
 
 
 class CompiledLoop:
@@ -256,10 +287,10 @@ class CompiledLoop:
                               f"{x0.shape}, {P0.shape}, {d.shape}")
         outs = [np.empty((N, size)) for size in self.sizes_out]
         for i, out in enumerate(outs):
-            self._ptrs[i] = _address(out)
-        status = self._fun(N, _address(x0), _address(P0), _address(d),
-                           ctypes.addressof(self._ptrs), _address(self._iw),
-                           _address(self._w))
+            self._ptrs[i] = address(out)
+        status = self._fun(N, address(x0), address(P0), address(d),
+                           ctypes.addressof(self._ptrs), address(self._iw),
+                           address(self._w))
         if status:
             raise FilterError("the compiled step function reported an error")
         return outs
@@ -293,7 +324,7 @@ class CompiledRows:
         m = p_rows.shape[0]
         z = np.empty(m * self.k)
         H = np.empty((m * self.k, self.n))
-        if self._fun(m, _address(x), _address(p_rows), _address(z), _address(H),
-                     _address(self._iw), _address(self._w)):
+        if self._fun(m, address(x), address(p_rows), address(z), address(H),
+                     address(self._iw), address(self._w)):
             raise FilterError("the compiled measurement function reported an error")
         return z, H

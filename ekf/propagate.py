@@ -11,7 +11,11 @@
     The same blocks JIT-compiled by CasADi (``jit=True, compiler="shell"``): one
     compilation per block size and process. Kept for comparison in the benchmark.
 
-All backends return the same :class:`StepOutputs`.
+All backends return the same :class:`StepOutputs`. :meth:`Propagator.run_members` runs
+a bank's K members over the same number of steps: with the compiled backend in one call
+(`ekf.lanes.CompiledMembers`, built on first use: the same bits as `run` member by
+member; a single member goes through `run`, as 4 lanes would cost it about twice the
+scalar step), storing only the per-step outputs asked for.
 """
 from __future__ import annotations
 
@@ -26,6 +30,7 @@ import numpy.typing as npt
 
 from ekf.compiled import CompiledLoop, CompileOptions, compiler_available
 from ekf.errors import FilterError
+from ekf.lanes import CompiledMembers, LanesUnsupported
 from ekf.model import CdModel
 from ekf.packing import to_casadi, to_numpy
 from ekf.step import STEP_OUTPUTS, StepData, StepOptions, build_step
@@ -43,7 +48,8 @@ MAX_BLOCK_LOG2 = 10
 
 @dataclass(frozen=True)
 class StepOutputs:
-    """Per-step outputs of ``N`` steps (see :mod:`ekf.step`).
+    """Per-step outputs of ``N`` steps (see :mod:`ekf.step`); from
+    :meth:`Propagator.run_members`, the outputs not kept are None.
 
     Attributes
     ----------
@@ -64,24 +70,27 @@ class StepOutputs:
         Transition ``Φ̃`` of each step, row by row.
     """
 
-    x_next: Array
-    P_next: Array
-    x_filt: Array
-    P_filt: Array
-    innov: Array
-    S: Array
-    nis: Array
-    Phi: Array
+    x_next: Array | None
+    P_next: Array | None
+    x_filt: Array | None
+    P_filt: Array | None
+    innov: Array | None
+    S: Array | None
+    nis: Array | None
+    Phi: Array | None
 
     @property
     def steps(self) -> int:
         """Number of steps ``N``."""
-        return self.x_next.shape[0]
+        return next(a for a in (getattr(self, f) for f in STEP_OUTPUTS)
+                    if a is not None).shape[0]
 
 
-def _outputs(arrays: list[Array], n_c: int) -> StepOutputs:
+def _outputs(arrays: list[Array | None], n_c: int) -> StepOutputs:
     fields = dict(zip(STEP_OUTPUTS, arrays))
-    fields["nis"] = fields["nis"].reshape(-1) if n_c else np.zeros(fields["nis"].shape[0])[:0]
+    nis = fields["nis"]
+    if nis is not None:
+        fields["nis"] = nis.reshape(-1) if n_c else np.zeros(nis.shape[0])[:0]
     return StepOutputs(**fields)
 
 
@@ -124,6 +133,9 @@ class Propagator:
             raise FilterError(f"unknown backend {backend!r}")
         self.backend = backend
         self._loop = CompiledLoop(self.step, compile_options) if backend == "compiled" else None
+        self._compile_options = compile_options
+        self._members: CompiledMembers | None = None
+        self._members_unsupported = backend != "compiled"
         self._blocks: dict[int, ca.Function] = {}
         self.build_seconds = time.perf_counter() - start
 
@@ -150,6 +162,57 @@ class Propagator:
                             self.model.n_c)
         return self._run_blocks(np.asarray(x0, dtype=float),
                                 np.asarray(P0_packed, dtype=float), d)
+
+    def run_members(self, x0: Array, P0_packed: Array, d: Array,
+                    keep: tuple[str, ...] = STEP_OUTPUTS) -> tuple[Array, Array, list]:
+        """Run K members ``N`` steps each, from their priors (module docstring).
+
+        Parameters
+        ----------
+        x0 : ndarray, shape (K, n)
+        P0_packed : ndarray, shape (K, n(n+1)/2)
+        d : ndarray, shape (K, N, k_d)
+            Each member's step data rows (``N >= 1``).
+        keep : tuple of str
+            The per-step outputs kept (names of `ekf.step.STEP_OUTPUTS`).
+
+        Returns
+        -------
+        x : ndarray, shape (K, n)
+            Each member's state after the ``N`` steps.
+        P_packed : ndarray, shape (K, n(n+1)/2)
+        outputs : list of StepOutputs
+            Each member's, the outputs not in `keep` None.
+        """
+        d = np.asarray(d, dtype=float)
+        if d.ndim != 3 or d.shape[2] != self.data.size or d.shape[1] < 1:
+            raise FilterError(f"member step data must have shape (K, N >= 1, "
+                              f"{self.data.size}), got {d.shape}")
+        indices = [STEP_OUTPUTS.index(name) for name in keep]
+        # one member alone: the scalar loop (the lanes would step 3 idle copies of it)
+        members = self._compiled_members() if d.shape[0] > 1 else None
+        if members is None:
+            runs = [self.run(x, P, rows) for x, P, rows in zip(x0, P0_packed, d)]
+            arrays = [[getattr(r, name) for r in runs] for name in STEP_OUTPUTS]
+            x = np.array([r.x_next[-1] for r in runs]).reshape(len(runs), -1)
+            P = np.array([r.P_next[-1] for r in runs]).reshape(len(runs), -1)
+        else:
+            x, P, steps = members.run(x0, P0_packed, d, indices)
+            arrays = [None if s is None else list(s) for s in steps]
+        kept = [a if i in indices else None for i, a in enumerate(arrays)]
+        return x, P, [_outputs([None if a is None else a[k] for a in kept], self.model.n_c)
+                      for k in range(d.shape[0])]
+
+    def _compiled_members(self) -> CompiledMembers | None:
+        """The members' compiled loop (built on first use); None when the backend is not
+        the compiled one or the step cannot be written for lanes."""
+        if self._members is None and not self._members_unsupported:
+            try:
+                self._members = CompiledMembers(self.step, self._compile_options)
+            except LanesUnsupported as exc:
+                log.info("members stepped one by one: %s", exc)
+                self._members_unsupported = True
+        return self._members
 
     def _block(self, size: int) -> ca.Function:
         if size not in self._blocks:

@@ -155,7 +155,8 @@ class StepData:
     def assemble(self, u: Array, p: Array, z_c: Array, dt: Array, q_c: Array,
                  r_c: Array, *, t: Array | None = None, u_lin: Array | None = None
                  ) -> Array:
-        """Data rows for ``N`` steps from ``N + 1`` input samples.
+        """Data rows for ``N`` steps from ``N + 1`` input samples (of ``K`` members
+        at once when every argument has a leading member axis, ``(K, ...)``).
 
         Parameters
         ----------
@@ -172,7 +173,8 @@ class StepData:
             Diagonal of the independent continuous-measurement noise density, [z]²·s.
         t : ndarray, shape (N + 1,), optional
             Sample times, s (increasing); needed when ``n_lin > 0``: ``u_lin`` of step
-            ``k`` is :func:`window_median` of these ``N + 1`` samples at ``t_k``.
+            ``k`` is :func:`window_median` of these ``N + 1`` samples at ``t_k`` (one
+            member only).
         u_lin : ndarray, shape (N + 1, n_u), optional
             The linearization input of each sample, given (instead of computed from `t`
             and `u`); its first ``N`` rows are used.
@@ -180,16 +182,17 @@ class StepData:
         Returns
         -------
         ndarray, shape (N, k_d)
+            (``(K, N, k_d)`` for ``K`` members.)
         """
-        parts = [u[:-1], u[1:], p, z_c, dt[:, None], q_c, r_c]
+        parts = [u[..., :-1, :], u[..., 1:, :], p, z_c, dt[..., None], q_c, r_c]
         if self.n_lin and u_lin is not None:
-            parts.append(np.asarray(u_lin, dtype=float)[:-1])
+            parts.append(np.asarray(u_lin, dtype=float)[..., :-1, :])
         elif self.n_lin:
             if t is None:
                 raise ModelError("step data with a linearization window need the sample "
                                  "times t")
             parts.append(window_median(t, u, self.jacobian_window_s)[:-1])
-        return np.concatenate(parts, axis=1)
+        return np.concatenate(parts, axis=-1)
 
 
 def window_median(t: Array, u: Array, window_s: float) -> Array:

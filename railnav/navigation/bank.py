@@ -50,7 +50,7 @@ from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
-import scipy.linalg as sla
+from scipy.linalg import lapack
 
 from ekf.update import LOG_2PI
 from railnav.errors import RailnavError
@@ -135,7 +135,13 @@ def common_log_likelihoods(screens: Sequence) -> Array:
     for j, e in enumerate(screens):
         idx = np.array([k for k, key in enumerate(e.keys) if key in common])
         nu, S = e.innov[idx], e.S[np.ix_(idx, idx)]
-        L = sla.cholesky(S, lower=True, check_finite=False)
-        white = sla.solve_triangular(L, nu, lower=True, check_finite=False)
+        # LAPACK's Cholesky and triangular solve as `scipy.linalg.cholesky(lower=True)` and
+        # `solve_triangular(lower=True)` call them (the same bits), without their wrappers
+        L, info = lapack.dpotrf(S, lower=True, clean=True)
+        if info == 0:
+            white, info = lapack.dtrtrs(L, nu, lower=True)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"the innovation covariance of filter {j} is not "
+                                        f"positive definite (LAPACK info {info})")
         out[j] = -0.5 * (white @ white + 2.0 * np.sum(np.log(np.diag(L))) + idx.size * LOG_2PI)
     return out

@@ -57,6 +57,9 @@ __all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
 
 Array = npt.NDArray[np.float64]
 
+#: The per-step outputs of the engine the weights use (`CycleOutcome.innov_c`, ``S_c``).
+CONTINUOUS_OUTPUTS = ("innov", "S")
+
 #: Half-width of the stretch around a kinked joint where the map's geometry is not
 #: trusted by the pseudo-observation, m: the longest transition a route line puts after
 #: a joint (`trackmodel.network_lines.TRANSITION_MAX_M`, a 1:9 turnout's curve).
@@ -74,8 +77,8 @@ class CycleOutcome:
     innov_c : list of ndarray (N, n_c) or None
         Each filter's continuous-measurement innovations of the cycle's N steps (None:
         no continuous measurement, or no step).
-    S_c : list of ndarray (N, n_c, n_c) or None
-        Their covariances.
+    S_c : list of ndarray (N, n_c(n_c+1)/2) or None
+        Their covariances, packed (`ekf.packing`).
     steps : int
         Filter steps made (summed over the hypotheses).
     continuous : bool
@@ -108,13 +111,14 @@ def common_continuous_log_likelihoods(innov: list, S: list) -> Array:
     Parameters
     ----------
     innov : list of ndarray, shape (N, n_c)
-    S : list of ndarray, shape (N, n_c, n_c)
+    S : list of ndarray, shape (N, n_c(n_c+1)/2)
+        Their covariances, packed (`ekf.packing`).
 
     Returns
     -------
     ndarray, shape (K,)
     """
-    nu, cov = np.stack(innov), np.stack(S)                   # (K, N, c), (K, N, c, c)
+    nu, cov = np.stack(innov), unpack_sym(np.stack(S))       # (K, N, c), (K, N, c, c)
     widest = np.argmax(np.linalg.det(cov), axis=0)            # (N,)
     common = cov[widest, np.arange(cov.shape[1])]             # (N, c, c)
     white = np.linalg.solve(common[None], nu[..., None])[..., 0]
@@ -226,7 +230,8 @@ class EngineStepper:
             for k, one in zip(members, series):
                 has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
-                                                           for k in members], series)
+                                                           for k in members], series,
+                                     keep=CONTINUOUS_OUTPUTS)
             for k, state in zip(members, done):
                 states[k] = state
         screens = [] if epoch is not None else None
@@ -249,7 +254,7 @@ class EngineStepper:
         into the hypothesis."""
         if outputs is not None and outputs.innov.shape[0]:
             innov.append(outputs.innov)
-            cov.append(unpack_sym(outputs.S))
+            cov.append(outputs.S)
         if epoch is not None:
             self._update(h, engine, epoch, rows)
             screens.append(h.filt.screen.last)
