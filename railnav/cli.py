@@ -3,7 +3,8 @@
 Thin by design (STYLE.md §2.11): each subcommand lives in `railnav.commands` and calls
 the public API. Any error a user can cause (a bad file, a bad option value) ends with one
 line ``error: FILE: problem`` on stderr and exit status 2, no traceback (``--debug``
-shows it). A filter that diverges exits with status 1, also in one line.
+shows it). A filter that diverges, or a process drawing the figures that is killed, exits
+with status 1, also in one line.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ from collections.abc import Sequence
 import railnav.commands
 from ekf.errors import FilterDivergedError, FilterError
 from gnss_obs.errors import GnssError
-from railnav.errors import RailnavError
+from railnav.errors import PlottingError, RailnavError
 from strapdown.errors import StrapdownError
 from trackmodel.errors import InputError, TrackError
 
@@ -117,7 +118,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt as exc:     # a message when the command says what was kept
         print(f"error: {str(exc) or 'interrupted'}", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except FilterDivergedError as exc:
+    except (FilterDivergedError, PlottingError) as exc:
         if args.debug:
             raise
         print(f"error: {_one_line(exc)}", file=sys.stderr)
