@@ -73,19 +73,32 @@ def _subparsers(parser: argparse.ArgumentParser) -> list[argparse.ArgumentParser
     return found
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (all subcommands registered)."""
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The argument parser: for command-line arguments `argv` that name a command, that
+    command's only (its module alone is imported: ~0.05 s less at every start); otherwise,
+    and without `argv`, every command's (``railnav --help`` lists them)."""
     parser = argparse.ArgumentParser(
         prog="railnav",
         description="Track-constrained navigation of rail vehicles.")
     parser.add_argument("--version", action=_VersionAction)
     _add_global_flags(parser, top=True)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in command_modules():
+    for name in _command_named(argv) or command_modules():
         importlib.import_module(f"railnav.commands.{name}").register(sub)
     for child in _subparsers(parser):
         _add_global_flags(child, top=False)
     return parser
+
+
+def _command_named(argv: Sequence[str] | None) -> list[str]:
+    """``[name]`` when the first argument that is not a flag (the global flags take no
+    value) is a command module's name, else ``[]``."""
+    token = next((a for a in argv or () if not a.startswith("-")), None)
+    names = {info.name for info in pkgutil.iter_modules(railnav.commands.__path__)}
+    if token not in names:
+        return []
+    module = importlib.import_module(f"railnav.commands.{token}")
+    return [token] if callable(getattr(module, "register", None)) else []
 
 
 def command_modules() -> list[str]:
@@ -113,7 +126,8 @@ def _one_line(exc: BaseException) -> str:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad input)."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(argv)
     args = parser.parse_args(argv)
     _configure_logging(args.verbose, args.quiet)
     try:
