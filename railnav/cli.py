@@ -94,8 +94,8 @@ def _command_named(argv: Sequence[str] | None) -> list[str]:
     """``[name]`` when the first argument that is not a flag (the global flags take no
     value) is a command module's name, else ``[]``."""
     token = next((a for a in argv or () if not a.startswith("-")), None)
-    names = {info.name for info in pkgutil.iter_modules(railnav.commands.__path__)}
-    if token not in names:
+    if token is None or token not in {info.name for info in
+                                      pkgutil.iter_modules(railnav.commands.__path__)}:
         return []
     module = importlib.import_module(f"railnav.commands.{token}")
     return [token] if callable(getattr(module, "register", None)) else []
