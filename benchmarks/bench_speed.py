@@ -23,9 +23,11 @@ On this machine, in one invocation (the load average is recorded before and afte
   resident memory (``--no-streaming`` skips it: about 2 minutes on a quiet machine);
 * ``stages``: where a ``railnav run data/tracks/paper2017.csv`` goes, in a fresh
   subprocess with a warm cache: importing what the command imports, simulating the trip,
-  the filter (`railnav.navigate`), the errors and summary, writing the CSVs, importing
-  matplotlib, drawing the plots (the same calls as `railnav.jobs.run`, timed one by one;
-  the best of ``--repeats`` processes for each stage).
+  the filter (`railnav.navigate`), the errors and summary, writing the CSVs, what the
+  figures add when the plot helper draws them meanwhile (`railnav.jobs.plot_worker`, as
+  the command does), and, for comparison, importing matplotlib and drawing the plots in
+  the process after the tables (the same calls as `railnav.jobs.run`, timed one by one;
+  the best of ``--repeats`` processes for each stage, wall and CPU).
 
 Writes ``benchmarks/results/speed.json``. Run from the repository root:
 ``python benchmarks/bench_speed.py`` (``--quick`` for a smoke run).
@@ -155,46 +157,70 @@ _RUN_MODULES = ("railnav.commands.run", "railnav.jobs.run", "railnav.navigation.
                 "railnav.evaluation.metrics", "trackmodel.csv_table", "trackmodel.track")
 
 
+class _Laps:
+    """Wall and CPU (this process) time of consecutive stages, s."""
+
+    def __init__(self) -> None:
+        self.wall, self.cpu = {}, {}
+        self._mark = (time.perf_counter(), time.process_time())
+
+    def lap(self, name: str) -> None:
+        now = (time.perf_counter(), time.process_time())
+        self.wall[name] = now[0] - self._mark[0]
+        self.cpu[name] = now[1] - self._mark[1]
+        self._mark = now
+
+
 def _stages_child() -> None:
-    """In a fresh process: each stage of ``railnav run paper2017.csv`` timed (JSON line)."""
+    """In a fresh process: each stage of ``railnav run paper2017.csv`` timed (JSON line:
+    wall per stage, and under ``cpu`` this process's CPU per stage and the plot helper's).
+
+    As the command does, the plot helper (`railnav.jobs.plot_worker.PlotHelper`) is forked
+    after the imports and draws the figures while `write_run` writes the tables:
+    ``plots_helper_wait_s`` is what the figures add to the run then (`write_run` with the
+    helper, less ``write_csv_s``); ``import_matplotlib_s`` and ``plots_s`` are the same
+    figures drawn in this process after the tables (the path without fork)."""
     import importlib
-    t = {}
-    start = time.perf_counter()
+    laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)
     from railnav.evaluation.metrics import error_series
-    from railnav.jobs.run import run_summary, truth_start, write_run
+    from railnav.jobs.plot_worker import PlotHelper
+    from railnav.jobs.run import RunOutcome, run_summary, truth_start, write_run
     from railnav.navigation.navigator import navigate
     from railnav.simulation.scenarios import get_scenario
     from railnav.simulation.trip import navigator_config_for, simulate_trip
     from trackmodel.io import read_track
-    t["imports_s"] = time.perf_counter() - start
-    mark = time.perf_counter()
-    scenario = get_scenario("paper2017")
-    config = navigator_config_for(scenario, filter="constrained", systems="G")
-    trip = simulate_trip(scenario, track=read_track(TRACK), seed=1, systems="G")
-    t["simulate_s"] = time.perf_counter() - mark
-    mark = time.perf_counter()
-    result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
-                      initial=functools.partial(truth_start, trip=trip, config=config))
-    t["filter_s"] = time.perf_counter() - mark
-    mark = time.perf_counter()
-    errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
-    summary = run_summary(result, trip.track, errors, None, scenario.outages, {})
-    t["errors_summary_s"] = time.perf_counter() - mark
-    from railnav.jobs.run import RunOutcome
-    outcome = RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+    laps.lap("imports_s")
+    with PlotHelper() as helper:
+        scenario = get_scenario("paper2017")
+        config = navigator_config_for(scenario, filter="constrained", systems="G")
+        trip = simulate_trip(scenario, track=read_track(TRACK), seed=1, systems="G")
+        laps.lap("simulate_s")
+        result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
+                          initial=functools.partial(truth_start, trip=trip, config=config))
+        laps.lap("filter_s")
+        errors = error_series(result, trip.truth, trip.track, clock_truth=trip.clock_truth)
+        summary = run_summary(result, trip.track, errors, None, scenario.outages, {})
+        laps.lap("errors_summary_s")
+        outcome = RunOutcome(result, trip.track, summary, errors, trip, trip.truth)
+        with tempfile.TemporaryDirectory() as tmp:
+            write_run(outcome, tmp, plots=False)
+            laps.lap("write_csv_s")
+            write_run(outcome, tmp, plots=True, plotter=helper)
+            laps.lap("plots_helper_wait_s")
+    helper_cpu = sum(os.times()[2:4])           # the helper and its fork, reaped
     with tempfile.TemporaryDirectory() as tmp:
-        mark = time.perf_counter()
-        write_run(outcome, tmp, plots=False)
-        t["write_csv_s"] = time.perf_counter() - mark
-        mark = time.perf_counter()
+        laps.lap("(helper's end)")
         import matplotlib.figure  # noqa: F401
-        t["import_matplotlib_s"] = time.perf_counter() - mark
-        mark = time.perf_counter()
+        laps.lap("import_matplotlib_s")
         write_run(outcome, tmp, plots=True)
-        t["plots_s"] = time.perf_counter() - mark - t["write_csv_s"]
-    print(json.dumps(t))
+        laps.lap("plots_s")
+    for times in (laps.wall, laps.cpu):
+        times.pop("(helper's end)")
+        for key in ("plots_helper_wait_s", "plots_s"):
+            times[key] -= times["write_csv_s"]
+    print(json.dumps({**laps.wall, "cpu": {**laps.cpu, "plot_helper_s": helper_cpu}}))
 
 
 def _stages(repeats: int) -> dict:
@@ -204,8 +230,13 @@ def _stages(repeats: int) -> dict:
         done = subprocess.run([sys.executable, __file__, "--stages-child"], check=True,
                               env=_env(), capture_output=True, text=True, cwd=REPO)
         runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
-    best = {key: min(r[key] for r in runs) for key in runs[0]}
-    return {"best_s": best, "runs": runs, "sum_of_best_s": sum(best.values())}
+    best = {key: min(r[key] for r in runs) for key in runs[0] if key != "cpu"}
+    cpu = {key: min(r["cpu"][key] for r in runs) for key in runs[0]["cpu"]}
+    critical = [k for k in best if k not in ("import_matplotlib_s", "plots_s")]
+    return {"best_s": best, "best_cpu_s": cpu, "runs": runs,
+            "sum_of_best_s": sum(best[k] for k in critical),
+            "sum_of_best_s_in_process_plots": sum(best[k] for k in best
+                                                  if k != "plots_helper_wait_s")}
 
 
 def _meets(doc: dict) -> dict:
@@ -289,6 +320,8 @@ def _print(doc: dict) -> None:
               f"{doc['bank']['real_time_factor']:.0f}x")
     print("stages (best of runs) " + ", ".join(f"{k.removesuffix('_s')} {v:.2f}"
                                                 for k, v in doc["stages"]["best_s"].items()))
+    print("stages, CPU           " + ", ".join(f"{k.removesuffix('_s')} {v:.2f}"
+                                                for k, v in doc["stages"]["best_cpu_s"].items()))
     if doc["streaming"]:
         print(f"10-h streamed trip    peak RSS {doc['streaming']['peak_rss_mb']:.0f} MB, "
               f"{doc['streaming']['wall_s']:.0f} s")

@@ -212,14 +212,14 @@ def kepler_states(records: Records, t_gps_s: npt.ArrayLike) -> SatelliteStates:
         If a record belongs to another system or the lengths differ.
     """
     t = np.asarray(t_gps_s, dtype=float)
-    system = np.array([str(sv)[:1] for sv in np.asarray(records["sv"])])
+    system = np.asarray(records["sv"]).astype(str).astype("U1")
     if t.shape != system.shape:
         raise ValueError(f"t_gps_s must have shape {system.shape}, got {t.shape}")
-    unknown = set(system) - set(KEPLER_SYSTEMS)
+    letters, which = np.unique(system, return_inverse=True)   # per system, not per row
+    unknown = set(letters) - set(KEPLER_SYSTEMS)
     if unknown:
         raise ValueError(f"no Keplerian ephemeris for systems {sorted(unknown)}")
-    gm = np.array([KEPLER_SYSTEMS[s][0] for s in system], dtype=float)
-    omega_e = np.array([KEPLER_SYSTEMS[s][1] for s in system], dtype=float)
+    gm, omega_e, F = _system_constants(letters, which)
     geo = is_beidou_geo(system, np.asarray(records["prn"]))
     tk = t - np.asarray(records["toe_gps_s"], dtype=float)
     r, u, i, r_dot, u_dot, i_dot, E, E_dot, A = _orbital_plane(records, tk, gm)
@@ -230,15 +230,25 @@ def kepler_states(records: Records, t_gps_s: npt.ArrayLike) -> SatelliteStates:
     r_e, v_e = _rotate_to_frame(r, u, i, r_dot, u_dot, i_dot, Omega, rate)
     if np.any(geo):
         r_e[geo], v_e[geo] = _geo_to_ecef(r_e[geo], v_e[geo], tk[geo], omega_e[geo])
-    clock_s, drift_sps, rel_s = _clock(records, t, E, E_dot, A, gm)
+    clock_s, drift_sps, rel_s = _clock(records, t, E, E_dot, A, F)
     return SatelliteStates(r_e, v_e, clock_s, drift_sps, rel_s)
 
 
-def _clock(records: Records, t: Array, E: Array, E_dot: Array, A: Array, gm: Array):
-    """Clock polynomial + relativistic term (IS-GPS-200N §20.3.3.3.3.1) and its rate."""
+def _system_constants(letters: np.ndarray, which: np.ndarray) -> tuple[Array, Array, Array]:
+    """GM (m³/s²), Earth rate (rad/s) and relativistic constant F (s/m^½) of each row's
+    system (`KEPLER_SYSTEMS`, `gnss_obs.constants.relativistic_constant`): computed once per
+    system letter of `letters` and spread to the rows by the indices `which`."""
+    gm = np.array([KEPLER_SYSTEMS[s][0] for s in letters], dtype=float)
+    omega_e = np.array([KEPLER_SYSTEMS[s][1] for s in letters], dtype=float)
+    F = np.array([relativistic_constant(g) for g in gm], dtype=float)
+    return gm[which], omega_e[which], F[which]
+
+
+def _clock(records: Records, t: Array, E: Array, E_dot: Array, A: Array, F: Array):
+    """Clock polynomial + relativistic term (IS-GPS-200N §20.3.3.3.3.1) and its rate
+    (`F`: the relativistic constant of each row's system)."""
     af0, af1, af2, e = _columns(records, "af0_s af1_sps af2_sps2 e")
     dt = t - np.asarray(records["toc_gps_s"], dtype=float)
-    F = np.array([relativistic_constant(g) for g in gm])
     rel = F * e * np.sqrt(A) * np.sin(E)
     rel_rate = F * e * np.sqrt(A) * np.cos(E) * E_dot
     clock = af0 + af1 * dt + af2 * dt * dt + rel

@@ -52,7 +52,7 @@ from gnss_obs.corrections import (
     look_angles,
     troposphere_delay_m,
 )
-from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris
+from gnss_obs.ephemeris import group_delay_s, satellite_states, select_ephemeris, take_rows
 from gnss_obs.errors import GnssError, GnssInputError
 from gnss_obs.oscillator import oscillator_from_name, simulate_clock
 from gnss_obs.rinex_nav import RinexNav, read_rinex_nav
@@ -195,8 +195,9 @@ def _candidate_satellites(nav: RinexNav, systems: str) -> list[str]:
     return out
 
 
-def _light_time(sel: pd.DataFrame, t_rx: Array, r_rx: Array):
-    """Fixed-point light time with the receiver turned into the transmission-time frame."""
+def _light_time(sel: dict[str, np.ndarray], t_rx: Array, r_rx: Array):
+    """Fixed-point light time with the receiver turned into the transmission-time frame
+    (`sel`: the selected records' columns, `gnss_obs.ephemeris.take_rows`)."""
     tau = np.full(t_rx.shape, _NOMINAL_FLIGHT_S)
     for _ in range(_LIGHT_TIME_ITERATIONS):
         states = satellite_states(sel, t_rx - tau)
@@ -301,7 +302,8 @@ def _geometry(sel: pd.DataFrame, t: Array, epoch: np.ndarray, r_e: Array, v_e: A
     """Range, range rate and look angles of every (epoch, satellite) pair."""
     t_rx = t[epoch] - bias[epoch] / SPEED_OF_LIGHT_MPS  # tags are receiver time
     r_rx, v_rx = r_e[epoch], v_e[epoch]
-    states, tau, angle, rx_tx = _light_time(sel, t_rx, r_rx)
+    columns = take_rows(sel, slice(None))   # the table's columns once, not at each iteration
+    states, tau, angle, rx_tx = _light_time(columns, t_rx, r_rx)
     los = states.r_e - rx_tx
     geometric = np.linalg.norm(los, axis=1)
     unit = los / geometric[:, None]

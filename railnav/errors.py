@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from trackmodel.errors import InputError
 
-__all__ = ["RailnavError", "ConfigError"]
+__all__ = ["RailnavError", "ConfigError", "PlottingError"]
 
 
 class RailnavError(Exception):
@@ -12,3 +12,8 @@ class RailnavError(Exception):
 
 class ConfigError(RailnavError, InputError):
     """A scenario, study or command-line configuration that cannot be used."""
+
+
+class PlottingError(RailnavError):
+    """The process drawing a run's figures ended without drawing them (killed, out of
+    memory): the run's output was not written (`railnav.jobs.plot_worker`)."""

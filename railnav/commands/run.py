@@ -71,7 +71,18 @@ def handler(args: argparse.Namespace) -> int:
 
 
 def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
-    """Run one filter on one track and write it into `tmp`: (report, files written)."""
+    """Run one filter on one track and write it into `tmp`: (report, files written). The
+    figures are drawn by a helper process started now, which imports matplotlib while the
+    run simulates and filters (`railnav.jobs.plot_worker`)."""
+    import railnav.jobs.run  # noqa: F401  (the run's modules: the helper forks with them)
+    from railnav.jobs.plot_worker import PlotHelper
+    if args.no_plots:
+        return _one_track_run(args, tmp, None)
+    with PlotHelper() as plotter:
+        return _one_track_run(args, tmp, plotter)
+
+
+def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, list[Path]]:
     from railnav.jobs.run import run_files, run_simulated, write_run
     from trackmodel.io import read_track
     baro = None
@@ -104,7 +115,7 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
                                     systems=systems, window=args.window, smooth=args.smooth,
                                     progress=progress)
     baro_check = None if baro is None else _baro_check(outcome, baro)
-    written = write_run(outcome, tmp, plots=not args.no_plots)
+    written = write_run(outcome, tmp, plots=not args.no_plots, plotter=plotter)
     if baro_check is not None:
         written += _write_baro(baro_check, tmp)
     return report(outcome, Path(args.out)), written + _exports(args, outcome, tmp)

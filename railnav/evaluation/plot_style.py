@@ -13,7 +13,10 @@ The conventions a reader can rely on in every PNG railnav writes:
 * a ``±3σ`` band is the filter's own uncertainty (`SIGMA_BAND` standard deviations);
 * an error axis is scaled to the errors and the typical band (`robust_limit`), not to the
   band's peak (the initial convergence, the end of an outage); a value beyond the axis is
-  reported in the panel's corner rather than hidden.
+  reported in the panel's corner rather than hidden;
+* a time series much longer than its axis is wide in pixels is drawn through the samples
+  that set what each pixel column shows (`thin_to_pixels`), computed from every sample
+  like the axis limits and the off-scale notes.
 """
 from __future__ import annotations
 
@@ -25,7 +28,8 @@ import numpy.typing as npt
 __all__ = ["SIGMA_BAND", "GAP_FACTOR", "TIME_LABEL", "OUTAGE_STYLE", "MRAD_PER_RAD",
            "gnss_gaps", "outage_spans", "shade_outages", "robust_limit", "limit_axis",
            "sigma_band", "plain_axis", "save_png", "outage_legend_handle", "fixed_margins",
-           "bottom_legend"]
+           "bottom_legend", "PNG_DPI", "THIN_ABOVE_PER_COLUMN", "pixel_columns",
+           "thin_to_pixels"]
 
 Array = npt.NDArray[np.float64]
 
@@ -40,6 +44,13 @@ MRAD_PER_RAD = 1e3
 ERROR_PERCENTILE = 99.5
 #: Head room above the robust extent of the data.
 HEADROOM = 1.25
+#: Resolution of the PNG files, dots per inch.
+PNG_DPI = 110
+#: `thin_to_pixels`: samples kept per pixel column besides the extremes (evenly spaced:
+#: where a noisy series fills a column, as many strokes as it takes to fill it as solidly),
+#: and the samples per column beyond which a series is thinned (it must at least halve).
+KEEP_PER_COLUMN = 16
+THIN_ABOVE_PER_COLUMN = 2 * KEEP_PER_COLUMN
 
 
 def gnss_gaps(epoch_time_s: npt.ArrayLike) -> list[tuple[float, float]]:
@@ -99,10 +110,11 @@ def status_spans(result) -> dict[str, list[tuple[float, float]]]:
 
 
 def shade_status(ax, spans: dict) -> None:
-    """The `status_spans` on a time axis."""
+    """The `status_spans` on a time axis: one collection per status, however many runs (a
+    long trip may have hundreds, each an artist of its own as an ``axvspan``)."""
     for name, runs in spans.items():
-        for start, duration in runs:
-            ax.axvspan(start, start + duration, **STATUS_STYLE[name])
+        ax.broken_barh(runs, (0.0, 1.0), transform=ax.get_xaxis_transform(),
+                       **STATUS_STYLE[name])
 
 
 def status_legend_handles(spans: dict) -> list:
@@ -181,7 +193,74 @@ def bottom_legend(fig, handles, *, ncols: int = 3) -> None:
                fontsize=8, ncols=ncols)
 
 
-def save_png(fig, path: str | os.PathLike, *, dpi: int = 110) -> None:
+def pixel_columns(ax) -> int:
+    """Width of the axes `ax` in pixels of the PNG (`PNG_DPI`)."""
+    fig = ax.get_figure()
+    return max(1, round(ax.get_position().width * fig.get_figwidth() * PNG_DPI))
+
+
+def thin_to_pixels(ax, t: npt.ArrayLike, *series: npt.ArrayLike) -> np.ndarray | slice:
+    """The samples of a time series to draw on the time axis of `ax`.
+
+    With more than `THIN_ABOVE_PER_COLUMN` samples per pixel column of the PNG, each
+    column keeps its first and last sample and, for each of `series`, the samples where
+    it is smallest and largest, and the samples on either side of a NaN gap (which breaks
+    a line), and every k-th sample for about `KEEP_PER_COLUMN` a column: a line or band
+    through them covers in each column the rows it covers through every sample (tested),
+    and a noisy series fills its columns as solidly, with ~20 points a column instead of
+    the ~400 a 10-hour trip at 10 Hz puts in each. The columns are the PNG's, so the time
+    limits of `ax` are fixed first where autoscaling would put them (the range of `t`
+    widened by the axes' margin). Shorter series (the 1000-s trip's 10 000 samples: 12 a
+    column) are drawn whole and the limits left to autoscaling.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        At its final place in the figure (`fixed_margins`).
+    t : array_like, shape (N,)
+        Sample times, increasing (s).
+    *series : array_like, shape (N,)
+        The values drawn against `t` (a line, the edges of a band).
+
+    Returns
+    -------
+    ndarray of int, increasing, or slice
+        The indices to draw; ``slice(None)``: all.
+    """
+    t = np.asarray(t, dtype=float)
+    width_px = pixel_columns(ax)
+    if t.size <= THIN_ABOVE_PER_COLUMN * width_px or not t[-1] > t[0]:
+        return slice(None)
+    pad = ax.margins()[0] * (t[-1] - t[0])
+    lo, hi = t[0] - pad, t[-1] + pad
+    ax.set_xlim(lo, hi)
+    left_px = ax.get_position().x0 * ax.get_figure().get_figwidth() * PNG_DPI
+    column = np.floor(left_px + (t - lo) * (width_px / (hi - lo))).astype(np.int64)
+    first = np.flatnonzero(np.diff(column, prepend=column[0] - 1))   # each column's first
+    size = np.diff(np.append(first, t.size))
+    keep = [first, first + size - 1, np.arange(0, t.size, max(1, t.size // (
+        KEEP_PER_COLUMN * width_px)))]
+    for y in series:
+        keep += _extremes_and_gaps(np.asarray(y, dtype=float), column, first, size)
+    return np.unique(np.concatenate(keep))
+
+
+def _extremes_and_gaps(y: Array, column: np.ndarray, first: np.ndarray,
+                       size: np.ndarray) -> list[np.ndarray]:
+    """For `thin_to_pixels`: where `y` is smallest and largest in each pixel column (its
+    first such sample; `column` of each sample, `first` sample and `size` of each column),
+    and the samples on either side of each NaN gap."""
+    gap = np.isnan(y)
+    out = []
+    for extreme, blank in ((np.minimum, np.inf), (np.maximum, -np.inf)):
+        v = np.where(gap, blank, y)
+        at = np.flatnonzero(v == np.repeat(extreme.reduceat(v, first), size))
+        out.append(at[np.diff(column[at], prepend=column[0] - 1) != 0])
+    edge = np.flatnonzero(np.diff(gap))
+    return out + [edge, edge + 1]
+
+
+def save_png(fig, path: str | os.PathLike, *, dpi: int = PNG_DPI) -> None:
     """Write `fig` to `path` as PNG, atomically."""
     from trackmodel.files import atomic_write
     with atomic_write(path, "wb") as fh:

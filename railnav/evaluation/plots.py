@@ -40,6 +40,7 @@ from railnav.evaluation.plot_style import (
     sigma_band,
     status_legend_handles,
     status_spans,
+    thin_to_pixels,
 )
 
 __all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "errors_figure",
@@ -113,8 +114,11 @@ def errors_figure(errors, result) -> Figure:
         band = None
         if sig_name is not None and sig_name in est:
             band = SIGMA_BAND * est[sig_name].to_numpy() * sig_scale
-            sigma_band(ax, t, 0.0, band / SIGMA_BAND, label=f"±{SIGMA_BAND:g}σ of the filter")
-        ax.plot(t, value, lw=0.8, color="C0", label="estimate − truth")
+        shown = thin_to_pixels(ax, t, value, *([] if band is None else [band]))
+        if band is not None:
+            sigma_band(ax, t[shown], 0.0, band[shown] / SIGMA_BAND,
+                       label=f"±{SIGMA_BAND:g}σ of the filter")
+        ax.plot(t[shown], value[shown], lw=0.8, color="C0", label="estimate − truth")
         limit_axis(ax, t, value, robust_limit(value, band), unit)
         ax.set_ylabel(f"{words} ({unit})")
         plain_axis(ax)
@@ -157,11 +161,16 @@ def estimates_figure(result) -> Figure:
             shade_outages(a, spans)
             plain_axis(a)
         if sigma is not None:
-            sigma_band(ax, t, value, sigma.to_numpy(), label=f"±{SIGMA_BAND:g}σ")
-            ax_sigma.plot(t, sigma, lw=0.9, color="C1")
-            ax_sigma.set_ylim(0.0, robust_limit(sigma.to_numpy()))
-            limit_axis_top(ax_sigma, t, sigma.to_numpy(), unit)
-        ax.plot(t, value, lw=0.9, color="C0", label="estimate")
+            sigma = sigma.to_numpy()
+            shown = thin_to_pixels(ax, t, value, value + SIGMA_BAND * sigma,
+                                   value - SIGMA_BAND * sigma, sigma)
+            sigma_band(ax, t[shown], value[shown], sigma[shown], label=f"±{SIGMA_BAND:g}σ")
+            ax_sigma.plot(t[shown], sigma[shown], lw=0.9, color="C1")
+            ax_sigma.set_ylim(0.0, robust_limit(sigma))
+            limit_axis_top(ax_sigma, t, sigma, unit)
+        else:
+            shown = thin_to_pixels(ax, t, value)
+        ax.plot(t[shown], value[shown], lw=0.9, color="C0", label="estimate")
         ax.set_ylabel(f"{words} ({unit})")
         ax_sigma.set_ylabel(f"1σ of {words.split(' ')[0]} ({unit})")
     handles, _ = axes[0, 0].get_legend_handles_labels()

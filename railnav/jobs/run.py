@@ -37,6 +37,7 @@ from railnav.evaluation.metrics import (
     summarize,
 )
 from railnav.filters.fix_epochs import FixModelConfig
+from railnav.jobs.plot_worker import Figure, PlotHelper, draw
 from railnav.jobs.scoring import (
     find_truth,
     scenario_outages,
@@ -57,8 +58,8 @@ from railnav.simulation.trip import (
 )
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
-__all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "CSV_FLOAT_FORMAT",
-           "read_sensor_files", "run_summary", "truth_start"]
+__all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "run_figures",
+           "CSV_FLOAT_FORMAT", "read_sensor_files", "run_summary", "truth_start"]
 
 log = logging.getLogger(__name__)
 
@@ -324,10 +325,19 @@ def run_summary(result: NavigationResult, track, errors, window, outages, extra:
     return out
 
 
-def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = True) -> list[Path]:
-    """Write a run's files into `out_dir` (created); returns the paths written."""
+def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = True,
+              plotter: PlotHelper | None = None) -> list[Path]:
+    """Write a run's files into `out_dir` (created); returns the paths written.
+
+    With `plotter` (started before the run, `railnav.jobs.plot_worker`), its helper
+    process draws the figures while this one writes the tables; without, they are drawn
+    here after the tables.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    figures = run_figures(outcome, out) if plots else []
+    if plotter is not None:
+        plotter.submit(figures)
     written = []
 
     def csv(name: str, frame: pd.DataFrame) -> None:
@@ -341,18 +351,24 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
     written += write_smoothed(outcome.smoothed, out)
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
     written.append(out / "summary.json")
-    if plots:                       # matplotlib only when drawing (~0.5 s to import)
-        from railnav.evaluation.plots import (
-            plot_errors,
-            plot_estimates,
-            plot_track_estimate,
-        )
-        if outcome.errors is not None:
-            plot_errors(outcome.errors, outcome.result, out / "errors.png")
-            written.append(out / "errors.png")
-        else:
-            plot_estimates(outcome.result, out / "estimates.png")
-            written.append(out / "estimates.png")
-        plot_track_estimate(outcome.track, outcome.result, out / "track.png", truth=outcome.truth)
-        written.append(out / "track.png")
-    return written
+    if plotter is not None:
+        plotter.wait()
+    else:
+        draw(figures)
+    return written + [figure.path for figure in figures]
+
+
+def run_figures(outcome: RunOutcome, out: Path) -> list[Figure]:
+    """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth,
+    else ``estimates.png``; ``track.png``. Their arguments are what the figures read: the
+    result without its raw filter output and filter object (not drawn, and the largest
+    part to send to a helper process)."""
+    result = replace(outcome.result, raw=None, filter_object=None)
+    plots = "railnav.evaluation.plots"
+    first = (Figure(f"{plots}.plot_errors", (outcome.errors, result, out / "errors.png"),
+                    path=out / "errors.png") if outcome.errors is not None else
+             Figure(f"{plots}.plot_estimates", (result, out / "estimates.png"),
+                    path=out / "estimates.png"))
+    return [first, Figure(f"{plots}.plot_track_estimate",
+                          (outcome.track, result, out / "track.png"),
+                          {"truth": outcome.truth}, path=out / "track.png")]

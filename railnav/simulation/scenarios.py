@@ -272,7 +272,7 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
         For a bad track file.
     """
     # here, not at the top: the scenario table is read without CasADi (the CLI's parser)
-    from railnav.simulation.truth import ideal_imu, simulate_truth
+    from railnav.simulation.truth import ideal_imu, simulate_truth_with_points
     from trackmodel.io import read_track
 
     if not (isinstance(seed, (int, np.integer)) and seed >= 0):
@@ -285,14 +285,16 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
         track = read_track(track)
     tick = progress or (lambda done, total: None)
     streams = tuple(np.random.SeedSequence(int(seed)).spawn(len(RNG_STREAMS)))
-    truth = simulate_truth(track, scenario.profile, duration_s=scenario.duration_s,
-                           rate_hz=scenario.imu_rate_hz, start_s=scenario.start_s)
+    truth, point = simulate_truth_with_points(track, scenario.profile,
+                                              duration_s=scenario.duration_s,
+                                              rate_hz=scenario.imu_rate_hz,
+                                              start_s=scenario.start_s)
     if truth.time_s[-1] < scenario.duration_s - 0.5 / scenario.imu_rate_hz:
         log.info("the trip reaches the track end at t = %.2f s (scenario: %.2f s)",
                  truth.time_s[-1], scenario.duration_s)
     tick(1, 3)
     if scenario.car_body is None:
-        imu_ideal = ideal_imu(track, truth)
+        imu_ideal = ideal_imu(track, truth, point=point)
     else:
         from railnav.simulation.car_body_motion import car_body_trip
         truth, imu_ideal = car_body_trip(

@@ -32,9 +32,15 @@ from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import GnssEpochs
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import gnss_sim_config_for
-from railnav.simulation.truth import Truth, ideal_imu, iter_truth
+from railnav.simulation.truth import Truth, ideal_imu, iter_truth_with_points
 from strapdown.imu import Imu
-from strapdown.imu_errors import ImuErrors, TriadErrors, gauss_markov_recursion, imu_grade
+from strapdown.imu_errors import (
+    ImuErrors,
+    TriadErrors,
+    gauss_markov_recursion,
+    imu_grade,
+    rows_times,
+)
 
 __all__ = ["ImuErrorStream", "TripSegment", "trip_segments", "concat_truth", "epoch_step"]
 
@@ -93,7 +99,7 @@ class ImuErrorStream:
         drift = gauss_markov_recursion(drive, gain=gain, phi=phi, start=state["gm"])
         state["gm"] = drift[-1].copy()
         noise = p.noise_density / math.sqrt(self.dt) * self.rng.standard_normal(true.shape)
-        return true @ state["matrix"].T + state["bias"] + drift + noise
+        return rows_times(true, state["matrix"]) + state["bias"] + drift + noise
 
 
 @dataclass(frozen=True, eq=False)
@@ -207,10 +213,10 @@ def trip_segments(scenario: Scenario, track, *, seed: int, config: NavigatorConf
     block = max(2, int(round(segment_s * rate)))
     previous: Truth | None = None
     head: dict | None = None
-    blocks = iter_truth(track, scenario.profile, duration_s=scenario.duration_s, rate_hz=rate,
-                        start_s=scenario.start_s, block_size=block)
-    for index, truth in enumerate(blocks):
-        imu = imu_errors.apply(ideal_imu(track, truth))
+    blocks = iter_truth_with_points(track, scenario.profile, duration_s=scenario.duration_s,
+                                    rate_hz=rate, start_s=scenario.start_s, block_size=block)
+    for index, (truth, point) in enumerate(blocks):
+        imu = imu_errors.apply(ideal_imu(track, truth, point=point))
         gnss, obs, clock = None, None, _EMPTY_CLOCK
         if nav is not None:
             gnss, obs, clock, head = _segment_gnss(scenario, truth, step, nav, config,

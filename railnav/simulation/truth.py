@@ -41,8 +41,10 @@ from strapdown.euler import C_b_n
 from strapdown.gravity import g_n
 from strapdown.imu import Imu
 from trackmodel.earth import C_n_e, radii
+from trackmodel.track import TrackPoint
 
-__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "iter_truth", "truth_at", "ideal_imu"]
+__all__ = ["Truth", "TRUTH_COLUMNS", "simulate_truth", "simulate_truth_with_points",
+           "iter_truth", "iter_truth_with_points", "truth_at", "ideal_imu"]
 
 Array = npt.NDArray[np.float64]
 
@@ -133,10 +135,19 @@ def simulate_truth(track, profile: SpeedProfile, *, duration_s: float, rate_hz: 
     ConfigError
         For non-positive duration or rate, or a start outside the track.
     """
+    return simulate_truth_with_points(track, profile, duration_s=duration_s, rate_hz=rate_hz,
+                                      start_s=start_s)[0]
+
+
+def simulate_truth_with_points(track, profile: SpeedProfile, *, duration_s: float,
+                               rate_hz: float = 100.0, start_s: float = 0.0
+                               ) -> tuple[Truth, TrackPoint]:
+    """`simulate_truth`, and the track at its samples (``track.at(truth.s)``), which
+    `ideal_imu` takes as ``point`` instead of evaluating the track a second time."""
     n = _sample_count(track, duration_s=duration_s, rate_hz=rate_hz, start_s=start_s)
-    truth, _ = _truth_block(track, profile, 0, n, rate_hz=rate_hz, start_s=start_s)
+    truth, _, point = _truth_block(track, profile, 0, n, rate_hz=rate_hz, start_s=start_s)
     _check_two_samples(truth)
-    return truth
+    return truth, point
 
 
 def iter_truth(track, profile: SpeedProfile, *, duration_s: float, rate_hz: float = 100.0,
@@ -164,16 +175,27 @@ def iter_truth(track, profile: SpeedProfile, *, duration_s: float, rate_hz: floa
     ConfigError
         As `simulate_truth`, or for a block size below 2.
     """
+    for block, _ in iter_truth_with_points(track, profile, duration_s=duration_s,
+                                           rate_hz=rate_hz, start_s=start_s,
+                                           block_size=block_size):
+        yield block
+
+
+def iter_truth_with_points(track, profile: SpeedProfile, *, duration_s: float,
+                           rate_hz: float = 100.0, start_s: float = 0.0, block_size: int
+                           ) -> Iterator[tuple[Truth, TrackPoint]]:
+    """`iter_truth`'s blocks, each with the track at its samples (as
+    `simulate_truth_with_points`)."""
     if not (isinstance(block_size, (int, np.integer)) and block_size >= 2):
         raise ConfigError(f"block_size must be an integer >= 2, got {block_size!r}")
     n = _sample_count(track, duration_s=duration_s, rate_hz=rate_hz, start_s=start_s)
     for k0 in range(0, n, block_size):
-        block, ended = _truth_block(track, profile, k0, min(k0 + block_size, n),
-                                    rate_hz=rate_hz, start_s=start_s)
+        block, ended, point = _truth_block(track, profile, k0, min(k0 + block_size, n),
+                                           rate_hz=rate_hz, start_s=start_s)
         if k0 == 0:
             _check_two_samples(block)
         if block.time_s.size:
-            yield block
+            yield block, point
         if ended:
             return
 
@@ -195,10 +217,10 @@ def _check_two_samples(truth: Truth) -> None:
 
 
 def _truth_block(track, profile: SpeedProfile, k0: int, k1: int, *, rate_hz: float,
-                 start_s: float) -> tuple[Truth, bool]:
-    """Samples ``k0 <= k < k1`` up to the first beyond the track end; and whether the trip
-    ended there (a sample was beyond the end)."""
-    return truth_at(track, profile, np.arange(k0, k1) / rate_hz, start_s=start_s)
+                 start_s: float) -> tuple[Truth, bool, TrackPoint]:
+    """Samples ``k0 <= k < k1`` up to the first beyond the track end; whether the trip
+    ended there (a sample was beyond the end); the track at the samples."""
+    return _truth_and_point(track, profile, np.arange(k0, k1) / rate_hz, start_s=start_s)
 
 
 def truth_at(track, profile: SpeedProfile, time_s: Array, *, start_s: float = 0.0
@@ -206,6 +228,13 @@ def truth_at(track, profile: SpeedProfile, time_s: Array, *, start_s: float = 0.
     """The trajectory at increasing times `time_s` (s), up to the first beyond the track
     end; and whether the trip ended there (the sample grid of `simulate_truth`, or any
     other: the jittered instants of a simulated IMU log, `railnav.simulation.imu_logs`)."""
+    truth, ended, _ = _truth_and_point(track, profile, time_s, start_s=start_s)
+    return truth, ended
+
+
+def _truth_and_point(track, profile: SpeedProfile, time_s: Array, *, start_s: float
+                     ) -> tuple[Truth, bool, TrackPoint]:
+    """`truth_at`, and the track point of each sample kept (``track.at(truth.s)``)."""
     sample = profile.evaluate(np.asarray(time_s, dtype=float))
     s = start_s + sample.s
     keep = s <= track.length_m
@@ -216,7 +245,7 @@ def truth_at(track, profile: SpeedProfile, time_s: Array, *, start_s: float = 0.
     truth = Truth(time_s=sample.time_s[keep], s=pt.s, v=v, a=sample.a[keep], lat=pt.lat,
                   lon=pt.lon, h=pt.h, r_e=pt.r_e, v_n=v[:, None] * pt.u_n, yaw=pt.azimuth,
                   pitch=pt.elevation, roll=zero)
-    return truth, not bool(keep.all())
+    return truth, not bool(keep.all()), pt
 
 
 def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:
@@ -242,7 +271,8 @@ def _dC_b_n_function() -> ca.Function:
     return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1], J[:, 2])])
 
 
-def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None) -> Imu:
+def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
+              point: TrackPoint | None = None) -> Imu:
     """Error-free specific force and inertial angular rate in body axes (module docstring).
 
     Parameters
@@ -254,6 +284,9 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None) -> Im
         ``[ψ̇, θ̇, φ̇]`` of the body, rad/s, when its attitude is not the track's (a car
         body's chord and suspension, `railnav.simulation.car_body_motion`); default: the
         track's, ``v (dA/ds, dϑ/ds, 0)``.
+    point : trackmodel.TrackPoint, optional
+        ``track.at(truth.s)`` when the caller has it (`simulate_truth_with_points`); by
+        default the track is evaluated here.
 
     Returns
     -------
@@ -261,7 +294,7 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None) -> Im
         Instantaneous values at ``truth.time_s``.
     """
     earth = track.earth
-    pt = track.at(truth.s)
+    pt = track.at(truth.s) if point is None else point
     lat, lon, h, u_n = pt.lat, pt.lon, pt.h, pt.u_n
     mv = lambda M, x: np.einsum("...ij,...j->...i", M, x)  # noqa: E731
     C_ne = C_n_e(lat, lon)

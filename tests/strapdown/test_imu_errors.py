@@ -128,3 +128,14 @@ def test_gauss_markov_recursion_is_lfilter_to_the_bit(rng):
     start = 1e-3 * rng.standard_normal(3)
     ref = lfilter([gain], [1.0, -phi], drive, axis=0, zi=(phi * start)[None, :])[0]
     assert np.array_equal(gauss_markov_recursion(drive, gain=gain, phi=phi, start=start), ref)
+
+
+@pytest.mark.parametrize("n_rows", [1, 8191, 8192, 8193, 100_001])
+def test_rows_times_is_the_whole_product_to_the_bit(rng, n_rows):
+    """Reference: ``rows @ matrix.T`` in one call (second method: one product, which
+    OpenBLAS splits over threads above ~30 000 rows); the blocked product must give the
+    same bits, so that the simulated IMU does not change."""
+    from strapdown.imu_errors import rows_times
+    rows = rng.standard_normal((n_rows, 3)) * 1e3
+    matrix = np.eye(3) + 1e-3 * rng.standard_normal((3, 3))
+    assert np.array_equal(rows_times(rows, matrix), rows @ matrix.T)

@@ -122,3 +122,18 @@ def test_issue18_one_default_per_option():
         assert parser.parse_args(argv).systems == DEFAULT_SYSTEMS
     # run: the simulated systems for railnav simulate's files, else the same default
     assert parser.parse_args(["run", PAPER]).systems is None
+
+
+@pytest.mark.parametrize("argv", [
+    ["run", PAPER, "-v", "--no-plots", "--seed", "3"],
+    ["-q", "--debug", "run", PAPER, CURVY, "--duration-s", "20"],
+    ["-q", "track", "fit", "s.csv", "--out", "t.csv", "--debug"],
+    ["network", "info", "n", "-vv"],
+    ["-v", "simulate", PAPER, "--no-gnss"],
+    ["reproduce", "paper2017", "--runs", "2"]])
+def test_the_parser_of_the_command_named_parses_as_the_full_parser(argv):
+    """Reference: the parser with every command (`build_parser()`); the one built for
+    `argv` registers the command it names only, and must read `argv` the same way."""
+    assert vars(build_parser(argv).parse_args(argv)) == vars(build_parser().parse_args(argv))
+    only = build_parser(argv)._subparsers._group_actions[0].choices
+    assert list(only) == [next(a for a in argv if not a.startswith("-"))]

@@ -249,3 +249,19 @@ def test_iter_truth_blocks_equal_the_one_shot_truth(duration_s, block_size):
     np.testing.assert_array_equal(np.concatenate([i.f_b for i in imu_blocks]), imu_whole.f_b)
     np.testing.assert_array_equal(np.concatenate([i.omega_ib_b for i in imu_blocks]),
                                   imu_whole.omega_ib_b)
+
+
+def test_ideal_imu_from_the_truth_points_equals_a_new_evaluation():
+    """Reference: `ideal_imu` evaluating the track itself; given the points
+    `simulate_truth_with_points` computed for the truth, the IMU is the same to the bit,
+    and so is the truth of `simulate_truth`."""
+    from railnav.simulation.truth import simulate_truth_with_points
+    track = read_track(TRACKS_DIR / "curvy.csv")
+    scenario = get_scenario("curvy")
+    kwargs = dict(duration_s=120.0, rate_hz=scenario.imu_rate_hz)
+    truth, point = simulate_truth_with_points(track, scenario.profile, **kwargs)
+    alone = simulate_truth(track, scenario.profile, **kwargs)
+    assert all(np.array_equal(getattr(truth, f), getattr(alone, f)) for f in ("s", "r_e", "yaw"))
+    given, fresh = ideal_imu(track, truth, point=point), ideal_imu(track, truth)
+    assert np.array_equal(given.f_b, fresh.f_b)
+    assert np.array_equal(given.omega_ib_b, fresh.omega_ib_b)
