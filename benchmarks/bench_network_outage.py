@@ -22,8 +22,14 @@ of a hypothesis reported with P > 0.99 ("confidently wrong" when > 3), the secon
 with P > 0.99 (the denominator), how many of the confidently wrong seconds had one live
 hypothesis only (its P is 1 by construction: the figure is then the filter's own 3σ
 consistency, which a consistent filter misses on 0.27 % of its epochs,
-``confidently_wrong_expected_if_consistent_s``), how many were > 5σ, and the spawns
-(`railnav.navigation.spawning`; none expected: these runs have no position fixes).
+``confidently_wrong_expected_if_consistent_s``), how many were > 5σ, the episodes
+(``confidently_wrong_episodes``: first and last second, seconds, largest ``|error|/σ``;
+seconds at most `EPISODE_GAP_S` apart are one episode), and the spawns
+(`railnav.navigation.spawning`; none expected: these runs have no position fixes). Per
+case, over all seconds with P > 0.99: the share with ``|error|/σ`` beyond 2, 2.5 and 3
+against a Gaussian's (``share_beyond_sigma``, ``gaussian_share_beyond_sigma``) and the
+mean ``(error/σ)²`` (1 for a consistent filter): whether the misses are the tail of a
+consistent filter or a mechanism.
 
 Writes ``benchmarks/results/network_outage.json``.
 """
@@ -60,6 +66,10 @@ CASES = {"tactical": ("tactical", 1200.0), "mems": ("mems", 300.0)}
 #: P(|z| > 3) of a Gaussian: the share of epochs a consistent filter has its truth more
 #: than 3σ away; with one live hypothesis (P = 1) that is all "confidently wrong" can be.
 CONSISTENT_TAIL_3SIGMA = float(2.0 * norm.sf(3.0))
+#: ``|error|/σ`` levels of the tail shares (module docstring).
+TAIL_SIGMAS = (2.0, 2.5, 3.0)
+#: Confidently wrong seconds at most this far apart are one episode, s.
+EPISODE_GAP_S = 2.0
 
 
 def mixture_interval(w, mean, sigma, level: float = 0.99) -> tuple[float, float]:
@@ -74,6 +84,19 @@ def mixture_interval(w, mean, sigma, level: float = 0.99) -> tuple[float, float]
     tail = 0.5 * (1.0 - level)
     return (brentq(lambda x: cdf(x) - tail, lo_b, hi_b),
             brentq(lambda x: cdf(x) - (1.0 - tail), lo_b, hi_b))
+
+
+def episodes(times_s, z, gap_s: float = EPISODE_GAP_S) -> list[list[float]]:
+    """``[first_s, last_s, seconds, max z]`` of each run of `times_s` (sorted) whose
+    neighbours are at most `gap_s` apart."""
+    out: list[list[float]] = []
+    for t, zz in zip(times_s, z):
+        if out and t - out[-1][1] <= gap_s:
+            out[-1][1], out[-1][2], out[-1][3] = float(t), out[-1][2] + 1, max(out[-1][3],
+                                                                               float(zz))
+        else:
+            out.append([float(t), float(t), 1, float(zz)])
+    return out
 
 
 def _at(h, time_s: float):
@@ -102,6 +125,7 @@ def _run(track, grade: str, outage_s: float, seed: int, nav) -> dict:
     z = np.abs(h["s_m"].to_numpy() - truth_h) / h["sigma_s_m"].to_numpy()
     sure = h["probability"].to_numpy() > 0.99
     live = h.groupby("time_s")["id"].transform("size").to_numpy()
+    wrong = sure & (z > 3.0)
     single = run_simulated(track, scenario, seed=seed)
     est = single.result.estimates
     k = int(np.flatnonzero(est["time_s"].to_numpy() < end - 1e-6)[-1])   # before GNSS
@@ -115,11 +139,27 @@ def _run(track, grade: str, outage_s: float, seed: int, nav) -> dict:
             "confident_seconds": int(np.sum(sure)),
             "confidently_wrong_alone_seconds": int(np.sum(sure & (z > 3.0) & (live == 1))),
             "confidently_wrong_5sigma_seconds": int(np.sum(sure & (z > 5.0))),
+            "confidently_wrong_episodes": episodes(h["time_s"].to_numpy()[wrong], z[wrong]),
+            "confident_beyond": {str(k): int(np.sum(sure & (z > k))) for k in TAIL_SIGMAS},
+            "confident_sum_z2": float(np.sum(z[sure] ** 2)),
             "spawns": len(run.network_result.spawns),
             "hypotheses_max": int(run.network_result.cycles["hypotheses"].max()),
             "restarts": list(run.network_result.restarts),
             "single_error_m": float(single.errors.along_track_m[k]),
             "single_sigma_m": float(est["sigma_s_m"].iloc[k]), "wall_s": wall}
+
+
+def _tails(runs: list[dict]) -> dict:
+    """The tail shares and mean ``(error/σ)²`` of all confident seconds of `runs`, and a
+    Gaussian's shares (module docstring)."""
+    n = sum(r["confident_seconds"] for r in runs)
+    if not n:
+        return {}
+    return {"share_beyond_sigma": {str(k): sum(r["confident_beyond"][str(k)] for r in runs)
+                                   / n for k in TAIL_SIGMAS},
+            "gaussian_share_beyond_sigma": {str(k): float(2.0 * norm.sf(k))
+                                            for k in TAIL_SIGMAS},
+            "mean_z2_confident": sum(r["confident_sum_z2"] for r in runs) / n}
 
 
 def main(argv=None) -> int:
@@ -148,6 +188,7 @@ def main(argv=None) -> int:
                          "confidently_wrong_5sigma_seconds", "spawns")},
                      "confidently_wrong_expected_if_consistent_s":
                          CONSISTENT_TAIL_3SIGMA * sum(r["confident_seconds"] for r in runs),
+                     **_tails(runs),
                      "median_abs_best_error_m": float(np.median(
                          [abs(r["best_error_m"]) for r in runs])) if runs else None,
                      "median_abs_single_error_m": float(np.median(
@@ -161,7 +202,13 @@ def main(argv=None) -> int:
                   f"{out[case]['confidently_wrong_5sigma_seconds']} s > 5σ; a consistent "
                   f"filter: {out[case]['confidently_wrong_expected_if_consistent_s']:.0f} s); "
                   f"median |error| {out[case]['median_abs_best_error_m']:.1f} m (single "
-                  f"filter {out[case]['median_abs_single_error_m']:.1f} m)")
+                  f"filter {out[case]['median_abs_single_error_m']:.1f} m); with P > 0.99 "
+                  "beyond 2/2.5/3σ: " + "/".join(f"{100 * v:.2f}" for v in
+                                                out[case]["share_beyond_sigma"].values())
+                  + " % (Gaussian " + "/".join(f"{100 * v:.2f}" for v in
+                                              out[case]["gaussian_share_beyond_sigma"]
+                                              .values())
+                  + f" %), mean z² {out[case]['mean_z2_confident']:.2f}")
     out["machine"] = {"python": platform.python_version(), "cpus": os.cpu_count(),
                       "load_average_before": load_before, "load_average_after": os.getloadavg()}
     atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")

@@ -73,9 +73,15 @@ Limits:
 - A discrete update during an episode (GNSS back) counts as used precision until σ_s
   falls below 2 m and ends the episode.
 - The network navigator's Gaussian sum (`railnav.navigation.s_split`) runs its
-  hypotheses without it. A bound that widens one hypothesis's rows widens the common
-  covariance of the continuous evidence (the widest S over the hypotheses) and blinds the
-  weights: with it, ``bench_network_outage`` seed 5 was lost for good.
+  hypotheses without it: its components carry the truncation themselves (on
+  ``bench_network_outage`` seed 5 the mixture's probability below the truth at the
+  clothoid, 0.05 at 527 s, is the truncated prior's, 0.043). A bound that widens one
+  hypothesis's rows widens the common covariance of the continuous evidence (the widest
+  S over the hypotheses) and blinds the weights: with it, seed 5 was lost for good.
+  With the evidence on each hypothesis's S without the bound's share it is no longer
+  lost, but no better than without the bound (156 against 154 confidently wrong
+  seconds over 20 seeds, one at 6.5σ): a split component is a new filter, whose
+  episode starts afresh from the narrower component, and below σ_s = 2 m it ends.
 
 Units: m, s, m/s; densities in (m/s²)²·s.
 """

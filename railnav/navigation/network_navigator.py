@@ -225,9 +225,10 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     trip = trip_samples(data, config, outages=outages)
     tracks = OrientedTracks(network)
     # the hypotheses' filters without the one-sided bound (`railnav.filters.one_sided`):
-    # the Gaussian sum carries a multimodal s itself, and a bound that widens one
-    # hypothesis's rows would widen the continuous evidence's common covariance (the
-    # widest S) and blind the weights (outage_20min seed 5 lost for good with it)
+    # the Gaussian sum carries a multimodal s, and the truncation at an onset, itself
+    # (`railnav.navigation.s_split`), and a bound that widens one hypothesis's rows
+    # would widen the continuous evidence's common covariance (the widest S) and blind
+    # the weights (outage_20min seed 5 lost for good with it; its limits there)
     factory = FilterFactory(tracks, replace(config, one_sided=False), trip)
     t0, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
                                 start=start, initial=initial, near=near)
