@@ -28,9 +28,12 @@ and q_s = 2.5e-9 / 9.9e-9 / 2.2e-8 (rad/s)²·s, against the tactical gyro's
 roll's sampling error is a random walk 5 times its angle random walk (measured: the
 angle between two samples of the simulated car body against the trapezoid of its rates,
 1.5e-5 rad rms per 10-ms step for the roll, ``√(q dt³/12)`` = 1.49e-5). Without it the
-tactical filter on ``curvy`` with the car body was overconfident: median NEES over a 300-s
-outage 31 for 7 states (35 for 10 with the attitude rows), the roll's sampling error
-moving yaw and pitch through the pseudo-observation (``benchmarks/bench_track_attitude.py``).
+tactical filter on ``curvy`` with the car body was overconfident: median NEES over a
+300-s outage 32.7 for 7 states, 34.6 for 10 with the attitude rows (10.4 with this
+density; ``benchmarks/bench_track_attitude.py``, 10 seeds), the roll's sampling error
+moving yaw and pitch through the pseudo-observation. The suspension alone did it
+(switched off in the simulation: 5.8 and 7.2 over seeds 1-5; the chord and the mounting
+switched off changed nothing).
 
 The suspension moves only when the train runs (track irregularities excite it): its
 amplitude is ``σ (1 − exp(−(v/v_f)²))`` (``full_motion_speed_mps`` ``v_f``), so ``q``
