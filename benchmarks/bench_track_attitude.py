@@ -10,7 +10,9 @@ N(0, 1°)), GPS, an outage of 60 / 120 / 300 s from t = 100 s (cruising at 25 m/
 curves), trip end 10 s after it; MEMS and tactical IMUs; per seed the same trip filtered
 ``without`` and ``with`` the attitude rows (`railnav.filters.attitude_rows`), and, as the
 reference of the issue's "today", the plain ``curvy`` trip (IMU aligned with the track, no
-suspension) without rows. At the outage's end (the last record before GNSS is back): the
+suspension) without rows. ``with`` also tells the filter of the suspension's sampling error
+on the gyros (`railnav.filters.suspension_noise`, part of ``track_attitude``); the
+``without`` filter is not told of the car body at all. At the outage's end (the last record before GNSS is back): the
 along-track error, its σ and |error|/σ; the NEES (mean over the outage and over the run,
 with its degrees of freedom).
 

@@ -9,6 +9,10 @@ from dataclasses import dataclass
 
 from railnav.errors import ConfigError
 from railnav.filters.car_body import DEFAULT_BOGIE_SPACING_M, DEFAULT_IMU_OFFSET_M
+from railnav.filters.suspension_noise import (DEFAULT_FULL_MOTION_SPEED_MPS,
+                                              DEFAULT_SUSPENSION_DAMPING,
+                                              DEFAULT_SUSPENSION_FREQUENCY_HZ,
+                                              DEFAULT_SUSPENSION_SIGMA_RAD)
 
 __all__ = ["TrackAttitudeConfig", "MOUNT_STATES"]
 
@@ -33,14 +37,23 @@ class TrackAttitudeConfig:
         reference point ahead of the body centre.
     use_roll : bool
         Include the roll row.
+    suspension_frequency_hz, suspension_damping : float
+        Natural frequency (Hz, > 0) and damping ratio (in (0, 1)) of the suspension's
+        oscillators: with `sigma_rad` they set the white angular acceleration whose
+        sampling error the gyros get as extra noise (`railnav.filters.suspension_noise`).
+    full_motion_speed_mps : float
+        ``v_f`` of the suspension amplitude's factor ``1 − exp(−(v/v_f)²)``, m/s (> 0).
     """
 
-    sigma_rad: tuple[float, float, float] = (1e-3, 2e-3, 3e-3)
+    sigma_rad: tuple[float, float, float] = DEFAULT_SUSPENSION_SIGMA_RAD
     interval_s: float = 2.0
     mount_sigma_rad: float = math.radians(1.0)
     bogie_spacing_m: float = DEFAULT_BOGIE_SPACING_M
     imu_offset_m: float = DEFAULT_IMU_OFFSET_M
     use_roll: bool = True
+    suspension_frequency_hz: float = DEFAULT_SUSPENSION_FREQUENCY_HZ
+    suspension_damping: float = DEFAULT_SUSPENSION_DAMPING
+    full_motion_speed_mps: float = DEFAULT_FULL_MOTION_SPEED_MPS
 
     def __post_init__(self) -> None:
         sigma = tuple(float(v) for v in self.sigma_rad)
@@ -49,9 +62,14 @@ class TrackAttitudeConfig:
                                                           self.mount_sigma_rad,
                                                           self.bogie_spacing_m))
               and math.isfinite(self.imu_offset_m)
-              and abs(self.imu_offset_m) <= 0.5 * self.bogie_spacing_m)
+              and abs(self.imu_offset_m) <= 0.5 * self.bogie_spacing_m
+              and all(math.isfinite(v) and v > 0 for v in (self.suspension_frequency_hz,
+                                                          self.full_motion_speed_mps))
+              and math.isfinite(self.suspension_damping) and 0 < self.suspension_damping < 1)
         if not ok:
             raise ConfigError(f"track attitude: sigma_rad (3 values), interval_s, "
-                              f"mount_sigma_rad and bogie_spacing_m must be finite and > 0, "
+                              f"mount_sigma_rad, bogie_spacing_m, suspension_frequency_hz "
+                              f"and full_motion_speed_mps must be finite and > 0, "
+                              f"suspension_damping in (0, 1), "
                               f"|imu_offset_m| <= bogie_spacing_m / 2; got {self!r}")
         object.__setattr__(self, "sigma_rad", sigma)

@@ -13,7 +13,10 @@ grade and its roll the cant (0: the track model has none), up to
   function of ``s`` given the vehicle's geometry;
 * the **suspension**: the body's small yaw, pitch and roll on its springs, the rows' noise
   (1σ `TrackAttitudeConfig.sigma_rad`, default 1 / 2 / 3 mrad, the simulator's
-  `railnav.simulation.car_body_config.DEFAULT_SUSPENSION_SIGMA_RAD`).
+  `railnav.filters.suspension_noise.DEFAULT_SUSPENSION_SIGMA_RAD`). Its rates, sampled
+  by the IMU and interpolated by the filter, also leave the attitude a random walk between
+  the samples, which the filter takes as more gyro noise whenever these rows are on
+  (`railnav.filters.suspension_noise`: for a tactical IMU it outweighs the gyros' own).
 
 Rows, at every ``interval_s`` (default 2 s: the simulated suspension, a 1-Hz oscillator with
 damping 0.3, has lost its correlation by then, ρ(2 s) = 0.02; the rows are treated as

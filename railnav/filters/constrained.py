@@ -43,6 +43,7 @@ from railnav.filters.scale_noise import (along_force_matters, along_step_varianc
                                           path_bias_step_densities, step_nodes,
                                           weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
+from railnav.filters.suspension_noise import sampling_densities
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
 from strapdown.kinematics import BIAS_STATE_NAMES
@@ -151,6 +152,7 @@ class ConstrainedFilter:
         self.one_sided = OneSidedLimit(track, self.layout, self.model.noise_names) \
             if config.one_sided else None
         self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
+        self._gyro = [self.model.noise_names.index(n) for n in ("w_wx", "w_wy", "w_wz")]
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
         #: The previous chunk's mean along-track acceleration, m/s² (None: no chunk yet).
@@ -279,9 +281,11 @@ class ConstrainedFilter:
                   ) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
-        (`railnav.filters.joint_noise`) and the bias steps of the unestimated scale
+        (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
         factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths)."""
+        of the spread's paths) and, with the attitude rows' car body
+        (``config.track_attitude``), the sampling error of its suspension's rates
+        (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
             pending["nodes"]
         s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]
@@ -297,13 +301,17 @@ class ConstrainedFilter:
             span = float(np.sum(steps))
             extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
             bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
-        if not joints and bias is None:
+        body = None if self.config.track_attitude is None else \
+            sampling_densities(self.config.track_attitude, steps[:t.size], speed)
+        if not joints and bias is None and body is None:
             return self.q_c
         q = np.tile(self.q_c, (t.size, 1))
         for rows, extra in joints:
             np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
         if bias is not None:
             q[:, self._bias_noise] += bias
+        if body is not None:
+            q[:, self._gyro] += body
         return q
 
     def _path_rows(self, s_pred: Array, s_prev: float, nodes: list[tuple[float, float]]

@@ -9,11 +9,12 @@ from dataclasses import dataclass
 
 from railnav.errors import ConfigError
 from railnav.filters.car_body import DEFAULT_BOGIE_SPACING_M, DEFAULT_IMU_OFFSET_M
+from railnav.filters.suspension_noise import (DEFAULT_FULL_MOTION_SPEED_MPS,
+                                              DEFAULT_SUSPENSION_DAMPING,
+                                              DEFAULT_SUSPENSION_FREQUENCY_HZ,
+                                              DEFAULT_SUSPENSION_SIGMA_RAD)
 
 __all__ = ["CarBodyMotion", "DEFAULT_SUSPENSION_SIGMA_RAD"]
-
-#: 1σ of the suspension's yaw, pitch, roll, rad.
-DEFAULT_SUSPENSION_SIGMA_RAD = (1e-3, 2e-3, 3e-3)
 
 
 @dataclass(frozen=True)
@@ -41,9 +42,9 @@ class CarBodyMotion:
     bogie_spacing_m: float = DEFAULT_BOGIE_SPACING_M
     imu_offset_m: float = DEFAULT_IMU_OFFSET_M
     suspension_sigma_rad: tuple[float, float, float] = DEFAULT_SUSPENSION_SIGMA_RAD
-    suspension_frequency_hz: float = 1.0
-    suspension_damping: float = 0.3
-    full_motion_speed_mps: float = 5.0
+    suspension_frequency_hz: float = DEFAULT_SUSPENSION_FREQUENCY_HZ
+    suspension_damping: float = DEFAULT_SUSPENSION_DAMPING
+    full_motion_speed_mps: float = DEFAULT_FULL_MOTION_SPEED_MPS
     mount_sigma_rad: float = math.radians(1.0)
 
     def __post_init__(self) -> None:

@@ -15,7 +15,9 @@ attitude is not the track's:
   ζ/√(1−ζ²) sin ω_d τ)`` is 0.02 after 2 s. Track irregularities excite it, so its
   amplitude grows with speed, ``1 − exp(−(v/v_f)²)``, ``v_f = 5 m/s``: none at a
   standstill. The oscillator's rate is its second state, so the angles are C¹ and the IMU
-  exact;
+  exact at its samples; between them the rate moves by the white angular acceleration's
+  increments, which an interpolation of the samples misses (the filter's model of that:
+  `railnav.filters.suspension_noise`);
 * **mounting**: the IMU's axes are turned from the body's by three small constant angles
   (yaw, pitch, roll of the IMU in body axes), drawn N(0, ``mount_sigma_rad``²), default 1°.
 
