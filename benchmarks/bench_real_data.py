@@ -19,8 +19,10 @@ the track (each position and the reference projected on the track: ``Δs`` and
 ``Δcross``). Sensitivity of gnss-only (the design choices of `railnav.filters.gnss_only`):
 white pseudorange errors (τ = 0), σ_a = 0.5 m/s², Huber row weights, the dual-frequency
 ionosphere-free combination (with the SPP on the same measurements) to show what the
-ionosphere residual costs, and the filter with the ``additive`` pseudorange σ model
-calibrated on this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`; SPP with its own).
+ionosphere residual costs, the filter with the ``additive`` pseudorange σ model
+calibrated on this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`; SPP with its own),
+without the slow code error's state (`railnav.filters.code_bias`, k = 0) and with the
+heading's curvature term at its calibrated 2.2 m (``track_heading_curvature_m``).
 Also: the reference's distance to the track (the fit's part).
 
 Writes ``benchmarks/results/real_data.json``. Run: ``python benchmarks/bench_real_data.py
@@ -48,6 +50,7 @@ from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
 from railnav.config import NavigatorConfig  # noqa: E402
+from railnav.filters.code_bias import CodeBiasConfig  # noqa: E402
 from railnav.jobs.run import run_files  # noqa: E402
 from railnav.evaluation.spp_accuracy import (accuracy_summary, read_reference_trajectory,  # noqa: E402
                                 spp_errors)
@@ -57,6 +60,8 @@ from trackmodel.io import read_track  # noqa: E402
 REPO = Path(__file__).resolve().parents[1]
 TRACK = REPO / "data" / "tracks" / "barcelona_drive.csv"
 RESULTS = Path(__file__).resolve().parent / "results" / "real_data.json"
+#: ``NavigatorConfig.track_heading_curvature_m`` as calibrated (``bench_code_bias.py``), m.
+CALIBRATED_HEADING_CURVATURE_M = 2.2
 #: Files of the urban drive this benchmark reads from ``--data DIR``.
 DATA_FILES = ("rover_obs.rnx", "broadcast_nav.rnx", "reference_trajectory.csv")
 EPOCH_DECIMALS = 3     # epochs matched on gps_time_s to 1 ms (railnav.evaluation.spp_accuracy)
@@ -176,7 +181,10 @@ def sensitivity(track, obs, nav, obs_path, nav_path, reference) -> dict:
         {"pseudorange_correlation_s": 0.0}, {}), "sigma_a 0.5 m/s2": (
         {"along_accel_sigma_mps2": 0.5}, {}), "huber k 1.5": ({}, {"huber_k": 1.5}),
         "iono-free": ({"ionosphere": "iono-free"}, {}),
-        "urban sigmas (filter only)": ({"sigmas": URBAN_CODE_SIGMAS}, {})}
+        "urban sigmas (filter only)": ({"sigmas": URBAN_CODE_SIGMAS}, {}),
+        "no slow code error (k 0)": ({"code_bias": CodeBiasConfig(sigma=0.0)}, {}),
+        f"heading curvature {CALIBRATED_HEADING_CURVATURE_M} m": (
+            {"track_heading_curvature_m": CALIBRATED_HEADING_CURVATURE_M}, {})}
     for systems in ("G", "GE"):
         for label, (cfg_kw, filt_kw) in variants.items():
             measurement = {k: v for k, v in cfg_kw.items() if k == "ionosphere"}

@@ -22,11 +22,25 @@ fixes, read back as a fix file, with ``FixModelConfig.correlated_code_errors``) 
 scored on the same epochs (whole seconds where each has a position and the reference one).
 Per piece: epochs, horizontal RMS / max of each, "never worse than SPP" (RMS and max), the
 monitor's status counts, the epochs whose along-track error (reference projected on the
-piece's track) exceeds 3σ_s, and how many of those the monitor left ``ok``.
+piece's track) exceeds 3σ_s, how many of those the monitor left ``ok``, and RMS(e_s/σ_s).
+
+The monitor on these pieces (gnss-only): every epoch it does not call ``ok`` is one of the
+first two or one the rejected-row test fails. The GNSS NIS of rows whose variances are
+inflated for correlated errors (×8 at 5 m/s, ×40 standing) is a fraction of its degrees
+of freedom (its window's tail probability never fell below 0.34), and the fix test's
+snapshot carries the same inflated variances (|d| ≤ 1.54 on every piece): neither fails
+on real data, and no test sees an error the filter shares with its own rows.
+
+Calibration and held-out: the real-data error model (`railnav.filters.code_bias`, the
+heading's σ) was calibrated on `CALIBRATION_PIECES`, the drive's first ~3 minutes
+(`bench_code_bias.py`); ``groups`` sums the figures over those pieces (``calibration``),
+over the other parts and leg 2's two pieces (``held_out``), and gives ``leg 1`` (both) apart.
 
 ``--urban-sigmas``: the two filters with the ``additive`` pseudorange σ model calibrated on
 this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`), SPP with its own (the default);
-``benchmarks/results/real_pieces_urban_sigmas.json``.
+``benchmarks/results/real_pieces_urban_sigmas.json``. ``--heading-curvature-m D``: the
+filters with ``NavigatorConfig.track_heading_curvature_m`` = D (calibrated 2.2 m, off by
+default); ``benchmarks/results/real_pieces_heading_curvature.json``.
 
 Writes ``benchmarks/results/real_pieces.json``. Run: ``python benchmarks/bench_real_pieces.py
 --data DIR`` (a few minutes).
@@ -73,6 +87,8 @@ GPS_WEEK = 2134
 UTURN_START_SOW = 45966.0
 WEEK_S = 604_800
 SAMPLE_STEP_M = 1.0
+#: The pieces the real-data error model was calibrated on (`bench_code_bias.py`).
+CALIBRATION_PIECES = ("leg 1 part 1", "leg 1 part 2", "leg 1 part 3")
 
 
 def _corner_cuts(track) -> list[float]:
@@ -158,7 +174,8 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
         r = ref.loc[common]
         s_ref = track.project(np.radians(r["lat_deg"].to_numpy()),
                               np.radians(r["lon_deg"].to_numpy())).s
-        beyond = np.abs(est["s_m"].to_numpy() - s_ref) > 3.0 * est["sigma_s_m"].to_numpy()
+        z = (est["s_m"].to_numpy() - s_ref) / est["sigma_s_m"].to_numpy()
+        beyond = np.abs(z) > 3.0
         status = est["status"].to_numpy()
         mon = monitor[name].statistics()["monitor"]
         row[name].update(
@@ -168,8 +185,40 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
             status_epochs=mon["epochs"], recoveries=mon["recoveries"],
             final_status=mon["final_status"], epochs_beyond_3sigma=int(beyond.sum()),
             epochs_beyond_3sigma_not_flagged=int((beyond & (status == "ok")).sum()),
-            along_track_rms_m=float(np.sqrt(np.mean((est["s_m"].to_numpy() - s_ref) ** 2))))
+            along_track_rms_m=float(np.sqrt(np.mean((est["s_m"].to_numpy() - s_ref) ** 2))),
+            along_track_rms_sigma=float(np.sqrt(np.mean(z ** 2))))
     return row
+
+
+def load_drive(data: Path):
+    """The drive's rover observations, navigation, reference and GPS L1 SPP fixes (the
+    epochs with a position) from the folder `data`."""
+    obs = read_rinex_obs(data / "rover_obs.rnx")
+    nav = read_rinex_nav(data / "broadcast_nav.rnx")
+    reference = read_reference_trajectory(data / "reference_trajectory.csv")
+    spp = solve_spp(obs, nav, SppConfig(measurement=MeasurementConfig(systems="G"))).to_frame()
+    return obs, nav, reference, spp[np.isfinite(spp["lat_deg"])]
+
+
+def group_totals(results: dict) -> dict:
+    """Per group (``calibration``, ``held_out``, ``leg 1``) and filter: the epochs, those
+    beyond 3σ_s and those the monitor left ``ok``, and the pieces worse than SPP."""
+    groups = {"calibration": [n for n in results if n in CALIBRATION_PIECES],
+              "held_out": [n for n in results if n not in CALIBRATION_PIECES and n != "leg 1"],
+              "leg 1": [n for n in results if n == "leg 1"]}
+    out = {}
+    for group, names in groups.items():
+        out[group] = {"pieces": names}
+        for k in ("gnss-only", "fixes"):
+            rows = [results[n][k] for n in names]
+            out[group][k] = {
+                "epochs": int(sum(results[n]["epochs"] for n in names)),
+                "epochs_beyond_3sigma": int(sum(r["epochs_beyond_3sigma"] for r in rows)),
+                "epochs_beyond_3sigma_not_flagged": int(sum(
+                    r["epochs_beyond_3sigma_not_flagged"] for r in rows)),
+                "pieces_worse_than_spp": [n for n, r in zip(names, rows)
+                                          if not r["never_worse_than_spp"]]}
+    return out
 
 
 def main(argv=None) -> int:
@@ -178,6 +227,9 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=RESULTS)
     parser.add_argument("--no-recovery", action="store_true",
                         help="the monitor flags but never changes the state (the baseline)")
+    parser.add_argument("--heading-curvature-m", type=float, default=None,
+                        help="NavigatorConfig.track_heading_curvature_m of the filters "
+                             "(default: the configuration's, 0)")
     parser.add_argument("--urban-sigmas", action="store_true",
                         help="the filters use the additive pseudorange σ model "
                              "(gnss_obs.measurements.URBAN_CODE_SIGMAS); SPP keeps its own")
@@ -185,17 +237,15 @@ def main(argv=None) -> int:
     config = NavigatorConfig(filter="gnss-only")
     if args.urban_sigmas:
         config = replace(config, measurement=replace(config.measurement, **URBAN_CODE_SIGMAS))
+    if args.heading_curvature_m is not None:
+        config = replace(config, track_heading_curvature_m=args.heading_curvature_m)
     # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
     config = replace(config, monitor=replace(config.monitor, recover=not args.no_recovery),
                      # SPP fixes: their errors are their pseudoranges', correlated alike
                      fix_model=replace(config.fix_model, correlated_code_errors=True))
     data = checked_data_dir(parser, args.data, DATA_FILES)
     started = time.perf_counter()
-    obs = read_rinex_obs(data / "rover_obs.rnx")
-    nav = read_rinex_nav(data / "broadcast_nav.rnx")
-    reference = read_reference_trajectory(data / "reference_trajectory.csv")
-    spp = solve_spp(obs, nav, SppConfig(measurement=MeasurementConfig(systems="G"))).to_frame()
-    spp = spp[np.isfinite(spp["lat_deg"])]
+    obs, nav, reference, spp = load_drive(data)
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
         for piece in pieces(reference):
@@ -212,6 +262,9 @@ def main(argv=None) -> int:
                   f"{r['fixes']['epochs_beyond_3sigma']}", flush=True)
     out = {"data": "gnss_urban_drive", "tightest_track_radius_m": TIGHTEST_TRACK_RADIUS_M,
            "recovery": not args.no_recovery,
+           "track_heading_curvature_m": config.track_heading_curvature_m,
+           "code_bias": {"sigma": config.code_bias.sigma, "time_s": config.code_bias.time_s},
+           "groups": group_totals(results),
            **({"filters_measurement_sigmas": URBAN_CODE_SIGMAS} if args.urban_sigmas else {}),
            "pieces": results,
            "all_never_worse_than_spp": all(r[k]["never_worse_than_spp"] for r in results.values()
@@ -220,6 +273,11 @@ def main(argv=None) -> int:
                r[k]["epochs_beyond_3sigma_not_flagged"] for r in results.values()
                for k in ("gnss-only", "fixes")),
            "seconds": time.perf_counter() - started, "machine": platform.platform()}
+    for group, g in out["groups"].items():
+        print(f"{group}: " + "; ".join(
+            f"{k} beyond 3σ {g[k]['epochs_beyond_3sigma']} (not flagged "
+            f"{g[k]['epochs_beyond_3sigma_not_flagged']}) of {g[k]['epochs']}, worse than SPP "
+            f"{len(g[k]['pieces_worse_than_spp'])}" for k in ("gnss-only", "fixes")))
     atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
     print(f"{args.out}")
     return 0

@@ -27,6 +27,7 @@ from gnss_obs.rinex_obs import RinexObs
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_IMU_GRADE, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.balise_epochs import BaliseModelConfig
+from railnav.filters.code_bias import CodeBiasConfig
 from railnav.filters.fault_detection import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.attitude_config import TrackAttitudeConfig
@@ -113,7 +114,7 @@ class NavigatorConfig:
         antenna moves (code multipath depends on where the antenna is among the
         reflectors), m. The correlation time used at each epoch is
         ``min(pseudorange_correlation_s, pseudorange_correlation_m / |v|)`` at the prior's
-        speed (`railnav.filters.gnss_only.correlation_time_s`): standing, the errors
+        speed (`railnav.filters.gnss_only_noise.correlation_time_s`): standing, the errors
         repeat and the full τ holds; moving, they decorrelate and the filter may follow
         its pseudoranges sooner. 0: the time alone. Default 20 m: on every piece of the
         urban drive (``benchmarks/results/real_pieces.json``) the horizontal RMS is then
@@ -124,9 +125,10 @@ class NavigatorConfig:
         GNSS-only filter: 1σ of the angle between the antenna's velocity and the track's
         tangent at ``s``, rad (the track's heading error, the vehicle's motion across
         and along the normal of the track: a car that does not follow the fitted line, a
-        tram body's yaw). Each range-rate row gets the variance ``(σ_ψ v)² (e·n)²``, ``n``
-        the track's horizontal normal
-        (`railnav.filters.gnss_only.heading_variance_mps2`). Without it a heading
+        tram body's yaw). One angle per epoch, common to its range-rate rows: they get the
+        covariance ``(σ_ψ v)² c cᵀ``, ``c_i = e_i·n``, ``n`` the track's horizontal normal
+        (`railnav.filters.gnss_only_noise.heading_covariance_mps2`; only the variances,
+        ``(σ_ψ v)² (e·n)²``, when the fault screen tests the rows). Without it a heading
         mismatch reads as a Doppler error the filter explains by moving ``s`` along the
         curvature, ``δs ≈ δψ/κ``: metres at κ = 1e-3 /m. 0: the velocity is ``v t(s)``
         exactly (simulated trips). Default 0.03 rad: the RMS angle between the urban
@@ -136,6 +138,22 @@ class NavigatorConfig:
         on ``s`` through the curvature is real where the track's heading is right, and
         0.04 rad already cost the 3-minute excerpt (issue 7's test: GPS+Galileo RMS
         0.504 of SPP's against 0.5; 0.03 rad: 0.488, GPS 0.423, none 0.470 and 0.386).
+    track_heading_curvature_m : float
+        GNSS-only filter: how far along the track (1σ, m) the vehicle's turning may lead or
+        lag the track's where it curves: σ_ψ² + (κ d)² replaces σ_ψ² (κ the track's
+        curvature at ``s``; with ``track_heading_sigma_rad`` > 0 only). 0: off (default).
+        Measured on the urban drive's first 3 minutes (``benchmarks/bench_code_bias.py``),
+        d = 2.2 m (the held-out pieces: 1.3 m). With it the gnss-only filter's epochs beyond
+        3σ_s on the held-out pieces fall from 20 to 6 of 388, but on the calibration pieces
+        they rise from 3 to 25 of 170 (leg 1 part 3 follows its biased rows, 4.4 m RMS) and
+        the first leg's horizontal RMS from 1.68 / 1.87 to 2.07 / 1.97 m (GPS / GPS+Galileo,
+        ``benchmarks/bench_real_data.py``): the Doppler rows' information on ``s`` in the
+        corners is worth more there than its overconfidence costs
+        (``benchmarks/results/real_pieces_heading_curvature.json``).
+    code_bias : railnav.filters.code_bias.CodeBiasConfig
+        GNSS-only filter: the slow part of the code errors, an along-track bias state shared
+        by each epoch's position rows (`railnav.filters.code_bias`); with
+        ``pseudorange_correlation_s`` > 0 only (white errors have no slow part).
     fault_detection : railnav.filters.fault_detection.FaultDetectionConfig or None
         Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
         prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
@@ -197,6 +215,8 @@ class NavigatorConfig:
     pseudorange_correlation_s: float = 20.0
     pseudorange_correlation_m: float = 20.0
     track_heading_sigma_rad: float = 0.03
+    track_heading_curvature_m: float = 0.0
+    code_bias: CodeBiasConfig = CodeBiasConfig()
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
     fix_model: FixModelConfig = FixModelConfig()
     rts_smoothing: bool = False
@@ -242,13 +262,14 @@ class NavigatorConfig:
             if not (getattr(self, name) is None or isinstance(getattr(self, name), cls)):
                 raise ConfigError(f"{name} must be a {cls.__name__} or None, got "
                                   f"{getattr(self, name)!r}")
-        for name, cls in (("fix_model", FixModelConfig), ("odometer_model", OdometerConfig),
+        for name, cls in (("fix_model", FixModelConfig), ("code_bias", CodeBiasConfig),
+                          ("odometer_model", OdometerConfig),
                           ("balise_model", BaliseModelConfig), ("lever_arms", LeverArms)):
             if not isinstance(getattr(self, name), cls):
                 raise ConfigError(f"{name} must be a {cls.__name__}, got "
                                   f"{getattr(self, name)!r}")
         for name in ("pseudorange_correlation_s", "pseudorange_correlation_m",
-                     "track_heading_sigma_rad"):
+                     "track_heading_sigma_rad", "track_heading_curvature_m"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a finite number >= 0, got {value!r}")

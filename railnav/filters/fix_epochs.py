@@ -57,7 +57,8 @@ class FixModelConfig:
         navigator's stacked fix rows (`railnav.navigation.stacked_fixes`) do not have it
         yet and must equal the per-filter rows. On the urban drive's SPP fixes it takes the
         fix-based filter's epochs beyond 3σ_s from 315 to 9 of 952
-        (``benchmarks/bench_real_pieces.py``, which turns it on).
+        (``benchmarks/bench_real_pieces.py``, which turns it on), and with the slow code
+        error's state (`railnav.filters.code_bias`, its position rows at ``s + σ_e b``) to 0.
     """
 
     track_cross_sigma_m: float = 1.5

@@ -22,7 +22,9 @@ statistic that is exact when the filter's σ are right:
   of the update (a choice made at the prior, so the rows left are not independent of it),
   the fix is instead the run's position fix of the epoch (`track_fixes.fix_log_track_fixes`)
   or the receiver's single-point fix of that epoch, solved then (`track_fixes.spp_fix_at`),
-  projected on the track near the prior (`track_fixes.TrackFixes.near`);
+  projected on the track near the prior (`track_fixes.TrackFixes.near`). With the slow code
+  error's state the rows measure ``s + σ_e b``: σ_s,prior is then that sum's
+  (`railnav.filters.code_bias.apparent_variance`);
 * **pseudo-observation NIS**: the continuous (accelerometer) pseudo-observation's NIS
   summed over the window's steps against χ² with its total dimension;
 * **fix disagreement too small** (``p_fix_small``, ``degraded`` only): the lower χ² tail of
@@ -73,6 +75,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from railnav.filters.code_bias import apparent_variance
+from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
 __all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at"]
@@ -204,6 +208,8 @@ class FilterMonitor:
         self._epoch_fixes: TrackFixes | None = None
         self._clock_columns = tuple(i for i, name in enumerate(layout.names)
                                     if name == "clock_bias" or name.startswith("isb_"))
+        self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
+            else None
         self._position_key: dict[str, bool] = {}
         # the last epochs, oldest first, in the last `_n_window` / `_n_small` columns
         self._window = np.full((_D + 1, config.window_epochs), np.nan)
@@ -219,6 +225,10 @@ class FilterMonitor:
         self._snapshot = None if observations is None or self._screened_out() else \
             snapshot_fix(observations, x, self.i_s, self._clock_columns,
                          pseudorange_inflation=self.pseudorange_inflation)
+        if self._snapshot is not None and self.i_bias is not None:
+            self._prior = self._prior[:2] + (
+                apparent_variance(observations, x, P, self.i_s, self.i_bias),)
+
 
     def _screened_out(self) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`)

@@ -100,7 +100,8 @@ def test_constrained_filter_with_fixes_is_consistent():
 @pytest.mark.parametrize("speed_mps", [0.0, 15.0])
 def test_code_fixes_get_the_correlated_error_inflation(speed_mps):
     """The gnss-only filter's rows of a code fix (``single``, ``dgps``) with
-    ``FixModelConfig.correlated_code_errors`` and the default correlated-error model are
+    ``FixModelConfig.correlated_code_errors`` and the default correlated-error model
+    (without the slow part's state: `test_code_bias` tests its rows) are
     its rows with white errors (τ = 0) times the AR(1)
     variance-of-the-mean factor (1 + ρ)/(1 − ρ), ρ = exp(−Δt / min(τ, d/|v|)) written out
     (Δt = 1 s, the fixes' interval; the defaults τ = 20 s, d = 20 m); carrier fixes
@@ -108,6 +109,7 @@ def test_code_fixes_get_the_correlated_error_inflation(speed_mps):
     every fix's rows are the white ones."""
     import math
 
+    from railnav.filters.code_bias import CodeBiasConfig
     from railnav.filters.fix_epochs import EpochSchedule, FixEpochs, FixModelConfig
     from railnav.filters.gnss_only import GnssOnlyFilter
     sc = Scenario(name="fix_test", profile=constant_speed(15.0), duration_s=20.0,
@@ -115,7 +117,8 @@ def test_code_fixes_get_the_correlated_error_inflation(speed_mps):
     trip = simulate_trip(sc, track=STRAIGHT, seed=2, gnss=False)
     log = trip_fixes(trip, FixSimConfig(rate_hz=1.0, quality_mix=MIX, segment_s=2.0))
     fixes = FixEpochs.from_table(log.table, start_gps_time_s=sc.start_gps_time_s)
-    correlated = NavigatorConfig(filter="gnss-only",
+    no_bias = CodeBiasConfig(sigma=0.0)          # the rows' models: the slow part's test
+    correlated = NavigatorConfig(filter="gnss-only", code_bias=no_bias,
                                  fix_model=FixModelConfig(correlated_code_errors=True))
     white = NavigatorConfig(filter="gnss-only", pseudorange_correlation_s=0.0,
                             fix_model=FixModelConfig(correlated_code_errors=True))

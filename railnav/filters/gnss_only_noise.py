@@ -1,0 +1,166 @@
+"""Noise of the gnss-only filter's rows on real data, beyond each row's own σ.
+
+* Errors correlated from epoch to epoch (code multipath while the vehicle is slow or
+  stopped): the variance inflation of `correlation_inflation` over the correlation time of
+  `correlation_time_s` (``NavigatorConfig.pseudorange_correlation_s`` and ``_m``);
+* the velocity's angle to the track (a map's heading error, a vehicle that does not follow
+  the fitted line): one angle per epoch, the range-rate covariance of
+  `heading_covariance_mps2`, of σ `heading_sigma_rad` (``NavigatorConfig.track_heading_sigma_rad``
+  and ``track_heading_curvature_m``).
+
+The filter that uses them is `railnav.filters.gnss_only.GnssOnlyFilter`; the slow part of the
+code errors, which no inflation models, is `railnav.filters.code_bias`.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from railnav.filters.gnss_rows import TRACK_ROW_NAMES
+from trackmodel.earth import WGS84
+
+__all__ = ["correlation_time_s", "correlation_inflation", "heading_covariance_mps2",
+           "heading_sigma_rad"]
+
+Array = npt.NDArray[np.float64]
+
+
+def correlation_time_s(correlation_s: float, correlation_m: float, speed_mps: float) -> float:
+    """The pseudorange errors' correlation time at a speed: ``min(τ, d / |v|)``.
+
+    Code multipath is a function of where the antenna is among the reflectors: standing,
+    it repeats epoch after epoch (correlation time τ, set by the satellites' slow motion);
+    moving, it decorrelates over a distance ``d`` travelled. Measured on the urban drive
+    (``benchmarks/results/real_pieces.json``, every piece): with τ alone (20 s) the filter
+    held a start-up error of 5-9 m for a minute while the car drove at 5 m/s (leg 1
+    part 4: horizontal RMS 5.36 m against single-point 3.87 m); with ``d`` = 20 m as
+    well, 3.50 m, and the RMS is below the single-point RMS on every piece.
+
+    Parameters
+    ----------
+    correlation_s : float
+        τ, s (0: white).
+    correlation_m : float
+        ``d``, m (0: τ alone).
+    speed_mps : float
+        ``v``, m/s (signed).
+
+    Returns
+    -------
+    float
+        s.
+    """
+    speed = abs(float(speed_mps))
+    if correlation_m <= 0.0 or speed * correlation_s <= correlation_m:
+        return float(correlation_s)
+    return float(correlation_m) / speed
+
+
+def correlation_inflation(correlation_s: float, interval_s: float) -> float:
+    """Variance factor ``(1 + ρ)/(1 − ρ)``, ``ρ = exp(−Δt/τ)``, for errors correlated over τ.
+
+    The variance of the mean of ``n`` samples of a first-order Gauss–Markov sequence (step
+    ``Δt``, correlation time ``τ``) is ``(1 + ρ)/(1 − ρ)`` times that of ``n`` white samples
+    for ``n ≫ τ/Δt``; a filter fed the sequence as white noise of that inflated variance
+    gets the right weight for long averages.
+
+    Parameters
+    ----------
+    correlation_s : float
+        τ, s (0: white, factor 1).
+    interval_s : float
+        Δt, the epoch interval, s (> 0).
+
+    Returns
+    -------
+    float
+        >= 1.
+    """
+    if correlation_s <= 0.0:
+        return 1.0
+    rho = float(np.exp(-interval_s / correlation_s))
+    return (1.0 + rho) / (1.0 - rho)
+
+
+#: Columns of a range-rate row's parameters (`railnav.filters.gnss_rows.range_rate_parameters`
+#: of `railnav.filters.gnss_rows.track_rows`): the reference point, the tangent, the satellite.
+_R_REF = slice(1, 4)
+_T_REF = slice(4, 7)
+_SAT_POS = slice(len(TRACK_ROW_NAMES), len(TRACK_ROW_NAMES) + 3)
+
+
+_K_REF = slice(7, 10)
+
+
+def _heading_projections(p: Array) -> Array:
+    """``c_i = e_i·n`` of range-rate rows: the line of sight to each satellite on the
+    track's horizontal normal at the rows' reference point (`heading_covariance_mps2`)."""
+    r = p[0, _R_REF]
+    up = r / np.array([1.0, 1.0, (1.0 - WGS84.f) ** 2])    # the ellipsoid's normal at r
+    normal = np.cross(up, p[0, _T_REF])     # ⊥ the tangent and the up: horizontal
+    normal = normal / np.linalg.norm(normal)
+    los = p[:, _SAT_POS] - r
+    return (los @ normal) / np.linalg.norm(los, axis=1)
+
+
+def heading_covariance_mps2(p: Array, speed_mps: float, sigma_rad: float) -> Array:
+    """Range-rate covariance of a velocity off the track's heading: ``(σ_ψ v)² c cᵀ``.
+
+    The antenna's velocity is ``v (t + ψ n)``, ``n`` the track's horizontal normal and ψ
+    an angle of σ_ψ (small), one for the epoch: the range rate along the line of sight
+    ``e_i`` errs by ``v ψ c_i``, ``c_i = e_i·n``, the same ψ in every row. The filter's
+    model is ``v t(s)``; this is what it leaves out
+    (`railnav.NavigatorConfig.track_heading_sigma_rad`). The angle to the track's grade is
+    left out: heights are smooth (on the urban drive the isotropic variant,
+    ``(σ_ψ v)² (1 − (e·t)²)``, also cost the Doppler rows of the high satellites their
+    weight). Taken as independent row variances (the diagonal alone), ψ averages out over
+    the satellites: on the urban drive the filter then drew ``s`` from the Doppler rows
+    through the curvature in every corner (``benchmarks/bench_real_pieces.py``, with the
+    slow code error's state: leg 1 part 4 horizontal RMS 6.13 m with the diagonal,
+    3.09 m with the covariance; epochs beyond 3σ_s on the nine pieces 88 with the
+    diagonal, 53 with it).
+
+    Parameters
+    ----------
+    p : ndarray, shape (N, k)
+        Range-rate row parameters (`railnav.filters.gnss_rows.range_rate_parameters` with
+        the `railnav.filters.gnss_rows.track_rows` part: reference point, tangent, then the
+        satellite's position; ECEF).
+    speed_mps : float
+        ``v`` (signed), m/s.
+    sigma_rad : float
+        σ_ψ, rad.
+
+    Returns
+    -------
+    ndarray, shape (N, N)
+        (m/s)².
+    """
+    c = (sigma_rad * float(speed_mps)) * _heading_projections(p)
+    return np.outer(c, c)
+
+
+def heading_sigma_rad(p: Array, sigma_rad: float, curvature_m: float) -> float:
+    """σ_ψ where the track curves: ``√(σ_ψ² + (κ d)²)``, κ = ``|dt/ds|`` at the rows'
+    reference point (`railnav.NavigatorConfig.track_heading_curvature_m`: d, m).
+
+    Parameters
+    ----------
+    p : ndarray, shape (N, k)
+        Range-rate row parameters (`heading_covariance_mps2`).
+    sigma_rad : float
+        σ_ψ, rad.
+    curvature_m : float
+        d, m (0: σ_ψ).
+
+    Returns
+    -------
+    float
+        rad.
+    """
+    if curvature_m <= 0.0:
+        return float(sigma_rad)
+    kappa = float(np.linalg.norm(p[0, _K_REF]))
+    return math.hypot(float(sigma_rad), kappa * float(curvature_m))
