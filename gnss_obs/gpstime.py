@@ -32,6 +32,11 @@ __all__ = ["GPS_EPOCH", "calendar_to_gps_time_s", "gps_time_s_to_calendar",
 
 #: The GPS epoch as a label, 1980-01-06 00:00:00.
 GPS_EPOCH = np.datetime64("1980-01-06T00:00:00", "ns")
+#: GPS seconds (open interval) that datetime64[ns] can label: int64 nanoseconds both from
+#: the GPS epoch and from 1970 (the label's own count), a millisecond to spare for rounding
+#: (float64's spacing there is ~2 µs).
+_NS_RANGE_S = ((np.iinfo(np.int64).min + 1) / 1e9 + 1e-3,
+               (np.iinfo(np.int64).max - int(GPS_EPOCH.astype(np.int64))) / 1e9 - 1e-3)
 _GPS_EPOCH_DAYS = 3657  # days from 1970-01-01 to 1980-01-06
 
 #: Time systems `to_gps_time_s` understands (RINEX 3 names).
@@ -130,9 +135,17 @@ def datetime64_to_gps_time_s(dt: npt.ArrayLike) -> npt.NDArray[np.float64]:
 
 
 def gps_time_s_to_datetime64(t: npt.ArrayLike) -> np.ndarray:
-    """Seconds since the GPS epoch -> numpy datetime64[ns] labels in GPS time."""
-    ns = np.round(np.asarray(t, dtype=np.float64) * 1e9).astype(np.int64)
-    return GPS_EPOCH + ns.astype("timedelta64[ns]")
+    """Seconds since the GPS epoch -> numpy datetime64[ns] labels in GPS time.
+
+    A time that is not finite, or outside what datetime64[ns] can label from the GPS epoch
+    (1687-09-26 to 2262-04-11), gives NaT: a damaged file's epoch in a message, not an
+    overflowed label.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    ok = np.isfinite(t) & (t > _NS_RANGE_S[0]) & (t < _NS_RANGE_S[1])
+    ns = np.round(np.where(ok, t, 0.0) * 1e9).astype(np.int64)
+    out = np.where(ok, GPS_EPOCH + ns.astype("timedelta64[ns]"), np.datetime64("NaT", "ns"))
+    return out[()] if out.ndim == 0 else out
 
 
 def leap_seconds_at(t_utc_labels_s: npt.ArrayLike) -> np.ndarray:
@@ -212,5 +225,5 @@ def gps_time_s_to_utc_iso(t: npt.ArrayLike, *, suffix: str = "") -> np.ndarray:
 
 def gpst_label(t: float) -> str:
     """``YYYY-MM-DD HH:MM:SS`` of a GPS time, in GPS time (for messages)."""
-    return str(np.datetime_as_string(gps_time_s_to_datetime64(t).astype("datetime64[s]"))
-               ).replace("T", " ")
+    label = str(np.datetime_as_string(gps_time_s_to_datetime64(t).astype("datetime64[s]")))
+    return label if label == "NaT" else label.replace("T", " ")

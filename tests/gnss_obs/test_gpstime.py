@@ -1,6 +1,8 @@
 """GPS time conversions against published calendar facts and numpy's datetime64."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -8,8 +10,9 @@ from hypothesis import strategies as st
 
 from gnss_obs.constants import WEEK_S, relativistic_constant, GM_GPS, wavelength_m
 from gnss_obs.gpstime import (calendar_to_gps_time_s, datetime64_to_gps_time_s,
-                              from_gps_time_s, gps_time_s_to_calendar, gps_time_s_to_week_sow,
-                              leap_seconds_at, to_gps_time_s)
+                              from_gps_time_s, gps_time_s_to_calendar, gps_time_s_to_datetime64,
+                              gps_time_s_to_week_sow, gpst_label, leap_seconds_at,
+                              to_gps_time_s)
 
 
 def test_shared_data_epoch_is_gps_week_2134():
@@ -70,3 +73,23 @@ def test_issue16_glo_time_system_is_utc():
     assert to_gps_time_s(label, "GLO") == expected
     assert to_gps_time_s(label, "GLO", leap_seconds=18) == expected
     assert from_gps_time_s(expected, "GLO") == label
+
+
+
+def test_labels_outside_datetime64_are_nat_without_overflow():
+    """datetime64[ns] ends at 2262-04-11T23:47:16.854775807 (int64 ns since 1970): a second
+    before is labelled, a second after (and NaN, ±inf, a fuzzed 1e300) is NaT, with no
+    overflowed cast (warnings are errors here); a message's label says NaT."""
+    last = float(calendar_to_gps_time_s(2262, 4, 11, 23, 47, 16.0))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        labels = gps_time_s_to_datetime64([last - 1.0, last + 1.0, np.nan, np.inf, -np.inf,
+                                           1e300])
+        nan_label = gpst_label(np.nan)
+    # float64 seconds near 8.9e9 s are 1.9 µs apart: the label is the nearest of those
+    assert abs(labels[0] - np.datetime64("2262-04-11T23:47:15", "ns")) <= np.timedelta64(1, "us")
+    assert np.isnat(labels[1:]).all()
+    assert gps_time_s_to_datetime64(1.5) == np.datetime64("1980-01-06T00:00:01.5", "ns")
+    assert nan_label == "NaT"
+    t = float(calendar_to_gps_time_s(2021, 3, 17, 7, 6, 40.0))
+    assert gpst_label(t) == "2021-03-17 07:06:40"
