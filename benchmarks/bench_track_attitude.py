@@ -10,9 +10,11 @@ N(0, 1°)), GPS, an outage of 60 / 120 / 300 s from t = 100 s (cruising at 25 m/
 curves), trip end 10 s after it; MEMS and tactical IMUs; per seed the same trip filtered
 ``without`` and ``with`` the attitude rows (`railnav.filters.attitude_rows`), and, as the
 reference of the issue's "today", the plain ``curvy`` trip (IMU aligned with the track, no
-suspension) without rows. ``with`` also tells the filter of the suspension's sampling error
-on the gyros (`railnav.filters.suspension_noise`, part of ``track_attitude``); the
-``without`` filter is not told of the car body at all. At the outage's end (the last record before GNSS is back): the
+suspension) without rows. Both ``with`` and ``without`` tell the filter of the suspension's
+sampling error on the gyros (`railnav.filters.suspension_noise`:
+``NavigatorConfig.suspension_noise``, which `navigator_config_for` sets for a car body and
+``track_attitude`` implies); ``without_noise`` is ``without`` not told of the car body at
+all (the filter before that setting). At the outage's end (the last record before GNSS is back): the
 along-track error, its σ and |error|/σ; the NEES (mean over the outage and over the run,
 with its degrees of freedom).
 
@@ -71,6 +73,8 @@ def _outage_run(track, grade: str, outage_s: float, seed: int, variant: str) -> 
     config = navigator_config_for(scenario)
     if variant == "with":
         config = replace(config, track_attitude=TrackAttitudeConfig())
+    elif variant == "without_noise":
+        config = replace(config, suspension_noise=False)
     started = time.perf_counter()
     out = run_simulated(track, scenario, config=config, seed=seed)
     est, err = out.result.estimates, out.errors
@@ -172,7 +176,7 @@ def main(argv=None) -> int:
     for grade in GRADES:
         for outage in OUTAGES_S:
             case = {}
-            for variant in ("plain", "without", "with"):
+            for variant in ("plain", "without_noise", "without", "with"):
                 runs = [_outage_run(track, grade, outage, seed, variant)
                         for seed in range(1, args.seeds + 1)]
                 case[variant] = _summary(runs)

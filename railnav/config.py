@@ -181,6 +181,15 @@ class NavigatorConfig:
         Constrained filter: detect standstills from the IMU (vetoed by the odometer and the
         fixes' speed) and apply zero-speed and zero-yaw-rate rows
         (`railnav.filters.standstill_rows`); None (default): off.
+    suspension_noise : bool
+        Constrained filter: the IMU rides a car body on its suspension (a train), whose
+        sampled angular rates leave an attitude error the gyros do not report; give it as
+        gyro noise (`railnav.filters.suspension_noise`, with ``track_attitude``'s suspension
+        parameters, else `TrackAttitudeConfig`'s defaults). Implied by ``track_attitude``.
+        Default False (an IMU on a rigid vehicle; `navigator_config_for` sets it for a
+        scenario with a car body). Without it a tactical filter on a car body is
+        overconfident (median NEES 32.7 for 7 states over a 300-s outage,
+        ``benchmarks/bench_track_attitude.py``).
     one_sided : bool
         Constrained filter: near the onset of a curve with a large σ_s, bound what the
         curvature pseudo-observation tells ``s`` by the prior truncated at the onset
@@ -227,6 +236,7 @@ class NavigatorConfig:
     monitor: MonitorConfig = MonitorConfig()
     track_attitude: TrackAttitudeConfig | None = None
     standstill: StandstillConfig | None = None
+    suspension_noise: bool = False
     one_sided: bool = True
 
     def __post_init__(self) -> None:
@@ -255,8 +265,9 @@ class NavigatorConfig:
                 or isinstance(self.fault_detection, FaultDetectionConfig)):
             raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
                               f"{self.fault_detection!r}")
-        if not isinstance(self.rts_smoothing, bool):
-            raise ConfigError(f"rts_smoothing must be True or False, got {self.rts_smoothing!r}")
+        for name in ("rts_smoothing", "suspension_noise"):
+            if not isinstance(getattr(self, name), bool):
+                raise ConfigError(f"{name} must be True or False, got {getattr(self, name)!r}")
         for name, cls in (("track_attitude", TrackAttitudeConfig),
                           ("standstill", StandstillConfig)):
             if not (getattr(self, name) is None or isinstance(getattr(self, name), cls)):

@@ -2,8 +2,8 @@
 declared in `add_attitude_arguments` (called from
 `railnav.commands.run_flags.add_run_arguments`), checked in `check_attitude_flags` (called
 from `railnav.commands.run_flags.check_flags`), turned into the public API's arguments by
-`attitude_config` (``NavigatorConfig.track_attitude``/``standstill``, and ``run_files``'
-keywords of the same names) and `car_body_scenario` (``Scenario.car_body``). Light imports
+`attitude_config` (``NavigatorConfig.track_attitude``/``standstill``/``suspension_noise``,
+and ``run_files``' keywords of the same names) and `car_body_scenario` (``Scenario.car_body``). Light imports
 only (start-up: `railnav.commands`).
 
 * ``--track-attitude``: the attitude of the body against the track as rows, with the IMU's
@@ -14,6 +14,8 @@ only (start-up: `railnav.commands`).
 * ``--recover``: the divergence monitor's recovery (`railnav.navigation.monitor`,
   ``MonitorConfig(recover=True)``: a restart from the epoch's single-point fix when
   ``lost``; the ``monitor`` keyword of ``run_files`` and of `navigator_config_for`);
+* ``--suspension-noise``: the IMU on a car body's suspension: its sampling error as gyro
+  noise (``NavigatorConfig.suspension_noise``, `railnav.filters.suspension_noise`);
 * ``--car-body``: a simulated trip's IMU on a car body: chord between bogies, suspension,
   mounting (`railnav.simulation.car_body_motion`, `CarBodyMotion` defaults).
 """
@@ -42,6 +44,10 @@ def add_attitude_arguments(p) -> None:
                    help="when the divergence monitor says lost, restart the filter from the "
                         "epoch's single-point fix (off by default: the status column still "
                         "says lost)")
+    p.add_argument("--suspension-noise", action="store_true",
+                   help="constrained filter: the IMU rides a car body on its suspension (a "
+                        "train): its sampled rates' attitude error as gyro noise (implied "
+                        "by --track-attitude and, for a simulated trip, by --car-body)")
     p.add_argument("--car-body", action="store_true",
                    help="simulated trip: the IMU on a car body (chord between bogies, "
                         "suspension motion 1/2/3 mrad at 1 Hz, mounting N(0, 1 deg))")
@@ -50,7 +56,8 @@ def add_attitude_arguments(p) -> None:
 def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
     """The body flags against the others (part of `check_flags`)."""
     mine = [flag for flag, on in (("--track-attitude", args.track_attitude),
-                                  ("--standstill", args.standstill)) if on]
+                                  ("--standstill", args.standstill),
+                                  ("--suspension-noise", args.suspension_noise)) if on]
     if mine and args.filter not in (None, "constrained"):
         raise ConfigError(f"{', '.join(mine)}: only with the constrained filter (not "
                           f"--filter {args.filter})")
@@ -67,12 +74,15 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
 
 
 def attitude_config(args: argparse.Namespace) -> dict:
-    """``track_attitude`` and ``standstill`` (the configs' defaults, or None when off), and
-    ``monitor`` with recovery when ``--recover`` (absent otherwise: the default monitor)."""
+    """``track_attitude`` and ``standstill`` (the configs' defaults, or None when off),
+    ``suspension_noise`` when ``--suspension-noise`` and ``monitor`` with recovery when
+    ``--recover`` (each absent otherwise: the default, or what a simulated trip sets)."""
     from railnav.filters.attitude_config import TrackAttitudeConfig
     from railnav.filters.standstill import StandstillConfig
     out = {"track_attitude": TrackAttitudeConfig() if args.track_attitude else None,
            "standstill": StandstillConfig() if args.standstill else None}
+    if args.suspension_noise:       # absent otherwise: a simulated car body sets it
+        out["suspension_noise"] = True
     if getattr(args, "recover", False):
         from railnav.navigation.monitor import MonitorConfig
         out["monitor"] = MonitorConfig(recover=True)

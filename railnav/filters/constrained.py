@@ -25,6 +25,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
+from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (
     GnssRowBuilder,
@@ -153,6 +154,11 @@ class ConstrainedFilter:
             if config.one_sided else None
         self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
         self._gyro = [self.model.noise_names.index(n) for n in ("w_wx", "w_wy", "w_wz")]
+        #: Whose suspension parameters give the gyros its sampling noise
+        #: (`railnav.filters.suspension_noise`): the rows' config, else the defaults with
+        #: ``config.suspension_noise``; None: a rigid vehicle.
+        self._suspension = config.track_attitude or \
+            (TrackAttitudeConfig() if config.suspension_noise else None)
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
         #: The previous chunk's mean along-track acceleration, m/s² (None: no chunk yet).
@@ -283,8 +289,8 @@ class ConstrainedFilter:
         predicted path add: the sampling error of the rate steps at joints
         (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
         factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths) and, with the attitude rows' car body
-        (``config.track_attitude``), the sampling error of its suspension's rates
+        of the spread's paths) and, on a car body (``config.track_attitude`` or
+        ``config.suspension_noise``), the sampling error of its suspension's rates
         (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
             pending["nodes"]
@@ -301,8 +307,8 @@ class ConstrainedFilter:
             span = float(np.sum(steps))
             extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
             bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
-        body = None if self.config.track_attitude is None else \
-            sampling_densities(self.config.track_attitude, steps[:t.size], speed)
+        body = None if self._suspension is None else \
+            sampling_densities(self._suspension, steps[:t.size], speed)
         if not joints and bias is None and body is None:
             return self.q_c
         q = np.tile(self.q_c, (t.size, 1))

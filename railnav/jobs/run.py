@@ -176,7 +176,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               odometer_path=None, balises_path=None, wheel_circumference_m=None,
               pulses_per_rev=None, odometer_model=None, balise_model=None,
               lever_arms=None, smooth: bool = False, track_attitude=None,
-              standstill=None, monitor=None) -> RunOutcome:
+              standstill=None, suspension_noise: bool | None = None,
+              monitor=None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -245,6 +246,9 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     track_attitude, standstill : optional
         `NavigatorConfig` fields (default None: off) applied to whichever configuration
         (`railnav.filters.attitude_rows`, `railnav.filters.standstill_rows`).
+    suspension_noise : bool, optional
+        `NavigatorConfig.suspension_noise` applied to whichever configuration (default
+        None: the configuration's own; True for files simulated with a car body).
     monitor : railnav.navigation.monitor.MonitorConfig, optional
         The divergence monitor applied to whichever configuration (default None: the
         configuration's own, on without recovery; ``MonitorConfig(recover=True)`` is
@@ -263,6 +267,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     config = replace(config, rts_smoothing=True) if smooth else config
     if track_attitude is not None or standstill is not None:
         config = replace(config, track_attitude=track_attitude, standstill=standstill)
+    if suspension_noise is not None:
+        config = replace(config, suspension_noise=suspension_noise)
     if monitor is not None:
         config = replace(config, monitor=monitor)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:

@@ -110,7 +110,7 @@ def gnss_sim_config_for(scenario: Scenario, *, systems: str = DEFAULT_SYSTEMS,
 def navigator_config_for(scenario: Scenario, *, filter: str = DEFAULT_FILTER,
                          systems: str = DEFAULT_SYSTEMS, **overrides) -> NavigatorConfig:
     """A navigator that assumes what the scenario simulates (IMU grade, clock, GNSS σ, the
-    antenna's lever arm).
+    antenna's lever arm, a car body's suspension: ``suspension_noise``).
 
     The GNSS σ are the simulator's constant ones (no elevation or C/N0 weighting); the
     initial σ of ``s`` and ``v`` are the scenario's initial errors. `overrides` replace
@@ -124,12 +124,15 @@ def navigator_config_for(scenario: Scenario, *, filter: str = DEFAULT_FILTER,
                  scenario.initial_v_sigma_mps))
     if any(scenario.antenna_m):
         config = replace(config, lever_arms=LeverArms(antenna_m=scenario.antenna_m))
+    if scenario.car_body is not None:
+        config = replace(config, suspension_noise=True)
     return replace(config, **overrides)
 
 
 def navigator_config_from_simulation(meta: dict, *, filter: str = DEFAULT_FILTER,
                                      **overrides) -> NavigatorConfig:
-    """`navigator_config_for` from the ``scenario.json`` that ``railnav simulate`` writes.
+    """`navigator_config_for` from the ``scenario.json`` that ``railnav simulate`` writes
+    (``suspension_noise`` when it simulated a car body).
 
     Parameters
     ----------
@@ -155,6 +158,8 @@ def navigator_config_from_simulation(meta: dict, *, filter: str = DEFAULT_FILTER
                      float(sc["initial_v_sigma_mps"])))
     except (KeyError, TypeError, ValueError) as exc:
         raise ConfigError(f"scenario.json lacks the sensor settings: {exc}") from None
+    if sc.get("car_body") is not None:
+        config = replace(config, suspension_noise=True)
     return replace(config, **{**sensor_models_from_simulation(meta), **overrides})
 
 

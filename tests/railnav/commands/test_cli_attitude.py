@@ -1,4 +1,4 @@
-"""``railnav run --track-attitude --standstill --car-body`` in-process
+"""``railnav run --track-attitude --standstill --suspension-noise --car-body`` in-process
 (`railnav.commands.attitude_flags`): the rows reach innovations.csv, the flags are thin
 layers over the API (the same run through `run_simulated` gives the same estimates), and
 flags that cannot apply are one-line errors with exit 2."""
@@ -43,12 +43,31 @@ def test_flags_run_the_api(tmp_path):
     np.testing.assert_allclose(cli["s_m"], api["s_m"], rtol=0, atol=1e-6)
 
 
+def test_suspension_noise_flag_runs_the_api(tmp_path):
+    """``--suspension-noise`` on a simulated trip without a car body is
+    ``NavigatorConfig.suspension_noise``: the same estimates as the API with it, and not
+    those without it (the flag acts)."""
+    out = tmp_path / "run"
+    assert main(["-q", "run", CURVY, "--imu-grade", "tactical", "--duration-s", "40",
+                 "--outage", "20:15", "--suspension-noise", "--seed", "3", "--no-plots",
+                 "--out", str(out)]) == 0
+    scenario = get_scenario("curvy").with_overrides(duration_s=40.0, imu_errors="tactical",
+                                                    outages=[(20.0, 15.0)])
+    cli = pd.read_csv(out / "estimates.csv")
+    api = {noise: run_simulated(CURVY, scenario, seed=3, config=navigator_config_for(
+        scenario, suspension_noise=noise)).result.estimates for noise in (True, False)}
+    np.testing.assert_allclose(cli["s_m"], api[True]["s_m"], rtol=0, atol=1e-6)
+    assert not np.allclose(cli["sigma_s_m"], api[False]["sigma_s_m"], rtol=1e-6, atol=0)
+
+
 DOUBLE = [str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")]
 
 
 @pytest.mark.parametrize("argv, message", [
     ([CURVY, "--track-attitude", "--filter", "unconstrained"], "only with the constrained"),
     ([CURVY, "--standstill", "--filter", "gnss-only"], "only with the constrained filter"),
+    ([CURVY, "--suspension-noise", "--filter", "gnss-only"], "--suspension-noise: only with"),
+    ([*DOUBLE, "--suspension-noise"], "one track only"),
     ([CURVY, "--car-body", "--imu", "imu.csv"], "--car-body"),
     ([*DOUBLE, "--track-attitude"], "one track only"),
     ([*DOUBLE, "--recover"], "--recover: one track only"),
