@@ -14,8 +14,8 @@ suspension) without rows. Both ``with`` and ``without`` tell the filter of the s
 sampling error on the gyros (`railnav.filters.suspension_noise`:
 ``NavigatorConfig.suspension_noise``, which `navigator_config_for` sets for a car body and
 ``track_attitude`` implies); ``without_noise`` is ``without`` not told of the car body at
-all (the filter before that setting). At the outage's end (the last record before GNSS is back): the
-along-track error, its σ and |error|/σ; the NEES (mean over the outage and over the run,
+all (the filter before that setting). At the outage's end (the last record before GNSS
+is back): the along-track error, its σ and |error|/σ; the NEES (mean over the outage and over the run,
 with its degrees of freedom).
 
 **Standstill.** ``curvy`` with a 300-s station stop (t = 420–720 s) and GNSS out over

@@ -3,8 +3,8 @@ declared in `add_attitude_arguments` (called from
 `railnav.commands.run_flags.add_run_arguments`), checked in `check_attitude_flags` (called
 from `railnav.commands.run_flags.check_flags`), turned into the public API's arguments by
 `attitude_config` (``NavigatorConfig.track_attitude``/``standstill``/``suspension_noise``,
-and ``run_files``' keywords of the same names) and `car_body_scenario` (``Scenario.car_body``). Light imports
-only (start-up: `railnav.commands`).
+and ``run_files``' keywords of the same names) and `car_body_scenario`
+(``Scenario.car_body``). Light imports only (start-up: `railnav.commands`).
 
 * ``--track-attitude``: the attitude of the body against the track as rows, with the IMU's
   mounting as states (`railnav.filters.attitude_rows`; `TrackAttitudeConfig` defaults);

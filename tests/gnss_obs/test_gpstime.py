@@ -75,7 +75,6 @@ def test_issue16_glo_time_system_is_utc():
     assert from_gps_time_s(expected, "GLO") == label
 
 
-
 def test_labels_outside_datetime64_are_nat_without_overflow():
     """datetime64[ns] ends at 2262-04-11T23:47:16.854775807 (int64 ns since 1970): a second
     before is labelled, a second after (and NaN, ±inf, a fuzzed 1e300) is NaT, with no
@@ -87,7 +86,8 @@ def test_labels_outside_datetime64_are_nat_without_overflow():
                                            1e300])
         nan_label = gpst_label(np.nan)
     # float64 seconds near 8.9e9 s are 1.9 µs apart: the label is the nearest of those
-    assert abs(labels[0] - np.datetime64("2262-04-11T23:47:15", "ns")) <= np.timedelta64(1, "us")
+    expected = np.datetime64("2262-04-11T23:47:15", "ns")
+    assert abs(labels[0] - expected) <= np.timedelta64(1, "us")
     assert np.isnat(labels[1:]).all()
     assert gps_time_s_to_datetime64(1.5) == np.datetime64("1980-01-06T00:00:01.5", "ns")
     assert nan_label == "NaT"
