@@ -37,7 +37,7 @@ try:
 except ImportError:                     # pragma: no cover - Windows
     fcntl = None
 
-__all__ = ["CACHE_ENV", "user_cache_dir", "default_cache_dir", "load_library"]
+__all__ = ["CACHE_ENV", "user_cache_dir", "cache_root", "default_cache_dir", "load_library"]
 
 log = logging.getLogger(__name__)
 
@@ -71,10 +71,16 @@ def user_cache_dir() -> Path:
         return Path(tempfile.gettempdir()) / f"{APP_NAME}-cache-{user}"
 
 
+def cache_root() -> Path:
+    """``$RAILNAV_CACHE_DIR`` if the variable is set, else `user_cache_dir` (the root of
+    every on-disk cache of the distribution; this package's libraries are in ``ekf/``)."""
+    root = os.environ.get(CACHE_ENV)
+    return Path(root) if root else user_cache_dir()
+
+
 def default_cache_dir() -> Path:
     """``$RAILNAV_CACHE_DIR/ekf`` if the variable is set, else `user_cache_dir` ``/ekf``."""
-    root = os.environ.get(CACHE_ENV)
-    return (Path(root) if root else user_cache_dir()) / SUBFOLDER
+    return cache_root() / SUBFOLDER
 
 
 def load_library(directory: Path, key: str, build: Builder) -> tuple[ctypes.CDLL, float]:

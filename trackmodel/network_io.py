@@ -30,7 +30,6 @@ import pandas as pd
 
 from trackmodel.errors import TrackError, TrackFileError
 from trackmodel.files import atomic_write_csv, atomic_write_text
-from trackmodel.fit import fit_track
 from trackmodel.io import read_track, write_track
 from trackmodel.network import (
     NAVIGABILITY,
@@ -218,6 +217,7 @@ def build_network(source: NetworkSource, *, tol_m: float = 0.5,
     TrackError
         A netelement that cannot be fitted (the message names it).
     """
+    from trackmodel.fit import fit_track    # SciPy's optimize and interpolate: only to fit
     elements = {}
     total = len(source.polylines)
     for i, (name, (lat, lon)) in enumerate(source.polylines.items()):

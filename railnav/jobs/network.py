@@ -76,11 +76,15 @@ class NetworkRunOutcome:
 
 def load_network(path) -> Network:
     """A network folder, a GeoJSON or OpenStreetMap file or a track file
-    (`trackmodel.network_routes.load_network`)."""
+    (`trackmodel.network_routes.load_network`); a folder through the on-disk cache of
+    loaded networks (`railnav.jobs.network_cache`)."""
     from trackmodel.network_routes import load_network as load
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"{path}: no such network folder or file")
+    if path.is_dir():
+        from railnav.jobs.network_cache import cached_network_folder
+        return cached_network_folder(path, load)
     return load(path)
 
 
