@@ -22,7 +22,10 @@ Per log, with no start given (`railnav.jobs.network.run_files_network`):
   against tp-lib's on the same degraded file;
 * ``speed``: log_29304 out and back (it ends standing: its fixes, 3 min standing, then the
   same positions in reverse order, the train going back through its switch; 15 min at
-  2.5 Hz), the navigator's wall time and tp-lib's on the same file.
+  2.5 Hz), the navigator's wall time and tp-lib's on the same file; and ``command``, the
+  whole ``railnav run --network ... --no-plots`` as a user runs it (a fresh interpreter
+  each time), after one run that fills the caches (compiled code, the loaded network:
+  `railnav.jobs.network_cache`).
 
 Writes ``benchmarks/results/network_brussels.json``.
 """
@@ -118,6 +121,24 @@ def _tplib(python: str | None, fixes: Path, truth, geojson: Path, work: Path) ->
             if has.any() else None, "route": [s["netelement_id"] for s in out["segments"]]}
 
 
+def _command_times(fixes: Path, work: Path, repeats: int = 5) -> dict:
+    """Wall times of ``railnav run --network NETWORK --fixes FIXES --no-plots`` in fresh
+    interpreters, after one run that fills the caches (module docstring), s."""
+    cmd = [sys.executable, "-m", "railnav.cli", "-q", "run", "--network", str(NETWORK),
+           "--fixes", str(fixes), "--no-plots", "--overwrite", "--out", str(work / "cli")]
+    path = os.pathsep.join(filter(None, [str(REPO), os.environ.get("PYTHONPATH")]))
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONPATH": path}
+    times = []
+    for k in range(repeats + 1):
+        started = time.perf_counter()
+        subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL)
+        if k:
+            times.append(time.perf_counter() - started)
+    return {"command": "railnav run --network data/networks/brussels_airport --fixes "
+                       "<the 15-min log> --no-plots", "runs_s": times,
+            "median_s": float(np.median(times)), "best_s": min(times)}
+
+
 def _out_and_back(log: Path, work: Path, dwell_s: float) -> Path:
     """The log (which ends at a standstill), `dwell_s` standing there, then its positions in
     reverse order: the train going back the way it came (module docstring)."""
@@ -195,6 +216,7 @@ def main(argv=None) -> int:
                  "route": run.network_result.route_frame()["netelement"].tolist()}
         speed["tplib"] = _tplib(args.tplib, both, [None] * speed["fixes"],
                                 args.data / "network_airport.geojson", work)
+        speed["command"] = _command_times(both, work)
     out = {"data": Path(args.data).name, "logs": logs, "speed_15min": speed,
            "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                        "load_average_before": load_before,
@@ -204,7 +226,9 @@ def main(argv=None) -> int:
         print(_summary_line(name, r))
     print(f"15-min log ({speed['fixes']} fixes): {speed['navigator_s']:.2f} s navigator, "
           f"{speed['wall_s']:.2f} s with reading; tp-lib "
-          f"{(speed['tplib'] or {}).get('runtime_s', float('nan')):.2f} s")
+          f"{(speed['tplib'] or {}).get('runtime_s', float('nan')):.2f} s; the command "
+          f"(warm caches) median {speed['command']['median_s']:.2f} s, best "
+          f"{speed['command']['best_s']:.2f} s")
     return 0
 
 
