@@ -1,4 +1,5 @@
-"""Network folders kept on disk as loaded, so that a second run does not fit them again.
+"""Network folders kept on disk as loaded, so that a second run does not integrate their
+tracks again.
 
 Reading a network folder (`trackmodel.network_io.read_network`) integrates every
 netelement's track (`trackmodel.integrated`: an ODE per curved section): 0.55–0.8 s for the
@@ -97,11 +98,21 @@ def cached_network_folder(folder: Path, load: Callable[[Path], object], *,
         except Exception as exc:                    # a truncated or foreign file
             log.debug("network cache: %s unreadable (%s); reading %s", target, exc, folder)
     network = load(folder)
+    _write(network, directory, target)
+    return network
+
+
+def _write(network, directory: Path, target: Path) -> None:
+    """Pickle `network` to `target` through a temporary file; on any failure (a directory
+    that cannot be written, an object that cannot be pickled) nothing is left behind."""
+    tmp = None
     try:
         directory.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=directory, suffix=".tmp", delete=False) as f:
+            tmp = f.name
             pickle.dump(network, f, protocol=pickle.HIGHEST_PROTOCOL)
-        os.replace(f.name, target)
-    except OSError as exc:
+        os.replace(tmp, target)
+    except Exception as exc:                        # the run goes on without the cache
         log.debug("network cache: %s not written (%s)", directory, exc)
-    return network
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)

@@ -82,3 +82,15 @@ def test_an_unwritable_cache_directory_still_reads(folder, tmp_path):
     network = cached_network_folder(folder, load, cache_dir=blocker / "networks")
     assert load.calls == 1
     _same(read_network(folder), network)
+
+
+def test_an_object_that_cannot_be_pickled_leaves_nothing(tmp_path):
+    """The loaded object goes back to the caller even when it cannot be pickled, and no
+    temporary file is left in the cache directory."""
+    def load(path):
+        return lambda: path                          # a lambda cannot be pickled
+
+    (tmp_path / "folder").mkdir()
+    network = cached_network_folder(tmp_path / "folder", load, cache_dir=tmp_path / "cache")
+    assert callable(network)
+    assert list((tmp_path / "cache").iterdir()) == []
