@@ -37,7 +37,7 @@ from ekf.errors import FilterError
 from ekf.library_cache import default_cache_dir, load_library
 
 __all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available",
-           "NATIVE_FLAGS", "has_avx2", "build_library", "address"]
+           "NATIVE_FLAGS", "has_avx2", "build_library", "address", "compile_source"]
 
 log = logging.getLogger(__name__)
 
@@ -187,7 +187,7 @@ def build_library(fun: ca.Function, templates: tuple[str, ...], entry: str,
     command = opts.command()
     key = _cache_key(fun, templates, entry, command)
     lib, seconds = load_library(opts.directory(), key,
-                                lambda path: _compile(source(), command, path))
+                                lambda path: compile_source(source(), command, path))
     function = getattr(lib, entry)
     function.restype = ctypes.c_int
     return lib, function, seconds
@@ -205,11 +205,12 @@ def _cache_key(fun: ca.Function, templates: tuple[str, ...], entry: str,
     return digest.hexdigest()[:24]
 
 
-def _compile(source: str, command: list[str], target: Path) -> None:
-    """Compile a C source into the shared library `target` (without `NATIVE_FLAGS` if the
-    compiler refuses them)."""
+def compile_source(source: str, command: list[str], target: Path, *,
+                   name: str = "step") -> None:
+    """Compile a C source (written as ``name.c``) into the shared library `target`
+    (without `NATIVE_FLAGS` if the compiler refuses them); `FilterError` when it fails."""
     with tempfile.TemporaryDirectory() as tmp:
-        c_file = Path(tmp) / "step.c"
+        c_file = Path(tmp) / f"{name}.c"
         c_file.write_text(source)
         result = subprocess.run([*command, str(c_file), "-o", str(target), "-lm"],
                                 capture_output=True, text=True, check=False)
@@ -219,7 +220,7 @@ def _compile(source: str, command: list[str], target: Path) -> None:
             result = subprocess.run([*portable, str(c_file), "-o", str(target), "-lm"],
                                     capture_output=True, text=True, check=False)
     if result.returncode != 0:
-        raise FilterError(f"compiling the step function failed: {result.stderr[-2000:]}")
+        raise FilterError(f"compiling {name}.c failed: {result.stderr[-2000:]}")
 
 
 def address(array: np.ndarray) -> int:
@@ -232,8 +233,6 @@ def address(array: np.ndarray) -> int:
     except (TypeError, ValueError, BufferError):        # read-only, or not exportable
         return array.ctypes.data
 
-
-_address = address          # the name the loops' tests know
 
 
 class CompiledLoop:

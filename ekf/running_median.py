@@ -28,15 +28,12 @@ import ctypes
 import functools
 import hashlib
 import logging
-import subprocess
-import tempfile
-from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
-from ekf.compiled import NATIVE_FLAGS, CompileOptions, compiler_available
-from ekf.errors import ModelError
+from ekf.compiled import CompileOptions, compile_source, compiler_available
+from ekf.errors import FilterError, ModelError
 from ekf.library_cache import load_library
 
 __all__ = ["window_rows", "compiled_kernel"]
@@ -193,9 +190,9 @@ def compiled_kernel():
     command = [*opts.command(), "-O3"]
     key = hashlib.sha256("\0".join([_SOURCE, " ".join(command)]).encode()).hexdigest()[:24]
     try:
-        lib, _ = load_library(opts.directory(), f"median_{key}",
-                              lambda path: _compile(command, path))
-    except (OSError, RuntimeError) as exc:
+        lib, _ = load_library(opts.directory(), f"median_{key}", lambda path: compile_source(
+            _SOURCE, command, path, name="running_median"))
+    except (OSError, FilterError) as exc:
         log.warning("the running-median kernel did not compile (%s): using NumPy", exc)
         return None
     entry = lib.window_medians
@@ -203,18 +200,3 @@ def compiled_kernel():
     entry.argtypes = [ctypes.c_longlong, ctypes.c_longlong] + [ctypes.c_void_p] * 5
     return entry
 
-
-def _compile(command: list[str], target: Path) -> None:
-    """Compile the kernel to `target` (without `ekf.compiled.NATIVE_FLAGS` if the compiler
-    refuses them)."""
-    portable = [flag for flag in command if flag not in NATIVE_FLAGS]
-    with tempfile.TemporaryDirectory() as tmp:
-        source = Path(tmp) / "running_median.c"
-        source.write_text(_SOURCE)
-        for attempt in (command, portable):
-            result = subprocess.run([*attempt, str(source), "-o", str(target)],
-                                    capture_output=True, text=True, check=False)
-            if result.returncode == 0:
-                break
-    if result.returncode != 0:
-        raise RuntimeError(result.stderr[-2000:])

@@ -185,11 +185,11 @@ def test_broken_compiler_is_reported(tmp_path):
 
 
 def test_address_is_the_arrays_data_pointer():
-    """`compiled._address` (a ctypes view of the buffer) gives ``ndarray.ctypes.data``: of
+    """`compiled.address` (a ctypes view of the buffer) gives ``ndarray.ctypes.data``: of
     writable arrays of each shape the loops pass, of a read-only one and of an empty one
     (the ctypes attribute's own answer)."""
     arrays = [np.zeros(7), np.ones((5, 13)), np.arange(4, dtype=np.int64), np.zeros(0)]
     frozen = np.linspace(0.0, 1.0, 9)
     frozen.flags.writeable = False
     for a in [*arrays, frozen, np.zeros((3, 4))[1]]:
-        assert compiled._address(a) == a.ctypes.data
+        assert compiled.address(a) == a.ctypes.data
