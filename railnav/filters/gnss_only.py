@@ -66,6 +66,7 @@ from railnav.filters.gnss_only_noise import (
     heading_covariance_mps2,
     heading_sigma_rad,
 )
+from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.filters.odometer_epochs import SCALE_STATE
 from railnav.filters.robust_rows import huber_inflate
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
@@ -148,8 +149,7 @@ class GnssOnlyFilter:
             if clock else None
         self._bias_rows = cb.code_bias_rows(self.layout, self.isb_names) \
             if self.code_bias and clock else None
-        self._clock_columns = tuple(i for i, name in enumerate(self.layout.names)
-                                    if name == "clock_bias" or name.startswith("isb_"))
+        self._clock_columns = clock_offset_columns(self.layout)
         self.schedule = schedule
         self.fix_rows = None if fixes is None else FixRowBuilder(
             track, self.layout, fixes, config.fix_model, antenna_m=config.lever_arms.antenna_m)

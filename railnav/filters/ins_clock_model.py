@@ -47,7 +47,8 @@ from strapdown.kinematics import BIAS_STATE_NAMES, INPUT_NAMES
 from trackmodel.earth import Ellipsoid
 
 __all__ = ["InsClockModel", "assemble_ins_clock_model", "CLOCK_STATE_NAMES",
-           "ISB_RANDOM_WALK_M2PS", "isb_state_name", "bias_random_walk_density",
+           "ISB_RANDOM_WALK_M2PS", "isb_state_name", "clock_offset_columns",
+           "bias_random_walk_density",
            "IMU_NOISE_NAMES", "model_name", "initial_variances"]
 
 Array = npt.NDArray[np.float64]
@@ -75,6 +76,14 @@ _MIN_BIAS_VARIANCE = 1e-16
 def isb_state_name(system: str) -> str:
     """State name of the inter-system bias of a GNSS system letter (``"E"`` -> ``isb_E``)."""
     return f"isb_{system}"
+
+
+def clock_offset_columns(layout: StateLayout) -> tuple[int, ...]:
+    """Indices of the states a pseudorange sees as a receiver clock offset: ``clock_bias``
+    and every inter-system bias (`isb_state_name`)."""
+    prefix = isb_state_name("")
+    return tuple(i for i, name in enumerate(layout.names)
+                 if name == CLOCK_STATE_NAMES[0] or name.startswith(prefix))
 
 
 def bias_random_walk_density(sigma: float, tau_s: float) -> float:

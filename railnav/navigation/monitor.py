@@ -77,6 +77,7 @@ import pandas as pd
 
 from railnav.filters.code_bias import apparent_variance
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
+from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
 __all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at"]
@@ -206,8 +207,7 @@ class FilterMonitor:
         self._prior: tuple[float, float, float] | None = None
         self._snapshot: tuple[float, float] | None = None
         self._epoch_fixes: TrackFixes | None = None
-        self._clock_columns = tuple(i for i, name in enumerate(layout.names)
-                                    if name == "clock_bias" or name.startswith("isb_"))
+        self._clock_columns = clock_offset_columns(layout)
         self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
             else None
         self._position_key: dict[str, bool] = {}
@@ -228,7 +228,6 @@ class FilterMonitor:
         if self._snapshot is not None and self.i_bias is not None:
             self._prior = self._prior[:2] + (
                 apparent_variance(observations, x, P, self.i_s, self.i_bias),)
-
 
     def _screened_out(self) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`)
