@@ -30,7 +30,6 @@ Writes ``benchmarks/results/real_data.json``. Run: ``python benchmarks/bench_rea
 """
 from __future__ import annotations
 
-import argparse
 import json
 import platform
 import sys
@@ -42,18 +41,14 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
-from bench_spp_real import run_gnss_lib_py  # noqa: E402
+from bench_spp_real import drive_inputs, run_gnss_lib_py  # noqa: E402
 
 from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
-from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
-from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
 from railnav.config import NavigatorConfig  # noqa: E402
 from railnav.filters.code_bias import CodeBiasConfig  # noqa: E402
 from railnav.jobs.run import run_files  # noqa: E402
-from railnav.evaluation.spp_accuracy import (accuracy_summary, read_reference_trajectory,  # noqa: E402
-                                spp_errors)
+from railnav.evaluation.spp_accuracy import accuracy_summary, spp_errors  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
@@ -133,15 +128,8 @@ def spp(obs, nav, systems: str, **measurement) -> tuple[pd.DataFrame, float]:
 
 
 def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_data_argument(parser, DATA_FILES)
-    parser.add_argument("--out", type=Path, default=RESULTS)
-    parser.add_argument("--skip-gnss-lib-py", action="store_true")
-    args = parser.parse_args(argv)
-    checked_data_dir(parser, args.data, DATA_FILES)
-    obs_path, nav_path = args.data / "rover_obs.rnx", args.data / "broadcast_nav.rnx"
-    obs, nav = read_rinex_obs(obs_path), read_rinex_nav(nav_path)
-    reference = read_reference_trajectory(args.data / "reference_trajectory.csv")
+    args, obs_path, nav_path, obs, nav, reference = drive_inputs(
+        __doc__.splitlines()[0], DATA_FILES, RESULTS, argv)
     track = read_track(TRACK)
     seconds, stopped = {}, {}
     main_set: dict[str, pd.DataFrame] = {}

@@ -168,16 +168,25 @@ def orbit_figures(data: Path, nav) -> dict:
     return out
 
 
-def main(argv=None) -> dict:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    add_data_argument(parser, DATA_FILES)
-    parser.add_argument("--out", type=Path, default=RESULTS)
+def drive_inputs(description: str, data_files: tuple[str, ...], results: Path, argv=None):
+    """The command line of a benchmark on the whole drive (``--data DIR``, ``--out``,
+    ``--skip-gnss-lib-py``) parsed, and the drive read: ``(args, obs_path, nav_path, obs,
+    nav, reference)``. A folder without `data_files` is the parser's one-line error."""
+    parser = argparse.ArgumentParser(description=description)
+    add_data_argument(parser, data_files)
+    parser.add_argument("--out", type=Path, default=results)
     parser.add_argument("--skip-gnss-lib-py", action="store_true")
     args = parser.parse_args(argv)
-    checked_data_dir(parser, args.data, DATA_FILES)
+    checked_data_dir(parser, args.data, data_files)
     obs_path, nav_path = args.data / "rover_obs.rnx", args.data / "broadcast_nav.rnx"
     obs, nav = read_rinex_obs(obs_path), read_rinex_nav(nav_path)
     reference = read_reference_trajectory(args.data / "reference_trajectory.csv")
+    return args, obs_path, nav_path, obs, nav, reference
+
+
+def main(argv=None) -> dict:
+    args, obs_path, nav_path, obs, nav, reference = drive_inputs(
+        __doc__.splitlines()[0], DATA_FILES, RESULTS, argv)
     solutions, seconds = {}, {}
     for systems in ("G", "GE"):
         solutions[f"railnav {systems}"], seconds[f"railnav {systems}"] = run_railnav(
