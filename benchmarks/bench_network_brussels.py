@@ -61,6 +61,7 @@ from trackmodel.files import atomic_write_text  # noqa: E402
 
 NETWORK = REPO / "data" / "networks" / "brussels_airport"
 RESULTS = REPO / "benchmarks" / "results" / "network_brussels.json"
+RESULTS_SPAWN = RESULTS.with_name("network_brussels_spawn.json")
 LOGS = ("log_28554_L36-A_to_L36C-A", "log_28876_L36-B", "log_29083_L36-A",
         "log_29304_L36-B_to_L36N-B")
 #: The 15-min log: log_29304 (it ends standing), 3 min there, and back (2258 fixes).
@@ -195,11 +196,14 @@ def main(argv=None) -> int:
     parser.add_argument("--tplib", default=None, metavar="PYTHON312",
                         help="a Python >= 3.12 with tp-lib installed (optional)")
     parser.add_argument("--seeds", type=int, default=5)
-    parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--out", type=Path, default=None,
+                        help=f"default {RESULTS.name}, or {RESULTS_SPAWN.name} with --spawn")
     parser.add_argument("--spawn", action="store_true",
                         help="spawn hypotheses from the fixes when none agrees (NetworkNavConfig.spawn;"
                              " results/network_brussels_spawn.json)")
     args = parser.parse_args(argv)
+    if args.out is None:            # a --spawn run never overwrites the default run's figures
+        args.out = RESULTS_SPAWN if args.spawn else RESULTS
     logging.basicConfig(level=logging.ERROR)
     network = load_network(NETWORK)
     load_before = os.getloadavg()

@@ -37,9 +37,9 @@ def add_network_arguments(p) -> None:
                    help="--network: most live hypotheses (default 16)")
     p.add_argument("--spawn", action="store_true",
                    help="--network, with --fixes: when no live hypothesis agrees with the "
-                        "last fixes, start new ones from the fix (NetworkNavConfig.spawn; "
-                        "off by default: on real logs that leave the network it spawns "
-                        "falsely)")
+                        "last fixes and the network does, start new ones from the fix "
+                        "(NetworkNavConfig.spawn; off by default: on a real log that "
+                        "leaves the network it can still spawn falsely)")
 
 
 def _check_network_flags(args: argparse.Namespace) -> None:

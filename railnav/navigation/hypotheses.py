@@ -106,10 +106,14 @@ class NetworkNavConfig:
         runs ~10× slower, a bank of inertial filters 0-8 % slower).
     spawn : bool
         Start new hypotheses from the fix when no live one agrees with the fixes
-        (`railnav.navigation.spawning`). Off by default: on the four real Brussels logs as
-        given it spawned 9 times on log_28554 (whose end leaves the network's elements:
-        the route then jumps to 88_L_2013, not navigable) and 13 on log_29083 (fixes
-        90-200 m off); the test itself (the ``status`` column) runs either way.
+        (`railnav.navigation.spawning`), and only when the network itself explains the
+        window's fixes. Off by default: on the four real Brussels logs as given it
+        spawns once, on log_28554 at 238.8 s, where the log has left the network's
+        elements (dead-reckoned fixes, σ 10 m, 24 m from 88_L_2013: the route then jumps
+        to 88_L_2013, not navigable); with the fixes degraded to single-point quality
+        (5 seeds) once in four of log_29083's runs and never on the others (before the
+        network rule: 9 and 13 as given, 58 degraded). The test itself (the ``status``
+        column) runs either way.
     spawn_window_epochs : int
         Fix epochs in the window of that test, >= 0 (0: no test, no status column).
     spawn_p_value : float

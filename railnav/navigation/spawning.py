@@ -28,8 +28,9 @@ their path (``route.csv``) starts with the most probable hypothesis's path up to
 that the route of a run that recovered shows where the navigator had been wrong.
 The evidence of the next epochs then decides between old and new (common basis,
 `railnav.navigation.network_weights`). The window restarts after a spawn, so at most one
-attempt per window (spawn or not: a fix whose candidates all disagree with it too, or off
-the network, gets none). The test's outcome per fix epoch is the ``status`` column of the network
+attempt per window (spawn or not: a fix whose candidates all disagree with it too gets
+none, nor a window that the network itself does not explain, `Spawner._on_network`: a
+train on a track the map lacks). The test's outcome per fix epoch is the ``status`` column of the network
 run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
 divergence monitor's statuses and thresholds, on the navigator's own evidence; runs without
 fixes have no status column).
@@ -172,6 +173,7 @@ class Spawner:
         self.p_degraded = p_degraded
         self.window: list[float] = []
         self.shares: list[float] = []
+        self.fixes_in_window: list[int] = []
         self._last_s = -np.inf
         #: One per fix epoch: ``time_s, status, p_fix, d2_min, action`` (`frame`).
         self.records: list[tuple] = []
@@ -195,11 +197,13 @@ class Spawner:
         self._last_s = time_s
         self.window.append(float(np.min(d2)))
         self.shares.append(share)
+        self.fixes_in_window.append(f)
         n = self.nav.spawn_window_epochs
         if len(self.window) < n:                    # after a start or a spawn
             self.records.append((time_s, "degraded", np.nan, self.window[-1], ""))
             return hyps
         self.window, self.shares = self.window[-n:], self.shares[-n:]
+        self.fixes_in_window = self.fixes_in_window[-n:]
         # correlated fix errors (NetworkNavConfig.evidence_correlation_s): the window holds
         # n_eff = max(1, Σ shares) independent epochs' worth; its sum scaled to that
         n_eff = max(1.0, float(sum(self.shares)))
@@ -210,6 +214,32 @@ class Spawner:
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else ""))
         return out
+
+    def _on_network(self, window: list[int], shares: list[float]) -> bool:
+        """Whether the network explains the window's fixes (indices; their evidence
+        shares): each fix's ``d²`` to its nearest centre-line, on its horizontal
+        variance's mean plus the map's across (a lower bound of any hypothesis's
+        ``d_h²``: along the track nothing is asked), summed and tested as in
+        `after_epoch`, passes at the ``ok`` level (tail ≥ ``p_degraded``). A window that
+        the network explains hardly better than the live hypotheses do is a train on a
+        track the map lacks (or faulty fixes), not hypotheses in the wrong place: spawning
+        from it starts hypotheses where the train is not (the real log_28554 from 180 s:
+        fixes 20–37 m from every element; at 226.8 s the live hypothesis's window tail
+        was just below 1e-6 and a candidate 29 m off agreed with a dead-reckoned fix of
+        σ 10 m)."""
+        fx, n = self.trip.fixes, len(window)
+        reach = float(chi2_isf(self.nav.spawn_p_value)) * max(n, 1)   # beyond: fails alone
+        d2 = np.full(n, reach)
+        for j, k in enumerate(window):
+            var = 0.5 * float(np.trace(np.asarray(fx.cov_n_m2[k])[:2, :2])) + \
+                self.cross_sigma_m ** 2
+            near = self.network.project(fx.lat[k:k + 1], fx.lon[k:k + 1],
+                                        radius_m=math.sqrt(var * reach))
+            if len(near):
+                d2[j] = float(near["distance_m"].min()) ** 2 / var
+        n_eff = max(1.0, float(sum(shares)))
+        return float(chdtrc(2.0 * n_eff, float(d2.sum()) * n_eff / max(n, 1))) >= \
+            self.p_degraded
 
     def frame(self):
         """The fix epochs' test (`railnav.navigation.monitor.status_at` reads it): ``time_s,
@@ -222,15 +252,10 @@ class Spawner:
             "time_s", "status", "p_fix", "d2_min", "action"])
 
     def _spawn(self, hyps: list, time_s: float, f: int) -> list:
-        self.window, self.shares = [], []           # one attempt per window, spawn or not
-        if self.network is not None:                # cheap: any centre-line near enough?
-            fx = self.trip.fixes
-            var = 0.5 * float(np.trace(np.asarray(fx.cov_n_m2[f])[:2, :2])) + \
-                self.cross_sigma_m ** 2
-            radius = math.sqrt(var * float(chi2_isf(self.nav.spawn_p_value)))
-            if not len(self.network.project(fx.lat[f:f + 1], fx.lon[f:f + 1],
-                                            radius_m=radius)):
-                return hyps
+        window, shares = self.fixes_in_window, self.shares
+        self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
+        if self.network is not None and not self._on_network(window, shares):
+            return hyps
         try:
             t_new, new = self.start(time_s - 1e-3)
         except (ConfigError, RailnavError) as exc:
