@@ -135,7 +135,9 @@ def common_offset(innov: npt.ArrayLike, S: npt.ArrayLike, members: npt.ArrayLike
         raise ModelError(f"common_offset: innov {nu.shape}, S {S.shape}, members {d.shape}")
     if not d.any():
         raise ModelError("common_offset needs at least one member component")
-    w_nu, w_d = np.linalg.solve(S, np.column_stack([nu, d])).T
+    both = np.empty((nu.size, 2))             # np.column_stack([nu, d]), without its wrapper
+    both[:, 0], both[:, 1] = nu, d
+    w_nu, w_d = np.linalg.solve(S, both).T
     info = float(d @ w_d)
     offset = float(d @ w_nu) / info
     nis_offset = offset * offset * info

@@ -8,6 +8,7 @@ then answers vectorised queries for any array of ``s`` in ``[0, length_m]``.
 """
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass, field, fields
 from functools import cached_property
@@ -180,9 +181,9 @@ class Track:
         sections, origin = sections_from_frame(frame)
         return cls(sections, origin, earth)
 
-    @property
+    @cached_property
     def length_m(self) -> float:
-        """Total length, m."""
+        """Total length, m (computed once: the filters ask for it at every step)."""
         return float(self.table.s_start[-1] + self.table.length[-1])
 
     @property
@@ -212,6 +213,17 @@ class Track:
         """Section index of each (valid) ``s``; a joint belongs to the next section."""
         k = np.searchsorted(self.table.s_start, s, side="right") - 1
         return np.clip(k, 0, len(self.sections) - 1)
+
+    def section_at(self, s: float) -> int:
+        """`section_of` one ``s`` (m, a float), in Python floats: the same section (the
+        same comparisons against the same starts; NaN, like `numpy.searchsorted`, after
+        every start)."""
+        k = bisect.bisect_right(self._section_starts, s) - 1
+        return min(max(k, 0), len(self.sections) - 1)
+
+    @cached_property
+    def _section_starts(self) -> list[float]:
+        return self.table.s_start.tolist()
 
     def geodetic(self, s: npt.ArrayLike) -> tuple[Array, Array, Array]:
         """Latitude (rad), longitude (rad) and height (m) at ``s`` (m), flattened to (N,)."""

@@ -87,6 +87,13 @@ def _bias_together(filters, pending: list[dict]) -> list:
     return out
 
 
+def _chunk_step(t: Array, t_prev: float) -> float:
+    """The median step of samples ``t`` after ``t_prev`` (s): `ConstrainedFilter.inputs`'s
+    correlation step when no nominal sample interval is set."""
+    return float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
+        else float(t[0] - t_prev)
+
+
 def _shifted(a: Array, first: float) -> Array:
     """``[first, a[0], ..., a[-2]]`` (``np.concatenate([[first], a[:-1]])``, without the
     conversion of the list)."""
@@ -219,14 +226,19 @@ class ConstrainedFilter:
         all their spread's paths in one `path_bias_step_densities` call (pure per row:
         each filter's numbers are those of its own `inputs`). Returns `inputs`'s tuple
         for each filter, in order."""
-        pending = [f._start_inputs(t, u, x, P, t_prev) for f, (x, P) in zip(filters, priors)]
+        # the chunk's median step, for the filters without a nominal one: the same for all
+        step = _chunk_step(t, t_prev) if any(f.sample_interval_s is None for f in filters) \
+            else None
+        pending = [f._start_inputs(t, u, x, P, t_prev, chunk_step=step)
+                   for f, (x, P) in zip(filters, priors)]
         return [f._finish_inputs(p, found) for f, p, found
                 in zip(filters, pending, _bias_together(filters, pending))]
 
     def _start_inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
-                      t_prev: float) -> dict:
+                      t_prev: float, *, chunk_step: float | None = None) -> dict:
         """`inputs` up to the bias steps' densities: the rest of its results, and the
-        grid rows of the spread's paths (``paths``, None without bias noise)."""
+        grid rows of the spread's paths (``paths``, None without bias noise);
+        `chunk_step`: `_chunk_step` of these samples, when known."""
         s_pred = self.predict_s(t, u, x_prev, t_prev)
         params, grid_nodes = self._grid.parameters(s_pred)
         self._chunk_end = self._grid.point(int(grid_nodes[-1]))
@@ -236,8 +248,7 @@ class ConstrainedFilter:
                                                   speed_mps=speed)
         step = self.sample_interval_s
         if step is None:
-            step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
-                else float(t[0] - t_prev)
+            step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
         along = self._along_accel(t, u, x_prev) if self._along_noise else None
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]

@@ -206,8 +206,9 @@ def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
     """Whether [s_lo, s_hi] (m, clipped to the track) lies in one straight section: its
     tangent is smooth to all orders there (a loxodrome at constant grade), and the part the
     second-order expansion leaves out is ~(Δs/R_earth)³, far below any accelerometer."""
-    k = track.section_of(np.clip([s_lo, s_hi], 0.0, track.length_m))
-    return bool(k[0] == k[1] and track.table.is_loxodrome[k[0]])
+    length = track.length_m         # np.clip's bounds, in floats (`Track.section_at`)
+    k_lo, k_hi = (track.section_at(min(max(float(s), 0.0), length)) for s in (s_lo, s_hi))
+    return bool(k_lo == k_hi and track.table.is_loxodrome[k_lo])
 
 
 def _nodes(grid, params: Array, offsets: Array) -> tuple[Array, Array]:

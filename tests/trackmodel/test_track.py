@@ -126,6 +126,15 @@ def test_scalar_and_array_queries_agree(curvy):
         assert np.array_equal(one.r_e, batch.r_e[i])
 
 
+def test_section_at_is_section_of_for_one_distance(curvy):
+    """`Track.section_at` (Python floats) against `Track.section_of` (NumPy): the track's
+    ends, each joint and its neighbouring floats, outside the track, NaN, -0.0."""
+    joints = np.cumsum([0.0] + [sec.length_m for sec in CURVY])
+    near = np.concatenate([np.nextafter(joints, -np.inf), joints, np.nextafter(joints, np.inf)])
+    s = np.concatenate([near, [-5.0, -0.0, 1e9, np.nan, np.inf, -np.inf, 4000.0]])
+    assert [curvy.section_at(float(x)) for x in s] == curvy.section_of(s).tolist()
+
+
 @pytest.mark.parametrize("bad", [-1.0, 1e9, np.nan, np.inf])
 def test_s_outside_track_raises(curvy, bad):
     with pytest.raises(TrackError, match="s must"):
