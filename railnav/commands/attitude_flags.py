@@ -11,9 +11,10 @@ and ``run_files``' keywords of the same names) and `car_body_scenario`
 * ``--standstill``: standstill detection from the IMU (vetoed by odometer and fix speeds) and
   its zero-speed and zero-yaw-rate rows (`railnav.filters.standstill`, `StandstillConfig`
   defaults);
-* ``--recover``: the divergence monitor's recovery (`railnav.navigation.monitor`,
-  ``MonitorConfig(recover=True)``: a restart from the epoch's single-point fix when
-  ``lost``; the ``monitor`` keyword of ``run_files`` and of `navigator_config_for`);
+* ``--no-recover``: no recovery by the divergence monitor (`railnav.navigation.monitor`,
+  ``MonitorConfig(recover=False)``; by default a ``lost`` filter restarts from the epoch's
+  single-point fix); the ``monitor`` keyword of ``run_files``. ``--recover``, the default,
+  is kept for scripts that name it;
 * ``--suspension-noise``: the IMU on a car body's suspension: its sampling error as gyro
   noise (``NavigatorConfig.suspension_noise``, `railnav.filters.suspension_noise`);
 * ``--car-body``: a simulated trip's IMU on a car body: chord between bogies, suspension,
@@ -42,8 +43,10 @@ def add_attitude_arguments(p) -> None:
                         "apply zero-speed and zero-yaw-rate rows")
     p.add_argument("--recover", action="store_true",
                    help="when the divergence monitor says lost, restart the filter from the "
-                        "epoch's single-point fix (off by default: the status column still "
-                        "says lost)")
+                        "epoch's single-point fix (the default)")
+    p.add_argument("--no-recover", action="store_true",
+                   help="no restart when the divergence monitor says lost (the status "
+                        "column still says so)")
     p.add_argument("--suspension-noise", action="store_true",
                    help="constrained filter: the IMU rides a car body on its suspension (a "
                         "train): its sampled rates' attitude error as gyro noise (implied "
@@ -64,9 +67,12 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
     if mine and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
         raise ConfigError(f"{', '.join(mine)}: one track only (not with --network or "
                           "several tracks)")
-    if args.recover and (getattr(args, "network", None) is not None
-                         or len(args.tracks) > 1):
-        raise ConfigError("--recover: one track only (on a network: --spawn)")
+    recover = [f for f, on in (("--recover", args.recover),
+                               ("--no-recover", getattr(args, "no_recover", False))) if on]
+    if len(recover) == 2:
+        raise ConfigError("--recover, --no-recover: give one (recovery is the default)")
+    if recover and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
+        raise ConfigError(f"{recover[0]}: one track only (on a network: --spawn)")
     if args.car_body and (files or len(args.tracks) > 1
                           or getattr(args, "network", None) is not None):
         raise ConfigError("--car-body: shapes a simulated trip on one track (not with sensor "
@@ -75,17 +81,17 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
 
 def attitude_config(args: argparse.Namespace) -> dict:
     """``track_attitude`` and ``standstill`` (the configs' defaults, or None when off),
-    ``suspension_noise`` when ``--suspension-noise`` and ``monitor`` with recovery when
-    ``--recover`` (each absent otherwise: the default, or what a simulated trip sets)."""
+    ``suspension_noise`` when ``--suspension-noise`` and ``monitor`` without recovery when
+    ``--no-recover`` (each absent otherwise: the default, or what a simulated trip sets)."""
     from railnav.filters.attitude_config import TrackAttitudeConfig
     from railnav.filters.standstill import StandstillConfig
     out = {"track_attitude": TrackAttitudeConfig() if args.track_attitude else None,
            "standstill": StandstillConfig() if args.standstill else None}
     if args.suspension_noise:       # absent otherwise: a simulated car body sets it
         out["suspension_noise"] = True
-    if getattr(args, "recover", False):
+    if getattr(args, "no_recover", False):
         from railnav.navigation.monitor import MonitorConfig
-        out["monitor"] = MonitorConfig(recover=True)
+        out["monitor"] = MonitorConfig(recover=False)
     return out
 
 

@@ -251,8 +251,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         None: the configuration's own; True for files simulated with a car body).
     monitor : railnav.navigation.monitor.MonitorConfig, optional
         The divergence monitor applied to whichever configuration (default None: the
-        configuration's own, on without recovery; ``MonitorConfig(recover=True)`` is
-        ``railnav run --recover``).
+        configuration's own, on with recovery; ``MonitorConfig(recover=False)`` is
+        ``railnav run --no-recover``).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,

@@ -71,6 +71,8 @@ DOUBLE = [str(TRACKS_DIR / "double_a.csv"), str(TRACKS_DIR / "double_b.csv")]
     ([CURVY, "--car-body", "--imu", "imu.csv"], "--car-body"),
     ([*DOUBLE, "--track-attitude"], "one track only"),
     ([*DOUBLE, "--recover"], "--recover: one track only"),
+    ([*DOUBLE, "--no-recover"], "--no-recover: one track only"),
+    ([CURVY, "--recover", "--no-recover"], "--recover, --no-recover: give one"),
     ([CURVY, "--spawn"], "--spawn: only with --network"),
 ])
 def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
@@ -82,25 +84,27 @@ def test_flags_that_cannot_apply_are_errors(tmp_path, capsys, argv, message):
 
 
 def test_recover_restarts_a_lost_filter(tmp_path, capsys):
-    """``--recover`` is the monitor's recovery (`MonitorConfig(recover=True)`): a MEMS IMU
-    that the filter is told is navigation grade diverges (the truth from the simulation:
-    along-track RMS beyond 1 km, the run ends lost, no restart); with the flag the monitor
-    restarts it from the epoch's fix and the error against the same truth falls by more
-    than 10x."""
+    """Recovery is the monitor's default (`MonitorConfig.recover`): a MEMS IMU that the
+    filter is told is navigation grade diverges with ``--no-recover`` (the truth from the
+    simulation: along-track RMS beyond 1 km, the run ends lost, no restart); by default,
+    and with ``--recover`` (the same run), the monitor restarts it from the epoch's fix and
+    the error against the same truth falls by more than 10x."""
     sim = tmp_path / "sim"
     assert main(["-q", "simulate", str(TRACKS_DIR / "paper2017.csv"), "--imu-grade", "mems",
                  "--duration-s", "60", "--out", str(sim)]) == 0
     files = ["--imu", str(sim / "imu.csv"), "--obs", str(sim / "gnss_obs.rnx"),
              "--nav", str(sim / "gnss_nav.rnx"), "--imu-grade", "navigation", "--no-plots"]
-    rms, recoveries = {}, {}
-    for flag in ([], ["--recover"]):
-        out = tmp_path / ("recover" if flag else "plain")
+    rms, recoveries, estimates = {}, {}, {}
+    for name, flag in (("off", ["--no-recover"]), ("default", []), ("on", ["--recover"])):
+        out = tmp_path / name
         assert main(["run", str(TRACKS_DIR / "paper2017.csv"), *files, *flag,
                      "--out", str(out)]) == 0
         text = capsys.readouterr().out
         summary = json.loads((out / "summary.json").read_text())
-        rms[bool(flag)] = summary["errors"]["all"]["along_track_m"]["rms"]
-        recoveries[bool(flag)] = summary["statistics"]["monitor"]["recoveries"]
-        assert ("LOST at the end" in text) is (not flag)
-    assert rms[False] > 1000.0 and recoveries[False] == 0
-    assert recoveries[True] >= 1 and rms[True] < 0.1 * rms[False]
+        rms[name] = summary["errors"]["all"]["along_track_m"]["rms"]
+        recoveries[name] = summary["statistics"]["monitor"]["recoveries"]
+        estimates[name] = (out / "estimates.csv").read_bytes()
+        assert ("LOST at the end" in text) is (name == "off")
+    assert rms["off"] > 1000.0 and recoveries["off"] == 0
+    assert recoveries["default"] >= 1 and rms["default"] < 0.1 * rms["off"]
+    assert estimates["on"] == estimates["default"]

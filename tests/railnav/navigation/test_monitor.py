@@ -244,6 +244,7 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     from tests.railnav.filters.test_joint_noise import _circle_track
     sc = _circle_scenario()
     config = navigator_config_for(sc)
+    config = replace(config, monitor=replace(config.monitor, recover=False))   # flags alone
     shift = 0.0
     if fault == "offset":
         config, shift = replace(config, initial_s_sigma_m=1.0), 50.0
@@ -266,6 +267,33 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     if fault == "offset":                    # 50σ off at once: lost at the first epoch
         assert rows.loc[rows.index[beyond][0], "status"] == "lost"
     assert result.final_status == "lost"     # the bias: degraded first, then lost
+
+
+def test_a_restart_on_a_ring_stays_on_the_filters_lap():
+    """The offset case above with recovery (the default): the track runs round the same
+    R = 100 m circle several times, so a single-point fix projects equally near on every
+    lap. The restarts take the lap nearest the filter (`TrackFixes.near`): after 12 s the
+    along-track error against the simulation's ``s`` stays below 3 m and the run ends
+    ``ok`` (a restart on the whole-track projection put ``s`` 1256 m, two laps, ahead at
+    11 s: 1384 m off after 12 s, 9 restarts)."""
+    from railnav.jobs.run import truth_start
+    from railnav.navigation.navigator import navigate
+    from railnav.simulation.trip import simulate_trip
+    from tests.railnav.filters.test_joint_noise import _circle_track
+    config = replace(navigator_config_for(_circle_scenario()), initial_s_sigma_m=1.0)
+    assert config.monitor.recover
+    trip = simulate_trip(_circle_scenario(), track=_circle_track(0.3), seed=1)
+
+    def start(filt):
+        x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0].copy()
+        x[filt.layout.index("s")] += 50.0
+        return truth_start(filt, trip, config, x_true=x)
+    result = navigate(trip.track, trip.sensor_data(), config, initial=start)
+    est = result.estimates
+    err = est["s_m"].to_numpy() - np.interp(est["time_s"], trip.truth.time_s, trip.truth.s)
+    assert (result.monitor["action"] == "reinit").sum() >= 1      # it did restart
+    assert np.abs(err[est["time_s"].to_numpy() > 12.0]).max() < 3.0
+    assert result.final_status == "ok"
 
 
 
