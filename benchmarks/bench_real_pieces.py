@@ -49,6 +49,15 @@ variance flags none of the 53 at 3.29σ (and 1 of the 899 others): the apparent 
 ``s + σ_e b`` agrees with the rows; the error is in the split, which only an independent
 ``s`` (odometer, balise) could test. ``--heading-correlation-m`` measures the heading
 rows' part.
+The reference itself is in question on 22 of the 53 (leg 1 and part 3, seconds of week
+45745-45772): in the second to 45745 it moves 6.11 m horizontally and 1.73 m down while
+the single-point Doppler speed is 3.92 m/s and the filter's 4.05 (over the drive's 460
+seconds with both, reference displacement and single-point Doppler speed differ by
+0.23 m/s RMS; this is the largest difference), and it has no solution for 45747-45750.
+Were the 2.1 m step the reference's, the 22 would be within 3σ_s (31 of 53 left); with
+the heading correlated over 20 m, 46 of its 48 epochs beyond 3σ_s are in that stretch
+(3 left). Nothing here corrects the reference: which side of the step is right is not
+known.
 
 Calibration and held-out: the real-data error model (`railnav.filters.code_bias`, the
 heading's σ) was calibrated on `CALIBRATION_PIECES`, the drive's first ~3 minutes
