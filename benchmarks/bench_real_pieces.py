@@ -54,6 +54,9 @@ The reference itself is in question on 22 of the 53 (leg 1 and part 3, seconds o
 the single-point Doppler speed is 3.92 m/s and the filter's 4.05 (over the drive's 460
 seconds with both, reference displacement and single-point Doppler speed differ by
 0.23 m/s RMS; this is the largest difference), and it has no solution for 45747-45750.
+The rover's own L1 carrier phases (GPS and Galileo, five satellites, time-differenced over
+that second, residual 6 mm RMS; the same differences match the reference's displacement
+to 7 cm median over 435 seconds) give 4.17 m horizontally and 0.03 m down.
 Were the 2.1 m step the reference's, the 22 would be within 3σ_s (31 of 53 left); with
 the heading correlated over 20 m, 46 of its 48 epochs beyond 3σ_s are in that stretch
 (3 left). Nothing here corrects the reference: which side of the step is right is not
