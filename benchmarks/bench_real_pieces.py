@@ -31,6 +31,37 @@ of freedom (its window's tail probability never fell below 0.34), and the fix te
 snapshot carries the same inflated variances (|d| ≤ 1.54 on every piece): neither fails
 on real data, and no test sees an error the filter shares with its own rows.
 
+The 53 gnss-only epochs beyond 3σ_s (of 952; main 008931e), one by one against the
+reference and SPP projected on the same track: 20 are a slow code error that SPP shares
+(its along-track error beyond 3σ_s too, same sign: 13 on leg 1 at 672-800 m, where
+the filter's σ_s, 0.3 m out of a tight corner, had grown to 0.5-1.3 m, 6 on leg 1 and
+part 6 at 1750 m and 420-446 m, 1 at leg 1's 5-m corner); 15 are that error with the filter
+1-2 m further off than SPP (leg 1 at 770-850 m, after its speed lagged the car's
+acceleration by 1 m/s for 3 s at σ_v 0.15-0.25 m/s, 2.3 m lost; and the same places on
+parts 3 and 6); 2 are part 6's start (3.4 m against
+SPP's 2.0 at σ_s 0.74); 2 are part 1's last epochs, in a corner of ~5 m radius (0.9 m at
+σ_s 0.28, drawn from the Doppler rows through the curvature); 14 are the U-turn piece,
+where SPP errs the other way (the car drives back 1.2-2 m across the fitted track, then
+stands 3 m beside its end: the filter's ``s`` and code-bias state split the rows'
+apparent position wrongly through the heading rows). A snapshot test with the rows'
+white variances (``R`` over the filter's inflation) against the prior's apparent
+variance flags none of the 53 at 3.29σ (and 1 of the 899 others): the apparent position
+``s + σ_e b`` agrees with the rows; the error is in the split, which only an independent
+``s`` (odometer, balise) could test. ``--heading-correlation-m`` measures the heading
+rows' part.
+The reference itself is in question on 22 of the 53 (leg 1 and part 3, seconds of week
+45745-45772): in the second to 45745 it moves 6.11 m horizontally and 1.73 m down while
+the single-point Doppler speed is 3.92 m/s and the filter's 4.05 (over the drive's 460
+seconds with both, reference displacement and single-point Doppler speed differ by
+0.23 m/s RMS; this is the largest difference), and it has no solution for 45747-45750.
+The rover's own L1 carrier phases (GPS and Galileo, five satellites, time-differenced over
+that second, residual 6 mm RMS; the same differences match the reference's displacement
+to 7 cm median over 435 seconds) give 4.17 m horizontally and 0.03 m down.
+Were the 2.1 m step the reference's, the 22 would be within 3σ_s (31 of 53 left); with
+the heading correlated over 20 m, 46 of its 48 epochs beyond 3σ_s are in that stretch
+(3 left). Nothing here corrects the reference: which side of the step is right is not
+known.
+
 Calibration and held-out: the real-data error model (`railnav.filters.code_bias`, the
 heading's σ) was calibrated on `CALIBRATION_PIECES`, the drive's first ~3 minutes
 (`bench_code_bias.py`); ``groups`` sums the figures over those pieces (``calibration``),
@@ -41,6 +72,9 @@ this drive (`gnss_obs.measurements.URBAN_CODE_SIGMAS`), SPP with its own (the de
 ``benchmarks/results/real_pieces_urban_sigmas.json``. ``--heading-curvature-m D``: the
 filters with ``NavigatorConfig.track_heading_curvature_m`` = D (calibrated 2.2 m, off by
 default); ``benchmarks/results/real_pieces_heading_curvature.json``.
+``--heading-correlation-m D``: the filters with
+``NavigatorConfig.track_heading_correlation_m`` = D (off by default; the figures of
+D = 3, 5, 7, 10 m are in that field's docstring).
 
 Writes ``benchmarks/results/real_pieces.json``. Run: ``python benchmarks/bench_real_pieces.py
 --data DIR`` (a few minutes).
@@ -230,6 +264,9 @@ def main(argv=None) -> int:
     parser.add_argument("--heading-curvature-m", type=float, default=None,
                         help="NavigatorConfig.track_heading_curvature_m of the filters "
                              "(default: the configuration's, 0)")
+    parser.add_argument("--heading-correlation-m", type=float, default=None,
+                        help="NavigatorConfig.track_heading_correlation_m of the filters "
+                             "(default: the configuration's, 0)")
     parser.add_argument("--urban-sigmas", action="store_true",
                         help="the filters use the additive pseudorange σ model "
                              "(gnss_obs.measurements.URBAN_CODE_SIGMAS); SPP keeps its own")
@@ -239,6 +276,8 @@ def main(argv=None) -> int:
         config = replace(config, measurement=replace(config.measurement, **URBAN_CODE_SIGMAS))
     if args.heading_curvature_m is not None:
         config = replace(config, track_heading_curvature_m=args.heading_curvature_m)
+    if args.heading_correlation_m is not None:
+        config = replace(config, track_heading_correlation_m=args.heading_correlation_m)
     # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
     config = replace(config, monitor=replace(config.monitor, recover=not args.no_recovery),
                      # SPP fixes: their errors are their pseudoranges', correlated alike
@@ -263,6 +302,7 @@ def main(argv=None) -> int:
     out = {"data": "gnss_urban_drive", "tightest_track_radius_m": TIGHTEST_TRACK_RADIUS_M,
            "recovery": not args.no_recovery,
            "track_heading_curvature_m": config.track_heading_curvature_m,
+           "track_heading_correlation_m": config.track_heading_correlation_m,
            "code_bias": {"sigma": config.code_bias.sigma, "time_s": config.code_bias.time_s},
            "groups": group_totals(results),
            **({"filters_measurement_sigmas": URBAN_CODE_SIGMAS} if args.urban_sigmas else {}),

@@ -64,6 +64,7 @@ from railnav.filters.gnss_only_noise import (
     correlation_inflation,
     correlation_time_s,
     heading_covariance_mps2,
+    heading_inflation,
     heading_sigma_rad,
 )
 from railnav.filters.ins_clock_model import clock_offset_columns
@@ -266,14 +267,17 @@ class GnssOnlyFilter:
 
     def _heading_rows(self, obs: Observation, speed: float) -> Observation:
         """Range-rate rows with the velocity's angle to the track (`heading_covariance_mps2`,
-        `heading_sigma_rad`): the covariance, or only its diagonal where the fault screen
-        tests the rows one by one (it takes diagonal ``R``); with the code-bias state, the
-        rows of its model at σ_e = 0."""
+        `heading_sigma_rad`; `heading_inflation` for an angle that lasts a distance): the
+        covariance, or only its diagonal where the fault screen tests the rows one by one
+        (it takes diagonal ``R``); with the code-bias state, the rows of its model at
+        σ_e = 0."""
         cfg = self.config
         if cfg.track_heading_sigma_rad > 0.0 and speed != 0.0:
             sigma = heading_sigma_rad(obs.p, cfg.track_heading_sigma_rad,
                                       cfg.track_heading_curvature_m)
-            cov = heading_covariance_mps2(obs.p, speed, sigma)
+            cov = heading_covariance_mps2(obs.p, speed, sigma) * heading_inflation(
+                cfg.pseudorange_correlation_s, cfg.track_heading_correlation_m, speed,
+                self.gnss_interval_s)
             obs = replace(obs, R=obs.R + cov.diagonal() if self.screen is not None
                           else np.diag(obs.R) + cov)
         if self._bias_rows is not None:

@@ -6,7 +6,8 @@
 * the velocity's angle to the track (a map's heading error, a vehicle that does not follow
   the fitted line): one angle per epoch, the range-rate covariance of
   `heading_covariance_mps2`, of σ `heading_sigma_rad` (``NavigatorConfig.track_heading_sigma_rad``
-  and ``track_heading_curvature_m``).
+  and ``track_heading_curvature_m``), inflated by `heading_inflation` for an angle that
+  lasts over a distance (``track_heading_correlation_m``).
 
 The filter that uses them is `railnav.filters.gnss_only.GnssOnlyFilter`; the slow part of the
 code errors, which no inflation models, is `railnav.filters.code_bias`.
@@ -22,7 +23,7 @@ from railnav.filters.gnss_rows import TRACK_ROW_NAMES
 from trackmodel.earth import WGS84
 
 __all__ = ["correlation_time_s", "correlation_inflation", "heading_covariance_mps2",
-           "heading_sigma_rad"]
+           "heading_inflation", "heading_sigma_rad"]
 
 Array = npt.NDArray[np.float64]
 
@@ -140,6 +141,35 @@ def heading_covariance_mps2(p: Array, speed_mps: float, sigma_rad: float) -> Arr
     """
     c = (sigma_rad * float(speed_mps)) * _heading_projections(p)
     return np.outer(c, c)
+
+
+def heading_inflation(correlation_s: float, correlation_m: float, speed_mps: float,
+                      interval_s: float) -> float:
+    """Factor on the range-rate rows' heading covariance (`heading_covariance_mps2`) for a
+    heading error correlated over a distance: `correlation_inflation` of
+    `correlation_time_s` (``min(τ, d / |v|)``), 1 when `correlation_m` is 0
+    (`railnav.NavigatorConfig.track_heading_correlation_m`).
+
+    Parameters
+    ----------
+    correlation_s : float
+        τ, s: the cap standing (the pseudoranges' correlation time; 0: white, factor 1).
+    correlation_m : float
+        d, m (0: off, factor 1).
+    speed_mps : float
+        ``v`` (signed), m/s.
+    interval_s : float
+        Δt, the epoch interval, s (> 0).
+
+    Returns
+    -------
+    float
+        >= 1.
+    """
+    if correlation_m <= 0.0:
+        return 1.0
+    return correlation_inflation(correlation_time_s(correlation_s, correlation_m, speed_mps),
+                                 interval_s)
 
 
 def heading_sigma_rad(p: Array, sigma_rad: float, curvature_m: float) -> float:

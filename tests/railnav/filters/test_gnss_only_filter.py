@@ -20,7 +20,12 @@ from gnss_obs.simulate import GnssSimConfig, default_nav_path, simulate_gnss
 from railnav.config import NavigatorConfig, SensorData
 from railnav.filters.constrained_model import ISB_RANDOM_WALK_M2PS
 from railnav.filters.gnss_only import GnssOnlyFilter
-from railnav.filters.gnss_only_noise import correlation_inflation, correlation_time_s
+from railnav.filters.code_bias import CodeBiasConfig
+from railnav.filters.gnss_only_noise import (
+    correlation_inflation,
+    correlation_time_s,
+    heading_inflation,
+)
 from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.filters.robust_rows import huber_inflate, huber_variance_scale
 from railnav.jobs.run import run_simulated
@@ -119,6 +124,21 @@ def test_moving_inflation_is_the_ar1_variance_of_the_mean_over_distance(speed_mp
     tau = correlation_time_s(tau_s, d_m, speed_mps)
     assert correlation_inflation(tau, dt) == pytest.approx(exact, rel=RTOL_AR1_LIMIT)
     assert correlation_time_s(tau_s, 0.0, speed_mps) == tau_s     # d = 0: the time alone
+
+
+@pytest.mark.parametrize("speed_mps", [0.0, 0.5, -1.0, 5.0, 30.0])
+def test_heading_inflation_is_the_ar1_variance_of_the_mean_over_distance(speed_mps):
+    """A heading error that decorrelates over d, sampled every |v| Δt metres: AR(1) in the
+    epoch index with ρ = exp(−|v| Δt / d), standing exp(−Δt / τ) (the smaller ρ); the
+    factor is the AR(1) sum, and 1 with d = 0 (off) or τ = 0 (white: simulated data)."""
+    n, dt, tau_s, d_m = 100_000, 1.0, 20.0, 5.0
+    rho = min(math.exp(-dt / tau_s), math.exp(-abs(speed_mps) * dt / d_m))
+    k = np.arange(1, n)
+    exact = 1.0 + 2.0 * np.sum((1.0 - k / n) * rho ** k)
+    assert heading_inflation(tau_s, d_m, speed_mps, dt) == pytest.approx(exact,
+                                                                         rel=RTOL_AR1_LIMIT)
+    assert heading_inflation(tau_s, 0.0, speed_mps, dt) == 1.0
+    assert heading_inflation(0.0, d_m, speed_mps, dt) == 1.0
 
 
 def test_huber_scale_closed_form():
@@ -310,6 +330,28 @@ def test_heading_covariance_is_the_range_rate_covariance_of_a_rotated_velocity(s
                         for i in range(added.shape[0])])
     np.testing.assert_allclose(np.cov(rho_dot), added, rtol=0.05,
                                atol=0.05 * np.abs(added).max())
+
+
+def test_heading_covariance_is_inflated_for_a_correlated_heading():
+    """Closed form: with ``track_heading_correlation_m`` d the range-rate rows' heading
+    covariance is (1 + ρ)/(1 − ρ) times that without, ρ = exp(−|v| Δt / d) at 12 m/s
+    (d / |v| below τ = 20 s), Δt = 1 s; the rows' own variances are kept."""
+    track = read_track(TRACKS_DIR / "curvy.csv")
+    sigma, d_m, speed, s_m = 0.03, 5.0, 12.0, 9540.0
+    base = dict(track_heading_sigma_rad=sigma, pseudorange_correlation_s=20.0,
+                code_bias=CodeBiasConfig(sigma=0.0))
+    filt, rows, _ = _rows_at(track, _config(**base), s_m, speed)
+    _, rows_d, _ = _rows_at(track, _config(**base, track_heading_correlation_m=d_m), s_m,
+                            speed)
+    _, rows0, _ = _rows_at(track, _config(**{**base, "track_heading_sigma_rad": 0.0}), s_m,
+                           speed)
+    rr, rr_d, rr0 = ([o for o in r if o.model is filt.rows.rows.range_rate][0]
+                     for r in (rows, rows_d, rows0))
+    rho = math.exp(-speed * 1.0 / d_m)
+    added = rr.R - np.diag(rr0.R)
+    assert np.abs(added).max() > 0.0
+    np.testing.assert_allclose(rr_d.R - np.diag(rr0.R), (1.0 + rho) / (1.0 - rho) * added,
+                               rtol=RTOL_ROUNDING, atol=RTOL_ROUNDING * np.abs(added).max())
 
 
 def test_heading_sigma_grows_with_the_curvature():
