@@ -297,10 +297,10 @@ class ConstrainedFilter:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
         (`railnav.filters.joint_noise`), the bias steps of the scale factors and
-        misalignments that the state does not carry (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths) and, on a car body (``config.track_attitude`` or
-        ``config.suspension_noise``), the sampling error of its suspension's rates
-        (`railnav.filters.suspension_noise`)."""
+        misalignments that the state does not carry (`railnav.filters.scale_noise`:
+        `found`, the densities of the spread's paths) and, on a car body
+        (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
+        its suspension's rates (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
             pending["nodes"]
         s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]

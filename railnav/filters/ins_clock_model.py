@@ -27,9 +27,9 @@ SAME ``w_f``: the 2017 paper's eq. 14 correlated noise). IMU biases are random w
 grade over times short against ``τ``, plus a constant part carried by the initial
 covariance. The ``S + M`` elements are constants (a random walk of negligible density,
 so that every state has its noise column); their prior is the grade's scale-factor
-(diagonal elements) or misalignment (off-diagonal) σ. The clock is the two-state oscillator model of `gnss_obs.oscillator`
-(``ḃ = d + w_b``, ``ḋ = w_d``); inter-system biases are random walks of density
-`ISB_RANDOM_WALK_M2PS`.
+(diagonal elements) or misalignment (off-diagonal) σ. The clock is the two-state
+oscillator model of `gnss_obs.oscillator` (``ḃ = d + w_b``, ``ḋ = w_d``); inter-system
+biases are random walks of density `ISB_RANDOM_WALK_M2PS`.
 """
 from __future__ import annotations
 
