@@ -10,8 +10,16 @@ Euler-angle form of ``dC_b_n/dt = C_b_n [ω_ib_b×] − [ω_in_n×] C_b_n``.)
 
 Also the optional sensor-bias augmentation: accelerometer and gyro biases as states with
 first-order Gauss–Markov dynamics ``ḃ = −b/τ`` (``τ = inf``: random constant); the
-model subtracts them from the measured inputs. Written for CasADi symbols (builders);
-the functions also work on NumPy arrays through `strapdown.backend`.
+model subtracts them from the measured inputs. Optionally also chosen elements ``(i, j)``
+of a triad's scale-factor and misalignment matrix ``S + M`` (`strapdown.imu_errors`) as
+random constants ``k_ij`` (`scale_state_name`): the triad reads ``y = (I + S + M) x + b``,
+so ``x_i ≈ y_i − b_i − Σ_j k_ij y_j`` over the chosen elements of row ``i``, to first order
+in ``S + M``. The error an element causes follows the *measured* input ``y_j``, so it steps
+exactly when the sensor's input does (where the curvature of the track steps), whatever
+the filter's estimate of where the train is.
+
+Written for CasADi symbols (builders); the functions also work on NumPy arrays through
+`strapdown.backend`.
 
 Vectors are addressed by name through the one layout object, `ekf.layout.StateLayout`
 (`INPUT_LAYOUT`, `BIAS_LAYOUT`, and the models' state layouts), never by literal index.
@@ -33,7 +41,8 @@ from strapdown.gravity import g_n
 from trackmodel.earth import WGS84, Ellipsoid
 
 __all__ = ["INPUT_LAYOUT", "INPUT_NAMES", "BIAS_BLOCKS", "BIAS_LAYOUT", "BIAS_STATE_NAMES",
-           "ATTITUDE_NAMES", "SensorBiasStates", "navigation_acceleration", "attitude_rates",
+           "ATTITUDE_NAMES", "SensorBiasStates", "scale_state_name", "SCALE_BLOCK",
+           "navigation_acceleration", "attitude_rates",
            "corrected_inputs", "ModelSymbols", "model_symbols"]
 
 #: The IMU input vector ``u`` of every model: specific force (m/s², b) then angular rate of
@@ -50,6 +59,35 @@ BIAS_STATE_NAMES = BIAS_LAYOUT.names
 #: Names of the attitude states (Euler angles of ``b`` relative to ``n``, rad) that both
 #: models start with, block ``"attitude"``.
 ATTITUDE_NAMES = ("yaw", "pitch", "roll")
+#: Body axes, in the order of the triads' components.
+_AXES = ("x", "y", "z")
+#: Short names of the triads whose ``S + M`` elements may be states: accelerometer, gyro.
+_SENSORS = ("a", "g")
+#: Name of the state block of the ``S + M`` elements (after the bias blocks).
+SCALE_BLOCK = "imu_scale"
+
+
+def scale_state_name(sensor: str, element: str) -> str:
+    """Name of the state of element `element` of a triad's ``S + M``.
+
+    Parameters
+    ----------
+    sensor : str
+        ``"a"`` (accelerometer) or ``"g"`` (gyro).
+    element : str
+        Row (the sensor's axis) then column (the input axis it multiplies), e.g. ``"zy"``:
+        the z accelerometer's misalignment towards y, ``M_zy`` (``"yy"``: the scale factor
+        ``S_yy``).
+
+    Returns
+    -------
+    str
+        ``k_<sensor>_<row><column>`` (the state is dimensionless).
+    """
+    if sensor not in _SENSORS or len(element) != 2 or not set(element) <= set(_AXES):
+        raise StrapdownError(f"scale state: sensor must be one of {_SENSORS} and element "
+                             f"two of {_AXES} (row, column), got {sensor!r}, {element!r}")
+    return f"k_{sensor}_{element}"
 
 
 @dataclass(frozen=True)
@@ -62,36 +100,74 @@ class SensorBiasStates:
         Correlation time of the accelerometer bias states, s (``inf``: random constant).
     gyro_tau_s : float
         Correlation time of the gyro bias states, s (``inf``: random constant).
+    accel_scale_elements, gyro_scale_elements : tuple of str
+        Elements ``"<row><column>"`` of the triad's ``S + M`` that are states (random
+        constants, `scale_state_name`), e.g. ``("zy",)``; default none. Kept in row-major
+        order.
     """
 
     accel_tau_s: float = math.inf
     gyro_tau_s: float = math.inf
+    accel_scale_elements: tuple[str, ...] = ()
+    gyro_scale_elements: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         for name in ("accel_tau_s", "gyro_tau_s"):
             value = getattr(self, name)
             if not value > 0:
                 raise StrapdownError(f"{name} must be > 0 (inf for a constant), got {value!r}")
+        for sensor, name in zip(_SENSORS, ("accel_scale_elements", "gyro_scale_elements")):
+            elements = tuple(getattr(self, name))
+            for element in elements:
+                scale_state_name(sensor, element)           # validates
+            if len(set(elements)) != len(elements):
+                raise StrapdownError(f"{name} must be distinct, got {elements!r}")
+            object.__setattr__(self, name, tuple(sorted(
+                elements, key=lambda e: (_AXES.index(e[0]), _AXES.index(e[1])))))
+
+    def scale_names(self) -> tuple[str, ...]:
+        """Names of the ``S + M`` element states, accelerometer then gyro (empty without)."""
+        return tuple(scale_state_name(sensor, element) for sensor, elements
+                     in zip(_SENSORS, (self.accel_scale_elements, self.gyro_scale_elements))
+                     for element in elements)
+
+    def blocks(self) -> tuple:
+        """The state blocks this adds to a model: `BIAS_BLOCKS`, then `SCALE_BLOCK` when
+        there are ``S + M`` element states."""
+        names = self.scale_names()
+        return BIAS_BLOCKS + (((SCALE_BLOCK, names),) if names else ())
+
+
+def _scale_correction(y: Any, elements: tuple[str, ...], k: Any) -> Any:
+    """``Σ_j k_ij y_j`` per row ``i`` (3x1) over `elements` (``"<i><j>"``), with ``k``
+    their states in that order."""
+    rows = [0.0, 0.0, 0.0]
+    for n, element in enumerate(elements):
+        i, j = _AXES.index(element[0]), _AXES.index(element[1])
+        rows[i] = rows[i] + k[n] * y[j]
+    return ca.vertcat(*rows)
 
 
 def corrected_inputs(u: Any, bias: Any | None,
                      biases: SensorBiasStates | None) -> tuple[Any, Any, Any | None]:
-    """Split the input and remove modelled biases.
+    """Split the input and remove modelled biases (and ``S + M`` elements).
 
     Parameters
     ----------
     u : casadi 6x1
         ``[f_b, ω_ib_b]`` as measured (`INPUT_LAYOUT`).
-    bias : casadi 6x1 or None
-        Bias states ``[b_a, b_g]`` (`BIAS_LAYOUT`; when `biases` is given).
+    bias : casadi (6 + n_k)x1 or None
+        Bias states ``[b_a, b_g]`` (`BIAS_LAYOUT`; when `biases` is given), then the
+        ``n_k`` states of `SensorBiasStates.scale_names`, in order.
     biases : SensorBiasStates or None
 
     Returns
     -------
     f_b, omega_ib_b : casadi 3x1
-        Corrected specific force (m/s²) and angular rate (rad/s), body frame.
-    bias_dot : casadi 6x1 or None
-        Time derivative of the bias states.
+        Corrected specific force (m/s²) and angular rate (rad/s), body frame:
+        ``y_i − b_i − Σ_j k_ij y_j`` (module docstring).
+    bias_dot : casadi (6 + n_k)x1 or None
+        Time derivative of the bias states (0 for the ``S + M`` elements: constants).
     """
     f_b, omega_ib_b = u[INPUT_LAYOUT.slice("f_b")], u[INPUT_LAYOUT.slice("omega_ib_b")]
     if biases is None:
@@ -99,7 +175,16 @@ def corrected_inputs(u: Any, bias: Any | None,
     b_a, b_g = bias[BIAS_LAYOUT.slice("accel_bias")], bias[BIAS_LAYOUT.slice("gyro_bias")]
     rate_a = 0.0 if math.isinf(biases.accel_tau_s) else 1.0 / biases.accel_tau_s
     rate_g = 0.0 if math.isinf(biases.gyro_tau_s) else 1.0 / biases.gyro_tau_s
-    return f_b - b_a, omega_ib_b - b_g, ca.vertcat(-rate_a * b_a, -rate_g * b_g)
+    f_out, omega_out = f_b - b_a, omega_ib_b - b_g
+    n_a, n_g = len(biases.accel_scale_elements), len(biases.gyro_scale_elements)
+    k = bias[BIAS_LAYOUT.size:BIAS_LAYOUT.size + n_a + n_g] if n_a + n_g else None
+    if n_a:
+        f_out = f_out - _scale_correction(f_b, biases.accel_scale_elements, k[:n_a])
+    if n_g:
+        omega_out = omega_out - _scale_correction(omega_ib_b, biases.gyro_scale_elements,
+                                                  k[n_a:])
+    rates = [-rate_a * b_a, -rate_g * b_g] + ([ca.SX.zeros(n_a + n_g)] if n_a + n_g else [])
+    return f_out, omega_out, ca.vertcat(*rates)
 
 
 @dataclass(frozen=True)
@@ -109,7 +194,7 @@ class ModelSymbols:
     Attributes
     ----------
     layout : ekf.StateLayout
-        Navigation states, then the bias blocks `BIAS_BLOCKS` when modelled.
+        Navigation states, then the bias blocks (`SensorBiasStates.blocks`) when modelled.
     x, u : casadi.SX
         State (n_x) and IMU input (6) symbols.
     f_b, omega_ib_b : casadi.SX
@@ -134,16 +219,18 @@ def model_symbols(navigation: StateLayout, biases: SensorBiasStates | None) -> M
     navigation : ekf.StateLayout
         The model's navigation states.
     biases : SensorBiasStates or None
-        When given, the bias blocks `BIAS_BLOCKS` are appended to the layout.
+        When given, its blocks (`SensorBiasStates.blocks`: `BIAS_BLOCKS`, then the ``S + M``
+        elements) are appended to the layout.
 
     Returns
     -------
     ModelSymbols
     """
-    layout = navigation.extended(BIAS_BLOCKS) if biases is not None else navigation
+    blocks = () if biases is None else biases.blocks()
+    layout = navigation.extended(blocks) if blocks else navigation
     x = ca.SX.sym("x", layout.size)
     u = ca.SX.sym("u", INPUT_LAYOUT.size)
-    bias = ca.vertcat(*(x[layout.slice(name)] for name, _ in BIAS_BLOCKS)) \
+    bias = ca.vertcat(*(x[layout.slice(name)] for name, _ in blocks)) \
         if biases is not None else None
     f_b, omega_ib_b, bias_dot = corrected_inputs(u, bias, biases)
     return ModelSymbols(layout, x, u, f_b, omega_ib_b, bias_dot)

@@ -33,7 +33,8 @@ from railnav.filters.common import (
     states_from_values,
     track_estimates,
 )
-from railnav.filters.constrained_model import build_constrained_model, isb_state_name
+from railnav.filters.constrained_model import (build_constrained_model, isb_state_name,
+                                               scale_elements_for)
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
@@ -68,17 +69,20 @@ def _bias_together(filters, pending: list[dict]) -> list:
     if not have:
         return out
     imu, steps = filters[have[0]].config.imu, pending[have[0]]["steps"]
+    estimated = filters[have[0]].scale_elements
     if any(filters[k].config.imu != imu or not np.array_equal(pending[k]["steps"], steps)
-           for k in have):
+           or filters[k].scale_elements != estimated for k in have):
         for k in have:
             out[k] = path_bias_step_densities(*pending[k]["paths"], pending[k]["speed"],
-                                              filters[k].config.imu, pending[k]["steps"])
+                                              filters[k].config.imu, pending[k]["steps"],
+                                              estimated=filters[k].scale_elements)
         return out
     counts = [pending[k]["paths"][0].shape[0] for k in have]
     found = path_bias_step_densities(
         np.concatenate([pending[k]["paths"][0] for k in have]),
         np.concatenate([pending[k]["paths"][1] for k in have]),
-        np.repeat([pending[k]["speed"] for k in have], counts), imu, steps)
+        np.repeat([pending[k]["speed"] for k in have], counts), imu, steps,
+        estimated=estimated)
     if found is None:
         return out
     edges = np.cumsum([0, *counts])
@@ -132,8 +136,12 @@ class ConstrainedFilter:
         self.track, self.config = track, config
         sensor_blocks = sensor_states(config, odometer)
         extra = sensor_blocks + body_states(config)
+        #: The IMU's ``S + M`` elements the state carries (`constrained_model.SCALE_ELEMENTS`).
+        self.scale_elements = scale_elements_for(biases_estimated=config.biases_estimated,
+                                                 imu=config.imu)
         self.model = build_constrained_model(track.earth, estimate_biases=config.biases_estimated,
-                     isb_systems=tuple(config.measurement.systems[1:]), extra_blocks=extra)
+                     isb_systems=tuple(config.measurement.systems[1:]), extra_blocks=extra,
+                     scale_elements=self.scale_elements)
         # the noise densities of the IMU grade and oscillator the filter assumes
         self.q_c = self.model.process_noise_density(config.imu,
                                                     oscillator_from_name(config.oscillator),
@@ -217,7 +225,8 @@ class ConstrainedFilter:
         return self._finish_inputs(pending, None if pending["paths"] is None else
                                    path_bias_step_densities(*pending["paths"],
                                                             pending["speed"], self.config.imu,
-                                                            pending["steps"]))
+                                                            pending["steps"],
+                                                            estimated=self.scale_elements))
 
     @staticmethod
     def inputs_together(filters, t: Array, u: Array, priors, t_prev: float) -> list:
@@ -298,11 +307,11 @@ class ConstrainedFilter:
                   ) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
-        (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
-        factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths) and, on a car body (``config.track_attitude`` or
-        ``config.suspension_noise``), the sampling error of its suspension's rates
-        (`railnav.filters.suspension_noise`)."""
+        (`railnav.filters.joint_noise`), the bias steps of the scale factors and
+        misalignments that the state does not carry (`railnav.filters.scale_noise`:
+        `found`, the densities of the spread's paths) and, on a car body
+        (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
+        its suspension's rates (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
             pending["nodes"]
         s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]
@@ -351,7 +360,8 @@ class ConstrainedFilter:
         and summed in the nodes' order (as `_step_q_c` sums them); None when no path's
         input changes."""
         return weighted_path_densities(nodes, path_bias_step_densities(
-            *self._path_rows(s_pred, s_prev, nodes), speed, self.config.imu, steps))
+            *self._path_rows(s_pred, s_prev, nodes), speed, self.config.imu, steps,
+            estimated=self.scale_elements))
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""

@@ -7,26 +7,29 @@ alike for the same configuration:
 
 State (`ekf.StateLayout`, names used everywhere; never indices)::
 
-    [<navigation states>, (b_ax, b_ay, b_az, b_gx, b_gy, b_gz), clock_bias, clock_drift,
-     (isb_<system> ...)]
+    [<navigation states>, (b_ax, b_ay, b_az, b_gx, b_gy, b_gz, (k_<sensor>_<row><col> ...)),
+     clock_bias, clock_drift, (isb_<system> ...)]
 
-IMU biases m/s² and rad/s, receiver clock bias m (``c δt_r``) and drift m/s,
-inter-system biases m (one per GNSS system after the first, e.g. ``isb_E`` for Galileo
-time against GPS time).
+IMU biases m/s² and rad/s, optionally elements of the IMU's scale-factor and misalignment
+matrices (dimensionless random constants, `strapdown.kinematics.scale_state_name`),
+receiver clock bias m (``c δt_r``) and drift m/s, inter-system biases m (one per GNSS
+system after the first, e.g. ``isb_E`` for Galileo time against GPS time).
 
 Noise ``w`` (spectral densities ``q_c``, `InsClockModel.process_noise_density`)::
 
-    [w_f (3, (m/s²)²·s), w_ω (3, (rad/s)²·s), (w_ba (3), w_bg (3)), w_b (m²/s), w_d (m²/s³),
-     (w_isb (m²/s) ...)]
+    [w_f (3, (m/s²)²·s), w_ω (3, (rad/s)²·s), (w_ba (3), w_bg (3), (w_k ...)), w_b (m²/s),
+     w_d (m²/s³), (w_isb (m²/s) ...)]
 
 The IMU white noise is an error of the measured input, so it enters the dynamics as
 ``G = −∂f/∂u`` and an optional continuous pseudo-observation as ``D = −∂h_c/∂u`` (the
 SAME ``w_f``: the 2017 paper's eq. 14 correlated noise). IMU biases are random walks
 (``ḃ = w``) whose density ``2σ²/τ`` matches the Gauss–Markov bias instability of the
 grade over times short against ``τ``, plus a constant part carried by the initial
-covariance. The clock is the two-state oscillator model of `gnss_obs.oscillator`
-(``ḃ = d + w_b``, ``ḋ = w_d``); inter-system biases are random walks of density
-`ISB_RANDOM_WALK_M2PS`.
+covariance. The ``S + M`` elements are constants (a random walk of negligible density,
+so that every state has its noise column); their prior is the grade's scale-factor
+(diagonal elements) or misalignment (off-diagonal) σ. The clock is the two-state
+oscillator model of `gnss_obs.oscillator` (``ḃ = d + w_b``, ``ḋ = w_d``); inter-system
+biases are random walks of density `ISB_RANDOM_WALK_M2PS`.
 """
 from __future__ import annotations
 
@@ -43,13 +46,14 @@ from ekf.model import CdModel
 from gnss_obs.oscillator import Oscillator
 from railnav.filters.odometer_epochs import SCALE_STATE
 from strapdown.imu_errors import ImuErrors
-from strapdown.kinematics import BIAS_STATE_NAMES, INPUT_NAMES
+from strapdown.kinematics import BIAS_STATE_NAMES, INPUT_NAMES, SCALE_BLOCK
 from trackmodel.earth import Ellipsoid
 
 __all__ = ["InsClockModel", "assemble_ins_clock_model", "CLOCK_STATE_NAMES",
            "ISB_RANDOM_WALK_M2PS", "isb_state_name", "clock_offset_columns",
            "bias_random_walk_density",
-           "IMU_NOISE_NAMES", "model_name", "initial_variances"]
+           "IMU_NOISE_NAMES", "model_name", "initial_variances", "scale_variances",
+           "scale_element_sigma"]
 
 Array = npt.NDArray[np.float64]
 #: A function of the INS part of the state, the input and the per-step parameters.
@@ -120,6 +124,10 @@ class InsClockModel:
         Systems with an inter-system bias state.
     noise_names : tuple of str
         Names of the components of ``w`` (and of `process_noise_density`).
+    extra_names : tuple of str
+        The extra random-walk states (`assemble_ins_clock_model`'s `extra_blocks`).
+    scale_names : tuple of str
+        The IMU's ``S + M`` element states (`assemble_ins_clock_model`'s `scale_names`).
     """
 
     process: CdModel
@@ -129,6 +137,7 @@ class InsClockModel:
     isb_systems: tuple[str, ...]
     noise_names: tuple[str, ...]
     extra_names: tuple[str, ...] = ()
+    scale_names: tuple[str, ...] = ()
 
     def process_noise_density(self, imu: ImuErrors, oscillator: Oscillator,
                               extra_q: tuple[float, ...] = ()) -> Array:
@@ -158,6 +167,7 @@ class InsClockModel:
                                            imu.accel_bias_tau_s)] * 3
             q += [bias_random_walk_density(imu.gyro_bias_instability_radps,
                                            imu.gyro_bias_tau_s)] * 3
+            q += [_MIN_BIAS_DENSITY] * len(self.scale_names)
         q += [oscillator.q_bias_m2ps, oscillator.q_drift_m2ps3]
         q += [ISB_RANDOM_WALK_M2PS] * len(self.isb_systems)
         q += [max(float(v), _MIN_BIAS_DENSITY) for v in extra_q]
@@ -169,7 +179,8 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
                              isb_systems: tuple[str, ...], n_p: int, name: str,
                              ins_h_c: InsExpression | None = None,
                              ins_D: InsExpression | None = None,
-                             extra_blocks: tuple = ()) -> InsClockModel:
+                             extra_blocks: tuple = (), scale_names: tuple[str, ...] = ()
+                             ) -> InsClockModel:
     """Append bias, clock and inter-system-bias states to a mechanization.
 
     Parameters
@@ -179,7 +190,8 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     ins_f, ins_G : callable(x_ins, u, p) -> casadi.SX
         The mechanization's ``ẋ_ins`` (n_ins) and ``∂ẋ_ins/∂u`` (n_ins x 6), where
         ``x_ins`` is the navigation states followed by the six bias states when
-        `estimate_biases` (random walks: the mechanization's own bias dynamics are 0).
+        `estimate_biases` (random walks: the mechanization's own bias dynamics are 0),
+        then the states of `scale_names`.
     earth : Ellipsoid
     estimate_biases : bool
     isb_systems : tuple of str
@@ -193,21 +205,28 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     extra_blocks : tuple of (str, tuple of str)
         Further random-walk states, appended last (the odometer's scale factor:
         `railnav.filters.sensor_rows.sensor_states`).
+    scale_names : tuple of str
+        Elements of the IMU's ``S + M`` as states, after the biases (with
+        `estimate_biases`; `strapdown.kinematics.SensorBiasStates.scale_names`).
 
     Returns
     -------
     InsClockModel
     """
     blocks = list(nav_blocks)
+    scale_names = tuple(scale_names) if estimate_biases else ()
     if estimate_biases:
         blocks.append(("imu_bias", BIAS_STATE_NAMES))
+    if scale_names:
+        blocks.append((SCALE_BLOCK, scale_names))
     blocks.append(("clock", CLOCK_STATE_NAMES))
     if isb_systems:
         blocks.append(("isb", tuple(isb_state_name(s) for s in isb_systems)))
     blocks += list(extra_blocks)
     extra_names = tuple(n for _, names in extra_blocks for n in names)
     layout = StateLayout.from_blocks(blocks)
-    walk_names = (BIAS_STATE_NAMES if estimate_biases else ()) + CLOCK_STATE_NAMES + \
+    walk_names = (BIAS_STATE_NAMES + scale_names if estimate_biases else ()) + \
+        CLOCK_STATE_NAMES + \
         tuple(isb_state_name(s) for s in isb_systems) + extra_names
     walk_states = [layout.index(n) for n in walk_names]
     n_ins = layout.index(CLOCK_STATE_NAMES[0])
@@ -232,7 +251,8 @@ def assemble_ins_clock_model(nav_blocks: Sequence, ins_f: InsExpression, ins_G: 
     noise_names = IMU_NOISE_NAMES + tuple(f"w_{n}" for n in walk_names)
     return InsClockModel(process=process, layout=layout, earth=earth,
                          estimate_biases=estimate_biases, isb_systems=tuple(isb_systems),
-                         noise_names=noise_names, extra_names=extra_names)
+                         noise_names=noise_names, extra_names=extra_names,
+                         scale_names=scale_names)
 
 
 def initial_variances(config, layout: StateLayout) -> dict[str, float]:
@@ -242,7 +262,8 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     ----------
     config : railnav.NavigatorConfig
         Its initial attitude, clock and inter-system-bias σ, and the IMU grade it assumes
-        (each bias: its constant part and its instability, in quadrature).
+        (each bias: its constant part and its instability, in quadrature; the ``S + M``
+        elements: `scale_variances`).
     layout : ekf.StateLayout
 
     Returns
@@ -263,6 +284,7 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
            CLOCK_STATE_NAMES[1]: config.initial_clock_drift_sigma_mps ** 2}
     var.update({name: accel for name in BIAS_STATE_NAMES[:3]})
     var.update({name: gyro for name in BIAS_STATE_NAMES[3:]})
+    var.update(scale_variances(imu, layout.names))
     var.update({name: config.initial_isb_sigma_m ** 2 for name in layout.names
                 if name.startswith("isb_")})
     var[SCALE_STATE] = config.odometer_model.scale_sigma ** 2
@@ -273,9 +295,27 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     return var
 
 
+def scale_element_sigma(imu: ImuErrors, sensor: str, element: str) -> float:
+    """σ of element `element` (``"<row><column>"``) of triad `sensor`'s ``S + M`` (``"a"``:
+    accelerometer, ``"g"``: gyro) in the grade `imu`: its scale factor on the diagonal, its
+    misalignment off it, dimensionless."""
+    triad = "accel" if sensor == "a" else "gyro"
+    return getattr(imu, f"{triad}_scale_factor_ppm") * 1e-6 if element[0] == element[1] \
+        else getattr(imu, f"{triad}_misalignment_rad")
+
+
+def scale_variances(imu: ImuErrors, names) -> dict[str, float]:
+    """Prior variances of the ``S + M`` element states among `names`
+    (`strapdown.kinematics.scale_state_name`, ``k_<sensor>_<row><col>``): the square of
+    `scale_element_sigma`, floored at a tiny positive value."""
+    return {name: max(scale_element_sigma(imu, name[2], name[4:]) ** 2, _MIN_BIAS_VARIANCE)
+            for name in names if name.startswith(("k_a_", "k_g_")) and len(name) == 6}
+
+
 def model_name(prefix: str, earth: Ellipsoid, biases: bool, isb: tuple[str, ...],
-               extra: tuple[str, ...] = ()) -> str:
+               extra: tuple[str, ...] = (), scale: tuple[str, ...] = ()) -> str:
     """An identifier naming a model's generated code (its cache key includes the source)."""
     radius = f"{earth.a_m:.0f}".replace(".", "_")
     return f"{prefix}_{earth.name}_{radius}{'_bias' if biases else ''}" \
-           f"{'_isb' + ''.join(isb) if isb else ''}" + "".join(f"_{n}" for n in extra)
+           f"{'_isb' + ''.join(isb) if isb else ''}" + "".join(f"_{n}" for n in extra) \
+        + "".join(f"_{n}" for n in scale)

@@ -15,6 +15,11 @@ a 100-m circle the tactical grade's 0.2-mrad misalignment puts 0.02 m/s² of the
 centripetal acceleration on the along-track axis at the entry, against a bias σ of 2e-4
 m/s²: NEES 190 for 7 states with the grade's scale factors and misalignments, 9 without.
 
+The elements of ``S + M`` that the constrained filter carries as states
+(`railnav.filters.constrained_model.SCALE_ELEMENTS`: the accelerometer's ``M_zy``, the
+gyro's ``S_zz``) are left out of that sum (``estimated=``): the state steps
+with the measured input, at the truth's crossing.
+
 `bias_step_densities` gives the bias states that variance as process noise, per IMU step,
 from the track's kinematic input at the predicted path (lateral and normal components of
 ``v² du/ds`` and the rates ``v du/ds``, body y ≈ left and z ≈ up of the track frame): the
@@ -77,6 +82,7 @@ Array = npt.NDArray[np.float64]
 _U = slice(TRACK_PARAMETER_NAMES.index("u_E"), TRACK_PARAMETER_NAMES.index("u_U") + 1)
 _DU = slice(TRACK_PARAMETER_NAMES.index("du_E_ds"), TRACK_PARAMETER_NAMES.index("du_U_ds") + 1)
 _PPM = 1e-6
+_AXES = ("x", "y", "z")
 #: Gauss–Hermite nodes (in σ_s) and weights of the steps' spread (module docstring).
 _GH_X, _GH_W = np.polynomial.hermite_e.hermegauss(5)
 _GH_W = _GH_W / _GH_W.sum()
@@ -123,8 +129,24 @@ def _axis_variances(change_sq: Array, sigma_sf: float, sigma_m: float) -> Array:
     return sigma_sf ** 2 * change_sq + sigma_m ** 2 * (total - change_sq)
 
 
+def _leave_out(variance: Array, changes: tuple[Array, Array], sigmas: tuple,
+               estimated: tuple) -> None:
+    """Subtract, in place, the share ``σ² c_j`` of each estimated element ``(i, j)`` from
+    row ``i``'s variance (`variance` (..., 6): accelerometer then gyro; `changes` each
+    triad's ``c = |Δ(x²)|`` (..., 3); `sigmas` each triad's ``(σ_sf, σ_m)``), floored
+    at 0 (the rounding of `_axis_variances`' sum)."""
+    for triad, (change, (sigma_sf, sigma_m), elements) in enumerate(
+            zip(changes, sigmas, estimated)):
+        for element in elements:
+            i, j = _AXES.index(element[0]), _AXES.index(element[1])
+            sigma = sigma_sf if i == j else sigma_m
+            column = variance[..., 3 * triad + i]
+            column -= sigma * sigma * change[..., j]
+            np.maximum(column, 0.0, out=column)
+
+
 def bias_step_densities(params_prev: Array, params: Array, speed_mps: float, imu: ImuErrors,
-                        step_s: Array) -> Array | None:
+                        step_s: Array, *, estimated: tuple = ((), ())) -> Array | None:
     """Extra densities of the six bias random walks for each step (module docstring).
 
     Parameters
@@ -138,6 +160,11 @@ def bias_step_densities(params_prev: Array, params: Array, speed_mps: float, imu
         The grade the filter assumes (its scale-factor and misalignment σ).
     step_s : ndarray, shape (M,)
         Length of the step that starts at each sample, s (> 0).
+    estimated : (tuple of str, tuple of str)
+        The accelerometer's and the gyro's elements ``"<row><column>"`` of ``S + M`` that
+        the filter carries as states
+        (`railnav.filters.constrained_model.scale_elements_for`): their share of a step,
+        ``σ² |Δ(x_column²)|`` on the row's bias, is left out.
 
     Returns
     -------
@@ -147,12 +174,14 @@ def bias_step_densities(params_prev: Array, params: Array, speed_mps: float, imu
         the grade has no scale factor or misalignment, or the input does not change.
     """
     found = path_bias_step_densities(np.asarray(params_prev)[None, :],
-                                     np.asarray(params)[None, :, :], speed_mps, imu, step_s)
+                                     np.asarray(params)[None, :, :], speed_mps, imu, step_s,
+                                     estimated=estimated)
     return None if found is None or not found[1][0] else found[0][0]
 
 
 def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float,
-                             imu: ImuErrors, step_s: Array) -> tuple[Array, Array] | None:
+                             imu: ImuErrors, step_s: Array, *, estimated: tuple = ((), ())
+                             ) -> tuple[Array, Array] | None:
     """`bias_step_densities` of P paths over the same steps at once (the spread's paths,
     `step_nodes`): one `kinematic_inputs` call on all their rows (pure per row: the same
     numbers as path by path).
@@ -167,6 +196,8 @@ def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float
         The speed, or each path's (paths of several hypotheses).
     imu : ImuErrors
     step_s : ndarray, shape (M,)
+    estimated : (tuple of str, tuple of str)
+        As `bias_step_densities`.
 
     Returns
     -------
@@ -188,6 +219,8 @@ def path_bias_step_densities(params_prev: Array, params: Array, speed_mps: float
     changes = d_f.any(axis=(1, 2)) | d_w.any(axis=(1, 2))
     variance = np.concatenate([_axis_variances(d_f, sf_a, m_a),
                                _axis_variances(d_w, sf_g, m_g)], axis=2)
+    if any(estimated):
+        _leave_out(variance, (d_f, d_w), ((sf_a, m_a), (sf_g, m_g)), estimated)
     return variance / np.asarray(step_s, dtype=float)[None, :, None], changes
 
 

@@ -17,12 +17,13 @@ import pytest
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
-from railnav.filters.constrained_model import build_constrained_model
+from railnav.filters.constrained_model import SCALE_ELEMENTS, build_constrained_model
 from railnav.filters.ins_clock_model import ISB_RANDOM_WALK_M2PS
 from railnav.filters.protocol import make_filter
 from railnav.filters.unconstrained_model import build_unconstrained_model
 from railnav.simulation.scenarios import TRACKS_DIR
 from strapdown.imu_errors import IMU_GRADES
+from strapdown.kinematics import scale_state_name
 from strapdown.mechanization import build_full_model
 from trackmodel.earth import WGS84
 from trackmodel.io import read_track
@@ -54,18 +55,28 @@ def test_noise_densities_are_the_grade_and_clock_values_for_both_models(grade, i
 
 def test_both_filters_assume_the_same_initial_variances_of_their_common_states():
     """Attitude, IMU biases, clock and ISB: the same σ (and the same noise densities) for
-    the same configuration."""
+    the same configuration. The constrained filter alone carries elements of the IMU's
+    ``S + M`` (`constrained_model.SCALE_ELEMENTS`): their prior is the grade's scale-factor
+    σ on the diagonal and its misalignment σ off it (written out here), their noise
+    negligible."""
     track = read_track(TRACKS_DIR / "curvy.csv")
     config = NavigatorConfig(imu_errors="mems", measurement=MeasurementConfig(systems="GE"))
-    covs = {}
+    covs, noise = {}, {}
     for kind in ("constrained", "unconstrained"):
         filt = make_filter(track, replace(config, filter=kind), None)
         P0 = filt.initial_covariance(sigma_s_m=5.0, sigma_v_mps=0.1)
         covs[kind] = dict(zip(filt.layout.names, np.diag(P0)))
-        assert np.array_equal(filt.q_c, make_filter(track, config, None).q_c)
+        noise[kind] = dict(zip(filt.model.noise_names, filt.q_c))
     common = set(covs["constrained"]) & set(covs["unconstrained"])
     assert common == {"yaw", "pitch", "roll", "b_ax", "b_ay", "b_az", "b_gx", "b_gy", "b_gz",
                       "clock_bias", "clock_drift", "isb_E"}
+    scale = {scale_state_name(sensor, element) for sensor, elements
+             in zip("ag", SCALE_ELEMENTS) for element in elements}
+    assert set(covs["constrained"]) - common == {"s", "v"} | scale
+    shared_noise = set(noise["constrained"]) & set(noise["unconstrained"])
+    assert set(noise["constrained"]) - shared_noise == {f"w_{n}" for n in scale}
+    for name in shared_noise:
+        assert noise["constrained"][name] == noise["unconstrained"][name]
     imu = IMU_GRADES["mems"]
     expected = {"yaw": config.initial_attitude_sigma_rad ** 2,
                 "b_ax": imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2,
@@ -76,6 +87,12 @@ def test_both_filters_assume_the_same_initial_variances_of_their_common_states()
         assert covs["constrained"][name] == covs["unconstrained"][name]
     for name, value in expected.items():
         assert covs["unconstrained"][name] == pytest.approx(value, rel=1e-15)
+    for name in scale:                        # k_<sensor>_<row><column>
+        sensor = "accel" if name[2] == "a" else "gyro"
+        sigma = getattr(imu, f"{sensor}_scale_factor_ppm") * 1e-6 if name[4] == name[5] \
+            else getattr(imu, f"{sensor}_misalignment_rad")
+        assert covs["constrained"][name] == pytest.approx(sigma ** 2, rel=1e-15)
+        assert noise["constrained"][f"w_{name}"] < 1e-20
 
 
 def _fd_G(model, x, u, p):
