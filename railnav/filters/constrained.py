@@ -17,6 +17,8 @@ grid (`railnav.filters.track_grid`) and the model corrects them to first/second 
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import numpy.typing as npt
 
@@ -40,8 +42,8 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.one_sided import OneSidedLimit
-from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
-                                          path_bias_step_densities, step_nodes,
+from railnav.filters.scale_noise import (AlongForceSteps, path_bias_step_densities,
+                                          smoothed_along_force, step_nodes,
                                           weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.suspension_noise import sampling_densities
@@ -161,11 +163,17 @@ class ConstrainedFilter:
             (TrackAttitudeConfig() if config.suspension_noise else None)
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
-        #: The previous chunk's mean along-track acceleration, m/s² (None: no chunk yet).
-        self._along_prev: float | None = None
-        self._along_noise = self._bias_noise is not None and along_force_matters(config.imu)
-        #: The latest chunk's last sample ``(t, f_x)`` (the next chunk's mean starts there).
-        self._last_f: tuple[float, float] | None = None
+        #: The accelerometer biases' step from the along-track specific force
+        #: (`railnav.filters.scale_noise.AlongForceSteps`; None without bias states or
+        #: without accelerometer scale factors and misalignments), and the accelerometer
+        #: biases' variances the next chunk would start with without information (None:
+        #: no chunk yet).
+        self._along = AlongForceSteps.for_grade(config.imu) \
+            if self._bias_noise is not None else None
+        self._along_expected: Array | None = None
+        #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
+        #: (`railnav.filters.scale_noise.smoothed_along_force`).
+        self._last_f: tuple[float, float, float] | None = None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -238,7 +246,7 @@ class ConstrainedFilter:
         if step is None:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
-        along = self._along_accel(t, u, x_prev) if self._along_noise else None
+        along = self._along_accel(t, u, x_prev) if self._along is not None else None
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step
@@ -256,11 +264,10 @@ class ConstrainedFilter:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
         (`path_bias_step_densities`'s, None without); with ``config.one_sided``, ``r_c``
         bounded near an onset (`railnav.filters.one_sided`)."""
-        along = pending["along"]
-        self.step_q_c = self._step_q_c(pending, found, None if along is None else
-                                       (along if self._along_prev is None
-                                        else self._along_prev, along))
-        self._along_prev = along
+        along = None if pending["along"] is None else self._along_variances(pending)
+        self.step_q_c = self._step_q_c(pending, found, along)
+        if along is not None:
+            self._along_expected = self._expected_along(pending)
         r_c = pending["r_c"]
         if self.one_sided is not None:
             r_c = self.one_sided(pending["t"], pending["s_pred"], pending["params"], r_c,
@@ -268,28 +275,57 @@ class ConstrainedFilter:
                                  float(pending["t_prev"]))
         return pending["u"], pending["params"], r_c
 
-    def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
-        """The chunk's time-mean specific force along the body x axis (traction, braking
-        and the grade's share of gravity; trapezoids, so that jitter and dropped samples
-        change it by nothing), bias-corrected at the prior, m/s²
-        (`railnav.filters.scale_noise`)."""
-        f, tt = u[:, 0], t
-        if self._last_f is not None and self._last_f[0] < t[0]:
-            tt = np.concatenate([[self._last_f[0]], t])     # from the previous chunk's end
-            f = np.concatenate([[self._last_f[1]], f])
-        self._last_f = (float(t[-1]), float(u[-1, 0]))
-        span = float(tt[-1] - tt[0]) if tt.size > 1 else 0.0
-        mean = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(tt)) / span) if span > 0.0 \
-            else float(f.mean())
-        return mean - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
+    def _accel_bias_variances(self, P: Array) -> Array:
+        """The accelerometer biases' variances in `P`, (m/s²)², shape (3,)."""
+        i = self._b_ax
+        return np.diag(P)[i:i + 3].copy()
 
-    def _step_q_c(self, pending: dict, found, along: tuple[float, float] | None = None
-                  ) -> Array:
+    def _along_variances(self, pending: dict) -> Array:
+        """The accelerometer biases' step variances from the along-track force over the
+        chunk of `pending` (`railnav.filters.scale_noise.AlongForceSteps`), (m/s²)²,
+        shape (3,): the share of each bias's variance that the information since the
+        previous chunk kept is its variance now over the one expected without it."""
+        now = self._accel_bias_variances(pending["P_prev"])
+        kept = np.ones(3) if self._along_expected is None else \
+            now / np.maximum(self._along_expected, np.finfo(float).tiny)
+        return self._along.variances(pending["along"], kept=kept)
+
+    def _expected_along(self, pending: dict) -> Array:
+        """The accelerometer biases' variances at the end of `pending`'s chunk without
+        information: at its start plus the process noise `step_q_c` gives them over the
+        chunk, (m/s²)², shape (3,)."""
+        q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
+        steps = pending["steps"]
+        given = q[0] * np.sum(steps) if q.shape[0] == 1 else \
+            np.sum(q * steps[:q.shape[0], None], axis=0)
+        return self._accel_bias_variances(pending["P_prev"]) + given
+
+    def inherit_memory(self, parent: "ConstrainedFilter") -> None:
+        """Take over `parent`'s memory of the along-track force (where its accelerometer
+        biases were last tied, the step variance held; the last sample of its latest
+        chunk): a hypothesis's child (`railnav.navigation.network_navigator`) goes on
+        from its parent's state, covariance and these."""
+        if self._along is not None and parent._along is not None:
+            self._along = copy.deepcopy(parent._along)
+            self._along_expected = None if parent._along_expected is None else \
+                parent._along_expected.copy()
+        self._last_f = parent._last_f
+
+    def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
+        """The specific force along the body x axis (traction, braking and the grade's
+        share of gravity) at the chunk's last sample, low-passed
+        (`railnav.filters.scale_noise.smoothed_along_force`) and bias-corrected at the
+        prior, m/s²."""
+        smoothed, self._last_f = smoothed_along_force(t, u[:, 0], self._last_f)
+        return smoothed - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
+
+    def _step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
         (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
         factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths) and, on a car body (``config.track_attitude`` or
+        of the spread's paths, and `along`, the step variances (3,) of the accelerometer
+        biases from the along-track force over the chunk) and, on a car body (``config.track_attitude`` or
         ``config.suspension_noise``), the sampling error of its suspension's rates
         (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
@@ -301,8 +337,7 @@ class ConstrainedFilter:
             if one is not None:
                 joints.append((one[0], weight * one[1]))
         bias = weighted_path_densities(nodes, found)
-        extra = None if along is None or self._bias_noise is None else \
-            along_step_variances(along[0], along[1], self.config.imu)
+        extra = along if along is not None and along.any() else None
         if extra is not None:
             span = float(np.sum(steps))
             extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)

@@ -69,8 +69,8 @@ from strapdown.imu_errors import ImuErrors
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
 __all__ = ["bias_step_densities", "path_bias_step_densities", "weighted_path_densities",
-           "kinematic_inputs", "step_nodes", "along_step_variances",
-           "along_force_matters", "TYPICAL_ALONG_CHANGE_MPS2"]
+           "kinematic_inputs", "step_nodes", "AlongForceSteps",
+           "smoothed_along_force", "ALONG_SMOOTHING_S"]
 
 Array = npt.NDArray[np.float64]
 
@@ -202,32 +202,117 @@ def weighted_path_densities(nodes: list[tuple[float, float]], found) -> Array | 
     return bias
 
 
-def along_step_variances(along_prev_mps2: float, along_mps2: float, imu: ImuErrors
-                         ) -> Array | None:
-    """Variances of the accelerometer biases' step from a change of the along-track
-    specific force (module docstring), ``[x, y, z]``, (m/s²)²; None without a change or
-    without scale factors and misalignments.
+class AlongForceSteps:
+    """The accelerometer biases' step from the along-track specific force, as the
+    shortfall of an envelope (module docstring): the variance ``σ_i² (a − a_ref,i)²`` of
+    the step since each bias was last tied, less what was given and is still held.
 
     Parameters
     ----------
-    along_prev_mps2, along_mps2 : float
-        The previous and the current chunk's mean along-track specific force, m/s².
     imu : ImuErrors
+        The grade the filter assumes (its accelerometer scale-factor and misalignment σ).
+
+    Attributes
+    ----------
+    coefficients : ndarray, shape (3,)
+        ``[σ_sf², σ_m², σ_m²]``, the variance per (m/s²)² of the x, y, z biases' step.
+    reference_mps2 : ndarray, shape (3,) or None
+        Where each bias was last tied, ``a_ref``, m/s² (None before the first chunk).
+    held : ndarray, shape (3,)
+        The step variance given and not yet consumed by information, (m/s²)².
     """
-    sf, m = imu.accel_scale_factor_ppm * _PPM, imu.accel_misalignment_rad
-    change = abs(float(along_mps2) ** 2 - float(along_prev_mps2) ** 2)
-    if change == 0.0 or sf == m == 0.0:
-        return None
-    return _axis_variances(np.array([[change, 0.0, 0.0]]), sf, m)[0]
+
+    def __init__(self, imu: ImuErrors) -> None:
+        sf, m = imu.accel_scale_factor_ppm * _PPM, imu.accel_misalignment_rad
+        self.coefficients = np.array([sf * sf, m * m, m * m])
+        self.reference_mps2: Array | None = None
+        self.held = np.zeros(3)
+        self._last_mps2 = 0.0
+
+    @classmethod
+    def for_grade(cls, imu: ImuErrors) -> "AlongForceSteps | None":
+        """An envelope for `imu`; None when its accelerometers have no scale factor or
+        misalignment (nothing to give: the paper2017 grade)."""
+        return None if imu.accel_scale_factor_ppm == imu.accel_misalignment_rad == 0.0 \
+            else cls(imu)
+
+    def variances(self, along_mps2: float, *, kept: Array) -> Array:
+        """The step variances to give over a chunk, ``[x, y, z]``, (m/s²)².
+
+        Parameters
+        ----------
+        along_mps2 : float
+            The along-track specific force at the chunk's end (`smoothed_along_force`),
+            m/s²: what the step is measured to, and where the information until the next
+            call (the epoch's update at the chunk's end) ties the biases.
+        kept : ndarray, shape (3,)
+            Each bias's variance now over what it would be without the information since
+            the previous call (its variance then plus the process noise given since),
+            clipped to [0, 1]: 1 without information, 0 when it tied the bias exactly;
+            ``1 − K`` of a scalar Kalman update. That information tied the bias at the
+            previous call's force.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            ``max(σ_i² (a − a_ref,i)² − held_i, 0)`` (zeros at the first call, which sets
+            ``a_ref``).
+        """
+        along = float(along_mps2)
+        if self.reference_mps2 is None:
+            self.reference_mps2, self._last_mps2 = np.full(3, along), along
+            return np.zeros(3)
+        kept = np.clip(np.asarray(kept, dtype=float), 0.0, 1.0)
+        self.reference_mps2 = kept * self.reference_mps2 + (1.0 - kept) * self._last_mps2
+        self.held = kept * kept * self.held
+        added = np.maximum(self.coefficients * (along - self.reference_mps2) ** 2
+                           - self.held, 0.0)
+        self.held = self.held + added
+        self._last_mps2 = along
+        return added
 
 
-#: The along-track specific force change the gate of `along_force_matters` assumes, m/s².
-TYPICAL_ALONG_CHANGE_MPS2 = 1.0
+#: Time constant of the along-track specific force's smoothing (`smoothed_along_force`), s.
+ALONG_SMOOTHING_S = 0.5
 
 
-def along_force_matters(imu: ImuErrors) -> bool:
-    """Whether the along-track specific force's bias steps are modelled for `imu`:
-    ``max(σ_sf, σ_m) · TYPICAL_ALONG_CHANGE_MPS2`` above the accelerometer bias
-    instability (module docstring)."""
-    share = max(imu.accel_scale_factor_ppm * _PPM, imu.accel_misalignment_rad)
-    return share * TYPICAL_ALONG_CHANGE_MPS2 > imu.accel_bias_instability_mps2
+def smoothed_along_force(t_s: Array, f_mps2: Array, last: tuple[float, float, float] | None,
+                         *, time_constant_s: float = ALONG_SMOOTHING_S
+                         ) -> tuple[float, tuple[float, float, float]]:
+    """The body-x specific force through a first-order low-pass filter, at the last sample.
+
+    The filter runs on the samples' piecewise-linear interpolation, in closed form per
+    step, so its value at a time does not depend on how the samples are cut into chunks,
+    nor (to the interpolation's error) on jitter and dropped samples (module docstring).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (M,)
+        Sample times, s (increasing, after ``last``'s).
+    f_mps2 : ndarray, shape (M,)
+        The samples' specific force along body x, m/s².
+    last : (float, float, float) or None
+        ``(t, f, y)`` of the previous call's last sample: its time, input and output;
+        None: start at the first sample's value.
+    time_constant_s : float
+
+    Returns
+    -------
+    y : float
+        The output at ``t_s[-1]``, m/s².
+    last : (float, float, float)
+        ``(t, f, y)`` at ``t_s[-1]`` for the next call.
+    """
+    t, f = np.asarray(t_s, dtype=float), np.asarray(f_mps2, dtype=float)
+    if last is None:
+        last = (float(t[0]), float(f[0]), float(f[0]))
+    tt, ff = np.concatenate([[last[0]], t]), np.concatenate([[last[1]], f])
+    h = np.maximum(np.diff(tt), 0.0)
+    decay = np.exp(-h / time_constant_s)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ramp = np.where(h > 0.0, -np.expm1(-h / time_constant_s) * time_constant_s / h, 1.0)
+    # y(t + h) = e y(t) + f₁ − e f₀ − (f₁ − f₀) (τ/h)(1 − e) for a linear input f₀ → f₁
+    drive = ff[1:] - decay * ff[:-1] - (ff[1:] - ff[:-1]) * ramp
+    y = float(np.exp(-(tt[-1] - tt[0]) / time_constant_s) * last[2]
+              + np.sum(np.exp(-(tt[-1] - tt[1:]) / time_constant_s) * drive))
+    return y, (float(t[-1]), float(f[-1]), y)
