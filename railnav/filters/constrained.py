@@ -165,12 +165,9 @@ class ConstrainedFilter:
             if self.model.estimate_biases else None
         #: The accelerometer biases' step from the along-track specific force
         #: (`railnav.filters.scale_noise.AlongForceSteps`; None without bias states or
-        #: without accelerometer scale factors and misalignments), and the accelerometer
-        #: biases' variances the next chunk would start with without information (None:
-        #: no chunk yet).
+        #: without accelerometer scale factors and misalignments).
         self._along = AlongForceSteps.for_grade(config.imu) \
             if self._bias_noise is not None else None
-        self._along_expected: Array | None = None
         #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
         #: (`railnav.filters.scale_noise.smoothed_along_force`).
         self._last_f: tuple[float, float, float] | None = None
@@ -267,7 +264,7 @@ class ConstrainedFilter:
         along = None if pending["along"] is None else self._along_variances(pending)
         self.step_q_c = self._step_q_c(pending, found, along)
         if along is not None:
-            self._along_expected = self._expected_along(pending)
+            self._along_noise_given(pending)
         r_c = pending["r_c"]
         if self.one_sided is not None:
             r_c = self.one_sided(pending["t"], pending["s_pred"], pending["params"], r_c,
@@ -275,30 +272,21 @@ class ConstrainedFilter:
                                  float(pending["t_prev"]))
         return pending["u"], pending["params"], r_c
 
-    def _accel_bias_variances(self, P: Array) -> Array:
-        """The accelerometer biases' variances in `P`, (m/s²)², shape (3,)."""
-        i = self._b_ax
-        return np.diag(P)[i:i + 3].copy()
-
     def _along_variances(self, pending: dict) -> Array:
         """The accelerometer biases' step variances from the along-track force over the
         chunk of `pending` (`railnav.filters.scale_noise.AlongForceSteps`), (m/s²)²,
-        shape (3,): the share of each bias's variance that the information since the
-        previous chunk kept is its variance now over the one expected without it."""
-        now = self._accel_bias_variances(pending["P_prev"])
-        kept = np.ones(3) if self._along_expected is None else \
-            now / np.maximum(self._along_expected, np.finfo(float).tiny)
-        return self._along.variances(pending["along"], kept=kept)
+        shape (3,)."""
+        i = self._b_ax
+        return self._along.chunk_variances(pending["along"],
+                                           np.diag(pending["P_prev"])[i:i + 3])
 
-    def _expected_along(self, pending: dict) -> Array:
-        """The accelerometer biases' variances at the end of `pending`'s chunk without
-        information: at its start plus the process noise `step_q_c` gives them over the
-        chunk, (m/s²)², shape (3,)."""
+    def _along_noise_given(self, pending: dict) -> None:
+        """Tell the envelope the process noise `step_q_c` gave the accelerometer biases
+        over `pending`'s chunk (its densities times the steps)."""
         q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
         steps = pending["steps"]
-        given = q[0] * np.sum(steps) if q.shape[0] == 1 else \
-            np.sum(q * steps[:q.shape[0], None], axis=0)
-        return self._accel_bias_variances(pending["P_prev"]) + given
+        self._along.noise_given(q[0] * np.sum(steps) if q.shape[0] == 1 else
+                                np.sum(q * steps[:q.shape[0], None], axis=0))
 
     def inherit_memory(self, parent: "ConstrainedFilter") -> None:
         """Take over `parent`'s memory of the along-track force (where its accelerometer
@@ -307,8 +295,6 @@ class ConstrainedFilter:
         from its parent's state, covariance and these."""
         if self._along is not None and parent._along is not None:
             self._along = copy.deepcopy(parent._along)
-            self._along_expected = None if parent._along_expected is None else \
-                parent._along_expected.copy()
         self._last_f = parent._last_f
 
     def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:

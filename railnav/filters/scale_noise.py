@@ -26,22 +26,32 @@ conservative there, not overconfident.
 
 **The along-track specific force** ``a`` (traction and braking, ≲ 1 m/s², and the
 grade's share of gravity, ``g sin ϑ``: 0.1 m/s² per 1 % of grade) steps the effective
-bias too: by ``σ_sf Δa`` on the x axis and ``σ_m Δa`` on y and z. For the MEMS grade
-(1000 ppm, 1 mrad) that is 1 mm/s² per m/s², twice its bias instability (50 µg), and as
-``g δθ`` it is a pitch error of 0.1 mrad: on ``curvy`` (MEMS, seed 1) the pitch's mean
-z² was 2.6 with the grade's accelerometer scale factors and misalignments, 0.9 without
-(NEES 10.5 and 5.3 for 7 states). The filter gives it from the chunk's mean along-track
-specific force ``ā = mean(f_x) − b_ax`` at the prior (the chunk: the samples
-between two epochs, ~1 s; the mean, not the samples, whose white noise would make
-``Σ|Δ(a²)|`` grow without a change of ``a``), its change from the previous chunk given at
-a density over the chunk's time (`along_step_variances` divided by the chunk's duration;
-the chunk's mean is a time mean from the previous chunk's last sample). Only for grades
-where it matters (`along_force_matters`: ``max(σ_sf, σ_m) × 1 m/s²`` above the
-accelerometer's bias instability — MEMS, not the tactical grade: 0.3 mm/s² against
-0.49 mm/s², nor the navigation grade): with the tactical grade it moved a jittered
-log's estimate from the uniform record's by 1.1 mm instead of 0.4 mm
-(tests/railnav/navigation/test_jittered_imu.py, tolerance 1 mm), for a variance below the
-bias's own.
+bias too: by ``S_xx Δa`` on the x axis and ``M_yx Δa``, ``M_zx Δa`` on y and z, variances
+``σ_sf² Δa²`` and ``σ_m² Δa²``. Unlike a curve's input it does not start from 0, it comes
+back (a braking, a stop, a start) and, for the tactical grade, the step competes with the
+bias's *posterior* σ, not its instability: ``σ_m · 1 m/s²`` is 0.2 mm/s², and the
+normal row ties ``b_az`` to 0.15 mm/s², where it reads the step as a pitch of ``M_zx``
+(outage_20min, seed 5: braking onset, `docs/consistency-ablations.md`, stops 26–28).
+
+`AlongForceSteps` gives it as an envelope, for every grade with accelerometer scale factors
+or misalignments (the gate this replaced compared ``σ · 1 m/s²`` with the bias
+instability and left it to MEMS). The bias's error has a part ``k (a − a_ref)`` with ``k``
+the column's element (a constant of the run) and ``a_ref`` where the information tied the
+bias; an update with gain ``K`` (``kept = 1 − K`` = the bias variance after over before)
+leaves ``a − a_ref`` times ``kept``, so ``a_ref ← kept a_ref + (1 − kept) a_tie``, and
+the part of the bias variance that stands for it, ``held``, times ``kept²``. Each chunk
+gives ``max(σ² (a − a_ref)² − held, 0)`` and adds it to ``held``: the filter's variance
+always covers ``σ² (a − a_ref)²`` (exactly, for a scalar filter, from the largest
+excursion since the last tie on; `tests/railnav/filters/test_along_force_steps.py` checks
+both against a Monte Carlo). What it gives does not depend on how the record is cut into
+chunks: nothing accumulates per cut, and ``a`` is the body-x specific force through a
+low-pass filter of 0.5 s (`smoothed_along_force`, closed form on the samples'
+piecewise-linear interpolation; bias-corrected at the prior) read at each chunk's end,
+where the epoch ties the biases. It is conservative where the truth returns: after a
+braking and a stop, ``held`` keeps the braking's variance until information ties the bias
+again (a random walk of ``Σ|Δ(a²)|`` over chunk means, tried in stop 26, gave variance
+at every change and back again, 20 % more with a jittered log's extra cuts, and nothing
+for a change of sign: ``Δ(a²) = 0`` from −0.5 to +0.5 m/s²).
 
 **When, along the predicted path.** The IMU sees the step when the *true* train crosses
 the joint; the filter's predicted path crosses it up to a few σ_s earlier or later. Given
@@ -228,6 +238,8 @@ class AlongForceSteps:
         self.reference_mps2: Array | None = None
         self.held = np.zeros(3)
         self._last_mps2 = 0.0
+        self._start: Array | None = None       # the biases' variances at the chunk's start
+        self._expected: Array | None = None    # ... at the next one's without information
 
     @classmethod
     def for_grade(cls, imu: ImuErrors) -> "AlongForceSteps | None":
@@ -235,6 +247,30 @@ class AlongForceSteps:
         misalignment (nothing to give: the paper2017 grade)."""
         return None if imu.accel_scale_factor_ppm == imu.accel_misalignment_rad == 0.0 \
             else cls(imu)
+
+    def chunk_variances(self, along_mps2: float, bias_variances: Array) -> Array:
+        """`variances` of a filter's chunk, ``kept`` from its biases' variances.
+
+        Parameters
+        ----------
+        along_mps2 : float
+            As for `variances`.
+        bias_variances : ndarray, shape (3,)
+            The accelerometer biases' variances at the chunk's start (the prior), (m/s²)²;
+            ``kept`` is these over the previous chunk's start's plus the process noise
+            given since (`noise_given`; 1 before the first).
+        """
+        now = np.asarray(bias_variances, dtype=float).copy()
+        kept = np.ones(3) if self._expected is None else \
+            now / np.maximum(self._expected, np.finfo(float).tiny)
+        self._start, self._expected = now, None
+        return self.variances(along_mps2, kept=kept)
+
+    def noise_given(self, noise: Array) -> None:
+        """The process noise the chunk of the latest `chunk_variances` gave the
+        accelerometer biases, (m/s²)², shape (3,) (their densities, this envelope's
+        included, times the steps)."""
+        self._expected = self._start + np.asarray(noise, dtype=float)
 
     def variances(self, along_mps2: float, *, kept: Array) -> Array:
         """The step variances to give over a chunk, ``[x, y, z]``, (m/s²)².

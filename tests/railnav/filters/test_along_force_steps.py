@@ -9,14 +9,16 @@ jittered log's, cut again at its dropouts): the total must not depend on the cut
 grow when ``a`` returns; (3) a Monte Carlo of a scalar Kalman filter that ties the bias
 ``b + k a(t)`` (``k ~ N(0, σ²)``) at every chunk, with the envelope as its only model of
 ``k``: its variance must cover the sample variance of its error at every chunk, and equal
-it where nothing tied the bias since the force last moved.
+it where nothing tied the bias since the force last moved; (4) the low-pass filter of the
+force against its closed form for a ramp, ``y(t) = r (t − τ (1 − e^{−t/τ}))``, fed in chunks
+cut in two ways.
 """
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from railnav.filters.scale_noise import AlongForceSteps
+from railnav.filters.scale_noise import AlongForceSteps, smoothed_along_force
 from strapdown.imu_errors import imu_grade
 
 DRAWS = 40_000
@@ -124,3 +126,24 @@ def test_the_envelope_covers_a_tied_filter_and_is_exact_in_an_outage():
     assert np.all(e_var <= f_var * (1.0 + RATIO_TOL))
     held = (t > 20.0) & (t < 60.0)     # braking, the largest excursion since the tie
     np.testing.assert_allclose(e_var[held] / f_var[held], 1.0, atol=RATIO_TOL)
+
+
+def test_the_smoothed_force_is_the_closed_form_whatever_the_cuts():
+    """A ramp ``f = r t`` from ``y(0) = 0`` sampled at 100 Hz, once in 1-s chunks, once
+    jittered (±1 ms), with 5 dropouts of 5 samples and cut at 50 random times."""
+    rate, tau = 0.3, 0.5
+    uniform = np.arange(0.0, 20.0 + 1e-9, 0.01)
+    rng = np.random.default_rng(19)
+    jittered = uniform + rng.uniform(-1e-3, 1e-3, uniform.size) * (uniform > 0)
+    for start in rng.choice(np.arange(100, 1900), 5, replace=False):
+        jittered[start:start + 5] = np.nan
+    jittered = jittered[np.isfinite(jittered)]
+    for times, cuts in ((uniform, np.arange(100, uniform.size, 100)),
+                        (jittered, np.unique(rng.integers(1, jittered.size, 50)))):
+        last, out = None, []
+        for chunk in np.split(times, cuts):
+            y, last = smoothed_along_force(chunk, rate * chunk, last, time_constant_s=tau)
+            out.append((chunk[-1], y))
+        t_end, y = np.array(out).T
+        expected = rate * (t_end - tau * (1.0 - np.exp(-t_end / tau)))
+        np.testing.assert_allclose(y, expected, rtol=0.0, atol=1e-12)
