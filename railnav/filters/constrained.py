@@ -311,9 +311,9 @@ class ConstrainedFilter:
         (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
         factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
         of the spread's paths, and `along`, the step variances (3,) of the accelerometer
-        biases from the along-track force over the chunk) and, on a car body (``config.track_attitude`` or
-        ``config.suspension_noise``), the sampling error of its suspension's rates
-        (`railnav.filters.suspension_noise`)."""
+        biases from the along-track force over the chunk) and, on a car body
+        (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
+        its suspension's rates (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
             pending["nodes"]
         s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]

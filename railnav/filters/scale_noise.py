@@ -347,7 +347,7 @@ def smoothed_along_force(t_s: Array, f_mps2: Array, last: tuple[float, float, fl
     decay = np.exp(-h / time_constant_s)
     with np.errstate(divide="ignore", invalid="ignore"):
         ramp = np.where(h > 0.0, -np.expm1(-h / time_constant_s) * time_constant_s / h, 1.0)
-    # y(t + h) = e y(t) + f₁ − e f₀ − (f₁ − f₀) (τ/h)(1 − e) for a linear input f₀ → f₁
+    # y(t + h) = e y(t) + f₁ − e f₀ − (f₁ − f₀)(τ/h)(1 − e), a linear input f₀ → f₁
     drive = ff[1:] - decay * ff[:-1] - (ff[1:] - ff[:-1]) * ramp
     y = float(np.exp(-(tt[-1] - tt[0]) / time_constant_s) * last[2]
               + np.sum(np.exp(-(tt[-1] - tt[1:]) / time_constant_s) * drive))
