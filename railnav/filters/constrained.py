@@ -168,6 +168,7 @@ class ConstrainedFilter:
         #: without accelerometer scale factors and misalignments).
         self._along = AlongForceSteps.for_grade(config.imu) \
             if self._bias_noise is not None else None
+        self._along_epoch = False      # an epoch's rows were built since the last chunk
         #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
         #: (`railnav.filters.scale_noise.smoothed_along_force`).
         self._last_f: tuple[float, float, float] | None = None
@@ -243,7 +244,7 @@ class ConstrainedFilter:
         if step is None:
             step = float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
                 else float(t[0] - t_prev)
-        along = self._along_accel(t, u, x_prev) if self._along is not None else None
+        along = self._along_accel(t, u) if self._along is not None else None
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step
@@ -276,17 +277,20 @@ class ConstrainedFilter:
         """The accelerometer biases' step variances from the along-track force over the
         chunk of `pending` (`railnav.filters.scale_noise.AlongForceSteps`), (m/s²)²,
         shape (3,)."""
-        i = self._b_ax
+        i, tie = self._b_ax, self._along_epoch
+        self._along_epoch = False
         return self._along.chunk_variances(pending["along"],
-                                           np.diag(pending["P_prev"])[i:i + 3])
+                                           np.diag(pending["P_prev"])[i:i + 3], tie=tie)
 
     def _along_noise_given(self, pending: dict) -> None:
         """Tell the envelope the process noise `step_q_c` gave the accelerometer biases
-        over `pending`'s chunk (its densities times the steps)."""
+        over `pending`'s chunk, from its start to its last sample (each sample's densities
+        times the step that ends there: the same total however the samples are cut)."""
         q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
-        steps = pending["steps"]
-        self._along.noise_given(q[0] * np.sum(steps) if q.shape[0] == 1 else
-                                np.sum(q * steps[:q.shape[0], None], axis=0))
+        t = pending["t"]
+        ending = np.diff(t, prepend=float(pending["t_prev"]))   # the step ending at each
+        self._along.noise_given(q[0] * float(t[-1] - pending["t_prev"]) if q.shape[0] == 1
+                                else np.sum(q * ending[:, None], axis=0))
 
     def inherit_memory(self, parent: "ConstrainedFilter") -> None:
         """Take over `parent`'s memory of the along-track force (where its accelerometer
@@ -295,23 +299,26 @@ class ConstrainedFilter:
         from its parent's state, covariance and these."""
         if self._along is not None and parent._along is not None:
             self._along = copy.deepcopy(parent._along)
+            self._along_epoch = parent._along_epoch
         self._last_f = parent._last_f
 
-    def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
+    def _along_accel(self, t: Array, u: Array) -> Array:
         """The specific force along the body x axis (traction, braking and the grade's
-        share of gravity) at the chunk's last sample, low-passed
-        (`railnav.filters.scale_noise.smoothed_along_force`) and bias-corrected at the
-        prior, m/s²."""
+        share of gravity) at each sample, low-passed
+        (`railnav.filters.scale_noise.smoothed_along_force`), m/s², shape (M,): not
+        bias-corrected (the envelope uses its changes only; a correction at each chunk's
+        prior would make it depend on where the record is cut)."""
         smoothed, self._last_f = smoothed_along_force(t, u[:, 0], self._last_f)
-        return smoothed - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
+        return smoothed
 
     def _step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
         (`railnav.filters.joint_noise`), the bias steps of the unestimated scale
         factors and misalignments (`railnav.filters.scale_noise`: `found`, the densities
-        of the spread's paths, and `along`, the step variances (3,) of the accelerometer
-        biases from the along-track force over the chunk) and, on a car body
+        of the spread's paths, and `along`, the step variances (M, 3) of the
+        accelerometer biases from the along-track force, each sample's given to the step
+        from it) and, on a car body
         (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
         its suspension's rates (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
@@ -323,11 +330,10 @@ class ConstrainedFilter:
             if one is not None:
                 joints.append((one[0], weight * one[1]))
         bias = weighted_path_densities(nodes, found)
-        extra = along if along is not None and along.any() else None
-        if extra is not None:
-            span = float(np.sum(steps))
-            extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
-            bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
+        if along is not None and along.any():      # each sample's step from the one before
+            extra = np.zeros((t.size, 6))
+            extra[:, :3] = along / np.maximum(steps[:t.size, None], 1e-9)
+            bias = extra if bias is None else bias + extra
         body = None if self._suspension is None else \
             sampling_densities(self._suspension, steps[:t.size], speed)
         if not joints and bias is None and body is None:
@@ -405,6 +411,7 @@ class ConstrainedFilter:
         kind)``, None without), fix epoch `f`'s rows, the sensor and body rows, stacked
         (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple); `observations`, and
         `railnav.filters.epochs_together` for a bank."""
+        self._along_epoch = True
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:

@@ -43,15 +43,19 @@ the part of the bias variance that stands for it, ``held``, times ``kept²``. Ea
 gives ``max(σ² (a − a_ref)² − held, 0)`` and adds it to ``held``: the filter's variance
 always covers ``σ² (a − a_ref)²`` (exactly, for a scalar filter, from the largest
 excursion since the last tie on; `tests/railnav/filters/test_along_force_steps.py` checks
-both against a Monte Carlo). What it gives does not depend on how the record is cut into
-chunks: nothing accumulates per cut, and ``a`` is the body-x specific force through a
-low-pass filter of 0.5 s (`smoothed_along_force`, closed form on the samples'
-piecewise-linear interpolation; bias-corrected at the prior) read at each chunk's end,
-where the epoch ties the biases. It is conservative where the truth returns: after a
-braking and a stop, ``held`` keeps the braking's variance until information ties the bias
-again (a random walk of ``Σ|Δ(a²)|`` over chunk means, tried in stop 26, gave variance
-at every change and back again, 20 % more with a jittered log's extra cuts, and nothing
-for a change of sign: ``Δ(a²) = 0`` from −0.5 to +0.5 m/s²).
+both against a Monte Carlo). ``a`` is the body-x specific force through a low-pass filter
+of 0.5 s (`smoothed_along_force`, closed form on the samples' piecewise-linear
+interpolation), at every sample; the envelope is a running maximum over the samples and
+each sample's increment is the density of its step, so a cut of the record moves no
+variance. Ties happen only at chunk starts that follow an epoch's update, a cut every
+cutting shares (the filter's ``kept`` is read from P there, over the variance at the
+previous tie plus the process noise given since: the continuous rows' information of an
+outage is accounted at its first epoch, tied at that epoch's force). Streaming, jittered
+logs and network cycles then give the same variances. It is conservative where the truth
+returns: after a braking and a stop, ``held`` keeps the braking's variance until
+information ties the bias again (a random walk of ``Σ|Δ(a²)|`` over chunk means, tried in
+stop 26, gave variance at every change and back again, 20 % more with a jittered log's
+extra cuts, and nothing for a change of sign: ``Δ(a²) = 0`` from −0.5 to +0.5 m/s²).
 
 **When, along the predicted path.** The IMU sees the step when the *true* train crosses
 the joint; the filter's predicted path crosses it up to a few σ_s earlier or later. Given
@@ -238,8 +242,8 @@ class AlongForceSteps:
         self.reference_mps2: Array | None = None
         self.held = np.zeros(3)
         self._last_mps2 = 0.0
-        self._start: Array | None = None       # the biases' variances at the chunk's start
-        self._expected: Array | None = None    # ... at the next one's without information
+        self._start: Array | None = None       # the biases' variances at the last tie
+        self._given = np.zeros(3)              # the process noise given since
 
     @classmethod
     def for_grade(cls, imu: ImuErrors) -> "AlongForceSteps | None":
@@ -248,39 +252,47 @@ class AlongForceSteps:
         return None if imu.accel_scale_factor_ppm == imu.accel_misalignment_rad == 0.0 \
             else cls(imu)
 
-    def chunk_variances(self, along_mps2: float, bias_variances: Array) -> Array:
+    def chunk_variances(self, along_mps2: Array, bias_variances: Array, *, tie: bool
+                        ) -> Array:
         """`variances` of a filter's chunk, ``kept`` from its biases' variances.
 
         Parameters
         ----------
-        along_mps2 : float
+        along_mps2 : ndarray, shape (M,)
             As for `variances`.
         bias_variances : ndarray, shape (3,)
-            The accelerometer biases' variances at the chunk's start (the prior), (m/s²)²;
-            ``kept`` is these over the previous chunk's start's plus the process noise
-            given since (`noise_given`; 1 before the first).
+            The accelerometer biases' variances at the chunk's start (the prior), (m/s²)².
+        tie : bool
+            Whether an epoch's update came since the previous call (the chunk starts at an
+            epoch, a cut every cutting of the record shares): ``kept`` is then
+            `bias_variances` over those at the previous tie plus the process noise given
+            since (`noise_given`); else 1, and the information since waits for the next
+            epoch (module docstring).
         """
         now = np.asarray(bias_variances, dtype=float).copy()
-        kept = np.ones(3) if self._expected is None else \
-            now / np.maximum(self._expected, np.finfo(float).tiny)
-        self._start, self._expected = now, None
+        if self._start is None or tie:
+            kept = np.ones(3) if self._start is None else \
+                now / np.maximum(self._start + self._given, np.finfo(float).tiny)
+            self._start, self._given = now, np.zeros(3)
+        else:
+            kept = np.ones(3)
         return self.variances(along_mps2, kept=kept)
 
     def noise_given(self, noise: Array) -> None:
-        """The process noise the chunk of the latest `chunk_variances` gave the
+        """Add the process noise the chunk of the latest `chunk_variances` gave the
         accelerometer biases, (m/s²)², shape (3,) (their densities, this envelope's
         included, times the steps)."""
-        self._expected = self._start + np.asarray(noise, dtype=float)
+        self._given = self._given + np.asarray(noise, dtype=float)
 
-    def variances(self, along_mps2: float, *, kept: Array) -> Array:
-        """The step variances to give over a chunk, ``[x, y, z]``, (m/s²)².
+    def variances(self, along_mps2, *, kept: Array) -> Array:
+        """The step variances to give over a chunk's samples, ``[x, y, z]``, (m/s²)².
 
         Parameters
         ----------
-        along_mps2 : float
-            The along-track specific force at the chunk's end (`smoothed_along_force`),
-            m/s²: what the step is measured to, and where the information until the next
-            call (the epoch's update at the chunk's end) ties the biases.
+        along_mps2 : float or ndarray, shape (M,)
+            The along-track specific force at each sample (`smoothed_along_force`), m/s²;
+            the last is where the information until the next tie (the epoch's update at
+            the chunk's end) ties the biases.
         kept : ndarray, shape (3,)
             Each bias's variance now over what it would be without the information since
             the previous call (its variance then plus the process noise given since),
@@ -290,26 +302,28 @@ class AlongForceSteps:
 
         Returns
         -------
-        ndarray, shape (3,)
-            ``max(σ_i² (a − a_ref,i)² − held_i, 0)`` (zeros at the first call, which sets
-            ``a_ref``).
+        ndarray, shape (M, 3), or (3,) for a float
+            Each sample's increment of ``max(held_i, σ_i² (a − a_ref,i)²)`` over the
+            samples (its running maximum), the first from ``held`` after the tie; the
+            first call ties ``a_ref`` at the first sample.
         """
-        along = float(along_mps2)
-        if self.reference_mps2 is None:
-            self.reference_mps2, self._last_mps2 = np.full(3, along), along
-            return np.zeros(3)
+        along = np.atleast_1d(np.asarray(along_mps2, dtype=float))
+        if self.reference_mps2 is None:                 # tied at the first sample
+            self.reference_mps2, self._last_mps2 = np.full(3, along[0]), float(along[0])
         kept = np.clip(np.asarray(kept, dtype=float), 0.0, 1.0)
         self.reference_mps2 = kept * self.reference_mps2 + (1.0 - kept) * self._last_mps2
-        self.held = kept * kept * self.held
-        added = np.maximum(self.coefficients * (along - self.reference_mps2) ** 2
-                           - self.held, 0.0)
-        self.held = self.held + added
-        self._last_mps2 = along
-        return added
+        target = self.coefficients * (along[:, None] - self.reference_mps2) ** 2
+        running = np.maximum.accumulate(np.vstack([kept * kept * self.held, target]), axis=0)
+        self.held, self._last_mps2 = running[-1], float(along[-1])
+        added = np.diff(running, axis=0)
+        return added if np.ndim(along_mps2) else added[0]
 
 
 #: Time constant of the along-track specific force's smoothing (`smoothed_along_force`), s.
 ALONG_SMOOTHING_S = 0.5
+#: Chunk spans (in time constants) below which `smoothed_along_force` scales a cumulative
+#: sum instead of stepping sample by sample.
+_SCALED_SPAN = 200.0
 
 
 def smoothed_along_force(t_s: Array, f_mps2: Array, last: tuple[float, float, float] | None,
@@ -334,8 +348,8 @@ def smoothed_along_force(t_s: Array, f_mps2: Array, last: tuple[float, float, fl
 
     Returns
     -------
-    y : float
-        The output at ``t_s[-1]``, m/s².
+    y : ndarray, shape (M,)
+        The output at each sample, m/s².
     last : (float, float, float)
         ``(t, f, y)`` at ``t_s[-1]`` for the next call.
     """
@@ -349,6 +363,12 @@ def smoothed_along_force(t_s: Array, f_mps2: Array, last: tuple[float, float, fl
         ramp = np.where(h > 0.0, -np.expm1(-h / time_constant_s) * time_constant_s / h, 1.0)
     # y(t + h) = e y(t) + f₁ − e f₀ − (f₁ − f₀)(τ/h)(1 − e), a linear input f₀ → f₁
     drive = ff[1:] - decay * ff[:-1] - (ff[1:] - ff[:-1]) * ramp
-    y = float(np.exp(-(tt[-1] - tt[0]) / time_constant_s) * last[2]
-              + np.sum(np.exp(-(tt[-1] - tt[1:]) / time_constant_s) * drive))
-    return y, (float(t[-1]), float(f[-1]), y)
+    if (tt[-1] - tt[0]) / time_constant_s < _SCALED_SPAN:
+        scale = np.exp((tt[1:] - tt[-1]) / time_constant_s)     # ≤ 1, no overflow
+        y = (np.exp((tt[0] - tt[-1]) / time_constant_s) * last[2]
+             + np.cumsum(scale * drive)) / scale
+    else:                                                       # a long gap: step by step
+        y, prev = np.empty(t.size), last[2]
+        for k in range(t.size):
+            prev = y[k] = decay[k] * prev + drive[k]
+    return y, (float(t[-1]), float(f[-1]), float(y[-1]))

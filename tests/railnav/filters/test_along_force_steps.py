@@ -143,7 +143,7 @@ def test_the_smoothed_force_is_the_closed_form_whatever_the_cuts():
         last, out = None, []
         for chunk in np.split(times, cuts):
             y, last = smoothed_along_force(chunk, rate * chunk, last, time_constant_s=tau)
-            out.append((chunk[-1], y))
+            out.extend(zip(chunk, y))
         t_end, y = np.array(out).T
         expected = rate * (t_end - tau * (1.0 - np.exp(-t_end / tau)))
         np.testing.assert_allclose(y, expected, rtol=0.0, atol=1e-12)
