@@ -169,6 +169,10 @@ class ConstrainedFilter:
         self._along = AlongForceSteps.for_grade(config.imu) \
             if self._bias_noise is not None else None
         self._along_epoch = False      # an epoch's rows were built since the last chunk
+        #: The latest chunk's last sample time and along-force density row, and its last
+        #: accelerometer-bias noise row (`_along_densities`, `_along_noise_given`).
+        self._along_row: tuple[float, Array | None] = (-np.inf, None)
+        self._along_q: Array | None = None
         #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
         #: (`railnav.filters.scale_noise.smoothed_along_force`).
         self._last_f: tuple[float, float, float] | None = None
@@ -262,7 +266,8 @@ class ConstrainedFilter:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
         (`path_bias_step_densities`'s, None without); with ``config.one_sided``, ``r_c``
         bounded near an onset (`railnav.filters.one_sided`)."""
-        along = None if pending["along"] is None else self._along_variances(pending)
+        along = None if pending["along"] is None else \
+            self._along_densities(pending, self._along_variances(pending))
         self.step_q_c = self._step_q_c(pending, found, along)
         if along is not None:
             self._along_noise_given(pending)
@@ -282,15 +287,31 @@ class ConstrainedFilter:
         return self._along.chunk_variances(pending["along"],
                                            np.diag(pending["P_prev"])[i:i + 3], tie=tie)
 
+    def _along_densities(self, pending: dict, added: Array) -> Array:
+        """Each sample's step variances `added` (M, 3) as densities of the step from it,
+        (m/s²)²/s; a first sample that repeats the previous chunk's last (a network cycle
+        starts at its predecessor's end) carries that sample's density, which the engine
+        would otherwise have taken into this step from the previous chunk."""
+        t, steps = pending["t"], pending["steps"]
+        rows = added / np.maximum(steps[:t.size, None], 1e-9)
+        last_t, last_row = self._along_row
+        if last_row is not None and t[0] <= last_t:
+            rows[0] = last_row
+        self._along_row = (float(t[-1]), rows[-1].copy())
+        return rows
+
     def _along_noise_given(self, pending: dict) -> None:
         """Tell the envelope the process noise `step_q_c` gave the accelerometer biases
-        over `pending`'s chunk, from its start to its last sample (each sample's densities
-        times the step that ends there: the same total however the samples are cut)."""
+        from the chunk's start to its last sample as the engine integrates it (each
+        sample's row over the step from it; the step into the first sample with the
+        previous chunk's last row): the same total however the samples are cut."""
         q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
-        t = pending["t"]
-        ending = np.diff(t, prepend=float(pending["t_prev"]))   # the step ending at each
-        self._along.noise_given(q[0] * float(t[-1] - pending["t_prev"]) if q.shape[0] == 1
-                                else np.sum(q * ending[:, None], axis=0))
+        t, t_prev = pending["t"], float(pending["t_prev"])
+        into = q[0] if self._along_q is None else self._along_q
+        given = into * (t[0] - t_prev) + np.sum(q[:-1] * np.diff(t)[:, None], axis=0) \
+            if q.shape[0] > 1 else q[0] * (t[-1] - t_prev)
+        self._along_q = q[-1].copy()
+        self._along.noise_given(given)
 
     def inherit_memory(self, parent: "ConstrainedFilter") -> None:
         """Take over `parent`'s memory of the along-track force (where its accelerometer
@@ -299,7 +320,8 @@ class ConstrainedFilter:
         from its parent's state, covariance and these."""
         if self._along is not None and parent._along is not None:
             self._along = copy.deepcopy(parent._along)
-            self._along_epoch = parent._along_epoch
+            self._along_epoch, self._along_row = parent._along_epoch, parent._along_row
+            self._along_q = parent._along_q
         self._last_f = parent._last_f
 
     def _along_accel(self, t: Array, u: Array) -> Array:
@@ -330,9 +352,9 @@ class ConstrainedFilter:
             if one is not None:
                 joints.append((one[0], weight * one[1]))
         bias = weighted_path_densities(nodes, found)
-        if along is not None and along.any():      # each sample's step from the one before
+        if along is not None and along.any():
             extra = np.zeros((t.size, 6))
-            extra[:, :3] = along / np.maximum(steps[:t.size, None], 1e-9)
+            extra[:, :3] = along
             bias = extra if bias is None else bias + extra
         body = None if self._suspension is None else \
             sampling_densities(self._suspension, steps[:t.size], speed)
