@@ -17,6 +17,8 @@ grid (`railnav.filters.track_grid`) and the model corrects them to first/second 
 """
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import numpy.typing as npt
 
@@ -41,8 +43,8 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.one_sided import OneSidedLimit
-from railnav.filters.scale_noise import (along_force_matters, along_step_variances,
-                                          path_bias_step_densities, step_nodes,
+from railnav.filters.scale_noise import (AlongForceSteps, path_bias_step_densities,
+                                          smoothed_along_force, step_nodes,
                                           weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.suspension_noise import sampling_densities
@@ -176,11 +178,19 @@ class ConstrainedFilter:
             (TrackAttitudeConfig() if config.suspension_noise else None)
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
-        #: The previous chunk's mean along-track acceleration, m/s² (None: no chunk yet).
-        self._along_prev: float | None = None
-        self._along_noise = self._bias_noise is not None and along_force_matters(config.imu)
-        #: The latest chunk's last sample ``(t, f_x)`` (the next chunk's mean starts there).
-        self._last_f: tuple[float, float] | None = None
+        #: The accelerometer biases' step from the along-track specific force
+        #: (`railnav.filters.scale_noise.AlongForceSteps`; None without bias states or
+        #: without accelerometer scale factors and misalignments).
+        self._along = AlongForceSteps.for_grade(config.imu) \
+            if self._bias_noise is not None else None
+        self._along_epoch = False      # an epoch's rows were built since the last chunk
+        #: The latest chunk's last sample time and along-force density row, and its last
+        #: accelerometer-bias noise row (`_along_densities`, `_along_noise_given`).
+        self._along_row: tuple[float, Array | None] = (-np.inf, None)
+        self._along_q: Array | None = None
+        #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
+        #: (`railnav.filters.scale_noise.smoothed_along_force`).
+        self._last_f: tuple[float, float, float] | None = None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -258,7 +268,7 @@ class ConstrainedFilter:
         step = self.sample_interval_s
         if step is None:
             step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
-        along = self._along_accel(t, u, x_prev) if self._along_noise else None
+        along = self._along_accel(t, u) if self._along is not None else None
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step
@@ -276,11 +286,11 @@ class ConstrainedFilter:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
         (`path_bias_step_densities`'s, None without); with ``config.one_sided``, ``r_c``
         bounded near an onset (`railnav.filters.one_sided`)."""
-        along = pending["along"]
-        self.step_q_c = self._step_q_c(pending, found, None if along is None else
-                                       (along if self._along_prev is None
-                                        else self._along_prev, along))
-        self._along_prev = along
+        along = None if pending["along"] is None else \
+            self._along_densities(pending, self._along_variances(pending))
+        self.step_q_c = self._step_q_c(pending, found, along)
+        if along is not None:
+            self._along_noise_given(pending)
         r_c = pending["r_c"]
         if self.one_sided is not None:
             r_c = self.one_sided(pending["t"], pending["s_pred"], pending["params"], r_c,
@@ -288,28 +298,69 @@ class ConstrainedFilter:
                                  float(pending["t_prev"]))
         return pending["u"], pending["params"], r_c
 
-    def _along_accel(self, t: Array, u: Array, x_prev: Array) -> float:
-        """The chunk's time-mean specific force along the body x axis (traction, braking
-        and the grade's share of gravity; trapezoids, so that jitter and dropped samples
-        change it by nothing), bias-corrected at the prior, m/s²
-        (`railnav.filters.scale_noise`)."""
-        f, tt = u[:, 0], t
-        if self._last_f is not None and self._last_f[0] < t[0]:
-            tt = np.concatenate([[self._last_f[0]], t])     # from the previous chunk's end
-            f = np.concatenate([[self._last_f[1]], f])
-        self._last_f = (float(t[-1]), float(u[-1, 0]))
-        span = float(tt[-1] - tt[0]) if tt.size > 1 else 0.0
-        mean = float(np.sum(0.5 * (f[1:] + f[:-1]) * np.diff(tt)) / span) if span > 0.0 \
-            else float(f.mean())
-        return mean - (float(x_prev[self._b_ax]) if self._b_ax is not None else 0.0)
+    def _along_variances(self, pending: dict) -> Array:
+        """The accelerometer biases' step variances from the along-track force over the
+        chunk of `pending` (`railnav.filters.scale_noise.AlongForceSteps`), (m/s²)²,
+        shape (3,)."""
+        i, tie = self._b_ax, self._along_epoch
+        self._along_epoch = False
+        return self._along.chunk_variances(pending["along"],
+                                           np.diag(pending["P_prev"])[i:i + 3], tie=tie)
 
-    def _step_q_c(self, pending: dict, found, along: tuple[float, float] | None = None
-                  ) -> Array:
+    def _along_densities(self, pending: dict, added: Array) -> Array:
+        """Each sample's step variances `added` (M, 3) as densities of the step from it,
+        (m/s²)²/s; a first sample that repeats the previous chunk's last (a network cycle
+        starts at its predecessor's end) carries that sample's density, which the engine
+        would otherwise have taken into this step from the previous chunk."""
+        t, steps = pending["t"], pending["steps"]
+        rows = added / np.maximum(steps[:t.size, None], 1e-9)
+        last_t, last_row = self._along_row
+        if last_row is not None and t[0] <= last_t:
+            rows[0] = last_row
+        self._along_row = (float(t[-1]), rows[-1].copy())
+        return rows
+
+    def _along_noise_given(self, pending: dict) -> None:
+        """Tell the envelope the process noise `step_q_c` gave the accelerometer biases
+        from the chunk's start to its last sample as the engine integrates it (each
+        sample's row over the step from it; the step into the first sample with the
+        previous chunk's last row): the same total however the samples are cut."""
+        q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
+        t, t_prev = pending["t"], float(pending["t_prev"])
+        into = q[0] if self._along_q is None else self._along_q
+        given = into * (t[0] - t_prev) + np.sum(q[:-1] * np.diff(t)[:, None], axis=0) \
+            if q.shape[0] > 1 else q[0] * (t[-1] - t_prev)
+        self._along_q = q[-1].copy()
+        self._along.noise_given(given)
+
+    def inherit_memory(self, parent: "ConstrainedFilter") -> None:
+        """Take over `parent`'s memory of the along-track force (where its accelerometer
+        biases were last tied, the step variance held; the last sample of its latest
+        chunk): a hypothesis's child (`railnav.navigation.network_navigator`) goes on
+        from its parent's state, covariance and these."""
+        if self._along is not None and parent._along is not None:
+            self._along = copy.deepcopy(parent._along)
+            self._along_epoch, self._along_row = parent._along_epoch, parent._along_row
+            self._along_q = parent._along_q
+        self._last_f = parent._last_f
+
+    def _along_accel(self, t: Array, u: Array) -> Array:
+        """The specific force along the body x axis (traction, braking and the grade's
+        share of gravity) at each sample, low-passed
+        (`railnav.filters.scale_noise.smoothed_along_force`), m/s², shape (M,): not
+        bias-corrected (the envelope uses its changes only; a correction at each chunk's
+        prior would make it depend on where the record is cut)."""
+        smoothed, self._last_f = smoothed_along_force(t, u[:, 0], self._last_f)
+        return smoothed
+
+    def _step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
         predicted path add: the sampling error of the rate steps at joints
         (`railnav.filters.joint_noise`), the bias steps of the scale factors and
         misalignments that the state does not carry (`railnav.filters.scale_noise`:
-        `found`, the densities of the spread's paths) and, on a car body
+        `found`, the densities of the spread's paths, and `along`, the step variances
+        (M, 3) of the accelerometer biases from the along-track force, each sample's given
+        to the step from it) and, on a car body
         (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
         its suspension's rates (`railnav.filters.suspension_noise`)."""
         t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
@@ -321,12 +372,10 @@ class ConstrainedFilter:
             if one is not None:
                 joints.append((one[0], weight * one[1]))
         bias = weighted_path_densities(nodes, found)
-        extra = None if along is None or self._bias_noise is None else \
-            along_step_variances(along[0], along[1], self.config.imu)
-        if extra is not None:
-            span = float(np.sum(steps))
-            extra = np.concatenate([extra, np.zeros(3)]) / max(span, 1e-9)
-            bias = np.tile(extra, (t.size, 1)) if bias is None else bias + extra[None, :]
+        if along is not None and along.any():
+            extra = np.zeros((t.size, 6))
+            extra[:, :3] = along
+            bias = extra if bias is None else bias + extra
         body = None if self._suspension is None else \
             sampling_densities(self._suspension, steps[:t.size], speed)
         if not joints and bias is None and body is None:
@@ -405,6 +454,7 @@ class ConstrainedFilter:
         kind)``, None without), fix epoch `f`'s rows, the sensor and body rows, stacked
         (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple); `observations`, and
         `railnav.filters.epochs_together` for a bank."""
+        self._along_epoch = True
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:

@@ -106,8 +106,11 @@ class FilterFactory:
                            schedule=trip.schedule if trip.fixes is not None else None)
 
     def child(self, parent, pieces):
-        """A filter for `parent`'s child (or rebased self) on `pieces`."""
+        """A filter for `parent`'s child (or rebased self) on `pieces` (with the parent
+        filter's memory where its kind keeps one: ``inherit_memory``)."""
         filt = self(pieces)
+        if type(filt) is type(parent.filt) and hasattr(filt, "inherit_memory"):
+            filt.inherit_memory(parent.filt)
         screen = getattr(parent.filt, "screen", None)
         if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
                                                         RowScreen):

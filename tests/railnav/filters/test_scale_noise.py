@@ -20,9 +20,8 @@ import pytest
 from ekf.consistency import chi2_band
 from railnav.filters.constrained import ConstrainedFilter
 from railnav.filters.constrained_model import SCALE_ELEMENTS
-from railnav.filters.scale_noise import (along_step_variances, bias_step_densities,
-                                         kinematic_inputs, path_bias_step_densities,
-                                         step_nodes)
+from railnav.filters.scale_noise import (bias_step_densities, kinematic_inputs,
+                                         path_bias_step_densities, step_nodes)
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from railnav.jobs.run import run_simulated
@@ -82,24 +81,6 @@ def test_bias_variance_is_the_monte_carlo_variance_of_the_triad_error(steps, est
                 assert np.all(error[:, axis] == 0.0)
             else:
                 assert np.var(error[:, axis]) / expected == pytest.approx(1.0, abs=RATIO_TOL)
-
-
-def test_along_track_force_step_is_the_monte_carlo_variance_of_the_triad_error():
-    """Braking from cruise, MEMS: the chunk-mean along-track specific force steps from 0 to
-    −1 m/s²; the variance given to the accelerometer biases is the Monte Carlo variance of
-    ``(S + M) Δf`` with ``Δf = (−1, 0, 0)``; no change or no scale factor: nothing."""
-    imu = imu_grade("mems")
-    added = along_step_variances(0.0, -1.0, imu)
-    rng = np.random.default_rng(15)
-    S = rng.normal(0.0, imu.accel_scale_factor_ppm * 1e-6, (DRAWS, 3))
-    M = rng.normal(0.0, imu.accel_misalignment_rad, (DRAWS, 3, 3))
-    M[:, [0, 1, 2], [0, 1, 2]] = 0.0
-    x = np.array([-1.0, 0.0, 0.0])
-    error = S * x + np.einsum("nij,j->ni", M, x)
-    for axis in range(3):
-        assert np.var(error[:, axis]) / added[axis] == pytest.approx(1.0, abs=RATIO_TOL)
-    assert along_step_variances(-1.0, -1.0, imu) is None
-    assert along_step_variances(0.0, -1.0, imu_grade("paper2017")) is None
 
 
 def test_no_noise_without_scale_factors_or_on_straights():
