@@ -221,9 +221,9 @@ class Spawner:
         variance's mean plus the map's across (a lower bound of any hypothesis's
         ``d_h²``: along the track nothing is asked), summed and tested as in
         `after_epoch`, passes at the ``ok`` level (tail ≥ ``p_degraded``). A window that
-        the network explains hardly better than the live hypotheses do is a train on a
-        track the map lacks (or faulty fixes), not hypotheses in the wrong place: spawning
-        from it starts hypotheses where the train is not (the real log_28554 from 180 s:
+        even the nearest centre-lines do not explain at that level is a train on a track
+        the map lacks (or faulty fixes), not hypotheses in the wrong place: spawning from
+        it starts hypotheses where the train is not (the real log_28554 from 180 s:
         fixes 20–37 m from every element; at 226.8 s the live hypothesis's window tail
         was just below 1e-6 and a candidate 29 m off agreed with a dead-reckoned fix of
         σ 10 m)."""
