@@ -17,8 +17,6 @@ grid (`railnav.filters.track_grid`) and the model corrects them to first/second 
 """
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import numpy.typing as npt
 
@@ -27,6 +25,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
+from railnav.filters.along_force_noise import AlongForceNoise
 from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (
@@ -43,8 +42,7 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.one_sided import OneSidedLimit
-from railnav.filters.scale_noise import (AlongForceSteps, path_bias_step_densities,
-                                          smoothed_along_force, step_nodes,
+from railnav.filters.scale_noise import (path_bias_step_densities, step_nodes,
                                           weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.suspension_noise import sampling_densities
@@ -179,18 +177,10 @@ class ConstrainedFilter:
         self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
             if self.model.estimate_biases else None
         #: The accelerometer biases' step from the along-track specific force
-        #: (`railnav.filters.scale_noise.AlongForceSteps`; None without bias states or
-        #: without accelerometer scale factors and misalignments).
-        self._along = AlongForceSteps.for_grade(config.imu) \
+        #: (`railnav.filters.along_force_noise`; None without bias states or without
+        #: accelerometer scale factors and misalignments).
+        self._along = AlongForceNoise.for_grade(config.imu, self._b_ax, self._bias_noise) \
             if self._bias_noise is not None else None
-        self._along_epoch = False      # an epoch's rows were built since the last chunk
-        #: The latest chunk's last sample time and along-force density row, and its last
-        #: accelerometer-bias noise row (`_along_densities`, `_along_noise_given`).
-        self._along_row: tuple[float, Array | None] = (-np.inf, None)
-        self._along_q: Array | None = None
-        #: The latest chunk's last sample ``(t, f_x, f_x low-passed)``
-        #: (`railnav.filters.scale_noise.smoothed_along_force`).
-        self._last_f: tuple[float, float, float] | None = None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -268,7 +258,7 @@ class ConstrainedFilter:
         step = self.sample_interval_s
         if step is None:
             step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
-        along = self._along_accel(t, u) if self._along is not None else None
+        along = self._along.force(t, u) if self._along is not None else None
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step
@@ -286,11 +276,11 @@ class ConstrainedFilter:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
         (`path_bias_step_densities`'s, None without); with ``config.one_sided``, ``r_c``
         bounded near an onset (`railnav.filters.one_sided`)."""
-        along = None if pending["along"] is None else \
-            self._along_densities(pending, self._along_variances(pending))
+        along = None if pending["along"] is None else self._along.densities(
+            pending["along"], pending["P_prev"], pending["t"], pending["steps"])
         self.step_q_c = self._step_q_c(pending, found, along)
         if along is not None:
-            self._along_noise_given(pending)
+            self._along.given(self.step_q_c, pending["t"], float(pending["t_prev"]))
         r_c = pending["r_c"]
         if self.one_sided is not None:
             r_c = self.one_sided(pending["t"], pending["s_pred"], pending["params"], r_c,
@@ -298,60 +288,14 @@ class ConstrainedFilter:
                                  float(pending["t_prev"]))
         return pending["u"], pending["params"], r_c
 
-    def _along_variances(self, pending: dict) -> Array:
-        """The accelerometer biases' step variances from the along-track force over the
-        chunk of `pending` (`railnav.filters.scale_noise.AlongForceSteps`), (m/s²)²,
-        shape (3,)."""
-        i, tie = self._b_ax, self._along_epoch
-        self._along_epoch = False
-        return self._along.chunk_variances(pending["along"],
-                                           np.diag(pending["P_prev"])[i:i + 3], tie=tie)
-
-    def _along_densities(self, pending: dict, added: Array) -> Array:
-        """Each sample's step variances `added` (M, 3) as densities of the step from it,
-        (m/s²)²/s; a first sample that repeats the previous chunk's last (a network cycle
-        starts at its predecessor's end) carries that sample's density, which the engine
-        would otherwise have taken into this step from the previous chunk."""
-        t, steps = pending["t"], pending["steps"]
-        rows = added / np.maximum(steps[:t.size, None], 1e-9)
-        last_t, last_row = self._along_row
-        if last_row is not None and t[0] <= last_t:
-            rows[0] = last_row
-        self._along_row = (float(t[-1]), rows[-1].copy())
-        return rows
-
-    def _along_noise_given(self, pending: dict) -> None:
-        """Tell the envelope the process noise `step_q_c` gave the accelerometer biases
-        from the chunk's start to its last sample as the engine integrates it (each
-        sample's row over the step from it; the step into the first sample with the
-        previous chunk's last row): the same total however the samples are cut."""
-        q = np.atleast_2d(self.step_q_c)[:, self._bias_noise[:3]]
-        t, t_prev = pending["t"], float(pending["t_prev"])
-        into = q[0] if self._along_q is None else self._along_q
-        given = into * (t[0] - t_prev) + np.sum(q[:-1] * np.diff(t)[:, None], axis=0) \
-            if q.shape[0] > 1 else q[0] * (t[-1] - t_prev)
-        self._along_q = q[-1].copy()
-        self._along.noise_given(given)
-
     def inherit_memory(self, parent: "ConstrainedFilter") -> None:
         """Take over `parent`'s memory of the along-track force (where its accelerometer
         biases were last tied, the step variance held; the last sample of its latest
-        chunk): a hypothesis's child (`railnav.navigation.network_navigator`) goes on
-        from its parent's state, covariance and these."""
+        chunk: `railnav.filters.along_force_noise`): a hypothesis's child
+        (`railnav.navigation.network_navigator`) goes on from its parent's state,
+        covariance and these."""
         if self._along is not None and parent._along is not None:
-            self._along = copy.deepcopy(parent._along)
-            self._along_epoch, self._along_row = parent._along_epoch, parent._along_row
-            self._along_q = parent._along_q
-        self._last_f = parent._last_f
-
-    def _along_accel(self, t: Array, u: Array) -> Array:
-        """The specific force along the body x axis (traction, braking and the grade's
-        share of gravity) at each sample, low-passed
-        (`railnav.filters.scale_noise.smoothed_along_force`), m/s², shape (M,): not
-        bias-corrected (the envelope uses its changes only; a correction at each chunk's
-        prior would make it depend on where the record is cut)."""
-        smoothed, self._last_f = smoothed_along_force(t, u[:, 0], self._last_f)
-        return smoothed
+            self._along = parent._along.copy()
 
     def _step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
         """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
@@ -454,7 +398,8 @@ class ConstrainedFilter:
         kind)``, None without), fix epoch `f`'s rows, the sensor and body rows, stacked
         (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple); `observations`, and
         `railnav.filters.epochs_together` for a bank."""
-        self._along_epoch = True
+        if self._along is not None:
+            self._along.epoch = True
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:
