@@ -61,7 +61,7 @@ from trackmodel.files import atomic_write_text  # noqa: E402
 
 NETWORK = REPO / "data" / "networks" / "brussels_airport"
 RESULTS = REPO / "benchmarks" / "results" / "network_brussels.json"
-RESULTS_SPAWN = RESULTS.with_name("network_brussels_spawn.json")
+RESULTS_NO_SPAWN = RESULTS.with_name("network_brussels_no_spawn.json")
 LOGS = ("log_28554_L36-A_to_L36C-A", "log_28876_L36-B", "log_29083_L36-A",
         "log_29304_L36-B_to_L36N-B")
 #: The 15-min log: log_29304 (it ends standing), 3 min there, and back (2258 fixes).
@@ -158,7 +158,7 @@ def _out_and_back(log: Path, work: Path, dwell_s: float) -> Path:
 
 
 def _log_figures(network, data: Path, name: str, python, seeds: int, work: Path,
-                 spawn: bool = False) -> dict:
+                 spawn: bool = True) -> dict:
     log = data / f"{name}.csv"
     truth_t, truth = _truth(network, log)
     geojson = data / "network_airport.geojson"
@@ -197,20 +197,21 @@ def main(argv=None) -> int:
                         help="a Python >= 3.12 with tp-lib installed (optional)")
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--out", type=Path, default=None,
-                        help=f"default {RESULTS.name}, or {RESULTS_SPAWN.name} with --spawn")
-    parser.add_argument("--spawn", action="store_true",
-                        help="spawn hypotheses from the fixes when none agrees (NetworkNavConfig.spawn;"
-                             " results/network_brussels_spawn.json)")
+                        help=f"default {RESULTS.name}, or {RESULTS_NO_SPAWN.name} with "
+                             "--no-spawn")
+    parser.add_argument("--no-spawn", action="store_true",
+                        help="never spawn hypotheses from the fixes (NetworkNavConfig.spawn=False;"
+                             " results/network_brussels_no_spawn.json)")
     args = parser.parse_args(argv)
-    if args.out is None:            # a --spawn run never overwrites the default run's figures
-        args.out = RESULTS_SPAWN if args.spawn else RESULTS
+    if args.out is None:         # a --no-spawn run never overwrites the default run's figures
+        args.out = RESULTS_NO_SPAWN if args.no_spawn else RESULTS
     logging.basicConfig(level=logging.ERROR)
     network = load_network(NETWORK)
     load_before = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         logs = {name: _log_figures(network, args.data, name, args.tplib, args.seeds, work,
-                                   spawn=args.spawn)
+                                   spawn=not args.no_spawn)
                 for name in LOGS}
         both = _out_and_back(args.data / f"{SPEED_LOG}.csv", work, SPEED_DWELL_S)
         started = time.perf_counter()

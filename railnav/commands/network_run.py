@@ -25,7 +25,7 @@ def nav_config(args: argparse.Namespace):
     from railnav.navigation.hypotheses import NetworkNavConfig
     return with_nav(NetworkNavConfig(), max_hypotheses=getattr(args, "max_hypotheses", None),
                     crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None),
-                    spawn=getattr(args, "spawn", False) or None)
+                    spawn=False if getattr(args, "no_spawn", False) else None)
 
 
 def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:

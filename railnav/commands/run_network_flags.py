@@ -37,9 +37,11 @@ def add_network_arguments(p) -> None:
                    help="--network: most live hypotheses (default 16)")
     p.add_argument("--spawn", action="store_true",
                    help="--network, with --fixes: when no live hypothesis agrees with the "
-                        "last fixes and the network does, start new ones from the fix "
-                        "(NetworkNavConfig.spawn; off by default: on a real log that "
-                        "leaves the network it can still spawn falsely)")
+                        "last fixes and the network does, start new ones from a fix of "
+                        "GNSS quality (NetworkNavConfig.spawn; the default)")
+    p.add_argument("--no-spawn", action="store_true",
+                   help="--network: never start hypotheses from the fixes (the test and "
+                        "the status column still run)")
 
 
 def _check_network_flags(args: argparse.Namespace) -> None:
@@ -47,7 +49,8 @@ def _check_network_flags(args: argparse.Namespace) -> None:
     if args.network is None:
         mine = [flag for flag, value in (("--start", args.start),
                                          ("--max-hypotheses", args.max_hypotheses),
-                                         ("--spawn", args.spawn or None))
+                                         ("--spawn", args.spawn or None),
+                                         ("--no-spawn", args.no_spawn or None))
                 if value is not None]
         if mine:
             raise ConfigError(f"{', '.join(mine)}: only with --network")
@@ -69,6 +72,8 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         others.append("--export")
     if others:
         raise ConfigError(f"{', '.join(others)}: not with --network")
+    if args.spawn and args.no_spawn:
+        raise ConfigError("--spawn, --no-spawn: give one (spawning is the default)")
     if args.spawn and args.fixes is None:
         raise ConfigError("--spawn: needs --fixes (new hypotheses start from the fixes)")
     parse_start(args.start)

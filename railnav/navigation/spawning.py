@@ -50,8 +50,17 @@ per window. Correlated fix errors (a receiver's bias wandering over a minute) ma
 window's sum heavier-tailed than χ²: false spawns are then more frequent, and cost only
 short-lived extra hypotheses (counted, `NetworkResult.spawns`).
 
-Spawning is opt-in (`NetworkNavConfig.spawn`; the test and the status column are not):
-see its documentation for the false spawns measured on the real logs.
+No hypothesis starts from a dead-reckoned fix (quality ``dead_reckoning``: NMEA GGA 6,
+u-blox fix type 1, a log's ``PROPAGATED``): it is the receiver's own inertial extrapolation
+of its last GNSS solution, with an error that drifts rather than a measurement of where the
+train is now. Such fixes still count in the window's test (with their 10-m σ,
+`gnss_obs.fixes.quality`); a window that fails on one keeps filling, and the first fix of
+GNSS quality while it still fails gets the spawn attempt. (The real log_28554 in the airport
+tunnel: its one false spawn, at 238.8 s, came from a ``PROPAGATED`` fix 24 m from the
+element it started on.)
+
+Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
+either way): see its documentation for the spawns measured on the real logs.
 
 Limits: only runs with position fixes (`railnav.filters.fix_epochs.FixEpochs`) spawn; GNSS
 runs without fixes would need a single-point solution per epoch (the divergence monitor's
@@ -69,6 +78,9 @@ from scipy.special import chdtrc
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
 from trackmodel.earth import C_n_e, geodetic_to_ecef
+
+#: The fix quality (`gnss_obs.fixes.table.FIX_QUALITIES`) never spawned from.
+DEAD_RECKONING = "dead_reckoning"
 
 __all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
 
@@ -252,6 +264,8 @@ class Spawner:
             "time_s", "status", "p_fix", "d2_min", "action"])
 
     def _spawn(self, hyps: list, time_s: float, f: int) -> list:
+        if self.trip.fixes.quality[f] == DEAD_RECKONING:
+            return hyps      # no start from an extrapolation: the window waits for a GNSS fix
         window, shares = self.fixes_in_window, self.shares
         self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
         if self.network is not None and not self._on_network(window, shares):

@@ -123,21 +123,28 @@ def test_network_run_start_not_in_the_network(tmp_path, capsys):
 
 
 def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):
-    """``--spawn`` is `NetworkNavConfig(spawn=True)`: told to start on 88_L_2016, 5.6 m
-    abreast of the train's 88_L_3842, the run without it is wrong on the epochs the log's
-    own carrier-fixed rows put on 3842 (issue 13's netelement truth); with it, one spawn
-    and the share right rises above the run without (and ``--spawn`` needs fixes)."""
+    """Spawning is the default (`NetworkNavConfig.spawn`), ``--no-spawn`` turns it off:
+    told to start on 88_L_2016, 5.6 m abreast of the train's 88_L_3842, the run without it
+    is wrong on the epochs the log's own carrier-fixed rows put on 3842 (issue 13's
+    netelement truth); by default, one spawn and the share right rises above the run
+    without; ``--spawn`` (accepted, the default) gives the default's numbers. ``--spawn``
+    needs fixes, and with ``--no-spawn`` is an error."""
     share, spawns = {}, {}
-    for flag in ([], ["--spawn"]):
-        out = tmp_path / ("spawn" if flag else "plain")
+    for flag in (["--no-spawn"], [], ["--spawn"]):
+        out = tmp_path / ("_".join(flag) or "default")
         assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--truth",
                      str(EXCERPT), "--start", "88_L_2016", *flag, "--no-plots",
                      "--out", str(out)]) == 0
         route = json.loads((out / "summary.json").read_text())["route"]
-        share[bool(flag)] = route["truth"]["share_right"]
-        spawns[bool(flag)] = len(route["spawns"])
-    assert spawns[False] == 0 and spawns[True] >= 1
-    assert share[True] > share[False]
+        share[tuple(flag)] = route["truth"]["share_right"]
+        spawns[tuple(flag)] = len(route["spawns"])
+    assert spawns[("--no-spawn",)] == 0 and spawns[()] >= 1
+    assert share[()] > share[("--no-spawn",)]
+    assert share[("--spawn",)] == share[()] and spawns[("--spawn",)] == spawns[()]
+    assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--spawn",
+                 "--no-spawn", "--out", str(tmp_path / "both")]) == 2
+    assert "--spawn, --no-spawn: give one" in capsys.readouterr().err
+    assert not (tmp_path / "both").exists()
     assert main(["-q", "run", "--network", BRUSSELS, "--obs", "x.rnx", "--nav", "y.rnx",
                  "--spawn", "--out", str(tmp_path / "o")]) == 2
     assert "--spawn: needs --fixes" in capsys.readouterr().err

@@ -27,8 +27,8 @@ from trackmodel.earth import C_n_e, ecef_to_geodetic, geodetic_to_ecef
 
 REPO = Path(__file__).resolve().parents[3]
 EXCERPTS = REPO / "data" / "fixes" / "brussels"
-NO_SPAWN = NetworkNavConfig()                  # the default: the test runs, no spawn
-SPAWN = NetworkNavConfig(spawn=True)
+NO_SPAWN = NetworkNavConfig(spawn=False)       # the test runs, no spawn
+SPAWN = NetworkNavConfig()                     # the default spawns
 
 
 def test_disagreement_is_the_horizontal_mahalanobis_distance():
@@ -179,3 +179,59 @@ def test_runs_without_fixes_never_spawn():
     hyps = [object()]
     assert not spawner.active
     assert spawner.after_epoch(hyps, 3, 10.0) is hyps and spawner.records == []
+
+
+def test_no_spawn_from_a_dead_reckoned_fix():
+    """A window that fails at a dead-reckoned fix (the receiver's own extrapolation) keeps
+    filling; the next fix of GNSS quality while it still fails gets the attempt. Spy
+    `start`: not called at the dead-reckoned fix (window untouched), called at the next."""
+    from railnav.errors import ConfigError
+    from railnav.navigation.spawning import Spawner
+    calls = []
+
+    def start(after_s):
+        calls.append(after_s)
+        raise ConfigError("no candidate")          # the attempt ends there either way
+
+    class Fixes(SimpleNamespace):
+        def __len__(self):
+            return len(self.quality)
+
+    fixes = Fixes(quality=np.array(["dead_reckoning", "single"], dtype=object),
+                            lat=np.radians([50.9, 50.9]), lon=np.radians([4.46, 4.46]),
+                            cov_n_m2=np.tile(np.eye(3), (2, 1, 1)))
+    spawner = Spawner(SPAWN, SimpleNamespace(fixes=fixes, schedule=None), 1.5, start)
+    spawner.window, spawner.shares, spawner.fixes_in_window = [40.0] * 5, [1.0] * 5, [0] * 5
+    hyps = [object()]
+    assert spawner._spawn(hyps, 10.0, 0) is hyps and calls == []
+    assert spawner.window == [40.0] * 5                      # still filling, not restarted
+    assert spawner._spawn(hyps, 10.4, 1) is hyps and calls == [pytest.approx(10.4 - 1e-3)]
+    assert spawner.window == []                              # one attempt per window
+
+
+def test_the_airport_tunnel_log_spawns_nothing():
+    """The real log_28554 as given (whole, 606 fixes: into the airport tunnel, 293 of them
+    ``PROPAGATED``, drifting 20-37 m off every element from 180 s): the window test fires
+    (``lost``) at dead-reckoned fixes, yet nothing is spawned, and the route is a path the
+    network allows that passes the netelements its carrier-fixed fixes name. Before the
+    rule the run spawned once, at 238.8 s from a ``PROPAGATED`` fix 24 m from 88_L_2013,
+    and its route jumped there (not navigable)."""
+    from railnav.jobs.run import read_sensor_files
+    from railnav.navigation.network_navigator import navigate_network
+    from trackmodel.network_io import read_network
+    network = read_network(REPO / "data" / "networks" / "brussels_airport")
+    data, config = read_sensor_files(fixes_path=EXCERPTS / "log_28554_L36-A_to_L36C-A.csv")
+    run = navigate_network(network, data, config, nav=SPAWN)
+    tab = data.fixes.table
+    t_fix = tab["gps_time_s"].to_numpy() - data.start_gps_time_s
+    est = run.estimates
+    lost = est.loc[est["status"] == "lost", "time_s"].to_numpy()
+    k = np.searchsorted(t_fix, lost - 1e-6)
+    assert (tab["quality"].to_numpy()[k] == "dead_reckoning").sum() >= 5   # the test fired
+    assert run.spawns == ()
+    truth = netelement_truth(network, np.radians(tab["lat_deg"]), np.radians(tab["lon_deg"]))
+    truth[tab["quality"].to_numpy() != "rtk_fixed"] = None
+    route = run.route_frame()
+    check = route_passes(network, zip(route["netelement"], route["orientation"]),
+                         collapse(truth))
+    assert check["navigable"] and check["passes_truth"], check
