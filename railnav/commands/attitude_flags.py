@@ -72,7 +72,8 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
     if len(recover) == 2:
         raise ConfigError("--recover, --no-recover: give one (recovery is the default)")
     if recover and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
-        raise ConfigError(f"{recover[0]}: one track only (on a network: --spawn)")
+        raise ConfigError(f"{recover[0]}: one track only (a network run spawns hypotheses "
+                          "instead: --no-spawn)")
     if args.car_body and (files or len(args.tracks) > 1
                           or getattr(args, "network", None) is not None):
         raise ConfigError("--car-body: shapes a simulated trip on one track (not with sensor "
