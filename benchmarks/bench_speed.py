@@ -29,12 +29,13 @@ On this machine, in one invocation (the load average is recorded before and afte
   the process after the tables (the same calls as `railnav.jobs.run`, timed one by one;
   the best of ``--repeats`` processes for each stage, wall and CPU).
 
-The timed commands run as on a user's machine, where Python writes each module's compiled
-bytecode (``.pyc``) on the first run, or ``pip install`` of the wheel compiles them:
-``PYTHONDONTWRITEBYTECODE`` (set in some sandboxes) is removed from their environment and
-a warm-up run writes the ``.pyc`` first (``machine.bytecode``). ``end_to_end.compiling_sources``
-is ``--no-plots`` with the variable set on a copy of the packages without ``.pyc``: every
-run compiles railnav's modules from source, the condition such a sandbox measures.
+The timed commands run as on a user's machine, where Python writes each module's
+compiled bytecode (``.pyc``) on the first run, or ``pip install`` of the wheel compiles
+them: ``PYTHONDONTWRITEBYTECODE`` (set in some sandboxes) is removed from their
+environment and a warm-up run writes the ``.pyc`` first (``machine.bytecode``).
+``end_to_end.compiling_sources`` is ``--no-plots`` with the variable set on a copy of the
+packages without ``.pyc``: every run compiles railnav's modules from source, the
+condition such a sandbox measures.
 
 Writes ``benchmarks/results/speed.json``. Run from the repository root:
 ``python benchmarks/bench_speed.py`` (``--quick`` for a smoke run).
