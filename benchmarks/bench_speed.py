@@ -88,10 +88,10 @@ def _env(*, root: Path = REPO, **extra: str) -> dict:
     return {**env, "PYTHONPATH": path, "MPLBACKEND": "Agg", **extra}
 
 
-def _wall(argv: list[str], env: dict) -> float:
+def _wall(argv: list[str], env: dict, *, cwd: Path = REPO) -> float:
     start = time.perf_counter()
     subprocess.run([sys.executable, "-m", "railnav.cli", *argv], check=True, env=env,
-                   stdout=subprocess.DEVNULL, cwd=REPO)
+                   stdout=subprocess.DEVNULL, cwd=cwd)
     return time.perf_counter() - start
 
 
@@ -135,9 +135,11 @@ def _compiling_sources(repeats: int, no_plots_best_s: float) -> dict:
                             ignore=shutil.ignore_patterns("__pycache__"))
         env = _env(root=Path(tmp) / "src", PYTHONDONTWRITEBYTECODE="1")
         run = ["-q", "run", str(TRACK), "--no-plots"]
-        _wall([*run, "--out", f"{tmp}/warm"], env)               # compiled code cache warm
+        # run from `tmp`: ``python -m`` puts the working directory first on sys.path,
+        # and this checkout's packages (with their .pyc) would be imported instead
+        _wall([*run, "--out", f"{tmp}/warm"], env, cwd=Path(tmp))   # compiled code warm
         for k in range(repeats):
-            times.append(_wall([*run, "--out", f"{tmp}/n{k}"], env))
+            times.append(_wall([*run, "--out", f"{tmp}/n{k}"], env, cwd=Path(tmp)))
     return {"command": "railnav run data/tracks/paper2017.csv --no-plots, "
                        "PYTHONDONTWRITEBYTECODE=1, no .pyc of railnav's packages",
             "run_s": times, "best_s": min(times), "real_time_factor": TRIP_S / min(times),
