@@ -29,6 +29,14 @@ On this machine, in one invocation (the load average is recorded before and afte
   the process after the tables (the same calls as `railnav.jobs.run`, timed one by one;
   the best of ``--repeats`` processes for each stage, wall and CPU).
 
+The timed commands run as on a user's machine, where Python writes each module's
+compiled bytecode (``.pyc``) on the first run, or ``pip install`` of the wheel compiles
+them: ``PYTHONDONTWRITEBYTECODE`` (set in some sandboxes) is removed from their
+environment and a warm-up run writes the ``.pyc`` first (``machine.bytecode``).
+``end_to_end.compiling_sources`` is ``--no-plots`` with the variable set on a copy of the
+packages without ``.pyc``: every run compiles railnav's modules from source, the
+condition such a sandbox measures.
+
 Writes ``benchmarks/results/speed.json``. Run from the repository root:
 ``python benchmarks/bench_speed.py`` (``--quick`` for a smoke run).
 """
@@ -39,6 +47,7 @@ import functools
 import json
 import os
 import platform
+import shutil
 import statistics
 import subprocess
 import sys
@@ -65,19 +74,29 @@ TARGETS = {"help_s": 0.5, "end_to_end_x": 500.0, "end_to_end_no_plots_x": 800.0,
            "streaming_peak_rss_mb": 300.0}
 
 
-def _env(**extra: str) -> dict:
-    path = os.pathsep.join([str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])
-    return {**os.environ, "PYTHONPATH": path, "MPLBACKEND": "Agg", **extra}
+#: Packages of this checkout (copied without their ``.pyc`` for `_compiling_sources`).
+PACKAGES = ("ekf", "gnss_obs", "railnav", "strapdown", "trackmodel")
+#: How the timed commands treat compiled bytecode (module docstring), in the JSON.
+BYTECODE = ("PYTHONDONTWRITEBYTECODE removed from the timed commands' environment; a "
+            "warm-up run writes the .pyc, which the timed runs read (a user's machine)")
 
 
-def _wall(argv: list[str], env: dict) -> float:
+def _env(*, root: Path = REPO, **extra: str) -> dict:
+    """The commands' environment: `root`'s packages first, ``.pyc`` written and read."""
+    path = os.pathsep.join([str(root), *filter(None, [os.environ.get("PYTHONPATH")])])
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    return {**env, "PYTHONPATH": path, "MPLBACKEND": "Agg", **extra}
+
+
+def _wall(argv: list[str], env: dict, *, cwd: Path = REPO) -> float:
     start = time.perf_counter()
     subprocess.run([sys.executable, "-m", "railnav.cli", *argv], check=True, env=env,
-                   stdout=subprocess.DEVNULL, cwd=REPO)
+                   stdout=subprocess.DEVNULL, cwd=cwd)
     return time.perf_counter() - start
 
 
 def _help(repeats: int) -> dict:
+    _wall(["--help"], _env())                                       # .pyc written
     times = [_wall(["--help"], _env()) for _ in range(repeats)]
     return {"command": "python -m railnav.cli --help", "run_s": times, "best_s": min(times),
             "median_s": statistics.median(times)}
@@ -102,7 +121,29 @@ def _end_to_end(repeats: int) -> dict:
     out["first_run"] = {"command": "railnav run data/tracks/paper2017.csv --no-plots, "
                                    "empty RAILNAV_CACHE_DIR", "run_s": first,
                         "compile_overhead_s": first - out["no_plots"]["best_s"]}
+    out["compiling_sources"] = _compiling_sources(repeats, out["no_plots"]["best_s"])
     return out
+
+
+def _compiling_sources(repeats: int, no_plots_best_s: float) -> dict:
+    """``--no-plots`` with ``PYTHONDONTWRITEBYTECODE=1`` on a copy of the packages without
+    ``.pyc``: railnav's modules compiled from source at every run."""
+    times = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in PACKAGES:
+            shutil.copytree(REPO / name, Path(tmp) / "src" / name,
+                            ignore=shutil.ignore_patterns("__pycache__"))
+        env = _env(root=Path(tmp) / "src", PYTHONDONTWRITEBYTECODE="1")
+        run = ["-q", "run", str(TRACK), "--no-plots"]
+        # run from `tmp`: ``python -m`` puts the working directory first on sys.path,
+        # and this checkout's packages (with their .pyc) would be imported instead
+        _wall([*run, "--out", f"{tmp}/warm"], env, cwd=Path(tmp))   # compiled code warm
+        for k in range(repeats):
+            times.append(_wall([*run, "--out", f"{tmp}/n{k}"], env, cwd=Path(tmp)))
+    return {"command": "railnav run data/tracks/paper2017.csv --no-plots, "
+                       "PYTHONDONTWRITEBYTECODE=1, no .pyc of railnav's packages",
+            "run_s": times, "best_s": min(times), "real_time_factor": TRIP_S / min(times),
+            "over_no_plots_s": min(times) - no_plots_best_s}
 
 
 def _bank(repeats: int) -> dict:
@@ -184,6 +225,7 @@ def _stages_child() -> None:
     laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)
+    from railnav.commands.run_flags import DEFAULT_SEED
     from railnav.evaluation.metrics import error_series
     from railnav.jobs.plot_worker import PlotHelper
     from railnav.jobs.run import RunOutcome, run_summary, truth_start, write_run
@@ -195,7 +237,8 @@ def _stages_child() -> None:
     with PlotHelper() as helper:
         scenario = get_scenario("paper2017")
         config = navigator_config_for(scenario, filter="constrained", systems="G")
-        trip = simulate_trip(scenario, track=read_track(TRACK), seed=1, systems="G")
+        trip = simulate_trip(scenario, track=read_track(TRACK), seed=DEFAULT_SEED,
+                             systems="G")      # the command's trip
         laps.lap("simulate_s")
         result = navigate(trip.track, trip.sensor_data(), config, outages=scenario.outages,
                           initial=functools.partial(truth_start, trip=trip, config=config))
@@ -282,7 +325,10 @@ def main(argv: list[str] | None = None) -> dict:
         args.repeats, args.numpy_fraction, args.no_streaming = 1, 0.05, True
     doc = {"machine": {"python": platform.python_version(),
                        "processor": platform.processor() or platform.machine(),
-                       "cpus": os.cpu_count(), "load_average_before": list(os.getloadavg())},
+                       "cpus": os.cpu_count(), "load_average_before": list(os.getloadavg()),
+                       "bytecode": BYTECODE,
+                       "environment_sets_PYTHONDONTWRITEBYTECODE":
+                       bool(os.environ.get("PYTHONDONTWRITEBYTECODE"))},
            "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
            "filter": bench_navigator._time_filter(args.repeats),
            "stages": _stages(args.repeats)}
@@ -311,6 +357,8 @@ def _print(doc: dict) -> None:
     print(f"run, --no-plots       {e2e['no_plots']['best_s']:.2f} s = "
           f"{e2e['no_plots']['real_time_factor']:.0f}x; first run (empty cache) "
           f"{e2e['first_run']['run_s']:.2f} s")
+    print(f"  compiling sources   {e2e['compiling_sources']['best_s']:.2f} s "
+          f"(PYTHONDONTWRITEBYTECODE=1, no .pyc)")
     print(f"filter alone          {doc['filter']['best_s']:.3f} s = "
           f"{doc['filter']['real_time_factor']:.0f}x")
     print(f"NumPy loop            {doc['numpy_loop']['run_s']:.2f} s "

@@ -29,7 +29,12 @@ from railnav.commands.run_flags import (
     time_window,
 )
 from railnav.commands.run_report import report
-from railnav.commands.support import output_dir, progress_bar, written_line
+from railnav.commands.support import (
+    imports_without_gc,
+    output_dir,
+    progress_bar,
+    written_line,
+)
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_SYSTEMS
 from railnav.simulation.scenarios import get_scenario
 
@@ -58,7 +63,8 @@ def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
     args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
                                   or not files_given(args) else "gnss-only")
-    check_flags(args)                  # before the engine is imported: errors stay fast
+    with imports_without_gc():
+        check_flags(args)              # before the engine is imported: errors stay fast
     inputs = [*args.tracks, args.imu, args.obs, args.nav, args.fixes, args.truth, args.baro,
               args.base, *args.sp3, args.network]
     with output_dir(args, inputs) as tmp:     # --out checked before any work
@@ -74,7 +80,8 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     """Run one filter on one track and write it into `tmp`: (report, files written). The
     figures are drawn by a helper process started now, which imports matplotlib while the
     run simulates and filters (`railnav.jobs.plot_worker`)."""
-    import railnav.jobs.run  # noqa: F401  (the run's modules: the helper forks with them)
+    with imports_without_gc():
+        import railnav.jobs.run  # noqa: F401  (the run's modules: the helper forks with them)
     from railnav.jobs.plot_worker import PlotHelper
     if args.no_plots:
         return _one_track_run(args, tmp, None)

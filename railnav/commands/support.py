@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import os
 import sys
 from collections.abc import Callable, Iterator
@@ -14,7 +15,31 @@ from railnav.errors import ConfigError
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
            "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
            "augmentation_requested", "read_augmentation", "output_path", "same_file",
-           "check_outputs", "add_output_arguments", "output_dir", "written_line"]
+           "check_outputs", "add_output_arguments", "output_dir", "written_line",
+           "imports_without_gc"]
+
+@contextlib.contextmanager
+def imports_without_gc() -> Iterator[None]:
+    """Import a command's modules with the cyclic garbage collector paused; the first time
+    in a process, freeze what is alive then.
+
+    Importing NumPy, SciPy, pandas and our ~150 modules makes objects that live as long as
+    the process, and the collector scans them again and again meanwhile (~220 collections,
+    ~0.1 s CPU of the ~0.8 s import of ``railnav run``). Frozen (`gc.freeze`), later
+    collections skip them. Only the first time: a process that calls the commands again
+    and again (a test session) freezes its objects once. Numbers are not affected; the
+    collector is on again at the end, as it was before.
+    """
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            if not gc.get_freeze_count():
+                gc.freeze()
+            gc.enable()
+
 
 @contextlib.contextmanager
 def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, int], None]]:

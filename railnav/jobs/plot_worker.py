@@ -1,15 +1,17 @@
 """A run's figures drawn by a helper process while the run writes its tables.
 
 ``railnav run`` starts a `PlotHelper` before it simulates and filters: a fork of the command
-(it shares the modules already imported) that imports matplotlib and the plotting modules
-at once, on the other core, and then waits. When the run has its result it sends the
-figures to draw (`Figure`: a function's name, its arguments — the run's tables, pickled
-once — and the PNG it writes), writes its CSV files and ``summary.json`` meanwhile, and
-waits until every figure is written. The helper draws the first figure itself and each
-other one in a fork of itself made then (matplotlib imported and the tables received
-once, shared by the forks), so the figures are drawn side by side: the user waits for the
-longest one, not for matplotlib's import and every figure one after the other. The CPU
-time is not smaller: the tables are pickled, and the helper imports what the command would.
+(it shares the modules already imported) that imports matplotlib and the plotting modules at
+once, on the other core, draws a small figure in memory (fonts loaded, the PNG encoder
+started: `railnav.evaluation.plot_style.warm_up`), and then waits. When the run has its
+result it sends the figures to draw (`Figure`: a function's name, its arguments — the run's
+tables, pickled once — and the PNG it writes), writes its CSV files and ``summary.json``
+meanwhile, and waits until every figure is written. The helper draws the first figure itself
+and each other one in a fork of itself made then (matplotlib imported and the tables
+received once, shared by the forks), so the figures are drawn side by side: the user waits
+for the longest one, not for matplotlib's import and every figure one after the other. The
+CPU time is not smaller: the tables are pickled, and the helper imports what the command
+would.
 
 The figures are written into the run's output directory, as in-process drawing would, so
 the directory is still written whole or not at all (`trackmodel.files.output_directory`):
@@ -253,6 +255,7 @@ def _serve(conn, parent_pid: int) -> None:
     try:
         for name in _WARM_MODULES:
             importlib.import_module(name)
+        importlib.import_module("railnav.evaluation.plot_style").warm_up()   # fonts, PNG
     except Exception:          # noqa: BLE001  (drawing raises it again, with its traceback)
         pass
     while True:
