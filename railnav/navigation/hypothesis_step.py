@@ -45,7 +45,7 @@ import numpy.typing as npt
 
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
-from ekf.stacked import propagate_members
+from ekf.stacked import propagate_members, update_members
 from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
@@ -214,9 +214,10 @@ class EngineStepper:
     def _step_stacked(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """`step` (``b > a``) with the propagation of each engine's hypotheses together: every
         hypothesis's inputs from its prior, one `ekf.stacked.propagate_members` per
-        engine, then the epoch's rows of all (`railnav.filters.epochs_together`), then each
-        one's update (the order of `step`'s calls per hypothesis: a filter object's
-        inputs and rows touch only its own state)."""
+        engine, then the epoch's rows of all (`railnav.filters.epochs_together`), then the
+        updates of each engine's hypotheses together (`ekf.stacked.update_members`: each
+        one's engine update, to the bit; the order of `step`'s calls per hypothesis: a
+        filter object's inputs and rows touch only its own state)."""
         t, u = self.t[a:b + 1], self.u[a:b + 1]
         groups: dict[int, list[int]] = {}
         engines = [self._engine(h.filt) for h in hyps]
@@ -235,13 +236,24 @@ class EngineStepper:
             for k, state in zip(members, done):
                 states[k] = state
         screens = [] if epoch is not None else None
-        rows = [None] * len(hyps) if epoch is None else observations_together(
-            [h.filt for h in hyps], epoch, [(state.x, state.P) for state in states])
+        posteriors = [(state.x, state.P) for state in states]
+        if epoch is not None:
+            rows = observations_together([h.filt for h in hyps], epoch, posteriors)
+            for members in groups.values():          # each engine's members updated together
+                for k, post in zip(members, update_members(
+                        engines[members[0]], [posteriors[k] for k in members],
+                        [rows[k] for k in members])):
+                    posteriors[k] = post
         innov, cov = [], []
-        for h, engine, state, has_c, one in zip(hyps, engines, states, has, rows):
-            engine.x, engine.P = state.x, state.P
-            self._finish(h, engine, epoch, state.outputs if has_c else None, screens, innov,
-                         cov, one)
+        for h, state, has_c, (x, P) in zip(hyps, states, has, posteriors):
+            outputs = state.outputs if has_c else None
+            if outputs is not None and outputs.innov.shape[0]:
+                innov.append(outputs.innov)
+                cov.append(outputs.S)
+            if epoch is not None:
+                screens.append(h.filt.screen.last)
+                h.filt.screen.clear_records()
+            h.x, h.P = x.copy(), P.copy()
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), any(has))
