@@ -212,19 +212,24 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
     """`ekf.update.kalman_update`'s posterior of members ``(k, x, P, rows)`` with as many
     rows each, stacked where every row passes the gate (a member with a rejected row:
     its own `kalman_update`)."""
-    x = np.stack([one[1] for one in members])
-    P = np.stack([one[2] for one in members])
-    H = np.stack([one[3].H for one in members])
-    innov = np.stack([one[3].innov for one in members])
-    R = np.stack([one[3].R for one in members])
+    # the members' arrays stacked (np.array of equal shapes: np.stack's copy, without
+    # its generic argument handling)
+    x = np.array([one[1] for one in members])
+    P = np.array([one[2] for one in members])
+    H = np.array([one[3].H for one in members])
+    innov = np.array([one[3].innov for one in members])
+    R = np.array([one[3].R for one in members])
     m = innov.shape[1]
     R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each
     R_mat[:, np.arange(m), np.arange(m)] = R
     PHt = P @ np.swapaxes(H, -1, -2)
     S = H @ PHt + R_mat
+    passed = [True] * len(members)
+    if gate is not None:
+        passed = _gate_passes(gate, members, innov, S)
     gains, kept, out = [], [], []
     for j, (k, x_j, P_j, rows) in enumerate(members):
-        if gate is not None and not gate.accepted_rows(innov[j], S[j], rows.groups).all():
+        if not passed[j]:
             out.append((k, *discrete_update(x_j, P_j, rows, gate=gate)[:2]))
             continue
         try:
@@ -236,7 +241,7 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
         kept.append(j)
     if not kept:
         return out
-    K = np.stack(gains)
+    K = np.array(gains)
     if len(kept) < len(members):
         x, P, H, innov, R = x[kept], P[kept], H[kept], innov[kept], R[kept]
     x_post = x + (K @ innov[..., None])[..., 0]
@@ -244,3 +249,15 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
     P_post = A @ P @ np.swapaxes(A, -1, -2) + (K * R[:, None, :]) @ np.swapaxes(K, -1, -2)
     P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
     return out + [(members[j][0], x_post[i], P_post[i]) for i, j in enumerate(kept)]
+
+
+def _gate_passes(gate, members: list, innov: Array, S: Array) -> list[bool]:
+    """Whether every row of each member passes the engine's gate (`ekf.gating.Gate.
+    accepted_rows` of its rows): the members' scalar rows (ids ``0 .. m−1``, as the fault
+    screen numbers them) tested together, the others member by member."""
+    groups = [one[3].groups for one in members]
+    if gate.scope == "rows" and all(g.shape == innov.shape[1:] for g in groups) \
+            and np.count_nonzero(np.array(groups) != np.arange(innov.shape[1])) == 0:
+        return gate.scalar_rows_accepted(innov, S).all(axis=1).tolist()
+    return [bool(gate.accepted_rows(innov[j], S[j], one[3].groups).all())
+            for j, one in enumerate(members)]
