@@ -246,32 +246,31 @@ class EngineStepper:
                     posteriors[k] = post
         innov, cov = [], []
         for h, state, has_c, (x, P) in zip(hyps, states, has, posteriors):
-            outputs = state.outputs if has_c else None
-            if outputs is not None and outputs.innov.shape[0]:
-                innov.append(outputs.innov)
-                cov.append(outputs.S)
-            if epoch is not None:
-                screens.append(h.filt.screen.last)
-                h.filt.screen.clear_records()
+            self._collect(h, epoch, state.outputs if has_c else None, screens, innov, cov)
             h.x, h.P = x.copy(), P.copy()
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), any(has))
 
-    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov,
-                rows=None) -> None:
-        """After a hypothesis's propagation: its continuous innovations (`outputs`, None
-        without) to `innov`/`cov`, its update with `epoch` (its screen to `screens`; `rows`:
-        its filter's rows of the epoch when already built), and the engine's state back
-        into the hypothesis."""
+    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov) -> None:
+        """After a hypothesis's propagation: its update with `epoch` (None: none), what
+        the weights need (`_collect`), and the engine's state back into the hypothesis."""
+        if epoch is not None:
+            self._update(h, engine, epoch)
+        self._collect(h, epoch, outputs, screens, innov, cov)
+        h.x, h.P = engine.x.copy(), engine.P.copy()
+
+    @staticmethod
+    def _collect(h, epoch: int | None, outputs, screens, innov, cov) -> None:
+        """A stepped hypothesis's continuous innovations (`outputs`, None without) to
+        `innov`/`cov` and, after an update with `epoch`, its screen to `screens` (its
+        filter's records then forgotten)."""
         if outputs is not None and outputs.innov.shape[0]:
             innov.append(outputs.innov)
             cov.append(outputs.S)
         if epoch is not None:
-            self._update(h, engine, epoch, rows)
             screens.append(h.filt.screen.last)
             h.filt.screen.clear_records()
-        h.x, h.P = engine.x.copy(), engine.P.copy()
 
     def _group_series(self, hyps, t: Array, u: Array, u_lin: Array | None = None
                       ) -> list[InputSeries]:
@@ -307,11 +306,9 @@ class EngineStepper:
         return engine.propagate(series), series.r_c is not None
 
     @staticmethod
-    def _update(h, engine, epoch: int, rows=None) -> None:
-        """The hypothesis's update with `epoch` (`rows`: its filter's rows at the engine's
-        prior, when already built: `railnav.filters.epochs_together`)."""
-        if rows is None:
-            rows = h.filt.observations(epoch, engine.x, engine.P)
+    def _update(h, engine, epoch: int) -> None:
+        """The hypothesis's update with `epoch` (its filter's rows at the engine's prior)."""
+        rows = h.filt.observations(epoch, engine.x, engine.P)
         if isinstance(rows, EpochRows):
             if rows.jump_covariance is not None:
                 engine.P = engine.P + rows.jump_covariance
