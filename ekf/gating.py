@@ -118,14 +118,32 @@ class Gate:
             return np.full(innov.size, self.passes(innov, S)[0])
         increasing = groups.size < 2 or bool(np.all(groups[1:] > groups[:-1]))
         if increasing and groups.size == innov.size or np.unique(groups).size == innov.size:
-            # scalar rows (distinct ids: increasing ones need no np.unique): the same test,
-            # vectorized
-            var = np.diagonal(S)
-            if self.kind == "trace":
-                return innov * innov <= self.trace_factor * var
-            return innov * innov <= chi2_threshold(self.probability, 1) * var
+            # scalar rows (distinct ids: increasing ones need no np.unique)
+            return self.scalar_rows_accepted(innov, S)
         accepted = np.zeros(innov.size, dtype=bool)
         for g in np.unique(groups):
             rows = np.flatnonzero(groups == g)
             accepted[rows] = self.passes(innov[rows], S[np.ix_(rows, rows)])[0]
         return accepted
+
+    def scalar_rows_accepted(self, innov: Array, S: Array) -> Array:
+        """`accepted_rows` of rows that are each their own row (distinct ids): each
+        component's test on its own variance, vectorized; of several members at once
+        with a leading axis (a bank's, `ekf.stacked.update_members`: elementwise, each
+        member's mask as alone).
+
+        Parameters
+        ----------
+        innov : ndarray, shape (..., m)
+        S : ndarray, shape (..., m, m)
+
+        Returns
+        -------
+        ndarray of bool, shape (..., m)
+        """
+        if self.scope == "vector":
+            raise ModelError("scalar_rows_accepted is the row test (scope 'rows')")
+        var = np.diagonal(S, axis1=-2, axis2=-1)
+        if self.kind == "trace":
+            return innov * innov <= self.trace_factor * var
+        return innov * innov <= chi2_threshold(self.probability, 1) * var

@@ -15,6 +15,16 @@ and checked. Only the per-step outputs asked for are kept (``keep``).
 
 Equal to ``reset`` + ``propagate`` of each member in turn, to the bit
 (``tests/ekf/test_stacked.py``).
+
+`update_members` is the discrete update of the members at an epoch, as the engine's
+``update`` makes it (`ekf.update.discrete_update` with its gate and mode) for each: the
+members whose rows were evaluated at their prior (`ekf.update.EvaluatedObservations`,
+diagonal ``R``), as many rows each, every row passing the gate, updated with the Kalman
+arithmetic of `ekf.update.kalman_update` stacked (NumPy's stacked ``matmul`` makes each
+member's BLAS call as for that member alone, on arrays of the same layout; the Cholesky
+factor and solve are each member's own LAPACK calls), the others one by one. Only the
+posteriors come back (no `ekf.update.UpdateRecord`). Equal to ``update`` of each member,
+to the bit (``tests/ekf/test_stacked.py``).
 """
 from __future__ import annotations
 
@@ -25,13 +35,14 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.cd_filter import CdFilter, _check_covariance, checked_prior, step_data
-from ekf.errors import ModelError
+from ekf.errors import FilterDivergedError, ModelError
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import StepOutputs
-from ekf.series import InputSeries
+from ekf.series import EpochRows, InputSeries
 from ekf.step import STEP_OUTPUTS
+from ekf.update import EvaluatedObservations, _cho_factor, _cho_solve, discrete_update
 
-__all__ = ["MemberState", "propagate_members"]
+__all__ = ["MemberState", "propagate_members", "update_members"]
 
 Array = npt.NDArray[np.float64]
 
@@ -151,3 +162,102 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
     return data.assemble(fields["u"], fields["p"][:, :-1], fields["z_c"][:, :-1],
                          np.broadcast_to(dt, (len(samples), M - 1)), fields["q_c"][:, :-1],
                          fields["r_c"][:, :-1], u_lin=fields.get("u_lin"))
+
+
+def update_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]], rows: Sequence
+                   ) -> list[tuple[Array, Array]]:
+    """The discrete update of each member from its prior with its rows (module docstring).
+
+    Parameters
+    ----------
+    engine : CdFilter
+        The members' engine (its gate and update mode; its own state is left alone).
+    priors : sequence of (x (n,), P (n, n))
+        Each member's prior.
+    rows : sequence
+        Each member's rows: a list of `ekf.update.Observation` or an
+        `ekf.series.EpochRows` (its jump covariance added to the prior first, as the
+        engine's epoch update adds it).
+
+    Returns
+    -------
+    list of (x (n,), P (n, n))
+        Each member's posterior, in order.
+
+    Raises
+    ------
+    ekf.errors.FilterDivergedError
+        An innovation covariance that is not positive definite.
+    """
+    gate, sequential = engine.config.gate, engine.config.sequential
+    out: list = [None] * len(priors)
+    together: dict[int, list[tuple[int, Array, Array, EvaluatedObservations]]] = {}
+    for k, ((x, P), one) in enumerate(zip(priors, rows)):
+        if isinstance(one, EpochRows):
+            if one.jump_covariance is not None:
+                P = P + one.jump_covariance
+            one = one.observations
+        if not sequential and isinstance(one, EvaluatedObservations) and one.innov.size \
+                and one.R.ndim == 1 and one.evaluated_at(x):
+            together.setdefault(one.innov.size, []).append((k, x, P, one))
+        else:
+            out[k] = discrete_update(x, P, one, gate=gate, sequential=sequential)[:2]
+    for members in together.values():
+        for k, x, P in _stacked_kalman(members, gate):
+            out[k] = (x, P)
+    return out
+
+
+def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
+    """`ekf.update.kalman_update`'s posterior of members ``(k, x, P, rows)`` with as many
+    rows each, stacked where every row passes the gate (a member with a rejected row:
+    its own `kalman_update`)."""
+    # the members' arrays stacked (np.array of equal shapes: np.stack's copy, without
+    # its generic argument handling)
+    x = np.array([one[1] for one in members])
+    P = np.array([one[2] for one in members])
+    H = np.array([one[3].H for one in members])
+    innov = np.array([one[3].innov for one in members])
+    R = np.array([one[3].R for one in members])
+    m = innov.shape[1]
+    R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each
+    R_mat[:, np.arange(m), np.arange(m)] = R
+    PHt = P @ np.swapaxes(H, -1, -2)
+    S = H @ PHt + R_mat
+    passed = [True] * len(members)
+    if gate is not None:
+        passed = _gate_passes(gate, members, innov, S)
+    gains, kept, out = [], [], []
+    for j, (k, x_j, P_j, rows) in enumerate(members):
+        if not passed[j]:
+            out.append((k, *discrete_update(x_j, P_j, rows, gate=gate)[:2]))
+            continue
+        try:
+            factor = _cho_factor(S[j])
+        except np.linalg.LinAlgError as exc:
+            raise FilterDivergedError(f"innovation covariance is not positive definite: "
+                                      f"{exc}") from exc
+        gains.append(_cho_solve(factor, PHt[j].T).T)
+        kept.append(j)
+    if not kept:
+        return out
+    K = np.array(gains)
+    if len(kept) < len(members):
+        x, P, H, innov, R = x[kept], P[kept], H[kept], innov[kept], R[kept]
+    x_post = x + (K @ innov[..., None])[..., 0]
+    A = np.eye(P.shape[-1]) - K @ H
+    P_post = A @ P @ np.swapaxes(A, -1, -2) + (K * R[:, None, :]) @ np.swapaxes(K, -1, -2)
+    P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
+    return out + [(members[j][0], x_post[i], P_post[i]) for i, j in enumerate(kept)]
+
+
+def _gate_passes(gate, members: list, innov: Array, S: Array) -> list[bool]:
+    """Whether every row of each member passes the engine's gate (`ekf.gating.Gate.
+    accepted_rows` of its rows): the members' scalar rows (ids ``0 .. m−1``, as the fault
+    screen numbers them) tested together, the others member by member."""
+    groups = [one[3].groups for one in members]
+    if gate.scope == "rows" and all(g.shape == innov.shape[1:] for g in groups) \
+            and np.count_nonzero(np.array(groups) != np.arange(innov.shape[1])) == 0:
+        return gate.scalar_rows_accepted(innov, S).all(axis=1).tolist()
+    return [bool(gate.accepted_rows(innov[j], S[j], one[3].groups).all())
+            for j, one in enumerate(members)]

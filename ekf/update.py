@@ -83,6 +83,25 @@ class Observation:
         """Number of rows ``m``."""
         return self.z.shape[0]
 
+    def subset(self, keep: npt.NDArray[np.bool_]) -> "Observation":
+        """The rows `keep` (mask, shape (m,)) of an observation with diagonal ``R``
+        (variances, shape (m * k,)): what ``dataclasses.replace`` with the rows' ``z``,
+        ``R`` and ``p`` gives, without checking again the rows of arrays already checked.
+
+        Raises
+        ------
+        ModelError
+            ``R`` is a full covariance.
+        """
+        if self.R.ndim != 1:
+            raise ModelError(f"{self.model.name}: a subset of rows needs diagonal R")
+        out = object.__new__(Observation)
+        R = self.R.reshape(-1, self.model.k)[keep].reshape(-1)
+        for name, value in (("model", self.model), ("z", self.z[keep]), ("R", R),
+                            ("p", self.p[keep])):
+            object.__setattr__(out, name, value)
+        return out
+
 
 class EvaluatedObservations(list):
     """A list of :class:`Observation` s with their rows evaluated and stacked at a state.

@@ -34,13 +34,23 @@ _STACKS: dict[tuple[int, ...], "TrackStack"] = {}
 
 class StackPoint:
     """One point of `points_on`: the fields of `trackmodel.track.TrackPoint` the
-    navigator uses (scalars; vectors of 3)."""
+    navigator uses (scalars; vectors of 3), read from the call's arrays when asked for
+    (a bank's cycle asks for a few fields of a few of the points it evaluates)."""
 
-    __slots__ = ("s", "lat", "lon", "h", "r_e", "u_n", "azimuth", "elevation")
+    FIELDS = ("s", "lat", "lon", "h", "r_e", "u_n", "azimuth", "elevation")
+    __slots__ = ("_values", "_m")
 
     def __init__(self, values: dict, m: int) -> None:
-        for name in self.__slots__:
-            setattr(self, name, values[name][m])
+        self._values, self._m = values, m
+
+    def __getattr__(self, name: str):
+        if name not in StackPoint.FIELDS:
+            raise AttributeError(name)
+        try:
+            return self._values[name][self._m]
+        except KeyError:
+            raise AttributeError(f"{name}: not evaluated (points_on(positions=False))") \
+                from None
 
 
 def _keys(groups) -> npt.NDArray[np.complex128]:
@@ -124,8 +134,11 @@ class TrackStack:
         out = self._chunk_start[j] + d
         return out[:, 0], out[:, 1], out[:, 2]
 
-    def points(self, which: list[int], s: list[float]) -> dict[str, Array]:
-        """Fields (`StackPoint`) at ``s[k]`` on track ``which[k]``, shape (N,) or (N, 3)."""
+    def points(self, which: list[int], s: list[float], *, positions: bool = True
+               ) -> dict[str, Array]:
+        """Fields (`StackPoint`) at ``s[k]`` on track ``which[k]``, shape (N,) or (N, 3);
+        without `positions`, only ``s``, ``u_n``, ``azimuth`` and ``elevation`` (the
+        section angles, without the positions' geodesy)."""
         which_a = np.asarray(which, dtype=np.intp)
         flat = self._checked(which_a, s)
         # each point's section in its own track's table (`Track.section_of`), all at once
@@ -133,6 +146,11 @@ class TrackStack:
                               side="right")
         first = self.first[which_a]
         k = np.clip(pos - 1 - first, 0, self.last[which_a] - first) + first
+        ang = self.table.angles(k, flat - self.table.s_start[k])
+        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
+        out = {"s": flat, "u_n": u, "azimuth": ang["A"], "elevation": ang["E"]}
+        if not positions:
+            return out
         lat, lon, h = np.empty(len(s)), np.empty(len(s)), np.empty(len(s))
         lox = self.is_loxodrome[k]
         if lox.any():                                     # all tracks' straights at once
@@ -144,14 +162,11 @@ class TrackStack:
         if not lox.all():                                 # all tracks' Chebyshev chunks
             part = ~lox
             lat[part], lon[part], h[part] = self._chunk_positions(which_a[part], flat[part])
-        ang = self.table.angles(k, flat - self.table.s_start[k])
-        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
-        return {"s": flat, "lat": lat, "lon": lon, "h": h,
-                "r_e": geodetic_to_ecef(lat, lon, h, earth=self.earth), "u_n": u,
-                "azimuth": ang["A"], "elevation": ang["E"]}
+        out.update(lat=lat, lon=lon, h=h, r_e=geodetic_to_ecef(lat, lon, h, earth=self.earth))
+        return out
 
 
-def points_on(tracks, s) -> list[StackPoint]:
+def points_on(tracks, s, *, positions: bool = True) -> list[StackPoint]:
     """The point of ``tracks[k]`` at ``s[k]`` (m) for each k, as `trackmodel.track.Track.at`
     gives it (module docstring; tracks on different ellipsoids: one stack per ellipsoid).
 
@@ -159,6 +174,9 @@ def points_on(tracks, s) -> list[StackPoint]:
     ----------
     tracks : sequence of trackmodel.track.Track
     s : sequence of float
+    positions : bool
+        Evaluate the positions (``lat``, ``lon``, ``h``, ``r_e``); False: only ``s``,
+        ``u_n``, ``azimuth`` and ``elevation`` (the others then raise AttributeError).
 
     Returns
     -------
@@ -169,7 +187,8 @@ def points_on(tracks, s) -> list[StackPoint]:
         out: list = [None] * len(tracks)
         for earth in earths:
             at = [k for k, t in enumerate(tracks) if t.earth == earth]
-            for k, p in zip(at, points_on([tracks[k] for k in at], [s[k] for k in at])):
+            for k, p in zip(at, points_on([tracks[k] for k in at], [s[k] for k in at],
+                                          positions=positions)):
                 out[k] = p
         return out
     if not len(tracks):
@@ -187,5 +206,5 @@ def points_on(tracks, s) -> list[StackPoint]:
         if len(_STACKS) >= MAX_STACKS:
             _STACKS.clear()
         _STACKS[key] = stack
-    values = stack.points([distinct[id(t)] for t in tracks], list(s))
+    values = stack.points([distinct[id(t)] for t in tracks], list(s), positions=positions)
     return [StackPoint(values, m) for m in range(len(tracks))]

@@ -9,8 +9,6 @@ BLAS/LAPACK call as for that matrix alone: each filter's numbers are its own, to
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import numpy.typing as npt
 
@@ -65,7 +63,7 @@ def subset_rows(observations: list[Observation], keep: npt.NDArray[np.bool_]
         if n_kept == k.size:
             out.append(obs)
         elif n_kept:
-            out.append(replace(obs, z=obs.z[k], R=obs.R[k], p=obs.p[k]))
+            out.append(obs.subset(k))
     return out
 
 

@@ -45,7 +45,7 @@ import numpy.typing as npt
 
 from ekf.packing import unpack_sym
 from ekf.series import EpochRows, InputSeries
-from ekf.stacked import propagate_members
+from ekf.stacked import propagate_members, update_members
 from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
@@ -214,9 +214,10 @@ class EngineStepper:
     def _step_stacked(self, hyps, a: int, b: int, epoch: int | None) -> CycleOutcome:
         """`step` (``b > a``) with the propagation of each engine's hypotheses together: every
         hypothesis's inputs from its prior, one `ekf.stacked.propagate_members` per
-        engine, then the epoch's rows of all (`railnav.filters.epochs_together`), then each
-        one's update (the order of `step`'s calls per hypothesis: a filter object's
-        inputs and rows touch only its own state)."""
+        engine, then the epoch's rows of all (`railnav.filters.epochs_together`), then the
+        updates of each engine's hypotheses together (`ekf.stacked.update_members`: each
+        one's engine update, to the bit; the order of `step`'s calls per hypothesis: a
+        filter object's inputs and rows touch only its own state)."""
         t, u = self.t[a:b + 1], self.u[a:b + 1]
         groups: dict[int, list[int]] = {}
         engines = [self._engine(h.filt) for h in hyps]
@@ -235,31 +236,41 @@ class EngineStepper:
             for k, state in zip(members, done):
                 states[k] = state
         screens = [] if epoch is not None else None
-        rows = [None] * len(hyps) if epoch is None else observations_together(
-            [h.filt for h in hyps], epoch, [(state.x, state.P) for state in states])
+        posteriors = [(state.x, state.P) for state in states]
+        if epoch is not None:
+            rows = observations_together([h.filt for h in hyps], epoch, posteriors)
+            for members in groups.values():          # each engine's members updated together
+                for k, post in zip(members, update_members(
+                        engines[members[0]], [posteriors[k] for k in members],
+                        [rows[k] for k in members])):
+                    posteriors[k] = post
         innov, cov = [], []
-        for h, engine, state, has_c, one in zip(hyps, engines, states, has, rows):
-            engine.x, engine.P = state.x, state.P
-            self._finish(h, engine, epoch, state.outputs if has_c else None, screens, innov,
-                         cov, one)
+        for h, state, has_c, (x, P) in zip(hyps, states, has, posteriors):
+            self._collect(h, epoch, state.outputs if has_c else None, screens, innov, cov)
+            h.x, h.P = x.copy(), P.copy()
         full = bool(innov) and len(innov) == len(hyps)
         return CycleOutcome(screens, innov if full else None, cov if full else None,
                             (b - a) * len(hyps), any(has))
 
-    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov,
-                rows=None) -> None:
-        """After a hypothesis's propagation: its continuous innovations (`outputs`, None
-        without) to `innov`/`cov`, its update with `epoch` (its screen to `screens`; `rows`:
-        its filter's rows of the epoch when already built), and the engine's state back
-        into the hypothesis."""
+    def _finish(self, h, engine, epoch: int | None, outputs, screens, innov, cov) -> None:
+        """After a hypothesis's propagation: its update with `epoch` (None: none), what
+        the weights need (`_collect`), and the engine's state back into the hypothesis."""
+        if epoch is not None:
+            self._update(h, engine, epoch)
+        self._collect(h, epoch, outputs, screens, innov, cov)
+        h.x, h.P = engine.x.copy(), engine.P.copy()
+
+    @staticmethod
+    def _collect(h, epoch: int | None, outputs, screens, innov, cov) -> None:
+        """A stepped hypothesis's continuous innovations (`outputs`, None without) to
+        `innov`/`cov` and, after an update with `epoch`, its screen to `screens` (its
+        filter's records then forgotten)."""
         if outputs is not None and outputs.innov.shape[0]:
             innov.append(outputs.innov)
             cov.append(outputs.S)
         if epoch is not None:
-            self._update(h, engine, epoch, rows)
             screens.append(h.filt.screen.last)
             h.filt.screen.clear_records()
-        h.x, h.P = engine.x.copy(), engine.P.copy()
 
     def _group_series(self, hyps, t: Array, u: Array, u_lin: Array | None = None
                       ) -> list[InputSeries]:
@@ -295,11 +306,9 @@ class EngineStepper:
         return engine.propagate(series), series.r_c is not None
 
     @staticmethod
-    def _update(h, engine, epoch: int, rows=None) -> None:
-        """The hypothesis's update with `epoch` (`rows`: its filter's rows at the engine's
-        prior, when already built: `railnav.filters.epochs_together`)."""
-        if rows is None:
-            rows = h.filt.observations(epoch, engine.x, engine.P)
+    def _update(h, engine, epoch: int) -> None:
+        """The hypothesis's update with `epoch` (its filter's rows at the engine's prior)."""
+        rows = h.filt.observations(epoch, engine.x, engine.P)
         if isinstance(rows, EpochRows):
             if rows.jump_covariance is not None:
                 engine.P = engine.P + rows.jump_covariance

@@ -382,8 +382,10 @@ def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = No
         return points_on([targets[k].track for k in guessed], s_g)
 
     s_tgt = _target_s(sources, targets, p_src, s_src, first_points)
+    # the targets' tangents and angles only (`_converted` reads no position of them)
     p_tgt = points_on([f.track for f in targets],
-                      [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)])
+                      [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)],
+                      positions=False)
     return [_converted(*args) for args in zip(sources, xs, Ps, s_raw, s_src, s_tgt, p_src,
                                               p_tgt)]
 

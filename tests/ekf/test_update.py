@@ -138,3 +138,26 @@ def test_evaluated_observations_are_used_at_their_state_only(rng, monkeypatch):
     discrete_update(x0.copy(), P0, stacked)            # the same state: not evaluated
     with pytest.raises(AssertionError, match="evaluated again"):
         discrete_update(x0 + 0.5, P0, stacked)
+
+
+def test_subset_equals_an_observation_made_of_the_rows(rng):
+    """`Observation.subset`: the same arrays as an Observation built (and checked) from the
+    kept rows' z, R and p, for scalar rows and for rows of two components; a full R is
+    refused."""
+    x, p = ca.SX.sym("x", 2), ca.SX.sym("p", 2)
+    for z_row in (ca.dot(p, x), ca.vertcat(p[0] * x[0], p[1] * x[1])):
+        model = MeasurementModel.from_expression(x, p, z_row, "rows")
+        m, k = 5, model.k
+        obs = Observation(model, z=rng.normal(size=(m, k)), R=rng.uniform(0.5, 2.0, m * k),
+                          p=rng.normal(size=(m, 2)))
+        keep = np.array([True, False, True, True, False])
+        ref = Observation(model, z=obs.z[keep], R=obs.R.reshape(m, k)[keep].reshape(-1),
+                          p=obs.p[keep])
+        got = obs.subset(keep)
+        for name in ("z", "R", "p"):
+            assert getattr(got, name).dtype == getattr(ref, name).dtype
+            np.testing.assert_array_equal(getattr(got, name), getattr(ref, name))
+        assert got.model is model and got.rows == 3
+    full = Observation(model, z=np.ones((1, 2)), R=np.eye(2), p=np.zeros((1, 2)))
+    with pytest.raises(ModelError):
+        full.subset(np.array([True]))

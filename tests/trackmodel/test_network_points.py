@@ -83,3 +83,17 @@ def test_points_on_names_the_track_off_which_s_lies(tracks):
         points_on([tracks[0], tracks[3], tracks[3]], [1.0, 2.0, tracks[3].length_m + 5.0])
     with pytest.raises(TrackError, match="finite"):
         points_on([tracks[0], tracks[3]], [1.0, float("nan")])
+
+
+def test_points_without_positions_have_the_same_angles(tracks):
+    """``positions=False``: the tangent and the angles of `Track.at`, bit for bit, and no
+    position (asking for one is an AttributeError, not a made-up number)."""
+    rng = np.random.default_rng(8)
+    pick = [tracks[k] for k in rng.integers(0, len(tracks), 12)]
+    s = [float(rng.uniform(0.0, t.length_m)) for t in pick]
+    for t, sk, p in zip(pick, s, points_on(pick, s, positions=False)):
+        ref = t.at(sk)
+        for f in ("s", "u_n", "azimuth", "elevation"):
+            assert np.array_equal(np.asarray(getattr(ref, f)), np.asarray(getattr(p, f))), f
+        with pytest.raises(AttributeError):
+            p.lat

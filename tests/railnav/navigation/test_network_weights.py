@@ -57,6 +57,6 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
         for (x_a, P_a), (x_b, P_b) in zip(got, ref):
             assert np.array_equal(x_a, x_b) and np.array_equal(P_a, P_b)
         for p, q in zip(points, nw.track_points_of(hyps)):
-            assert all(np.array_equal(getattr(p, f), getattr(q, f)) for f in p.__slots__)
+            assert all(np.array_equal(getattr(p, f), getattr(q, f)) for f in p.FIELDS)
     finally:
         nw.forget_offsets()
