@@ -65,7 +65,11 @@ switched off in the simulation only, the filter still assuming the full grade;
   2.2 and no epoch is beyond 3σ_s. Since (2) is modelled (the accelerometer's ``M_zy`` and
   the gyro's ``S_zz`` are states, `railnav.filters.constrained_model.SCALE_ELEMENTS`) the
   NEES is 9.14, inside its band (roll mean z² 4.24 → 1.18); the share beyond 3σ_s, 3.09 %,
-  is (1) and (3).
+  is (1) and (3). (3) is the track expansion's truncation on the arc, ``v² κ³ δ² / 2``
+  (1.25e-3 m/s² at δ = 0.5 m), a function of the truth's offset from the chunk's
+  predicted path and so held for the chunk, which the geometry noise gave the correlation
+  time of a passing feature; held (`railnav.filters.held_remainder`), the share is 0 on
+  these seeds (0.93 % on seeds 11–40; ``docs/consistency-ablations.md``, stop 29).
 * ``outage_20min`` seed 5: the error is already 3.3σ after the braking onset at 376–400 s
   (−1 % straight, 300 s into the outage; the same without scale factors and
   misalignments). The pitch moves 0.6 mrad while the x accelerometer bias stays 2σ off,

@@ -39,6 +39,7 @@ from railnav.filters.constrained_model import (build_constrained_model, isb_stat
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
+from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.one_sided import OneSidedLimit
@@ -264,8 +265,10 @@ class ConstrainedFilter:
         steps[-1] = step
         nodes = step_nodes(sigma_s)
         return {"u": u, "params": params,
-                "r_c": variance * remainder_correlation_s(sigma_s_m=sigma_s, speed_mps=speed,
-                                                          step_s=step),
+                "r_c": held_density(variance, params, sigma_s_m=sigma_s, speed_mps=speed,
+                                    correlation_s=remainder_correlation_s(
+                                        sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
+                                    held_s=float(t[-1]) - t_prev),
                 "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
                 "along": along, "speed": speed,
