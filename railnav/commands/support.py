@@ -18,6 +18,7 @@ __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int"
            "check_outputs", "add_output_arguments", "output_dir", "written_line",
            "imports_without_gc"]
 
+
 @contextlib.contextmanager
 def imports_without_gc() -> Iterator[None]:
     """Import a command's modules with the cyclic garbage collector paused; the first time
