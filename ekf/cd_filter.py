@@ -29,7 +29,7 @@ from ekf.history import FilterResult, Recorder
 from ekf.model import CdModel
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import Backend, Propagator, StepOutputs
-from ekf.series import Epoch, EpochRows, InputSeries
+from ekf.series import Epoch, InputSeries, prior_and_rows
 from ekf.step import StepOptions
 from ekf.update import Observation, UpdateRecord, discrete_update
 
@@ -272,15 +272,8 @@ class CdFilter:
     def _rows_at(self, epoch: Epoch) -> Sequence[Observation]:
         """The epoch's observations at the current prior, after adding its jump covariance
         (:class:`~ekf.series.EpochRows`) to the prior."""
-        rows = epoch.observations_at(self.x, self.P)
-        if not isinstance(rows, EpochRows):
-            return rows
-        if rows.jump_covariance is not None:
-            if rows.jump_covariance.shape != self.P.shape:
-                raise ModelError(f"jump_covariance has shape {rows.jump_covariance.shape}, "
-                                 f"the state covariance {self.P.shape}")
-            self.P = self.P + rows.jump_covariance
-        return rows.observations
+        self.P, rows = prior_and_rows(self.P, epoch.observations_at(self.x, self.P))
+        return rows
 
     def _sample_of(self, epoch: Epoch, t: Array) -> int | None:
         j = int(np.searchsorted(t, epoch.t - self.config.time_tol_s))

@@ -23,7 +23,7 @@ import numpy.typing as npt
 from ekf.errors import ModelError
 from ekf.update import Observation
 
-__all__ = ["InputSeries", "Epoch", "EpochRows"]
+__all__ = ["InputSeries", "Epoch", "EpochRows", "prior_and_rows"]
 
 Array = npt.NDArray[np.float64]
 
@@ -170,3 +170,24 @@ class EpochRows:
             if not np.allclose(Q, Q.T) or np.any(np.diag(Q) < 0.0):
                 raise ModelError("jump_covariance must be symmetric with a diagonal >= 0")
             object.__setattr__(self, "jump_covariance", Q)
+
+
+def prior_and_rows(P: Array, rows: "Sequence[Observation] | EpochRows"
+                   ) -> "tuple[Array, Sequence[Observation]]":
+    """The prior covariance an epoch's rows update, and the rows: ``P`` plus the jump
+    covariance of an :class:`EpochRows` (as is otherwise), and its observations.
+
+    Raises
+    ------
+    ModelError
+        A jump covariance of another shape than ``P``.
+    """
+    if not isinstance(rows, EpochRows):
+        return P, rows
+    Q = rows.jump_covariance
+    if Q is None:
+        return P, rows.observations
+    if Q.shape != P.shape:
+        raise ModelError(f"jump_covariance has shape {Q.shape}, the state covariance "
+                         f"{P.shape}")
+    return P + Q, rows.observations

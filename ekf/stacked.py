@@ -24,7 +24,7 @@ arithmetic of `ekf.update.kalman_update` stacked (NumPy's stacked ``matmul`` mak
 member's BLAS call as for that member alone, on arrays of the same layout; the Cholesky
 factor and solve are each member's own LAPACK calls), the others one by one. Only the
 posteriors come back (no `ekf.update.UpdateRecord`). Equal to ``update`` of each member,
-to the bit (``tests/ekf/test_stacked.py``).
+to the bit (``tests/ekf/test_stacked_update.py``).
 """
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ from ekf.cd_filter import CdFilter, _check_covariance, checked_prior, step_data
 from ekf.errors import FilterDivergedError, ModelError
 from ekf.packing import pack_sym, unpack_sym
 from ekf.propagate import StepOutputs
-from ekf.series import EpochRows, InputSeries
+from ekf.series import InputSeries, prior_and_rows
 from ekf.step import STEP_OUTPUTS
 from ekf.update import EvaluatedObservations, _cho_factor, _cho_solve, discrete_update
 
@@ -193,10 +193,7 @@ def update_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]], rows
     out: list = [None] * len(priors)
     together: dict[int, list[tuple[int, Array, Array, EvaluatedObservations]]] = {}
     for k, ((x, P), one) in enumerate(zip(priors, rows)):
-        if isinstance(one, EpochRows):
-            if one.jump_covariance is not None:
-                P = P + one.jump_covariance
-            one = one.observations
+        P, one = prior_and_rows(P, one)
         if not sequential and isinstance(one, EvaluatedObservations) and one.innov.size \
                 and one.R.ndim == 1 and one.evaluated_at(x):
             together.setdefault(one.innov.size, []).append((k, x, P, one))

@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.packing import unpack_sym
-from ekf.series import EpochRows, InputSeries
+from ekf.series import InputSeries, prior_and_rows
 from ekf.stacked import propagate_members, update_members
 from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
@@ -308,9 +308,6 @@ class EngineStepper:
     @staticmethod
     def _update(h, engine, epoch: int) -> None:
         """The hypothesis's update with `epoch` (its filter's rows at the engine's prior)."""
-        rows = h.filt.observations(epoch, engine.x, engine.P)
-        if isinstance(rows, EpochRows):
-            if rows.jump_covariance is not None:
-                engine.P = engine.P + rows.jump_covariance
-            rows = rows.observations
+        engine.P, rows = prior_and_rows(engine.P,
+                                        h.filt.observations(epoch, engine.x, engine.P))
         engine.update(rows)
