@@ -46,6 +46,7 @@ from railnav.filters.one_sided import OneSidedLimit
 from railnav.filters.scale_noise import (path_bias_step_densities, step_nodes,
                                           weighted_path_densities)
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
+from railnav.filters.start_attitude import track_attitude, with_track_attitude_covariance
 from railnav.filters.suspension_noise import sampling_densities
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
@@ -420,15 +421,18 @@ class ConstrainedFilter:
         """State and covariance at a GNSS fix (`railnav.navigation.initialization.GnssFix`).
 
         The fix is projected on the track (`railnav.filters.common.start_on_track`); the
-        attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0).
+        attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0), with its error
+        from the projection's along-track error in the covariance
+        (`railnav.filters.start_attitude`).
         """
         values, sigma_s, sigma_v = start_on_track(
             self.track, self.config, fix, tuple(isb_state_name(s) for s in self.isb_systems))
         point = values.pop("point")
-        values.update({"yaw": float(point.azimuth), "pitch": float(point.elevation),
-                       "roll": 0.0})
+        values.update(track_attitude(point))
         x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
-        return x0, self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v)
+        return x0, with_track_attitude_covariance(
+            self.initial_covariance(sigma_s_m=sigma_s, sigma_v_mps=sigma_v),
+            tuple(self.layout.names), point, sigma_s)
 
     def truth_states(self, truth, clock_bias_m: Array, clock_drift_mps: Array
                      ) -> tuple[Array, npt.NDArray[np.bool_]]:

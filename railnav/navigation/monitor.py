@@ -53,7 +53,9 @@ beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at 1e-6), ``s`` (an
 the fix has a speed) are re-initialised from it: the whole state through the filter's own
 start-from-fix code where the run has it (`TrackFixes.start`: ``filter.initial_from_fix``,
 `railnav.filters.common.start_on_track`; `railnav.navigation.fix_start.initial_at_fix`),
-so that attitude, IMU biases and clock start over too; else ``s`` and ``v`` alone (σ floored
+so that attitude, IMU biases and clock start over too (the attitude from the track at the
+fix, its error from the fix's along-track error correlated with ``s`` in ``P``,
+`railnav.filters.start_attitude`); else ``s`` and ``v`` alone (σ floored
 as ``start_on_track`` does), their rows and columns of ``P`` without correlations.
 Otherwise the ``s, v`` rows and columns of ``P`` are widened by the window's variance
 factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull the state back, and one
