@@ -26,7 +26,6 @@ from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters.along_force_noise import AlongForceNoise
-from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (
     GnssRowBuilder,
@@ -41,16 +40,13 @@ from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
 from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
-from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.one_sided import OneSidedLimit
-from railnav.filters.scale_noise import (path_bias_step_densities, step_nodes,
-                                          weighted_path_densities)
+from railnav.filters.path_noise import PathNoise, bias_together
+from railnav.filters.scale_noise import step_nodes
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.start_attitude import track_attitude, with_track_attitude_covariance
-from railnav.filters.suspension_noise import sampling_densities
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
-from strapdown.kinematics import BIAS_STATE_NAMES
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
@@ -60,37 +56,6 @@ Array = npt.NDArray[np.float64]
 #: Gravity for the along-track prediction is looked up once per this much track, m (it
 #: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
 _GRAVITY_CACHE_M = 1000.0
-
-
-def _bias_together(filters, pending: list[dict]) -> list:
-    """`path_bias_step_densities` of every pending `ConstrainedFilter.inputs` that has
-    paths, in one call when they share the IMU grade and the steps (else filter by
-    filter), split back per filter (None where a filter has no paths)."""
-    out: list = [None] * len(pending)
-    have = [k for k, p in enumerate(pending) if p["paths"] is not None]
-    if not have:
-        return out
-    imu, steps = filters[have[0]].config.imu, pending[have[0]]["steps"]
-    estimated = filters[have[0]].scale_elements
-    if any(filters[k].config.imu != imu or not np.array_equal(pending[k]["steps"], steps)
-           or filters[k].scale_elements != estimated for k in have):
-        for k in have:
-            out[k] = path_bias_step_densities(*pending[k]["paths"], pending[k]["speed"],
-                                              filters[k].config.imu, pending[k]["steps"],
-                                              estimated=filters[k].scale_elements)
-        return out
-    counts = [pending[k]["paths"][0].shape[0] for k in have]
-    found = path_bias_step_densities(
-        np.concatenate([pending[k]["paths"][0] for k in have]),
-        np.concatenate([pending[k]["paths"][1] for k in have]),
-        np.repeat([pending[k]["speed"] for k in have], counts), imu, steps,
-        estimated=estimated)
-    if found is None:
-        return out
-    edges = np.cumsum([0, *counts])
-    for k, a, b in zip(have, edges[:-1], edges[1:]):
-        out[k] = (found[0][a:b], found[1][a:b])
-    return out
 
 
 def _chunk_step(t: Array, t_prev: float) -> float:
@@ -164,25 +129,20 @@ class ConstrainedFilter:
         self._gravity: dict[int, float] = {}
         self._chunk_end = None   # the track at the last sample of the latest chunk
         self._grid = TrackParameterGrid(track)
-        self._joints = JointRateNoise(track)
+        #: What the chunk's predicted path adds to `q_c` (`railnav.filters.path_noise`).
+        self.path_noise = PathNoise(track, self._grid, self.q_c, self.model.noise_names,
+                                    config=config, scale_elements=self.scale_elements,
+                                    estimate_biases=self.model.estimate_biases)
         #: The bound on the rows' information near an onset (`railnav.filters.one_sided`;
         #: None with ``config.one_sided`` off).
         self.one_sided = OneSidedLimit(track, self.layout, self.model.noise_names) \
             if config.one_sided else None
-        self._gyro_yz = [self.model.noise_names.index(n) for n in ("w_wy", "w_wz")]
-        self._gyro = [self.model.noise_names.index(n) for n in ("w_wx", "w_wy", "w_wz")]
-        #: Whose suspension parameters give the gyros its sampling noise
-        #: (`railnav.filters.suspension_noise`): the rows' config, else the defaults with
-        #: ``config.suspension_noise``; None: a rigid vehicle.
-        self._suspension = config.track_attitude or \
-            (TrackAttitudeConfig() if config.suspension_noise else None)
-        self._bias_noise = [self.model.noise_names.index(f"w_{n}") for n in BIAS_STATE_NAMES] \
-            if self.model.estimate_biases else None
         #: The accelerometer biases' step from the along-track specific force
         #: (`railnav.filters.along_force_noise`; None without bias states or without
         #: accelerometer scale factors and misalignments).
-        self._along = AlongForceNoise.for_grade(config.imu, self._b_ax, self._bias_noise) \
-            if self._bias_noise is not None else None
+        bias_noise = self.path_noise.bias_noise
+        self._along = AlongForceNoise.for_grade(config.imu, self._b_ax, bias_noise) \
+            if bias_noise is not None else None
         #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
         #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
         self.step_q_c = self.q_c
@@ -225,10 +185,9 @@ class ConstrainedFilter:
         """
         pending = self._start_inputs(t, u, x_prev, P_prev, t_prev)
         return self._finish_inputs(pending, None if pending["paths"] is None else
-                                   path_bias_step_densities(*pending["paths"],
-                                                            pending["speed"], self.config.imu,
-                                                            pending["steps"],
-                                                            estimated=self.scale_elements))
+                                   self.path_noise.densities(pending["paths"],
+                                                             pending["speed"],
+                                                             pending["steps"]))
 
     @staticmethod
     def inputs_together(filters, t: Array, u: Array, priors, t_prev: float) -> list:
@@ -243,7 +202,8 @@ class ConstrainedFilter:
         pending = [f._start_inputs(t, u, x, P, t_prev, chunk_step=step)
                    for f, (x, P) in zip(filters, priors)]
         return [f._finish_inputs(p, found) for f, p, found
-                in zip(filters, pending, _bias_together(filters, pending))]
+                in zip(filters, pending,
+                       bias_together([f.path_noise for f in filters], pending))]
 
     def _start_inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
                       t_prev: float, *, chunk_step: float | None = None) -> dict:
@@ -254,6 +214,7 @@ class ConstrainedFilter:
         params, grid_nodes = self._grid.parameters(s_pred)
         self._chunk_end = self._grid.point(int(grid_nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
+        s_prev = float(x_prev[i_s])
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
         params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
                                                   speed_mps=speed)
@@ -272,9 +233,9 @@ class ConstrainedFilter:
                                     held_s=float(t[-1]) - t_prev),
                 "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
-                "along": along, "speed": speed,
-                "paths": None if self._bias_noise is None else
-                self._path_rows(s_pred, float(x_prev[i_s]), nodes)}
+                "along": along, "speed": speed, "s_prev": s_prev,
+                "paths": None if self.path_noise.bias_noise is None else
+                self.path_noise.path_rows(s_pred, s_prev, nodes)}
 
     def _finish_inputs(self, pending: dict, found) -> tuple[Array, Array, Array]:
         """`inputs`'s results from `_start_inputs` and the densities of its paths
@@ -282,7 +243,7 @@ class ConstrainedFilter:
         bounded near an onset (`railnav.filters.one_sided`)."""
         along = None if pending["along"] is None else self._along.densities(
             pending["along"], pending["P_prev"], pending["t"], pending["steps"])
-        self.step_q_c = self._step_q_c(pending, found, along)
+        self.step_q_c = self.path_noise.step_q_c(pending, found, along)
         if along is not None:
             self._along.given(self.step_q_c, pending["t"], float(pending["t_prev"]))
         r_c = pending["r_c"]
@@ -300,65 +261,6 @@ class ConstrainedFilter:
         covariance and these."""
         if self._along is not None and parent._along is not None:
             self._along = parent._along.copy()
-
-    def _step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
-        """`q_c` for the samples of `pending` (`_start_inputs`), with what the steps of the
-        predicted path add: the sampling error of the rate steps at joints
-        (`railnav.filters.joint_noise`), the bias steps of the scale factors and
-        misalignments that the state does not carry (`railnav.filters.scale_noise`:
-        `found`, the densities of the spread's paths, and `along`, the step variances
-        (M, 3) of the accelerometer biases from the along-track force, each sample's given
-        to the step from it) and, on a car body
-        (``config.track_attitude`` or ``config.suspension_noise``), the sampling error of
-        its suspension's rates (`railnav.filters.suspension_noise`)."""
-        t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
-            pending["nodes"]
-        s_prev, speed = float(pending["x_prev"][self._i["s"]]), pending["speed"]
-        joints = []
-        for offset, weight in nodes:
-            one = self._joints.densities(s_prev + offset, s_pred + offset, speed, steps)
-            if one is not None:
-                joints.append((one[0], weight * one[1]))
-        bias = weighted_path_densities(nodes, found)
-        if along is not None and along.any():
-            extra = np.zeros((t.size, 6))
-            extra[:, :3] = along
-            bias = extra if bias is None else bias + extra
-        body = None if self._suspension is None else \
-            sampling_densities(self._suspension, steps[:t.size], speed)
-        if not joints and bias is None and body is None:
-            return self.q_c
-        q = np.tile(self.q_c, (t.size, 1))
-        for rows, extra in joints:
-            np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
-        if bias is not None:
-            q[:, self._bias_noise] += bias
-        if body is not None:
-            q[:, self._gyro] += body
-        return q
-
-    def _path_rows(self, s_pred: Array, s_prev: float, nodes: list[tuple[float, float]]
-                   ) -> tuple[Array, Array]:
-        """Grid rows of the spread's paths (`step_nodes`: the predicted path shifted by
-        each node's offset, clamped to the track), ``(P, 16)`` at each path's sample
-        before the first and ``(P, M, 16)`` at the samples: one grid lookup for all (the
-        grid's rows are pure per row: the same numbers as path by path)."""
-        length = self.track.length_m
-        offsets = np.array([offset for offset, _ in nodes])
-        s_paths = np.minimum(np.maximum(s_pred[None, :] + offsets[:, None], 0.0), length)
-        s_prevs = np.minimum(np.maximum(s_prev + offsets, 0.0), length)
-        rows = self._grid.parameters(np.concatenate([s_prevs, s_paths.ravel()]))[0]
-        n_paths = offsets.size
-        return rows[:n_paths], rows[n_paths:].reshape(n_paths, s_pred.size, -1)
-
-    def _path_bias(self, s_pred: Array, s_prev: float, speed: float, steps: Array,
-                   nodes: list[tuple[float, float]]) -> Array | None:
-        """The bias steps' densities along the spread's paths (`_path_rows`), weighted
-        and summed in the nodes' order (as `_step_q_c` sums them); None when no path's
-        input changes."""
-        return weighted_path_densities(nodes, path_bias_step_densities(
-            *self._path_rows(s_pred, s_prev, nodes), speed, self.config.imu, steps,
-            estimated=self.scale_elements))
 
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""

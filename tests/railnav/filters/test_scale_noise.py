@@ -115,7 +115,7 @@ def test_paths_together_are_the_paths_one_by_one():
 
 @pytest.mark.parametrize("sigma_s_m", [0.0, 3.0, 40.0])
 def test_filter_paths_together_are_the_nodes_one_by_one(sigma_s_m):
-    """`ConstrainedFilter._path_bias` (one grid lookup and one density call for the
+    """`PathNoise.path_bias` (one grid lookup and one density call for the
     spread's paths) equals the paths looked up and weighted node by node on the grid, to
     the bit, on `curvy`'s track at curves' ends, a vertical curve, near its start (paths
     clipped at 0) and its end."""
@@ -139,7 +139,7 @@ def test_filter_paths_together_are_the_nodes_one_by_one(sigma_s_m):
                                       estimated=filt.scale_elements)
             if one is not None:
                 expected = weight * one if expected is None else expected + weight * one
-        got = filt._path_bias(s_pred, s0, 20.0, steps, nodes)
+        got = filt.path_noise.path_bias(s_pred, s0, 20.0, steps, nodes)
         assert (got is None) == (expected is None)
         if got is not None:
             found += 1

@@ -3,8 +3,6 @@ Monte Carlo of the exact track geometry, diagonal on a straight, and the restart
 100 m/s ring that a diagonal start covariance made overconfident."""
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 
@@ -71,19 +69,8 @@ def test_a_restart_on_the_ring_is_not_overconfident():
     at 10 and 11 s, on the arc. With a diagonal start covariance (yaw from the track at the
     fix's ``s``, its 10 mrad of error correlated with ``s`` left out) 93 % of the epochs
     after the last restart had |error_s| > 3σ_s. A consistent σ_s puts ~0.3 % there."""
-    from railnav.jobs.run import truth_start
-    from railnav.navigation.navigator import navigate
-    from railnav.simulation.trip import navigator_config_for, simulate_trip
-    from tests.railnav.filters.test_joint_noise import _circle_track
-    from tests.railnav.navigation.test_monitor import _circle_scenario
-    config = replace(navigator_config_for(_circle_scenario()), initial_s_sigma_m=1.0)
-    trip = simulate_trip(_circle_scenario(), track=_circle_track(0.3), seed=1)
-
-    def start(filt):
-        x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0].copy()
-        x[filt.layout.index("s")] += 50.0
-        return truth_start(filt, trip, config, x_true=x)
-    result = navigate(trip.track, trip.sensor_data(), config, initial=start)
+    from tests.railnav.navigation.test_monitor import ring_restart_run
+    result, trip = ring_restart_run()
     restarts = result.monitor.loc[result.monitor["action"] == "reinit", "time_s"]
     last = float(restarts.max())
     assert last >= 10.0                  # restarted on the arc (the straight ends at 1000.3 m)

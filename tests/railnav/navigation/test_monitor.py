@@ -269,13 +269,9 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     assert result.final_status == "lost"     # the bias: degraded first, then lost
 
 
-def test_a_restart_on_a_ring_stays_on_the_filters_lap():
-    """The offset case above with recovery (the default): the track runs round the same
-    R = 100 m circle several times, so a single-point fix projects equally near on every
-    lap. The restarts take the lap nearest the filter (`TrackFixes.near`): after 12 s the
-    along-track error against the simulation's ``s`` stays below 3 m and the run ends
-    ``ok`` (a restart on the whole-track projection put ``s`` 1256 m, two laps, ahead at
-    11 s: 1384 m off after 12 s, 9 restarts)."""
+def ring_restart_run():
+    """The R = 100 m ring at 100 m/s (`_circle_scenario`, seed 1), started 50 m ahead of the
+    truth with σ_s 1 m and recovery on (the default): ``(NavigationResult, Trip)``."""
     from railnav.jobs.run import truth_start
     from railnav.navigation.navigator import navigate
     from railnav.simulation.trip import simulate_trip
@@ -288,7 +284,17 @@ def test_a_restart_on_a_ring_stays_on_the_filters_lap():
         x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0].copy()
         x[filt.layout.index("s")] += 50.0
         return truth_start(filt, trip, config, x_true=x)
-    result = navigate(trip.track, trip.sensor_data(), config, initial=start)
+    return navigate(trip.track, trip.sensor_data(), config, initial=start), trip
+
+
+def test_a_restart_on_a_ring_stays_on_the_filters_lap():
+    """The offset case above with recovery (the default): the track runs round the same
+    R = 100 m circle several times, so a single-point fix projects equally near on every
+    lap. The restarts take the lap nearest the filter (`TrackFixes.near`): after 12 s the
+    along-track error against the simulation's ``s`` stays below 3 m and the run ends
+    ``ok`` (a restart on the whole-track projection put ``s`` 1256 m, two laps, ahead at
+    11 s: 1384 m off after 12 s, 9 restarts)."""
+    result, trip = ring_restart_run()
     est = result.estimates
     err = est["s_m"].to_numpy() - np.interp(est["time_s"], trip.truth.time_s, trip.truth.s)
     assert (result.monitor["action"] == "reinit").sum() >= 1      # it did restart
