@@ -70,6 +70,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -173,15 +174,32 @@ class Spawner:
     points : callable(hyps) -> (r_e, tangent_e), optional
         The hypotheses' track points (default `track_points`; the fix-only stepper's grid
         is faster).
+    network : trackmodel.network.Network, optional
+        Where `_on_network` looks for the nearest centre-lines (None: no such check).
+    spp : railnav.filters.fix_epochs.FixEpochs, optional
+        A run without position fixes: its GNSS epochs' own single-point fixes, one per
+        epoch of ``trip.gnss`` (`railnav.navigation.spp_epochs.epoch_spp_fixes`); a run
+        with fixes tests those.
+    spp_correlation_s : float
+        τ of `spp`'s errors, s (`railnav.navigation.spp_epochs.correlation_s`): the
+        window counts them as `NetworkNavConfig.evidence_correlation_s` says for fixes.
     """
 
     def __init__(self, nav, trip, cross_sigma_m: float, start,
-                 p_degraded: float = 1e-3, points=None, network=None) -> None:
+                 p_degraded: float = 1e-3, points=None, network=None, spp=None,
+                 spp_correlation_s: float = 0.0) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
         self.points = points or track_points
         self.network = network
-        self._frames = fix_frames(trip.fixes) if trip.fixes is not None and \
-            len(trip.fixes) else None
+        own = trip.fixes is not None and len(trip.fixes) > 0
+        #: The fixes tested (the run's own, else its epochs' single-point fixes) and which
+        #: of `EpochSchedule.split`'s indices is theirs.
+        self.fixes, self._column = (trip.fixes, 1) if own else (spp, 0)
+        # the window counts the single-point fixes' correlated errors (their τ)
+        self._shares = nav if own else replace(
+            nav, evidence_correlation_s=max(nav.evidence_correlation_s, spp_correlation_s))
+        self._frames = fix_frames(self.fixes) if self.fixes is not None and \
+            len(self.fixes) else None
         self.p_degraded = p_degraded
         self.window: list[float] = []
         self.shares: list[float] = []
@@ -191,21 +209,21 @@ class Spawner:
         self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
         self.spawns: list[tuple[float, int]] = []
-        self.active = bool(nav.spawn_window_epochs) and trip.fixes is not None and \
-            trip.schedule is not None and len(trip.fixes) > 0
+        self.active = bool(nav.spawn_window_epochs) and self._frames is not None and \
+            trip.schedule is not None
 
     def after_epoch(self, hyps: list, epoch: int | None, time_s: float) -> list:
         """`hyps`, with new hypotheses when the window's test fails at this epoch."""
         if not self.active or epoch is None or not hyps:
             return hyps
-        _, f = self.trip.schedule.split(epoch)
-        if f < 0:
+        f = self.trip.schedule.split(epoch)[self._column]
+        if f < 0 or not np.isfinite(self.fixes.lat[f]):
             return hyps
         r_e, tangent_e = self.points(hyps)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in hyps], 0.0))
-        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
                               (self._frames[0][f], self._frames[1][f]))
-        share = evidence_share(self.nav, time_s - self._last_s)
+        share = evidence_share(self._shares, time_s - self._last_s)
         self._last_s = time_s
         self.window.append(float(np.min(d2)))
         self.shares.append(share)
@@ -239,7 +257,7 @@ class Spawner:
         fixes 20–37 m from every element; at 226.8 s the live hypothesis's window tail
         was just below 1e-6 and a candidate 29 m off agreed with a dead-reckoned fix of
         σ 10 m)."""
-        fx, n = self.trip.fixes, len(window)
+        fx, n = self.fixes, len(window)
         reach = float(chi2_isf(self.nav.spawn_p_value)) * max(n, 1)   # beyond: fails alone
         d2 = np.full(n, reach)
         for j, k in enumerate(window):
@@ -264,7 +282,7 @@ class Spawner:
             "time_s", "status", "p_fix", "d2_min", "action"])
 
     def _spawn(self, hyps: list, time_s: float, f: int) -> list:
-        if self.trip.fixes.quality[f] == DEAD_RECKONING:
+        if self.fixes.quality[f] == DEAD_RECKONING:
             return hyps      # no start from an extrapolation: the window waits for a GNSS fix
         window, shares = self.fixes_in_window, self.shares
         self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
@@ -281,7 +299,7 @@ class Spawner:
         # network lacks, 10-30 m from the nearest element, gets none: it stays lost)
         r_e, tangent_e = self.points(new)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in new], 0.0))
-        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
                               (self._frames[0][f], self._frames[1][f]))
         new = [h for h, d in zip(new, d2) if chdtrc(2.0, float(d)) >= self.nav.spawn_p_value]
         if not new:

@@ -1,0 +1,93 @@
+r"""Each GNSS epoch's own single-point fix: the position fixes of a GNSS run's spawn test
+(`railnav.navigation.spawning`; issue 14 §3, "in the network navigator, spawn new
+hypotheses", for runs on pseudoranges without a fix log).
+
+`epoch_spp_fixes` solves every GNSS epoch of a run (`railnav.filters.gnss_epochs.GnssEpochs`,
+the epochs the hypotheses' filters read, with their satellites' states at transmission)
+alone by `gnss_obs.spp.solve_spp_epoch`, with the run's measurement settings and
+elevation mask (`railnav.navigation.track_fixes.spp_config_of`): weighted least squares
+with the pseudorange σ model the run declares (`gnss_obs.MeasurementConfig.sigma_model`,
+``sigma_pr_m``), the receiver's χ² fault detection and exclusion and Huber weights. The
+horizontal covariance is the solution's own, ``(Aᵀ W A)⁻¹`` in ENU: the fix the spawn test
+compares with the hypotheses is as good as that model says and no better.
+
+The fixes are independent of the hypotheses (no prior enters), so a set of hypotheses that
+started wrong cannot pull them along. An epoch whose fault detection still fails after the
+exclusions (``raim_ok`` False) or with too few satellites has no fix (NaN).
+
+Their errors are as correlated from epoch to epoch as the pseudoranges' are: the run's
+``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips, whose errors are
+white; 20 s by default, urban code multipath). `correlation_s` gives the τ the spawn test
+counts them with (`railnav.navigation.hypotheses.evidence_share`).
+
+Cost: one snapshot solve per epoch (~1.5 ms with the previous epoch's fix as the guess,
+`benchmarks/bench_network_speed.py`'s note).
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from railnav.filters.fix_epochs import FixEpochs
+from railnav.navigation.track_fixes import spp_config_of
+from trackmodel.earth import ecef_to_geodetic
+
+__all__ = ["epoch_spp_fixes", "correlation_s", "SPP_QUALITY"]
+
+#: The fix class (`gnss_obs.fixes.table.FIX_QUALITIES`) of a receiver's single-point fix.
+SPP_QUALITY = "single"
+
+
+def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
+    """The single-point fix of each epoch of `gnss` (module docstring), one per epoch in
+    its order (NaN position where an epoch has none); None without epochs.
+
+    Parameters
+    ----------
+    gnss : railnav.filters.gnss_epochs.GnssEpochs or None
+        The run's epochs (``TripSamples.gnss``).
+    data : railnav.SensorData
+        Its navigation file (``data.nav``) and the observation header's approximate
+        position (the first guess).
+    config : railnav.NavigatorConfig
+        The run's measurement settings and elevation mask.
+
+    Returns
+    -------
+    railnav.filters.fix_epochs.FixEpochs or None
+        ``time_s`` of the epochs (s from the trip start), ``lat``/``lon`` (rad), ``h_m``,
+        ``cov_n_m2`` the ENU position covariance (m², (E, 3, 3)), ``quality``
+        `SPP_QUALITY`; no velocity.
+    """
+    from gnss_obs.spp import solve_spp_epoch
+    if gnss is None or data.nav is None or not len(gnss.epochs):
+        return None
+    cfg = replace(spp_config_of(config), velocity=False)     # a position is all it needs
+    n = len(gnss.epochs)
+    r_e = np.full((n, 3), np.nan)
+    cov = np.full((n, 3, 3), np.nan)
+    transmit = getattr(gnss, "transmit", None) or [None] * n
+    guess = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
+    for k, epoch in enumerate(gnss.epochs):
+        fix = solve_spp_epoch(epoch, data.nav, cfg, approx_e=guess, transmit=transmit[k])
+        if fix is None or not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
+            continue
+        r_e[k], cov[k] = fix.r_e, fix.cov_enu
+        guess = fix.r_e                          # the next epoch's guess: fewer iterations
+    lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
+    ok = np.all(np.isfinite(r_e), axis=1)
+    if ok.any():
+        lat[ok], lon[ok], h[ok] = (np.asarray(a, dtype=float).reshape(-1)
+                                   for a in ecef_to_geodetic(r_e[ok]))
+    return FixEpochs(time_s=np.asarray(gnss.time_s, dtype=float), lat=lat, lon=lon, h_m=h,
+                     cov_n_m2=cov, v_n_mps=np.full((n, 3), np.nan),
+                     sigma_speed_mps=np.full(n, np.nan),
+                     quality=np.full(n, SPP_QUALITY, dtype=object))
+
+
+def correlation_s(nav, config) -> float:
+    """τ of the single-point fixes' errors (module docstring): the larger of the run's
+    `NetworkNavConfig.evidence_correlation_s` and its pseudoranges'
+    ``NavigatorConfig.pseudorange_correlation_s``, s."""
+    return max(float(nav.evidence_correlation_s), float(config.pseudorange_correlation_s))
