@@ -9,7 +9,8 @@ along-track component and a cross-track row that the map's error widens,
 element), or an along-track start error larger than the fault screen's gate (every later
 row is rejected, the filter dead-reckons), stays wrong with probability 1 to the end.
 
-`Spawner` watches the navigator's own evidence at each epoch with a position fix, on the
+`Spawner` watches the navigator's own evidence at each epoch with a position fix (or, in
+runs without fixes, a GNSS epoch's single-point fix: below), on the
 hypotheses' posteriors: for each live hypothesis ``h`` the horizontal disagreement of the
 fix with the track point at its ``s``,
 
@@ -32,8 +33,8 @@ attempt per window (spawn or not: a fix whose candidates all disagree with it to
 none, nor a window that the network itself does not explain, `Spawner._on_network`: a
 train on a track the map lacks). The test's outcome per fix epoch is the ``status`` column of the network
 run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
-divergence monitor's statuses and thresholds, on the navigator's own evidence; runs without
-fixes have no status column).
+divergence monitor's statuses and thresholds, on the navigator's own evidence; runs with
+neither fixes nor GNSS observations have no status column).
 
 Correlated fix errors declared (`NetworkNavConfig.evidence_correlation_s`, e.g. 60 s for
 fixes of single-point quality): each epoch counts ``(1 − ρ)/(1 + ρ)`` of an independent one
@@ -59,12 +60,24 @@ GNSS quality while it still fails gets the spawn attempt. (The real log_28554 in
 tunnel: its one false spawn, at 238.8 s, came from a ``PROPAGATED`` fix 24 m from the
 element it started on.)
 
+Runs without position fixes (GNSS observations, with or without an IMU) test and spawn
+from each GNSS epoch's own single-point fix instead (`railnav.navigation.spp_epochs`:
+the epoch's pseudoranges alone, weighted least squares with the run's σ model and the
+receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior). Their
+errors are counted as correlated over the larger of `NetworkNavConfig.
+evidence_correlation_s` and the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for
+simulated trips; 20 s by default for real ones: a 5-epoch window at 1 Hz is then one
+look). A spawn starts its hypotheses as the run's start does
+(`railnav.navigation.network_start`: ``filt.initial_from_fix`` of that epoch's
+single-point fix), so their receiver clock bias and drift are the fix's, not the lost
+hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m):
+a start 150-400 m along the track recovers within 5 s of the start; a start on the wrong
+one of two tracks 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, moves
+the window's sum by ~1.4 per epoch, against the χ²₁₀ tail 1e-6 at 51), at 15 m it is.
+Cost: one single-point solve per GNSS epoch (~2 ms).
+
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
 either way): see its documentation for the spawns measured on the real logs.
-
-Limits: only runs with position fixes (`railnav.filters.fix_epochs.FixEpochs`) spawn; GNSS
-runs without fixes would need a single-point solution per epoch (the divergence monitor's
-`railnav.navigation.track_fixes.spp_track_fixes`, 5 s of a 7.6-s run) and do not spawn yet.
 """
 from __future__ import annotations
 
