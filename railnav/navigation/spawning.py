@@ -70,10 +70,14 @@ simulated trips; 20 s by default for real ones: a 5-epoch window at 1 Hz is then
 look). A spawn starts its hypotheses as the run's start does
 (`railnav.navigation.network_start`: ``filt.initial_from_fix`` of that epoch's
 single-point fix), so their receiver clock bias and drift are the fix's, not the lost
-hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m):
-a start 150-400 m along the track recovers within 5 s of the start; a start on the wrong
-one of two tracks 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, moves
-the window's sum by ~1.4 per epoch, against the χ²₁₀ tail 1e-6 at 51), at 15 m it is.
+hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m,
+5 seeds): a start 400 m along the track, never recovered without spawning, is within
+10 m from 5-8 s on (one spawn, when the first window has filled); 150 m, which the
+curves between the loops correct by 24-32 s, from 5-8 s (one seed 19 s: the two
+parallel tracks undecided after the spawn). A start on the wrong one of two tracks
+4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
+window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
+5-8 s).
 Cost: one single-point solve per GNSS epoch (~2 ms).
 
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
