@@ -95,6 +95,7 @@ from scipy.special import chdtrc
 
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
+from railnav.navigation.network_weights import track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 #: The fix quality (`gnss_obs.fixes.table.FIX_QUALITIES`) never spawned from.
@@ -164,14 +165,16 @@ def chi2_isf(p: float) -> float:
 
 def track_points(hyps) -> tuple[Array, Array]:
     """ECEF position and unit tangent of each hypothesis's track point at its ``s``
-    (clamped to its track; `trackmodel.Track.at`), shapes (K, 3)."""
-    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
-    for j, h in enumerate(hyps):
-        track = h.filt.track
-        p = track.at(min(max(h.s_m, 0.0), track.length_m))
-        r[j] = np.asarray(p.r_e, dtype=float).reshape(3)
-        u[j] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float).reshape(3)
-    return r, u
+    (clamped to its track; `railnav.navigation.network_weights.track_points_of`, one
+    evaluation for all), shapes (K, 3)."""
+    points = track_points_of(hyps)
+    if not points:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    lat = np.array([float(p.lat) for p in points])
+    lon = np.array([float(p.lon) for p in points])
+    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
+    u_n = np.array([np.asarray(p.u_n, dtype=float).reshape(3) for p in points])
+    return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
 
 
 class Spawner:

@@ -20,8 +20,8 @@ Their errors are as correlated from epoch to epoch as the pseudoranges' are: the
 white; 20 s by default, urban code multipath). `correlation_s` gives the τ the spawn test
 counts them with (`railnav.navigation.hypotheses.evidence_share`).
 
-Cost: one snapshot solve per epoch (~1.5 ms with the previous epoch's fix as the guess,
-`benchmarks/bench_network_speed.py`'s note).
+Cost: one solve per epoch, from a guess extrapolated from the last two fixes: one
+Gauss-Newton iteration and the fault screen's step.
 """
 from __future__ import annotations
 
@@ -37,6 +37,14 @@ __all__ = ["epoch_spp_fixes", "correlation_s", "SPP_QUALITY"]
 
 #: The fix class (`gnss_obs.fixes.table.FIX_QUALITIES`) of a receiver's single-point fix.
 SPP_QUALITY = "single"
+#: Gauss-Newton stops below this step, m (`gnss_obs.spp.SppConfig.tol_m`): from a guess
+#: extrapolated from the last two fixes (off by their errors, metres), one iteration.
+#: The fault screen's least-squares step from the last iterate follows, so the fix is off
+#: by the linearisation's error only, ``δ²/(2ρ)`` for a step δ at a range ρ ≈ 2e7 m:
+#: ≤ 2e-5 m.
+TOL_M = 30.0
+#: Fixes further apart than this are not extrapolated from, s.
+GUESS_GAP_S = 5.0
 
 
 def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
@@ -63,18 +71,22 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
     from gnss_obs.spp import solve_spp_epoch
     if gnss is None or data.nav is None or not len(gnss.epochs):
         return None
-    cfg = replace(spp_config_of(config), velocity=False)     # a position is all it needs
+    # a position is all it needs; the fault screen's step after the iterations leaves an
+    # error of the order of (last step)² / (2 range): TOL_M costs ~2e-5 m at most
+    cfg = replace(spp_config_of(config), velocity=False, tol_m=TOL_M)
     n = len(gnss.epochs)
     r_e = np.full((n, 3), np.nan)
     cov = np.full((n, 3, 3), np.nan)
     transmit = getattr(gnss, "transmit", None) or [None] * n
-    guess = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
+    approx = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
+    last: list = []                               # the last two fixes (time, r_e)
     for k, epoch in enumerate(gnss.epochs):
-        fix = solve_spp_epoch(epoch, data.nav, cfg, approx_e=guess, transmit=transmit[k])
+        fix = solve_spp_epoch(epoch, data.nav, cfg, transmit=transmit[k], details=False,
+                              approx_e=_guess(last, float(gnss.time_s[k]), approx))
         if fix is None or not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
             continue
         r_e[k], cov[k] = fix.r_e, fix.cov_enu
-        guess = fix.r_e                          # the next epoch's guess: fewer iterations
+        last = (last + [(float(gnss.time_s[k]), np.asarray(fix.r_e, dtype=float))])[-2:]
     lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     ok = np.all(np.isfinite(r_e), axis=1)
     if ok.any():
@@ -84,6 +96,18 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
                      cov_n_m2=cov, v_n_mps=np.full((n, 3), np.nan),
                      sigma_speed_mps=np.full(n, np.nan),
                      quality=np.full(n, SPP_QUALITY, dtype=object))
+
+
+def _guess(last: list, time_s: float, approx):
+    """The first guess of the epoch at `time_s`: the last two fixes (``(time_s, r_e)``)
+    extrapolated at constant velocity when they are at most `GUESS_GAP_S` apart and
+    before it, the last one alone, else `approx` (the file's approximate position)."""
+    if not last or time_s - last[-1][0] > GUESS_GAP_S:
+        return approx
+    if len(last) < 2 or last[1][0] - last[0][0] > GUESS_GAP_S:
+        return last[-1][1]
+    (t0, r0), (t1, r1) = last
+    return r1 + (r1 - r0) * (time_s - t1) / (t1 - t0)
 
 
 def correlation_s(nav, config) -> float:

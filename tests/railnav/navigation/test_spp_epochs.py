@@ -64,6 +64,25 @@ north, is within 4 σ of a mean of N white errors."""
     assert np.all(np.abs(enu.mean(axis=0)) < 4 * sigma_mean)     # white: the mean's σ
 
 
+def test_fixes_are_the_receivers_single_point_solutions(curvy_trip):
+    """The same fixes as `gnss_obs.solve_spp` gives for the whole observation file (its
+    table path: each epoch selected again, iterated to its default 1-mm tolerance from
+    the previous fix, with DOPs, protection levels and sky): the extrapolated guess,
+    the 30-m tolerance and no details (`gnss_obs.spp.solve_spp_epoch`'s
+    ``details=False``) change the position by < 1e-4 m and not the covariance."""
+    from gnss_obs.spp import solve_spp
+    from railnav.navigation.track_fixes import spp_config_of
+    _, data, config, samples = curvy_trip
+    fixes = epoch_spp_fixes(samples.gnss, data, config)
+    spp = solve_spp(data.obs, data.nav, spp_config_of(config))
+    t = spp.gps_time_s - data.start_gps_time_s
+    k = np.searchsorted(t, fixes.time_s)
+    assert np.allclose(t[k], fixes.time_s, atol=1e-6)
+    r_fix = np.asarray(geodetic_to_ecef(fixes.lat, fixes.lon, fixes.h_m)).reshape(-1, 3)
+    assert np.max(np.linalg.norm(r_fix - spp.r_e[k], axis=1)) < 1e-4
+    np.testing.assert_allclose(fixes.cov_n_m2, spp.cov_enu_m2[k], rtol=1e-6, atol=1e-9)
+
+
 def test_no_epochs_no_fixes():
     assert epoch_spp_fixes(None, SimpleNamespace(nav=None), NavigatorConfig()) is None
 
