@@ -34,7 +34,7 @@ import numpy.typing as npt
 
 from gnss_obs.coverage import check_nav_coverage
 from gnss_obs.dgps import apply_corrections
-from gnss_obs.dop import dilution_of_precision
+from gnss_obs.dop import Dop, dilution_of_precision
 from gnss_obs.epoch import (
     MAX_RECEIVER_HEIGHT_M,
     MIN_RECEIVER_RADIUS_M,
@@ -255,8 +255,8 @@ def _sky(epoch: EpochData, tx, ctx: _Context, r_e: Array, clocks: dict[str, floa
             "pr_residual_m": np.where(np.isfinite(b_sat), full.pseudorange_m - rho, np.nan)}
 
 
-def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None
-                 ) -> EpochFix | None:
+def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None,
+                 details: bool = True) -> EpochFix | None:
     cfg = ctx.config
     tx = transmit_states(epoch, cfg.measurement, precise=ctx.precise) if transmit is None \
         else transmit
@@ -269,20 +269,23 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None
     T = np.eye(3 + len(present))
     T[:3, :3] = C.T  # ECEF -> ENU for the position block
     step_enu = _to_enu(fde.step, T)
-    hpl, vpl = protection_levels(step_enu, horizontal=(0, 1), vertical=2,
-                                 p_false_alarm=cfg.p_false_alarm,
-                                 p_missed_detection=cfg.p_missed_detection)
-    H, _, _ = _design(prep, r_e, present)
     ref_clock = float(fde.step.dx[3])  # the others are inter-system biases on top of it
     clocks = {s: ref_clock + (float(fde.step.dx[3 + i]) if i else 0.0)
               for i, s in enumerate(present)}
+    hpl = vpl = float("nan")
+    dop, sky = Dop(*(float("nan"),) * 5), {}
+    if details:
+        hpl, vpl = protection_levels(step_enu, horizontal=(0, 1), vertical=2,
+                                     p_false_alarm=cfg.p_false_alarm,
+                                     p_missed_detection=cfg.p_missed_detection)
+        H, _, _ = _design(prep, r_e, present)
+        dop = dilution_of_precision(H[:, :3], H[:, 3:], lat=float(lat), lon=float(lon))
+        sky = _sky(epoch, tx, ctx, r_e, clocks)
     fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=step_enu.cov[:3, :3],
                    clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
                    n_tracked=len(epoch), raim_ok=fde.raim_ok,
                    chi2=fde.step.test_statistic, dof=fde.step.dof, hpl_m=hpl, vpl_m=vpl,
-                   dop=dilution_of_precision(H[:, :3], H[:, 3:], lat=float(lat),
-                                             lon=float(lon)),
-                   sky=_sky(epoch, tx, ctx, r_e, clocks))
+                   dop=dop, sky=sky)
     vel = _velocity(prep, r_e, cfg) if cfg.velocity else None
     if vel is not None:
         vfde, sub = vel
@@ -398,7 +401,8 @@ def _klobuchar(nav, mc: MeasurementConfig) -> tuple[Array, Array] | None:
 
 
 def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
-                    approx_e: Array | None = None, transmit=None) -> EpochFix | None:
+                    approx_e: Array | None = None, transmit=None,
+                    details: bool = True) -> EpochFix | None:
     """The fix of one epoch as `solve_spp` solves an observation file of that epoch alone:
     from the guess `approx_e` (the file's approximate position; the Earth's centre without
     one), broadcast orbits.
@@ -417,6 +421,9 @@ def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
     transmit : optional
         The epoch's `gnss_obs.epoch.transmit_states` when the caller has them
         (`gnss_obs.epoch.transmit_states_batch`).
+    details : bool
+        Also the protection levels, dilutions of precision and per-satellite sky; False:
+        NaN and an empty ``sky`` (the position, clocks and covariance are the same).
 
     Returns
     -------
@@ -427,4 +434,5 @@ def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
     if not len(epoch):
         return None
     ctx = _Context(cfg, _klobuchar(nav, cfg.measurement))
-    return _solve_epoch(epoch, ctx, _initial_guess(approx_e), transmit=transmit)
+    return _solve_epoch(epoch, ctx, _initial_guess(approx_e), transmit=transmit,
+                        details=details)

@@ -36,12 +36,13 @@ def add_network_arguments(p) -> None:
     p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
                    help="--network: most live hypotheses (default 16)")
     p.add_argument("--spawn", action="store_true",
-                   help="--network, with --fixes: when no live hypothesis agrees with the "
-                        "last fixes and the network does, start new ones from a fix of "
-                        "GNSS quality (NetworkNavConfig.spawn; the default)")
+                   help="--network: when no live hypothesis agrees with the last fixes "
+                        "(--fixes, else each GNSS epoch's own single-point fix of --obs/--nav) "
+                        "and the network does, start new ones from a fix of GNSS quality "
+                        "(NetworkNavConfig.spawn; the default)")
     p.add_argument("--no-spawn", action="store_true",
-                   help="--network: never start hypotheses from the fixes (the test and "
-                        "the status column still run)")
+                   help="--network: never start hypotheses from the fixes or single-point "
+                        "fixes (the test and the status column still run)")
 
 
 def _check_network_flags(args: argparse.Namespace) -> None:
@@ -74,8 +75,9 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         raise ConfigError(f"{', '.join(others)}: not with --network")
     if args.spawn and args.no_spawn:
         raise ConfigError("--spawn, --no-spawn: give one (spawning is the default)")
-    if args.spawn and args.fixes is None:
-        raise ConfigError("--spawn: needs --fixes (new hypotheses start from the fixes)")
+    if args.spawn and args.fixes is None and args.obs is None:
+        raise ConfigError("--spawn: needs --fixes or --obs/--nav (new hypotheses start from "
+                          "the fixes or the epochs' single-point fixes)")
     parse_start(args.start)
 
 

@@ -64,6 +64,8 @@ from railnav.navigation.network_result import NetworkRecorder, NetworkResult
 from railnav.navigation.network_start import NetworkStart, start_hypotheses
 from railnav.navigation.s_split import needs_split, split
 from railnav.navigation.spawning import Spawner
+from railnav.navigation.spp_epochs import correlation_s as spp_correlation_s
+from railnav.navigation.spp_epochs import epoch_spp_fixes
 from railnav.navigation.stacked_fixes import StackedFixStepper, stackable
 from railnav.navigation.network_weights import (
     abreast,
@@ -188,6 +190,17 @@ def _grid_points(stepper):
     return points
 
 
+def _spp_fixes(trip, data, config, nav) -> dict:
+    """The spawn test's fixes of a GNSS run without position fixes: its epochs' own
+    single-point fixes and their errors' τ (`railnav.navigation.spp_epochs`), as the
+    `Spawner`'s keywords; none for a run with fixes or without the test."""
+    if not nav.spawn_window_epochs or (trip.fixes is not None and len(trip.fixes)) or \
+            trip.gnss is None:
+        return {}
+    return {"spp": epoch_spp_fixes(trip.gnss, data, config),
+            "spp_correlation_s": spp_correlation_s(nav, config)}
+
+
 def _check_inputs(config: NavigatorConfig, data: SensorData) -> None:
     kind = filter_kind(config.filter)
     if not (kind.banks or (kind.fixes and data.fixes is not None)):
@@ -252,7 +265,8 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                                                            data, config, nav,
                                                            after_s=after_s),
                           p_degraded=config.monitor.p_degraded,
-                          points=_grid_points(stepper), network=network)
+                          points=_grid_points(stepper), network=network,
+                          **_spp_fixes(trip, data, config, nav))
     hyps = run.cycles(hyps, ends, progress)
     run.recorder.spawns.extend(run.spawner.spawns)
     if run.spawner.active:

@@ -13,8 +13,9 @@ each epoch; and the final hypotheses with their paths. From these:
   its last coordinate), ``netelement_probability``, ``mixture_offset_m`` and
   ``mixture_sigma_m`` (the mixture on that element: meaningful where one element holds a
   Gaussian sum along ``s``), and ``hypotheses`` (the live count); in runs with position
-  fixes also ``status`` (``ok``, ``degraded``, ``lost``: whether any live hypothesis agrees
-  with the fixes, the test of `railnav.navigation.spawning`);
+  fixes or GNSS observations also ``status`` (``ok``, ``degraded``, ``lost``: whether any
+  live hypothesis agrees with the fixes, or with the GNSS epochs' own single-point fixes,
+  the test of `railnav.navigation.spawning`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
   hypothesis (its path), each element with entry and exit times, the probability of the
@@ -283,7 +284,7 @@ class NetworkResult:
         out = pd.concat(parts).sort_index()
         for name in NETWORK_COLUMNS:
             out[name] = self.cycles[name].to_numpy()
-        if self.status_records is not None:          # runs with fixes
+        if self.status_records is not None:          # runs with the spawn test
             out["status"] = status_at(self.status_records, t)
         return out.reset_index(drop=True)
 

@@ -9,7 +9,8 @@ along-track component and a cross-track row that the map's error widens,
 element), or an along-track start error larger than the fault screen's gate (every later
 row is rejected, the filter dead-reckons), stays wrong with probability 1 to the end.
 
-`Spawner` watches the navigator's own evidence at each epoch with a position fix, on the
+`Spawner` watches the navigator's own evidence at each epoch with a position fix (or, in
+runs without fixes, a GNSS epoch's single-point fix: below), on the
 hypotheses' posteriors: for each live hypothesis ``h`` the horizontal disagreement of the
 fix with the track point at its ``s``,
 
@@ -32,8 +33,8 @@ attempt per window (spawn or not: a fix whose candidates all disagree with it to
 none, nor a window that the network itself does not explain, `Spawner._on_network`: a
 train on a track the map lacks). The test's outcome per fix epoch is the ``status`` column of the network
 run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
-divergence monitor's statuses and thresholds, on the navigator's own evidence; runs without
-fixes have no status column).
+divergence monitor's statuses and thresholds, on the navigator's own evidence; runs with
+neither fixes nor GNSS observations have no status column).
 
 Correlated fix errors declared (`NetworkNavConfig.evidence_correlation_s`, e.g. 60 s for
 fixes of single-point quality): each epoch counts ``(1 − ρ)/(1 + ρ)`` of an independent one
@@ -59,17 +60,34 @@ GNSS quality while it still fails gets the spawn attempt. (The real log_28554 in
 tunnel: its one false spawn, at 238.8 s, came from a ``PROPAGATED`` fix 24 m from the
 element it started on.)
 
+Runs without position fixes (GNSS observations, with or without an IMU) test and spawn
+from each GNSS epoch's own single-point fix instead (`railnav.navigation.spp_epochs`:
+the epoch's pseudoranges alone, weighted least squares with the run's σ model and the
+receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior). Their
+errors are counted as correlated over the larger of `NetworkNavConfig.
+evidence_correlation_s` and the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for
+simulated trips; 20 s by default for real ones: a 5-epoch window at 1 Hz is then one
+look). A spawn starts its hypotheses as the run's start does
+(`railnav.navigation.network_start`: ``filt.initial_from_fix`` of that epoch's
+single-point fix), so their receiver clock bias and drift are the fix's, not the lost
+hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m,
+5 seeds): a start 400 m along the track, never recovered without spawning, is within
+10 m from 5-8 s on (one spawn, when the first window has filled); 150 m, which the
+curves between the loops correct by 24-32 s, from 5-8 s (one seed 19 s: the two
+parallel tracks undecided after the spawn). A start on the wrong one of two tracks
+4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
+window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
+5-8 s).
+Cost: one single-point solve per GNSS epoch (~2 ms).
+
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
 either way): see its documentation for the spawns measured on the real logs.
-
-Limits: only runs with position fixes (`railnav.filters.fix_epochs.FixEpochs`) spawn; GNSS
-runs without fixes would need a single-point solution per epoch (the divergence monitor's
-`railnav.navigation.track_fixes.spp_track_fixes`, 5 s of a 7.6-s run) and do not spawn yet.
 """
 from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -77,6 +95,7 @@ from scipy.special import chdtrc
 
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
+from railnav.navigation.network_weights import track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 #: The fix quality (`gnss_obs.fixes.table.FIX_QUALITIES`) never spawned from.
@@ -146,14 +165,16 @@ def chi2_isf(p: float) -> float:
 
 def track_points(hyps) -> tuple[Array, Array]:
     """ECEF position and unit tangent of each hypothesis's track point at its ``s``
-    (clamped to its track; `trackmodel.Track.at`), shapes (K, 3)."""
-    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
-    for j, h in enumerate(hyps):
-        track = h.filt.track
-        p = track.at(min(max(h.s_m, 0.0), track.length_m))
-        r[j] = np.asarray(p.r_e, dtype=float).reshape(3)
-        u[j] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float).reshape(3)
-    return r, u
+    (clamped to its track; `railnav.navigation.network_weights.track_points_of`, one
+    evaluation for all), shapes (K, 3)."""
+    points = track_points_of(hyps)
+    if not points:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    lat = np.array([float(p.lat) for p in points])
+    lon = np.array([float(p.lon) for p in points])
+    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
+    u_n = np.array([np.asarray(p.u_n, dtype=float).reshape(3) for p in points])
+    return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
 
 
 class Spawner:
@@ -173,15 +194,32 @@ class Spawner:
     points : callable(hyps) -> (r_e, tangent_e), optional
         The hypotheses' track points (default `track_points`; the fix-only stepper's grid
         is faster).
+    network : trackmodel.network.Network, optional
+        Where `_on_network` looks for the nearest centre-lines (None: no such check).
+    spp : railnav.filters.fix_epochs.FixEpochs, optional
+        A run without position fixes: its GNSS epochs' own single-point fixes, one per
+        epoch of ``trip.gnss`` (`railnav.navigation.spp_epochs.epoch_spp_fixes`); a run
+        with fixes tests those.
+    spp_correlation_s : float
+        τ of `spp`'s errors, s (`railnav.navigation.spp_epochs.correlation_s`): the
+        window counts them as `NetworkNavConfig.evidence_correlation_s` says for fixes.
     """
 
     def __init__(self, nav, trip, cross_sigma_m: float, start,
-                 p_degraded: float = 1e-3, points=None, network=None) -> None:
+                 p_degraded: float = 1e-3, points=None, network=None, spp=None,
+                 spp_correlation_s: float = 0.0) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
         self.points = points or track_points
         self.network = network
-        self._frames = fix_frames(trip.fixes) if trip.fixes is not None and \
-            len(trip.fixes) else None
+        own = trip.fixes is not None and len(trip.fixes) > 0
+        #: The fixes tested (the run's own, else its epochs' single-point fixes) and which
+        #: of `EpochSchedule.split`'s indices is theirs.
+        self.fixes, self._column = (trip.fixes, 1) if own else (spp, 0)
+        # the window counts the single-point fixes' correlated errors (their τ)
+        self._shares = nav if own else replace(
+            nav, evidence_correlation_s=max(nav.evidence_correlation_s, spp_correlation_s))
+        self._frames = fix_frames(self.fixes) if self.fixes is not None and \
+            len(self.fixes) else None
         self.p_degraded = p_degraded
         self.window: list[float] = []
         self.shares: list[float] = []
@@ -191,21 +229,21 @@ class Spawner:
         self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
         self.spawns: list[tuple[float, int]] = []
-        self.active = bool(nav.spawn_window_epochs) and trip.fixes is not None and \
-            trip.schedule is not None and len(trip.fixes) > 0
+        self.active = bool(nav.spawn_window_epochs) and self._frames is not None and \
+            trip.schedule is not None
 
     def after_epoch(self, hyps: list, epoch: int | None, time_s: float) -> list:
         """`hyps`, with new hypotheses when the window's test fails at this epoch."""
         if not self.active or epoch is None or not hyps:
             return hyps
-        _, f = self.trip.schedule.split(epoch)
-        if f < 0:
+        f = self.trip.schedule.split(epoch)[self._column]
+        if f < 0 or not np.isfinite(self.fixes.lat[f]):
             return hyps
         r_e, tangent_e = self.points(hyps)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in hyps], 0.0))
-        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
                               (self._frames[0][f], self._frames[1][f]))
-        share = evidence_share(self.nav, time_s - self._last_s)
+        share = evidence_share(self._shares, time_s - self._last_s)
         self._last_s = time_s
         self.window.append(float(np.min(d2)))
         self.shares.append(share)
@@ -239,7 +277,7 @@ class Spawner:
         fixes 20–37 m from every element; at 226.8 s the live hypothesis's window tail
         was just below 1e-6 and a candidate 29 m off agreed with a dead-reckoned fix of
         σ 10 m)."""
-        fx, n = self.trip.fixes, len(window)
+        fx, n = self.fixes, len(window)
         reach = float(chi2_isf(self.nav.spawn_p_value)) * max(n, 1)   # beyond: fails alone
         d2 = np.full(n, reach)
         for j, k in enumerate(window):
@@ -264,7 +302,7 @@ class Spawner:
             "time_s", "status", "p_fix", "d2_min", "action"])
 
     def _spawn(self, hyps: list, time_s: float, f: int) -> list:
-        if self.trip.fixes.quality[f] == DEAD_RECKONING:
+        if self.fixes.quality[f] == DEAD_RECKONING:
             return hyps      # no start from an extrapolation: the window waits for a GNSS fix
         window, shares = self.fixes_in_window, self.shares
         self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
@@ -281,7 +319,7 @@ class Spawner:
         # network lacks, 10-30 m from the nearest element, gets none: it stays lost)
         r_e, tangent_e = self.points(new)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in new], 0.0))
-        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.trip.fixes, f, self.cross_sigma_m,
+        d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
                               (self._frames[0][f], self._frames[1][f]))
         new = [h for h, d in zip(new, d2) if chdtrc(2.0, float(d)) >= self.nav.spawn_p_value]
         if not new:

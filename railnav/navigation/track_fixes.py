@@ -143,10 +143,10 @@ def spp_track_fixes(track, data, config, *, start_s: float = 0.0, end_s: float =
                                         & (t <= end_s + FIX_TIME_TOL_S)])
     if len(sub.table) == 0:
         return None
-    return _spp_on_track(track, data, solve_spp(sub, data.nav, _spp_config(config)), filt)
+    return _spp_on_track(track, data, solve_spp(sub, data.nav, spp_config_of(config)), filt)
 
 
-def _spp_config(config):
+def spp_config_of(config):
     """The single-point solution's settings of a run: its measurements and mask."""
     from gnss_obs.spp import SppConfig
     return SppConfig(measurement=config.measurement, elevation_mask_deg=config.elevation_mask_deg)
@@ -228,7 +228,7 @@ def spp_fix_at(track, data, config, *, filt=None) -> Callable[[float], TrackFixe
         if k is None:
             return spp_track_fixes(track, data, config, start_s=time_s, end_s=time_s, filt=filt)
         from gnss_obs.spp import solve_spp_epoch
-        cfg = _spp_config(config)
+        cfg = spp_config_of(config)
         fix = solve_spp_epoch(own.gnss.epochs[k], data.nav, cfg,
                               approx_e=data.obs.header.approx_position_e,
                               transmit=own.gnss.transmit[k])

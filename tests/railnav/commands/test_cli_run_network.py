@@ -128,7 +128,7 @@ def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):
     is wrong on the epochs the log's own carrier-fixed rows put on 3842 (issue 13's
     netelement truth); by default, one spawn and the share right rises above the run
     without; ``--spawn`` (accepted, the default) gives the default's numbers. ``--spawn``
-    needs fixes, and with ``--no-spawn`` is an error."""
+    needs fixes or GNSS observations, and with ``--no-spawn`` is an error."""
     share, spawns = {}, {}
     for flag in (["--no-spawn"], [], ["--spawn"]):
         out = tmp_path / ("_".join(flag) or "default")
@@ -145,6 +145,44 @@ def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):
                  "--no-spawn", "--out", str(tmp_path / "both")]) == 2
     assert "--spawn, --no-spawn: give one" in capsys.readouterr().err
     assert not (tmp_path / "both").exists()
-    assert main(["-q", "run", "--network", BRUSSELS, "--obs", "x.rnx", "--nav", "y.rnx",
+    assert main(["-q", "run", "--network", BRUSSELS, "--imu", "x.csv",
                  "--spawn", "--out", str(tmp_path / "o")]) == 2
-    assert "--spawn: needs --fixes" in capsys.readouterr().err
+    assert "--spawn: needs --fixes or --obs/--nav" in capsys.readouterr().err
+
+
+def test_gnss_run_spawns_from_single_point_fixes(tmp_path, capsys):
+    """A GNSS network run (``--imu --obs --nav``, no fixes) told to start 400 m along
+    88_L_111 from where the train is (a trip simulated on the route, the truth's
+    ``s_m``: the offset on 88_L_111, travelled towards its first coordinate, is its
+    length minus ``s_m``): with ``--no-spawn`` the estimate stays > 100 m off to the end
+    and the run ends ``lost`` (the status column and the monitor's counts from the
+    epochs' single-point fixes, no spawn); by default it spawns and ends within 10 m of
+    the truth, ``ok``."""
+    import numpy as np
+    from trackmodel.network_io import read_network
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", "--network", BRUSSELS, "--route",
+                 "88_L_111,88_L_154,88_L_7815", "--scenario", "curvy", "--duration-s", "40",
+                 "--out", str(sim)]) == 0
+    length = read_network(BRUSSELS).length_m("88_L_111")
+    truth = pd.read_csv(sim / "truth.csv")
+    files = ["--imu", str(sim / "imu.csv"), "--obs", str(sim / "gnss_obs.rnx"),
+             "--nav", str(sim / "gnss_nav.rnx"), "--no-plots"]
+    start = f"88_L_111:{length - 400.0:.1f}:-"
+    error, summary, status = {}, {}, {}
+    for name, flag in (("off", ["--no-spawn"]), ("default", [])):
+        out = tmp_path / name
+        assert main(["-q", "run", "--network", BRUSSELS, *files, "--start", start, *flag,
+                     "--out", str(out)]) == 0
+        est = pd.read_csv(out / "estimates.csv")
+        truth_offset = length - np.interp(est["time_s"], truth["time_s"], truth["s_m"])
+        assert est["netelement"].iloc[-1] == "88_L_111"
+        error[name] = float(est["netelement_offset_m"].iloc[-1] - truth_offset[-1])
+        summary[name] = json.loads((out / "summary.json").read_text())
+        status[name] = set(est["status"])
+    assert summary["off"]["route"]["spawns"] == [] and abs(error["off"]) > 100.0
+    assert "lost" in status["off"]
+    assert summary["off"]["statistics"]["monitor"]["final_status"] == "lost"
+    assert len(summary["default"]["route"]["spawns"]) >= 1 and abs(error["default"]) < 10.0
+    assert summary["default"]["statistics"]["monitor"]["final_status"] == "ok"
+    assert status["default"] <= {"ok", "degraded", "lost"}

@@ -170,9 +170,11 @@ def test_spawn_config_checks():
             NetworkNavConfig(**bad)
 
 
-def test_runs_without_fixes_never_spawn():
-    """GNSS runs (no position fixes) have no test to spawn from: the spawner is idle and
-    returns the hypotheses it is given, whatever the epoch."""
+def test_runs_without_fixes_or_single_point_fixes_never_spawn():
+    """A run with neither position fixes nor its GNSS epochs' single-point fixes
+    (`railnav.navigation.spp_epochs`; GNSS runs: `tests/railnav/navigation/
+    test_spp_epochs.py`) has no test to spawn from: the spawner is idle and returns the
+    hypotheses it is given, whatever the epoch."""
     from railnav.navigation.spawning import Spawner
     spawner = Spawner(SPAWN, SimpleNamespace(fixes=None, schedule=None), 1.5,
                       start=lambda after_s: (_ for _ in ()).throw(AssertionError("started")))

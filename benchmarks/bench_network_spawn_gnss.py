@@ -1,0 +1,163 @@
+"""Recovery by spawning in GNSS network runs (issue 14 §3): a network navigator started
+wrong, on simulated pseudoranges without position fixes, with and without spawning.
+
+Usage::
+
+    python benchmarks/bench_network_spawn_gnss.py [--seeds 3] [--out FILE]
+
+The network is `railnav.simulation.switch_network`'s double line (A and B 4.5 m apart),
+the route straight along A (no loop taken), 20 m/s, curvy's sensors with σ_pr 3 m (GPS),
+for `TRIP_S`. The navigator is told a wrong start (`railnav.navigation.network_start.
+NetworkStart` and the truth brought onto the start's track, `railnav.jobs.network.
+candidate_starts`):
+
+* ``along``: on A0, `ALONG_ERRORS_M` ahead of the truth with the scenario's σ_s: beyond
+  the fault screen's gate, so that later GNSS rows are rejected and it dead-reckons;
+* ``parallel``: on B, the wrong one of the two parallel tracks.
+
+Each case runs with the tactical IMU (constrained INS/GNSS; the GNSS-only filter needs
+fixes in a network run), with spawning
+off (``NetworkNavConfig(spawn=False)``, today's behaviour for GNSS runs) and on. Figures
+per run: the share of cycles whose most probable netelement is the true one, the time
+from which the most probable netelement stays on the route with its along-track error
+(along the route) below `RECOVERED_M` (``recovered_s``, None: never), the spawns and the
+final along-track error.
+
+``parallel`` runs on two networks: the 4.5 m spacing, and `WIDE_SPACING_M` (where one
+epoch's single-point fix, σ ≈ 3-4 m per axis at σ_pr 3 m, tells the tracks apart).
+
+Writes ``benchmarks/results/network_spawn_gnss.json`` (or ``--out``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import os
+import platform
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from railnav.filters.protocol import make_filter  # noqa: E402
+from railnav.jobs.network import candidate_starts, true_netelements  # noqa: E402
+from railnav.navigation.hypotheses import NetworkNavConfig  # noqa: E402
+from railnav.navigation.network_navigator import navigate_network  # noqa: E402
+from railnav.navigation.network_start import NetworkStart  # noqa: E402
+from railnav.simulation.profiles import constant_speed  # noqa: E402
+from railnav.simulation.scenarios import get_scenario  # noqa: E402
+from railnav.simulation.switch_network import (  # noqa: E402
+    SwitchNetworkSpec,
+    loop_route,
+    route_track,
+    switch_network,
+)
+from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
+from trackmodel.files import atomic_write_text  # noqa: E402
+
+RESULTS = REPO / "benchmarks" / "results" / "network_spawn_gnss.json"
+SPEED_MPS, SIGMA_PR_M, TRIP_S, START_S_M = 20.0, 3.0, 120.0, 50.0
+#: The along-track start errors of case ``along``, m (at 150 m the start's first update
+#: pulls the hypothesis part of the way in; at 400 m it does not).
+ALONG_ERRORS_M = (150.0, 400.0)
+#: Recovered: the right netelement with an along-track error below this, m.
+RECOVERED_M = 10.0
+#: The second network's spacing of case ``parallel``, m.
+WIDE_SPACING_M = 15.0
+#: The filters run (the GNSS-only filter does not screen its rows: a network run without
+#: fixes refuses it, `railnav.navigation.network_navigator`).
+FILTERS = {"tactical": "constrained"}
+
+
+def _initial(along_m: float, base):
+    """The wrong start (module docstring) from the truth brought onto each candidate
+    (`base`), `along_m` ahead."""
+    def initial(filt, element, orientation):
+        init = base(filt, element, orientation)
+        if init is None or not along_m:
+            return init
+        x0 = np.array(init.x0, dtype=float)
+        x0[filt.layout.index("s")] += along_m * orientation
+        return replace(init, x0=x0)
+    return initial
+
+
+def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int) -> dict:
+    scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
+                       duration_s=TRIP_S, outages=(), start_s=START_S_M,
+                       sigma_pseudorange_m=SIGMA_PR_M)
+    line = route_track(net, legs)
+    config = navigator_config_for(scenario, filter=FILTERS[kind], systems="G")
+    trip = simulate_trip(scenario, track=line, seed=seed, systems="G")
+    base = candidate_starts(trip, config, make_filter(line, config, None))
+    started = time.process_time()
+    res = navigate_network(net, trip.sensor_data(), config,
+                           nav=NetworkNavConfig(spawn=spawn),
+                           start=NetworkStart("A0" if case == "along" else "B", direction=1),
+                           initial=_initial(along_m, base),
+                           near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])))
+    cpu = time.process_time() - started
+    cyc = res.cycles
+    truth_s = np.interp(res.time_s, trip.truth.time_s, trip.truth.s)
+    truth = true_netelements(net, legs, truth_s)
+    starts = dict(zip([e for e, _ in legs],
+                      np.concatenate([[0.0], np.cumsum([net.length_m(e) for e, _ in legs])])))
+    est = cyc["netelement"].to_numpy()
+    right = est == truth
+    # along the route (A's elements chained): a joint passed a cycle early is no error
+    along = np.array([starts.get(e, np.nan) for e in est], dtype=float) + \
+        cyc["netelement_offset_m"].to_numpy() - truth_s
+    good = np.abs(np.nan_to_num(along, nan=np.inf)) < RECOVERED_M     # NaN: off the route
+    bad = np.flatnonzero(~good)
+    recovered = float(res.time_s[0]) if bad.size == 0 else \
+        (float(res.time_s[bad[-1] + 1]) if bad[-1] + 1 < good.size else None)
+    return {"case": case, "along_error_m": along_m, "imu": kind, "spawn": spawn, "seed": seed,
+            "cycles": int(len(cyc)), "netelement_right": int(right.sum()),
+            "share_netelement_right": float(right.mean()), "recovered_s": recovered,
+            "final_along_error_m": None if not np.isfinite(along[-1]) else float(along[-1]),
+            "final_netelement": str(est[-1]),
+            "spawns": [list(sp) for sp in res.spawns], "navigator_cpu_s": cpu}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--out", type=Path, default=RESULTS)
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.ERROR)
+    load_before = os.getloadavg()
+    runs = []
+    cases = [("along", 4.5, a) for a in ALONG_ERRORS_M] + \
+        [("parallel", 4.5, 0.0), ("parallel", WIDE_SPACING_M, 0.0)]
+    for case, spacing, along_m in cases:
+        spec = SwitchNetworkSpec(loops=2, spacing_m=spacing)
+        net = switch_network(spec)
+        legs = loop_route(spec, [False] * spec.loops)
+        runs += [{"spacing_m": spacing, **_run(net, legs, case, along_m, kind, spawn, seed)}
+                 for kind in FILTERS for spawn in (False, True)
+                 for seed in range(1, args.seeds + 1)]
+    for r in runs:
+        print(f"{r['case']:8s} {r['along_error_m']:5.0f} m {r['spacing_m']:4.1f} m {r['imu']} "
+              f"spawn={r['spawn']!s:5s} "
+              f"seed {r['seed']}: "
+              f"netelement right {r['share_netelement_right']:.3f}, recovered at "
+              f"{r['recovered_s']} s, final along error {r['final_along_error_m']}, "
+              f"spawns {len(r['spawns'])}, {r['navigator_cpu_s']:.1f} s CPU")
+    out = {"scenario": {"speed_mps": SPEED_MPS, "sigma_pr_m": SIGMA_PR_M, "trip_s": TRIP_S,
+                        "along_errors_m": list(ALONG_ERRORS_M), "recovered_m": RECOVERED_M},
+           "runs": runs,
+           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                       "load_average_before": load_before,
+                       "load_average_after": os.getloadavg()}}
+    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
