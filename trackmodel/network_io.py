@@ -11,6 +11,16 @@
 * `write_network` / `read_network`: a fitted network as a folder, ``connections.csv``
   (``a, a_end, b, b_end, navigability``) plus one track file per netelement in
   ``elements/`` (`trackmodel.io`), listed in ``elements.csv`` (``element, file``).
+
+**Heights.** A network knows whether it has heights (`Network.heights`). A GeoJSON file
+has them when every netelement's coordinates are ``[lon, lat, h]`` (``h`` ellipsoidal, m,
+fitted into each track's vertical profile); when only some netelements have them the
+network is read without heights (one warning: a run must not have a height on some
+netelements and none on others), and a netelement mixing both forms is an error.
+OpenStreetMap has none. A network without heights has tracks at ``h = 0``, a
+placeholder; its folder says so in the column ``heights`` of ``elements.csv`` (``no``; a
+folder without the column, or a track file, has heights), and its GeoJSON export has
+``[lon, lat]`` pairs.
 """
 from __future__ import annotations
 
@@ -55,6 +65,10 @@ NETWORK_MIN_RADIUS_M = ROUTE_MIN_RADIUS_M
 GEOJSON_STEP_M = 5.0
 #: Decimal places of exported degrees (1e-8 degree is ~1 mm).
 GEOJSON_DECIMALS = 8
+#: Decimal places of exported heights, m.
+GEOJSON_HEIGHT_DECIMALS = 3
+#: Column of ``elements.csv`` saying whether a netelement has heights (module docstring).
+HEIGHTS_COLUMN = "heights"
 
 
 @dataclass(frozen=True)
@@ -68,11 +82,15 @@ class NetworkSource:
     connections : tuple of Connection
     attributes : dict of str to dict of str to str
         Each netelement's other properties (GeoJSON) or tags (OpenStreetMap), as text.
+    heights : dict of str to ndarray, or None
+        Each netelement's ellipsoidal heights at its points, m, shape (N,); None for a
+        source without heights (module docstring).
     """
 
     polylines: dict[str, tuple[Array, Array]]
     connections: tuple[Connection, ...]
     attributes: dict[str, dict[str, str]] = field(default_factory=dict)
+    heights: dict[str, Array] | None = None
 
 
 def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
@@ -90,7 +108,7 @@ def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
         raise TrackFileError(f"not a readable GeoJSON file ({exc})", path=path) from None
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise TrackFileError("expected a GeoJSON FeatureCollection", path=path)
-    polylines, relations, attributes = {}, [], {}
+    polylines, relations, attributes, heights = {}, [], {}, {}
     features = data.get("features")
     if not isinstance(features, list):
         raise TrackFileError("the FeatureCollection has no list of features", path=path)
@@ -98,17 +116,29 @@ def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
         geometry = feature.get("geometry") if isinstance(feature, dict) else None
         kind = geometry.get("type") if isinstance(geometry, dict) else None
         if kind == "LineString":
-            name, lat_lon = _netelement(feature, k, path)
+            name, lat_lon, h = _netelement(feature, k, path)
             if name in polylines:
                 raise TrackFileError(f"feature {k}: netelement {name!r} given twice", path=path)
             polylines[name] = lat_lon
+            if h is not None:
+                heights[name] = h
             attributes[name] = _attributes(feature["properties"])
         elif kind == "Point" and "netelementA" in _properties(feature):
             relations.append((k, feature["properties"]))
     if not polylines:
         raise TrackFileError("no LineString netelement in the file", path=path)
     connections = [_relation(k, props, polylines, path) for k, props in relations]
-    return NetworkSource(polylines, _merged(connections, path), attributes)
+    return NetworkSource(polylines, _merged(connections, path), attributes,
+                         _all_or_none(heights, len(polylines), path))
+
+
+def _all_or_none(heights: dict, count: int, path) -> dict | None:
+    """The netelements' heights if every one of the `count` has them, else None (with a
+    warning when only some have them: module docstring)."""
+    if heights and len(heights) < count:
+        log.warning("%s: %d of %d netelements have heights, the others not: the network is "
+                    "read without heights", path, len(heights), count)
+    return heights if len(heights) == count else None
 
 
 def _properties(feature: dict) -> dict:
@@ -155,25 +185,26 @@ def _merged(connections: list[Connection], path) -> tuple[Connection, ...]:
     return tuple(out.values())
 
 
-def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array]]:
+def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array], Array | None]:
     name = _properties(feature).get("id")
     if not isinstance(name, str) or not name:
         raise TrackFileError(f"feature {k}: a netelement needs a string properties.id",
                              path=path)
     try:
-        xy = np.array(feature["geometry"]["coordinates"], dtype=float)
-        if xy.ndim != 2 or xy.shape[1] not in (2, 3):
+        xyz = np.array(feature["geometry"]["coordinates"], dtype=float)
+        if xyz.ndim != 2 or xyz.shape[1] not in (2, 3):
             raise ValueError
-        xy = xy[:, :2]
     except (KeyError, TypeError, ValueError, IndexError, OverflowError):
-        raise TrackFileError(f"feature {k} ({name}): coordinates are not [lon, lat] pairs",
-                             path=path) from None
-    if xy.shape[0] < 2 or not np.all(np.isfinite(xy)):
+        raise TrackFileError(f"feature {k} ({name}): coordinates are not all [lon, lat] or "
+                             "all [lon, lat, h]", path=path) from None
+    xy = xyz[:, :2]
+    if xyz.shape[0] < 2 or not np.all(np.isfinite(xyz)):
         raise TrackFileError(f"feature {k} ({name}): need >= 2 finite points", path=path)
     if np.any(np.abs(xy[:, 0]) > 180) or np.any(np.abs(xy[:, 1]) > 90):
         raise TrackFileError(f"feature {k} ({name}): lon must be in [-180, 180] and lat in "
                              "[-90, 90] degrees", path=path)
-    return name, (np.radians(xy[:, 1]), np.radians(xy[:, 0]))
+    h = xyz[:, 2].copy() if xyz.shape[1] == 3 else None
+    return name, (np.radians(xy[:, 1]), np.radians(xy[:, 0])), h
 
 
 def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
@@ -200,7 +231,8 @@ def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
 def build_network(source: NetworkSource, *, tol_m: float = 0.5,
                   min_radius_m: float = NETWORK_MIN_RADIUS_M,
                   progress: Callable[[int, int], None] | None = None) -> Network:
-    """Fit every netelement (`trackmodel.fit.fit_track`) and join them.
+    """Fit every netelement (`trackmodel.fit.fit_track`, with its heights when the source
+    has them) and join them.
 
     Parameters
     ----------
@@ -220,14 +252,18 @@ def build_network(source: NetworkSource, *, tol_m: float = 0.5,
     from trackmodel.fit import fit_track    # SciPy's optimize and interpolate: only to fit
     elements = {}
     total = len(source.polylines)
+    heights = source.heights
     for i, (name, (lat, lon)) in enumerate(source.polylines.items()):
+        h = None if heights is None else heights[name]
         try:
-            elements[name] = fit_track(lat, lon, tol_m=tol_m, min_radius_m=min_radius_m).track
+            elements[name] = fit_track(lat, lon, h, tol_m=tol_m,
+                                       min_radius_m=min_radius_m).track
         except TrackError as exc:
             raise TrackError(f"netelement {name}: {exc}") from None
         if progress is not None:
             progress(i + 1, total)
-    return Network(elements, source.connections, source.attributes)
+    return Network(elements, source.connections, source.attributes,
+                   heights=heights is not None)
 
 
 def _file_name(element: str) -> str:
@@ -274,6 +310,8 @@ def _write_folder(network: Network, out: Path, files: dict[str, str]) -> None:
         write_track(track, out / "elements" / files[name], comments=[f"netelement {name}"])
     index = pd.DataFrame({"element": list(files),
                           "file": [f"elements/{f}" for f in files.values()]})
+    if not network.heights:
+        index[HEIGHTS_COLUMN] = "no"
     keys = sorted({k for values in network.attributes.values() for k in values} - {*index})
     for key in keys:
         index[key] = [network.attributes.get(name, {}).get(key, "") for name in files]
@@ -294,9 +332,10 @@ def read_network(folder: str | os.PathLike) -> Network:
     """
     root = Path(folder)
     index = _csv(root / "elements.csv", ("element", "file"))
-    elements, attributes = {}, {}
+    elements, attributes, heights = {}, {}, {}
     for i, row in enumerate(index.to_dict("records"), start=1):
         name, file = row.pop("element"), row.pop("file")
+        heights[name] = _heights_cell(row.pop(HEIGHTS_COLUMN, ""), root / "elements.csv", i)
         if not name or name in elements:
             raise TrackFileError(f"netelement {name!r} empty or given twice",
                                  path=root / "elements.csv", row=i)
@@ -320,10 +359,21 @@ def read_network(folder: str | os.PathLike) -> Network:
                                  row=i) from None
         connections.append(Connection(str(row.a), a_end, str(row.b), b_end,
                                       str(row.navigability)))
+    known = {name for name, given in heights.items() if given}
     try:
-        return Network(elements, connections, attributes)
+        return Network(elements, connections, attributes, heights=_all_or_none(
+            known, len(elements), root / "elements.csv") is not None)
     except TrackError as exc:
         raise TrackFileError(str(exc), path=root / "connections.csv") from None
+
+
+def _heights_cell(text: str, path: Path, row: int) -> bool:
+    """Whether a netelement of a folder has heights: ``heights`` = ``yes`` or empty (the
+    default), or ``no``."""
+    if text not in ("", "yes", "no"):
+        raise TrackFileError(f"{HEIGHTS_COLUMN} must be yes, no or empty, got {text!r}",
+                             path=path, row=row, column=HEIGHTS_COLUMN)
+    return text != "no"
 
 
 def _csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
@@ -342,13 +392,17 @@ def write_network_geojson(network: Network, path: str | os.PathLike, *,
     """Write `network` as GeoJSON netelements + netrelations (the layout
     `read_network_geojson` reads): each netelement its fitted track sampled every
     <= `step_m` (WGS-84 lon/lat, degrees) with its attributes as properties; each
-    connection a Point at its ``a`` end. Written atomically."""
+    connection a Point at its ``a`` end; ``[lon, lat, h]`` for a network with heights
+    (`Network.heights`), else ``[lon, lat]``. Written atomically."""
     features = []
     for name, track in network.elements.items():
         n = max(2, int(np.ceil(track.length_m / step_m)) + 1)
-        lat, lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
-        coords = np.round(np.column_stack([np.degrees(lon), np.degrees(lat)]),
-                          GEOJSON_DECIMALS).tolist()
+        lat, lon, h = track.geodetic(np.linspace(0.0, track.length_m, n))
+        columns = [np.round(np.degrees(lon), GEOJSON_DECIMALS),
+                   np.round(np.degrees(lat), GEOJSON_DECIMALS)]
+        if network.heights:
+            columns.append(np.round(h, GEOJSON_HEIGHT_DECIMALS))
+        coords = np.column_stack(columns).tolist()
         features.append({"type": "Feature",
                          "properties": {**network.attributes.get(name, {}), "id": name},
                          "geometry": {"type": "LineString", "coordinates": coords}})
