@@ -170,7 +170,13 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     and fix model), plus `start` (`railnav.navigation.network_start.NetworkStart`, default
     unknown) and `nav` (`NetworkNavConfig`); `truth_path` is a fix file whose rows of
     `truth_quality` (default ``rtk_fixed``) give the netelement truth; `window`, an extra
-    summary window ``(start_s, end_s)``.
+    summary window ``(start_s, end_s)``. On a network without heights, no height is used or
+    written (module docstring).
+
+    Raises
+    ------
+    ConfigError
+        Pseudoranges (`obs_path`) on a network without heights.
     """
     from railnav.jobs.scoring import with_timestamps
     _check_heights(network, obs_path=obs_path, imu_path=imu_path)
