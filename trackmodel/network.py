@@ -128,6 +128,10 @@ class Network:
     attributes : mapping of str to mapping of str to str, optional
         Each netelement's attributes from its source (e.g. OpenStreetMap's ``railway``,
         ``gauge``, ``service``, ``usage``); kept and written, not interpreted.
+    heights : bool
+        Whether the netelements' heights are known (attribute ``heights``). A network read
+        without them (OpenStreetMap, a GeoJSON file of ``[lon, lat]`` pairs) has tracks at
+        ``h = 0``, a placeholder: a run on it writes no height (`railnav.jobs.network`).
 
     Raises
     ------
@@ -137,10 +141,12 @@ class Network:
     """
 
     def __init__(self, elements: Mapping[str, Track], connections: Sequence[Connection],
-                 attributes: Mapping[str, Mapping[str, str]] | None = None) -> None:
+                 attributes: Mapping[str, Mapping[str, str]] | None = None, *,
+                 heights: bool = True) -> None:
         if not elements:
             raise TrackError("a network needs at least one netelement")
         self.elements: dict[str, Track] = dict(elements)
+        self.heights = bool(heights)
         self.attributes: dict[str, dict[str, str]] = {
             name: dict(values) for name, values in (attributes or {}).items()
             if name in self.elements and values}

@@ -8,29 +8,32 @@
   or ``none``). It returns plain data (`NetworkSource`) with located one-line errors.
 * `build_network` fits each netelement's polyline with `trackmodel.fit.fit_track` and
   joins them (`trackmodel.network.Network`).
-* `write_network` / `read_network`: a fitted network as a folder, ``connections.csv``
-  (``a, a_end, b, b_end, navigability``) plus one track file per netelement in
-  ``elements/`` (`trackmodel.io`), listed in ``elements.csv`` (``element, file``).
+* `write_network` / `read_network` (from `trackmodel.network_folder`): a fitted network as
+  a folder, ``connections.csv`` plus one track file per netelement.
+
+**Heights.** A network knows whether it has heights (`Network.heights`). A GeoJSON file
+has them when every netelement's coordinates are ``[lon, lat, h]`` (``h`` ellipsoidal, m,
+fitted into each track's vertical profile); when only some netelements have them the
+network is read without heights (one warning: a run must not have a height on some
+netelements and none on others), and a netelement mixing both forms is an error.
+OpenStreetMap has none. A network without heights has tracks at ``h = 0``, a
+placeholder; its folder says so (`trackmodel.network_folder`) and its GeoJSON export has
+``[lon, lat]`` pairs.
 """
 from __future__ import annotations
 
 import json
 import logging
 import os
-import re
-import shutil
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 
 from trackmodel.errors import TrackError, TrackFileError
-from trackmodel.files import atomic_write_csv, atomic_write_text
-from trackmodel.io import read_track, write_track
+from trackmodel.files import atomic_write_text
 from trackmodel.network import (
     NAVIGABILITY,
     ROUTE_MIN_RADIUS_M,
@@ -38,6 +41,7 @@ from trackmodel.network import (
     Connection,
     Network,
 )
+from trackmodel.network_folder import heights_known, read_network, write_network
 from trackmodel.track import Track
 
 __all__ = ["NetworkSource", "read_network_geojson", "write_network_geojson", "build_network",
@@ -55,6 +59,8 @@ NETWORK_MIN_RADIUS_M = ROUTE_MIN_RADIUS_M
 GEOJSON_STEP_M = 5.0
 #: Decimal places of exported degrees (1e-8 degree is ~1 mm).
 GEOJSON_DECIMALS = 8
+#: Decimal places of exported heights, m.
+GEOJSON_HEIGHT_DECIMALS = 3
 
 
 @dataclass(frozen=True)
@@ -68,11 +74,15 @@ class NetworkSource:
     connections : tuple of Connection
     attributes : dict of str to dict of str to str
         Each netelement's other properties (GeoJSON) or tags (OpenStreetMap), as text.
+    heights : dict of str to ndarray, or None
+        Each netelement's ellipsoidal heights at its points, m, shape (N,); None for a
+        source without heights (module docstring).
     """
 
     polylines: dict[str, tuple[Array, Array]]
     connections: tuple[Connection, ...]
     attributes: dict[str, dict[str, str]] = field(default_factory=dict)
+    heights: dict[str, Array] | None = None
 
 
 def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
@@ -90,7 +100,7 @@ def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
         raise TrackFileError(f"not a readable GeoJSON file ({exc})", path=path) from None
     if not isinstance(data, dict) or data.get("type") != "FeatureCollection":
         raise TrackFileError("expected a GeoJSON FeatureCollection", path=path)
-    polylines, relations, attributes = {}, [], {}
+    polylines, relations, attributes, heights = {}, [], {}, {}
     features = data.get("features")
     if not isinstance(features, list):
         raise TrackFileError("the FeatureCollection has no list of features", path=path)
@@ -98,17 +108,20 @@ def read_network_geojson(path: str | os.PathLike) -> NetworkSource:
         geometry = feature.get("geometry") if isinstance(feature, dict) else None
         kind = geometry.get("type") if isinstance(geometry, dict) else None
         if kind == "LineString":
-            name, lat_lon = _netelement(feature, k, path)
+            name, lat_lon, h = _netelement(feature, k, path)
             if name in polylines:
                 raise TrackFileError(f"feature {k}: netelement {name!r} given twice", path=path)
             polylines[name] = lat_lon
+            if h is not None:
+                heights[name] = h
             attributes[name] = _attributes(feature["properties"])
         elif kind == "Point" and "netelementA" in _properties(feature):
             relations.append((k, feature["properties"]))
     if not polylines:
         raise TrackFileError("no LineString netelement in the file", path=path)
     connections = [_relation(k, props, polylines, path) for k, props in relations]
-    return NetworkSource(polylines, _merged(connections, path), attributes)
+    return NetworkSource(polylines, _merged(connections, path), attributes,
+                         heights if heights_known(heights, len(polylines), path) else None)
 
 
 def _properties(feature: dict) -> dict:
@@ -155,25 +168,26 @@ def _merged(connections: list[Connection], path) -> tuple[Connection, ...]:
     return tuple(out.values())
 
 
-def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array]]:
+def _netelement(feature: dict, k: int, path) -> tuple[str, tuple[Array, Array], Array | None]:
     name = _properties(feature).get("id")
     if not isinstance(name, str) or not name:
         raise TrackFileError(f"feature {k}: a netelement needs a string properties.id",
                              path=path)
     try:
-        xy = np.array(feature["geometry"]["coordinates"], dtype=float)
-        if xy.ndim != 2 or xy.shape[1] not in (2, 3):
+        xyz = np.array(feature["geometry"]["coordinates"], dtype=float)
+        if xyz.ndim != 2 or xyz.shape[1] not in (2, 3):
             raise ValueError
-        xy = xy[:, :2]
     except (KeyError, TypeError, ValueError, IndexError, OverflowError):
-        raise TrackFileError(f"feature {k} ({name}): coordinates are not [lon, lat] pairs",
-                             path=path) from None
-    if xy.shape[0] < 2 or not np.all(np.isfinite(xy)):
+        raise TrackFileError(f"feature {k} ({name}): coordinates are not all [lon, lat] or "
+                             "all [lon, lat, h]", path=path) from None
+    xy = xyz[:, :2]
+    if xyz.shape[0] < 2 or not np.all(np.isfinite(xyz)):
         raise TrackFileError(f"feature {k} ({name}): need >= 2 finite points", path=path)
     if np.any(np.abs(xy[:, 0]) > 180) or np.any(np.abs(xy[:, 1]) > 90):
         raise TrackFileError(f"feature {k} ({name}): lon must be in [-180, 180] and lat in "
                              "[-90, 90] degrees", path=path)
-    return name, (np.radians(xy[:, 1]), np.radians(xy[:, 0]))
+    h = xyz[:, 2].copy() if xyz.shape[1] == 3 else None
+    return name, (np.radians(xy[:, 1]), np.radians(xy[:, 0])), h
 
 
 def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
@@ -200,7 +214,8 @@ def _relation(k: int, props: dict, polylines: dict, path) -> Connection:
 def build_network(source: NetworkSource, *, tol_m: float = 0.5,
                   min_radius_m: float = NETWORK_MIN_RADIUS_M,
                   progress: Callable[[int, int], None] | None = None) -> Network:
-    """Fit every netelement (`trackmodel.fit.fit_track`) and join them.
+    """Fit every netelement (`trackmodel.fit.fit_track`, with its heights when the source
+    has them) and join them.
 
     Parameters
     ----------
@@ -220,121 +235,18 @@ def build_network(source: NetworkSource, *, tol_m: float = 0.5,
     from trackmodel.fit import fit_track    # SciPy's optimize and interpolate: only to fit
     elements = {}
     total = len(source.polylines)
+    heights = source.heights
     for i, (name, (lat, lon)) in enumerate(source.polylines.items()):
+        h = None if heights is None else heights[name]
         try:
-            elements[name] = fit_track(lat, lon, tol_m=tol_m, min_radius_m=min_radius_m).track
+            elements[name] = fit_track(lat, lon, h, tol_m=tol_m,
+                                       min_radius_m=min_radius_m).track
         except TrackError as exc:
             raise TrackError(f"netelement {name}: {exc}") from None
         if progress is not None:
             progress(i + 1, total)
-    return Network(elements, source.connections, source.attributes)
-
-
-def _file_name(element: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]", "_", element) + ".csv"
-
-
-def write_network(network: Network, folder: str | os.PathLike) -> None:
-    """Write a fitted network as a folder (module docstring). The folder is written
-    beside the target and moved into place at the end, so an error leaves nothing
-    half-written; an existing network folder there is replaced.
-
-    Raises
-    ------
-    TrackError
-        `folder` exists and is neither empty nor a network folder, or two netelement ids
-        map to one file name.
-    """
-    out = Path(folder)
-    if out.exists() and not (out.is_dir() and (not any(out.iterdir())
-                                               or (out / "elements.csv").is_file())):
-        raise TrackError(f"{out}: exists and is not a network folder")
-    files = {name: _file_name(name) for name in network.elements}
-    if len(set(files.values())) != len(files):
-        raise TrackError("two netelement ids map to one file name")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        _write_folder(network, tmp, files)
-        if out.exists():
-            old = out.with_name(f".{out.name}.old-{tmp.name}")
-            out.rename(old)
-            tmp.rename(out)
-            shutil.rmtree(old)
-        else:
-            tmp.rename(out)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp)
-
-
-def _write_folder(network: Network, out: Path, files: dict[str, str]) -> None:
-    (out / "elements").mkdir()
-    for name, track in network.elements.items():
-        write_track(track, out / "elements" / files[name], comments=[f"netelement {name}"])
-    index = pd.DataFrame({"element": list(files),
-                          "file": [f"elements/{f}" for f in files.values()]})
-    keys = sorted({k for values in network.attributes.values() for k in values} - {*index})
-    for key in keys:
-        index[key] = [network.attributes.get(name, {}).get(key, "") for name in files]
-    atomic_write_csv(out / "elements.csv", index)
-    atomic_write_csv(out / "connections.csv", pd.DataFrame(
-        [{"a": c.a, "a_end": c.a_end, "b": c.b, "b_end": c.b_end,
-          "navigability": c.navigability} for c in network.connections],
-        columns=["a", "a_end", "b", "b_end", "navigability"]))
-
-
-def read_network(folder: str | os.PathLike) -> Network:
-    """A network written by `write_network`.
-
-    Raises
-    ------
-    TrackFileError
-        A missing or malformed file (located).
-    """
-    root = Path(folder)
-    index = _csv(root / "elements.csv", ("element", "file"))
-    elements, attributes = {}, {}
-    for i, row in enumerate(index.to_dict("records"), start=1):
-        name, file = row.pop("element"), row.pop("file")
-        if not name or name in elements:
-            raise TrackFileError(f"netelement {name!r} empty or given twice",
-                                 path=root / "elements.csv", row=i)
-        try:
-            target = (root / file).resolve()
-            inside = root.resolve() in target.parents and target.is_file()
-        except (OSError, ValueError):                 # a NUL byte, a loop of links
-            inside = False
-        if not inside:
-            raise TrackFileError(f"file {file!r} is not a file inside the network folder",
-                                 path=root / "elements.csv", row=i)
-        elements[name] = read_track(target)
-        attributes[name] = {k: v for k, v in row.items() if v != ""}
-    table = _csv(root / "connections.csv", ("a", "a_end", "b", "b_end", "navigability"))
-    connections = []
-    for i, row in enumerate(table.itertuples(), start=1):
-        try:
-            a_end, b_end = int(row.a_end), int(row.b_end)
-        except (TypeError, ValueError):
-            raise TrackFileError("a_end and b_end must be 0 or 1", path=root / "connections.csv",
-                                 row=i) from None
-        connections.append(Connection(str(row.a), a_end, str(row.b), b_end,
-                                      str(row.navigability)))
-    try:
-        return Network(elements, connections, attributes)
-    except TrackError as exc:
-        raise TrackFileError(str(exc), path=root / "connections.csv") from None
-
-
-def _csv(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
-    try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (OSError, ValueError, UnicodeDecodeError) as exc:
-        raise TrackFileError(f"cannot read ({exc})", path=path) from None
-    missing = [c for c in columns if c not in frame.columns]
-    if missing:
-        raise TrackFileError(f"missing column(s) {', '.join(missing)}", path=path)
-    return frame
+    return Network(elements, source.connections, source.attributes,
+                   heights=heights is not None)
 
 
 def write_network_geojson(network: Network, path: str | os.PathLike, *,
@@ -342,13 +254,17 @@ def write_network_geojson(network: Network, path: str | os.PathLike, *,
     """Write `network` as GeoJSON netelements + netrelations (the layout
     `read_network_geojson` reads): each netelement its fitted track sampled every
     <= `step_m` (WGS-84 lon/lat, degrees) with its attributes as properties; each
-    connection a Point at its ``a`` end. Written atomically."""
+    connection a Point at its ``a`` end; ``[lon, lat, h]`` for a network with heights
+    (`Network.heights`), else ``[lon, lat]``. Written atomically."""
     features = []
     for name, track in network.elements.items():
         n = max(2, int(np.ceil(track.length_m / step_m)) + 1)
-        lat, lon, _ = track.geodetic(np.linspace(0.0, track.length_m, n))
-        coords = np.round(np.column_stack([np.degrees(lon), np.degrees(lat)]),
-                          GEOJSON_DECIMALS).tolist()
+        lat, lon, h = track.geodetic(np.linspace(0.0, track.length_m, n))
+        columns = [np.round(np.degrees(lon), GEOJSON_DECIMALS),
+                   np.round(np.degrees(lat), GEOJSON_DECIMALS)]
+        if network.heights:
+            columns.append(np.round(h, GEOJSON_HEIGHT_DECIMALS))
+        coords = np.column_stack(columns).tolist()
         features.append({"type": "Feature",
                          "properties": {**network.attributes.get(name, {}), "id": name},
                          "geometry": {"type": "LineString", "coordinates": coords}})

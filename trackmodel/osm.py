@@ -37,7 +37,8 @@ A piece of way whose points all lie within `MIN_ELEMENT_M` of its first cannot b
 it is dropped and its two end nodes are made one (with a warning naming it).
 
 Netelements then are fitted like any others (`trackmodel.network_io.build_network`); OSM
-has no heights, so the tracks have ``h = 0``.
+has no heights, so the tracks have ``h = 0``, a placeholder, and the network says so
+(`trackmodel.network.Network` ``heights`` False).
 """
 from __future__ import annotations
 

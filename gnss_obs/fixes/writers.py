@@ -4,7 +4,9 @@
 `gnss_obs.fixes.csv_reader` reads back (``gps_time_s`` to 17 digits, so every float
 round-trips). `write_fixes_nmea` writes one burst per fix, GGA + RMC + VTG + GST, each
 sentence built and checksummed by pynmea2: the ellipsoidal height as GGA's altitude with
-a zero geoid separation (the sum is what the reader takes), the fix class as GGA quality
+a zero geoid separation (the sum is what the reader takes; a fix without a height has
+both fields empty, NMEA's null field for "not available", which pynmea2 reads as
+``None``), the fix class as GGA quality
 and RMC mode (`NMEA_CODES`), latitude and longitude to 1e-7 minute (0.2 mm), time to
 0.01 s. Both write atomically.
 """
@@ -87,11 +89,11 @@ def nmea_sentences(row, utc_label_s: float) -> list[str]:
                                     _optional(speed / KMPH_MPS, ".4f"), "K", mode))
     sig = [float(row[c]) for c in ("sigma_north_m", "sigma_east_m", "sigma_up_m")]
     sentences = [gga, rmc, vtg]
-    if all(np.isfinite(sig)):
+    if all(np.isfinite(sig[:2])):               # the height's σ empty when it is unknown
         major = max(sig[:2])
         sentences.append(pynmea2.GST("GP", "GST", (tod, "", f"{major:.4f}",
                                                    f"{min(sig[:2]):.4f}", "0.0",
-                                                   *(f"{s:.4f}" for s in sig))))
+                                                   *(_optional(s, ".4f") for s in sig))))
     return [str(s) for s in sentences]
 
 

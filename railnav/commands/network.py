@@ -139,7 +139,8 @@ def _info(args: argparse.Namespace) -> int:
     print(f"{args.network}: {len(network.elements)} netelements, "
           f"{sum(network.length_m(e) for e in network.elements) / 1000:.1f} km; "
           f"{len(network.connections)} joints, {len(kinks)} navigable "
-          f"({int(kinks['continuous'].sum()) if len(kinks) else 0} with a continuous tangent)")
+          f"({int(kinks['continuous'].sum()) if len(kinks) else 0} with a continuous tangent); "
+          + ("with" if network.heights else "no") + " heights")
     kinds = Counter(network.attributes.get(e, {}).get("railway") for e in network.elements)
     if set(kinds) - {None}:
         print("  netelements by railway=: " + ", ".join(

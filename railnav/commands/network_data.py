@@ -113,7 +113,8 @@ def _summary(network) -> str:
     km = sum(network.length_m(e) for e in network.elements) / 1000
     navigable = sum(c.navigability != "none" for c in network.connections)
     return (f"{len(network.elements)} netelements, {km:.1f} km, {len(network.connections)} "
-            f"joints ({navigable} navigable)")
+            f"joints ({navigable} navigable), " + ("with" if network.heights else "no")
+            + " heights")
 
 
 def import_handler(args: argparse.Namespace) -> int:
@@ -197,5 +198,10 @@ def _write_route(network, legs, out: Path) -> None:
     from trackmodel.io import write_track
     from trackmodel.network_routes import route_text
     line = network.route_track(tuple(legs))
-    write_track(line, out, comments=[f"route {route_text(legs)}"])
+    comments = [f"route {route_text(legs)}"]
+    if not network.heights:                  # a track file has heights: say this one has not
+        comments.append("the network has no heights: h = 0 is a placeholder")
+        log.warning("the network has no heights: %s has h = 0, a placeholder that a run on "
+                    "this track takes as the height", out)
+    write_track(line, out, comments=comments)
     print(f"{out}: the route's line, {line.length_m:.1f} m, {len(line.sections)} sections")

@@ -209,4 +209,4 @@ def _network(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     with progress_bar("network", enabled=not args.quiet) as progress:
         run = run_network(args, Path(args.out), progress=progress)
     written = write_network_run(run, tmp, plots=not args.no_plots)
-    return network_report(run, Path(args.out)), written
+    return network_report(run, Path(args.out)), written + _exports(args, run.outcome, tmp)

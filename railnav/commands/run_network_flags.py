@@ -69,8 +69,6 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         others.append("--base/--sp3/--smooth-window-s")
     if getattr(args, "smooth", False):
         others.append("--smooth")
-    if getattr(args, "export", None) is not None:
-        others.append("--export")
     if others:
         raise ConfigError(f"{', '.join(others)}: not with --network")
     if args.spawn and args.no_spawn:

@@ -23,6 +23,15 @@
 
 Course over ground is ``atan2(v_east, v_north)``. Times are UTC from ``gps_time_s``
 (`gnss_obs.gpstime.from_gps_time_s`: the leap seconds of the date).
+
+**Without heights** (``h_m`` empty, as in a run on a network without heights,
+`railnav.navigation.result.without_heights`) no format invents one: GeoJSON positions are
+``[lon, lat]`` (RFC 7946 §3.1.1: the altitude is optional), KML coordinates ``lon,lat``
+with ``clampToGround`` (KML 2.2: the altitude is ignored), GPX points have no ``ele``
+(optional in GPX 1.1) and no ``geoidheight``, NMEA's GGA has empty altitude and geoid
+separation fields and GST an empty height σ (NMEA 0183's null field: "not available").
+None of the four formats requires a height. A table with heights on some rows only has
+them left out of every position.
 """
 from __future__ import annotations
 
@@ -111,8 +120,20 @@ def _text(v) -> str:
     return "" if v is None else repr(v) if isinstance(v, float) else str(v)
 
 
+def _has_heights(est: pd.DataFrame) -> bool:
+    """Whether every row has a height (module docstring)."""
+    return bool(np.all(np.isfinite(est["h_m"].to_numpy(dtype=float))))
+
+
+def _positions(est: pd.DataFrame) -> np.ndarray:
+    """``lon, lat[, h]`` of each row, degrees and m, shape (N, 3) or (N, 2) without
+    heights."""
+    return est[["lon_deg", "lat_deg", "h_m"] if _has_heights(est)
+               else ["lon_deg", "lat_deg"]].to_numpy(dtype=float)
+
+
 def _geojson(est: pd.DataFrame, path: Path) -> None:
-    coords = est[["lon_deg", "lat_deg", "h_m"]].to_numpy().tolist()
+    coords = _positions(est).tolist()
     line = {"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
             "properties": {"name": "estimated trajectory", "samples": len(est)}}
     columns = list(est.columns)
@@ -130,9 +151,9 @@ def _kml(est: pd.DataFrame, path: Path) -> None:
     doc = ET.SubElement(root, ns + "Document")
     ET.SubElement(doc, ns + "name").text = "estimated trajectory"
     line = ET.SubElement(ET.SubElement(doc, ns + "Placemark"), ns + "LineString")
-    ET.SubElement(line, ns + "altitudeMode").text = "absolute"
-    xyz = [",".join(repr(float(v)) for v in p)
-           for p in est[["lon_deg", "lat_deg", "h_m"]].to_numpy()]
+    mode = "absolute" if _has_heights(est) else "clampToGround"
+    ET.SubElement(line, ns + "altitudeMode").text = mode
+    xyz = [",".join(repr(float(v)) for v in p) for p in _positions(est)]
     ET.SubElement(line, ns + "coordinates").text = " ".join(xyz)
     times = gps_time_s_to_utc_iso(est["gps_time_s"].to_numpy(), suffix="Z")
     columns = list(est.columns)
@@ -144,7 +165,7 @@ def _kml(est: pd.DataFrame, path: Path) -> None:
             item = ET.SubElement(data, ns + "Data", name=c)
             ET.SubElement(item, ns + "value").text = _text(v)
         point = ET.SubElement(mark, ns + "Point")
-        ET.SubElement(point, ns + "altitudeMode").text = "absolute"
+        ET.SubElement(point, ns + "altitudeMode").text = mode
         ET.SubElement(point, ns + "coordinates").text = xyz[k]
     with atomic_write(path, "wb") as fh:
         ET.ElementTree(root).write(fh, encoding="utf-8", xml_declaration=True)
@@ -172,10 +193,11 @@ def _gpx(est: pd.DataFrame, path: Path) -> None:
     track.segments.append(segment)
     table = est.assign(course_deg=_course_deg(est))
     extra = [c for c in table.columns if c not in _GPX_OWN]
+    heights = _has_heights(est)
     for when, row in zip(_utc_datetimes(table), table.itertuples(index=False)):
-        point = gpxpy.gpx.GPXTrackPoint(row.lat_deg, row.lon_deg, elevation=row.h_m,
-                                        time=when)
-        point.geoid_height = 0.0
+        point = gpxpy.gpx.GPXTrackPoint(row.lat_deg, row.lon_deg,
+                                        elevation=row.h_m if heights else None, time=when)
+        point.geoid_height = 0.0 if heights else None
         values = ET.Element(f"{{{GPX_NAMESPACE}}}estimate")
         for c in extra:
             ET.SubElement(values, f"{{{GPX_NAMESPACE}}}{c}").text = _text(getattr(row, c))
@@ -192,7 +214,7 @@ def _nmea(est: pd.DataFrame, path: Path) -> None:
     nan = np.full(len(est), np.nan)
     table = pd.DataFrame({
         "gps_time_s": est["gps_time_s"], "lat_deg": est["lat_deg"],
-        "lon_deg": est["lon_deg"], "h_m": est["h_m"],
+        "lon_deg": est["lon_deg"], "h_m": est["h_m"] if _has_heights(est) else nan,
         "speed_mps": est["speed_mps"] if "speed_mps" in est else nan,
         "course_deg": _course_deg(est),
         **{c: est[c] if c in est else nan

@@ -17,10 +17,23 @@
 
 `route_candidates` and `route_name` list the routes ahead of a start (``railnav network
 routes``).
+
+**A network without heights** (`trackmodel.network.Network` ``heights``: OpenStreetMap, a
+GeoJSON file of ``[lon, lat]`` pairs, the shipped Brussels network) has tracks at
+``h = 0``, a placeholder, so a run of recorded files on it (`run_files_network`) uses no
+height: the fixes' heights are not used (no ``fix_up`` rows, no start-height check:
+``FixModelConfig(use_height=False)``), the estimates' `HEIGHT_COLUMNS` are empty
+(`railnav.navigation.result.without_heights`) and ``summary.json`` says ``"heights":
+false``. Pseudoranges are refused (their geometry needs the antenna's height: ~100 m off
+at Brussels); an IMU is navigated as on level track (its along-track gravity ``g sinϑ``
+unmodelled: 0.1 m/s² on a 1 % grade), with a warning. A simulated trip on such a network
+(`run_simulated_network`) runs in a world at ``h = 0``: its truth and estimates keep
+their heights.
 """
 from __future__ import annotations
 
 import json
+import logging
 import os
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -39,7 +52,7 @@ from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_s
 from railnav.navigation.hypotheses import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
 from railnav.navigation.network_weights import converted
-from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT
+from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, without_heights
 from trackmodel.errors import TrackError
 from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.network import NetPosition, Network, Route
@@ -48,6 +61,8 @@ __all__ = ["route_candidates", "route_name", "run_files_network", "run_simulated
            "write_network_run", "NetworkRunOutcome", "load_network", "true_netelements",
            "candidate_starts",
            "DEFAULT_HORIZON_M", "DEFAULT_MAX_ROUTES"]
+
+log = logging.getLogger(__name__)
 
 #: The most routes `route_candidates` lists.
 DEFAULT_MAX_ROUTES = 16
@@ -155,27 +170,59 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     and fix model), plus `start` (`railnav.navigation.network_start.NetworkStart`, default
     unknown) and `nav` (`NetworkNavConfig`); `truth_path` is a fix file whose rows of
     `truth_quality` (default ``rtk_fixed``) give the netelement truth; `window`, an extra
-    summary window ``(start_s, end_s)``.
+    summary window ``(start_s, end_s)``. On a network without heights, no height is used or
+    written (module docstring).
+
+    Raises
+    ------
+    ConfigError
+        Pseudoranges (`obs_path`) on a network without heights.
     """
     from railnav.jobs.scoring import with_timestamps
+    _check_heights(network, obs_path=obs_path, imu_path=imu_path)
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
                                      config=config, filter=filter, systems=systems,
                                      imu_grade=imu_grade, fix_sigmas=fix_sigmas,
                                      fix_model=fix_model)
+    if not network.heights:
+        config = replace(config, fix_model=replace(config.fix_model, use_height=False))
     result = navigate_network(network, data, config, nav=nav, start=start,
                               outages=tuple(outages), progress=progress)
     combined = with_timestamps(result.combined(), data.fixes)
+    if not network.heights:
+        combined = without_heights(combined)
     track = result.tracks.placed(result.keys[-1])
     extra = {}
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
-    summary = run_summary(combined, track, None, window, tuple(outages), extra)
+    summary = run_summary(combined, track, None, window, tuple(outages),
+                          {**extra, "heights": network.heights})
     truth_t, truth = (None, None) if truth_path is None else _fix_truth(
         network, truth_path, truth_quality, data.start_gps_time_s)
     summary = _scored_summary(summary, result, network, truth_t, truth, {})
     return NetworkRunOutcome(RunOutcome(combined, track, summary, data=data), result, network)
+
+
+def _check_heights(network: Network, *, obs_path, imu_path) -> None:
+    """A run of recorded files on a network without heights (module docstring): no
+    pseudoranges; an IMU with a warning.
+
+    Raises
+    ------
+    ConfigError
+        `obs_path` given on a network without heights.
+    """
+    if network.heights:
+        return
+    if obs_path is not None:
+        raise ConfigError("this network has no heights: pseudorange runs need a track with "
+                          "heights (a network folder or GeoJSON file with them, or a track "
+                          "file)")
+    if imu_path is not None:
+        log.warning("this network has no heights: the IMU is navigated as on level track "
+                    "(its along-track gravity on a grade is not modelled)")
 
 
 def simulation_line(network: Network, legs):
@@ -271,7 +318,8 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
     combined = result.combined()
     errors = error_series(combined, trip.truth, trip.track, clock_truth=trip.clock_truth)
     summary = run_summary(combined, trip.track, errors, window, scenario.outages,
-                          {"scenario": scenario.name, "seed": int(seed), "systems": systems})
+                          {"scenario": scenario.name, "seed": int(seed), "systems": systems,
+                           "heights": True})
     truth_s = np.interp(result.time_s, trip.truth.time_s, trip.truth.s)
     summary = _scored_summary(summary, result, network, result.time_s,
                               true_netelements(network, legs, truth_s),

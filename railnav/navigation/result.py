@@ -17,10 +17,14 @@ channel is out, `railnav.filters.fault_detection`); ``accepted`` is ``status == 
 ``fault_probability`` is the row's posterior fault probability and ``clock_jump_m`` a
 receiver clock jump declared at the row's epoch (NaN for filters without the fault screen,
 and where none was).
+
+A run on tracks without heights (a network read without them, `trackmodel.network.Network`
+``heights``) knows no height: `without_heights` empties the `HEIGHT_COLUMNS` of its
+estimates (NaN: an empty CSV field, ``null`` in JSON).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -34,7 +38,7 @@ from railnav.navigation.monitor import STATUSES, status_at
 from railnav.navigation.protection import protection_columns
 
 __all__ = ["NavigationResult", "estimates_frame", "integrity_columns", "monitor_statistics",
-           "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
+           "without_heights", "HEIGHT_COLUMNS", "CSV_FLOAT_FORMAT", "CSV_DECIMALS"]
 
 #: CSV float format of the output tables: 12 significant digits (µm at 10⁶ m, 1e-10° in
 #: degrees), except the times (`CSV_DECIMALS`).
@@ -44,6 +48,11 @@ CSV_FLOAT_FORMAT = "%.12g"
 CSV_DECIMALS = {"time_s": 6, "gps_time_s": 6}
 
 Array = npt.NDArray[np.float64]
+
+#: Columns of ``estimates.csv`` that a track without heights cannot give: the ellipsoidal
+#: height, the vertical velocity and their σ, and the pitch (which follows the track's
+#: grade) and its σ.
+HEIGHT_COLUMNS = ("h_m", "v_up_mps", "sigma_up_m", "pitch_deg", "sigma_pitch_deg")
 
 
 def estimates_frame(filt_obj, t: npt.NDArray[np.float64], x: npt.NDArray[np.float64],
@@ -63,6 +72,14 @@ def estimates_frame(filt_obj, t: npt.NDArray[np.float64], x: npt.NDArray[np.floa
     """
     head = {"time_s": t, "gps_time_s": t + start_gps_time_s}
     return pd.DataFrame({**head, **filt_obj.estimates(x, P_packed)})
+
+
+def without_heights(result: "NavigationResult") -> "NavigationResult":
+    """`result` with the `HEIGHT_COLUMNS` of its estimates NaN (module docstring): the run's
+    tracks have ``h = 0`` as a placeholder, not as a height."""
+    est = result.estimates.copy()
+    est[[c for c in HEIGHT_COLUMNS if c in est.columns]] = np.nan
+    return replace(result, estimates=est)
 
 
 @dataclass(frozen=True, eq=False)
