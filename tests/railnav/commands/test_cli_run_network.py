@@ -157,9 +157,19 @@ def test_gnss_run_spawns_from_single_point_fixes(tmp_path, capsys):
     length minus ``s_m``): with ``--no-spawn`` the estimate stays > 100 m off to the end
     and the run ends ``lost`` (the status column and the monitor's counts from the
     epochs' single-point fixes, no spawn); by default it spawns and ends within 10 m of
-    the truth, ``ok``."""
+    the truth, ``ok``.
+
+    The simulated world is the network at h = 0 (a network without heights), so the run
+    reads a copy of it whose ``elements.csv`` claims those heights: a file run refuses
+    pseudoranges on a network without heights."""
+    import shutil
+
     import numpy as np
     from trackmodel.network_io import read_network
+    network = tmp_path / "brussels_h0"
+    shutil.copytree(BRUSSELS, network)
+    elements = pd.read_csv(network / "elements.csv")
+    elements.drop(columns="heights").to_csv(network / "elements.csv", index=False)
     sim = tmp_path / "sim"
     assert main(["-q", "simulate", "--network", BRUSSELS, "--route",
                  "88_L_111,88_L_154,88_L_7815", "--scenario", "curvy", "--duration-s", "40",
@@ -172,7 +182,7 @@ def test_gnss_run_spawns_from_single_point_fixes(tmp_path, capsys):
     error, summary, status = {}, {}, {}
     for name, flag in (("off", ["--no-spawn"]), ("default", [])):
         out = tmp_path / name
-        assert main(["-q", "run", "--network", BRUSSELS, *files, "--start", start, *flag,
+        assert main(["-q", "run", "--network", str(network), *files, "--start", start, *flag,
                      "--out", str(out)]) == 0
         est = pd.read_csv(out / "estimates.csv")
         truth_offset = length - np.interp(est["time_s"], truth["time_s"], truth["s_m"])
