@@ -109,7 +109,8 @@ class NetworkNavConfig:
         (`railnav.navigation.spawning`), only when the network itself explains the
         window's fixes, and never from a dead-reckoned fix. On by default; runs without
         position fixes test and spawn from each GNSS epoch's own single-point fix
-        (`railnav.navigation.spp_epochs`). On the four real Brussels logs as given it spawns nothing
+        (`railnav.navigation.spp_epochs`). On the four real Brussels logs as given it
+        spawns nothing
         (before the dead-reckoning rule: once, on log_28554 at 238.8 s, from a
         ``PROPAGATED`` fix 24 m from 88_L_2013, the route then not navigable; before the
         network rule, 22 times); with the fixes degraded to single-point quality (5 seeds

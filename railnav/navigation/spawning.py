@@ -31,8 +31,9 @@ The evidence of the next epochs then decides between old and new (common basis,
 `railnav.navigation.network_weights`). The window restarts after a spawn, so at most one
 attempt per window (spawn or not: a fix whose candidates all disagree with it too gets
 none, nor a window that the network itself does not explain, `Spawner._on_network`: a
-train on a track the map lacks). The test's outcome per fix epoch is the ``status`` column of the network
-run's ``estimates.csv`` (`Spawner.frame`, read by `railnav.navigation.monitor.status_at`: the
+train on a track the map lacks). The test's outcome per fix epoch is the ``status``
+column of the network run's ``estimates.csv`` (`Spawner.frame`, read by
+`railnav.navigation.monitor.status_at`: the
 divergence monitor's statuses and thresholds, on the navigator's own evidence; runs with
 neither fixes nor GNSS observations have no status column).
 
@@ -78,7 +79,7 @@ parallel tracks undecided after the spawn). A start on the wrong one of two trac
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
 5-8 s).
-Cost: one single-point solve per GNSS epoch (~2 ms).
+Cost: one single-point solve per GNSS epoch (~1 ms of CPU; `railnav.navigation.spp_epochs`).
 
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
 either way): see its documentation for the spawns measured on the real logs.
