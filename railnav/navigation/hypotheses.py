@@ -119,9 +119,10 @@ class NetworkNavConfig:
         ``PROPAGATED`` fix 24 m from 88_L_2013, the route then not navigable; before the
         network rule, 22 times); with the fixes degraded to single-point quality (5 seeds
         per log) once in four of log_29083's five runs (no truth epochs there; routes
-        navigable) and never on the others. Every per-epoch netelement figure of those
-        runs is the same as without spawning. False: the test runs (the ``status``
-        column), nothing is spawned.
+        navigable) and never on the others, every per-epoch netelement figure the same as
+        without spawning; with their bias modelled too (``fix_bias_sigma_m`` 2 m), once
+        in all five of log_29083's runs, never on the others. False: the test runs (the
+        ``status`` column), nothing is spawned.
     spawn_window_epochs : int
         Fix epochs in the window of that test, >= 0 (0: no test, no status column).
     spawn_p_value : float
