@@ -17,8 +17,8 @@ Per log, with no start given (`railnav.jobs.network.run_files_network`):
   whose netelement is right, the route's check (navigable, passes the truth's elements);
 * ``degraded``: seeds 1..N of the fixes degraded to single-point quality
   (`railnav.simulation.fix_degrade`: 2 m white + 2 m Gauss–Markov bias, τ 60 s, per axis),
-  navigated with that correlation declared (``NetworkNavConfig.evidence_correlation_s``
-  = 60 s); among the epochs given P >= 0.99 the share right, and overall the number right,
+  navigated with that error model declared (``NetworkNavConfig.evidence_correlation_s``
+  = 60 s, ``fix_bias_sigma_m`` = 2 m: `railnav.navigation.fix_bias`); among the epochs given P >= 0.99 the share right, and overall the number right,
   against tp-lib's on the same degraded file;
 * ``speed``: log_29304 out and back (it ends standing: its fixes, 3 min standing, then the
   same positions in reverse order, the train going back through its switch; 15 min at
@@ -56,7 +56,7 @@ from railnav.evaluation.netelement_truth import (  # noqa: E402
 )
 from railnav.jobs.network import load_network, run_files_network  # noqa: E402
 from railnav.navigation.hypotheses import NetworkNavConfig  # noqa: E402
-from railnav.simulation.fix_degrade import SPP_TAU_S, degrade_log  # noqa: E402
+from railnav.simulation.fix_degrade import SPP_BIAS_M, SPP_TAU_S, degrade_log  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 
 NETWORK = REPO / "data" / "networks" / "brussels_airport"
@@ -169,7 +169,8 @@ def _log_figures(network, data: Path, name: str, python, seeds: int, work: Path,
         path = work / f"{name}_spp{seed}.csv"
         degrade_log(log, path, seed=seed)
         ours = _ours(network, path, truth_t, truth,
-                     NetworkNavConfig(evidence_correlation_s=SPP_TAU_S, spawn=spawn))
+                     NetworkNavConfig(evidence_correlation_s=SPP_TAU_S,
+                                      fix_bias_sigma_m=SPP_BIAS_M, spawn=spawn))
         out["degraded"].append({"seed": seed, "ours": ours,
                                 "tplib": _tplib(python, path, truth, geojson, work)})
     return out

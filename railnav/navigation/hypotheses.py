@@ -38,6 +38,7 @@ import numpy.typing as npt
 from ekf.bank import logsumexp, merge_gaussians
 from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
 from railnav.errors import ConfigError
+from railnav.navigation.fix_bias import merged
 from railnav.navigation.net_tracks import OrientedTracks, bare
 
 __all__ = ["NetworkNavConfig", "Hypothesis", "hypothesis", "branch", "branch_ahead",
@@ -98,6 +99,11 @@ class NetworkNavConfig:
         ``(1 − ρ)/(1 + ρ)``, ``ρ = e^{−Δt/τ}`` (Δt since the previous epoch), the share of
         an independent epoch that such a sequence brings over its correlation time; 0:
         white errors, every epoch counts whole.
+    fix_bias_sigma_m : float
+        σ_b >= 0 of a Gauss–Markov bias (τ = ``evidence_correlation_s``) per horizontal
+        axis of the fixes, besides their declared white error: each hypothesis estimates
+        it, and the cross-track row's evidence is its exact predictive density, counted
+        whole (`railnav.navigation.fix_bias`; stacked fix-only runs). 0: not modelled.
     stacked : bool
         Step fix-only runs all hypotheses at once (`railnav.navigation.stacked_fixes`),
         and propagate the other filters' hypotheses together
@@ -115,9 +121,10 @@ class NetworkNavConfig:
         ``PROPAGATED`` fix 24 m from 88_L_2013, the route then not navigable; before the
         network rule, 22 times); with the fixes degraded to single-point quality (5 seeds
         per log) once in four of log_29083's five runs (no truth epochs there; routes
-        navigable) and never on the others. Every per-epoch netelement figure of those
-        runs is the same as without spawning. False: the test runs (the ``status``
-        column), nothing is spawned.
+        navigable) and never on the others, every per-epoch netelement figure the same as
+        without spawning; with their bias modelled too (``fix_bias_sigma_m`` 2 m), once
+        in all five of log_29083's runs, never on the others. False: the test runs (the
+        ``status`` column), nothing is spawned.
     spawn_window_epochs : int
         Fix epochs in the window of that test, >= 0 (0: no test, no status column).
     spawn_p_value : float
@@ -139,6 +146,7 @@ class NetworkNavConfig:
     split_sigma_m: float = 5.0
     split_accel_mps2: float = 0.02
     evidence_correlation_s: float = 0.0
+    fix_bias_sigma_m: float = 0.0
     stacked: bool = True
     spawn: bool = True
     spawn_window_epochs: int = 5
@@ -162,6 +170,7 @@ class NetworkNavConfig:
                   "split_sigma_m": lambda v: v > 0.0,
                   "split_accel_mps2": lambda v: v >= 0.0,
                   "evidence_correlation_s": lambda v: v >= 0.0,
+                  "fix_bias_sigma_m": lambda v: v >= 0.0,
                   "spawn_p_value": lambda v: 0.0 < v < 1.0,
                   "spawn_probability": lambda v: 0.0 < v < 1.0}
         for name, ok in checks.items():
@@ -194,6 +203,8 @@ class Hypothesis:
         current last (inherited from its ancestors).
     id, parent : int
         Unique id, and the id it branched from (-1: a start).
+    fix_bias : railnav.navigation.fix_bias.FixBias or None
+        Its estimate of the fixes' bias (`NetworkNavConfig.fix_bias_sigma_m`).
     """
 
     pieces: tuple
@@ -205,6 +216,7 @@ class Hypothesis:
     path: tuple = ()
     parent: int = -1
     id: int = field(default_factory=lambda: next(_IDS))
+    fix_bias: object = None
 
     def index(self, name: str) -> int:
         """Position of state `name` in the filter's layout."""
@@ -241,12 +253,12 @@ class Hypothesis:
 
 
 def hypothesis(tracks: OrientedTracks, pieces, x: Array, P: Array, log_weight: float, filt,
-               path: tuple = (), parent: int = -1) -> Hypothesis:
+               path: tuple = (), parent: int = -1, *, fix_bias=None) -> Hypothesis:
     """A `Hypothesis` on `pieces` (its piece ends from the network)."""
     pieces = tuple((e, int(o), float(st)) for e, o, st in pieces)
     return Hypothesis(pieces, tuple(float(v) for v in tracks.piece_ends(pieces)),
                       np.asarray(x, dtype=float), np.asarray(P, dtype=float),
-                      float(log_weight), filt, tuple(path), parent)
+                      float(log_weight), filt, tuple(path), parent, fix_bias=fix_bias)
 
 
 def evidence_share(nav: NetworkNavConfig, since_epoch_s: float) -> float:
@@ -300,7 +312,7 @@ def branch(hyp: Hypothesis, tracks: OrientedTracks, make_child, time_s: float
         filt = make_child(hyp, pieces)
         children.append(hypothesis(tracks, pieces, carried_state(filt, hyp.x, p.s_m),
                                    hyp.P.copy(), hyp.log_weight + log_share, filt,
-                                   hyp.path, hyp.id))
+                                   hyp.path, hyp.id, fix_bias=hyp.fix_bias))
     return children
 
 
@@ -341,7 +353,7 @@ def branch_ahead(hyp: Hypothesis, tracks: OrientedTracks, make_child
         filt = make_child(hyp, pieces)
         children.append(hypothesis(tracks, pieces, carried_state(filt, hyp.x, s - s0),
                                    hyp.P.copy(), hyp.log_weight + log_share, filt,
-                                   hyp.path, hyp.id))
+                                   hyp.path, hyp.id, fix_bias=hyp.fix_bias))
     return children
 
 
@@ -353,7 +365,8 @@ def rebased(hyp: Hypothesis, tracks: OrientedTracks, make_child) -> Hypothesis:
     pieces = hyp.pieces[1:]
     filt = make_child(hyp, pieces)
     out = hypothesis(tracks, pieces, carried_state(filt, hyp.x, hyp.s_m - hyp.ends[0]),
-                     hyp.P, hyp.log_weight, filt, hyp.path, hyp.parent)
+                     hyp.P, hyp.log_weight, filt, hyp.path, hyp.parent,
+                     fix_bias=hyp.fix_bias)
     out.id = hyp.id
     return rebased(out, tracks, make_child)
 
@@ -401,6 +414,7 @@ def merge_coinciding(hyps: list[Hypothesis], threshold: float) -> tuple[list[Hyp
             x, P = merge_gaussians(np.exp(log_w - total), np.array([h.x for h in g]),
                                    np.array([h.P for h in g]))
             g[0].x, g[0].P, g[0].log_weight = x, P, total
+            g[0].fix_bias = merged(np.exp(log_w - total), [h.fix_bias for h in g])
             merges += len(g) - 1
         out.append(g[0])
     return out, merges

@@ -91,6 +91,9 @@ class CycleOutcome:
     points : (ndarray (K, 3), ndarray (K, 3)), optional
         ECEF position and unit tangent of each hypothesis's point, when the stepper has
         them.
+    evidence_whole : ndarray, shape (K,), optional
+        Evidence that counts whole whatever the epoch's share (the fix row whose
+        correlated error the stepper models, `railnav.navigation.fix_bias`).
     """
 
     screens: list | None
@@ -101,6 +104,7 @@ class CycleOutcome:
     evidence: Array | None = None
     evidence_rows: int = 0
     points: tuple | None = None
+    evidence_whole: Array | None = None
 
 
 def common_continuous_log_likelihoods(innov: list, S: list) -> Array:

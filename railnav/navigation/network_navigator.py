@@ -250,9 +250,14 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                                 start=start, initial=initial, near=near)
     t, u, epoch_idx = trip.from_time(t0)
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
-    stepper = StackedFixStepper(config, trip, tracks, t) if nav.stacked and \
-        stackable(config, trip) else EngineStepper(config, t, u, tracks,
-                                                          stacked=nav.stacked)
+    stepper = StackedFixStepper(config, trip, tracks, t,
+                                fix_bias_sigma_m=nav.fix_bias_sigma_m,
+                                fix_bias_tau_s=nav.evidence_correlation_s) \
+        if nav.stacked and stackable(config, trip) else EngineStepper(config, t, u, tracks,
+                                                                      stacked=nav.stacked)
+    if nav.fix_bias_sigma_m > 0.0 and not isinstance(stepper, StackedFixStepper):
+        raise ConfigError("fix_bias_sigma_m: only fix-only runs with stacked=True model "
+                          "the fixes' bias (railnav.navigation.fix_bias)")
     run = _Run(network, tracks, factory, trip, data, config, nav, stepper,
                NetworkRecorder(tracks, factory, nav, start_gps_time_s=data.start_gps_time_s),
                t, dict(zip(at_sample.tolist(), epoch_idx.tolist())))

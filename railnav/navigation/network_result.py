@@ -1,9 +1,12 @@
 """What a network run produces (`railnav.navigation.network_navigator.navigate_network`).
 
-`NetworkResult` keeps, for every cycle, the most probable netelement (the one whose
-hypotheses hold the most probability), that probability, the most probable hypothesis on
-it (its state and covariance) and the mixture of all hypotheses on that element along it
-(moment-matched offset and σ); the live hypotheses once per
+`NetworkResult` keeps, for every cycle, the most probable netelement (the one holding
+the most of the position's probability, each hypothesis's Gaussian along ``s`` shared
+out over the elements it covers: `railnav.navigation.element_shares`), that probability,
+the most probable hypothesis on it (its state and covariance) and the mixture of all
+hypotheses on that element along it (moment-matched offset and σ; when no hypothesis's
+mean is on it, the joint just passed and the σ_s of the hypothesis holding most there);
+the live hypotheses once per
 `NetworkNavConfig.hypotheses_every_s`; the innovations of the most probable hypothesis at
 each epoch; and the final hypotheses with their paths. From these:
 
@@ -37,6 +40,7 @@ import pandas as pd
 
 from ekf.bank import logsumexp
 from ekf.packing import pack_sym
+from railnav.navigation.element_shares import element_shares
 from railnav.navigation.hypotheses import normalized_weights
 from railnav.navigation.monitor import status_at
 from railnav.navigation.result import NavigationResult, estimates_frame
@@ -116,18 +120,27 @@ class NetworkRecorder:
         """Record a cycle's hypotheses after branching, merging and pruning."""
         w = normalized_weights(hyps)
         spots = [h.where() for h in hyps]             # (element, orientation, s) of each
+        shares = [element_shares(h, self.tracks) for h in hyps]
         per_element: dict[str, float] = {}
-        for spot, wk in zip(spots, w.tolist()):
-            per_element[spot[0]] = per_element.get(spot[0], 0.0) + wk
+        for parts, wk in zip(shares, w.tolist()):
+            for e, _, share, _ in parts:
+                per_element[e] = per_element.get(e, 0.0) + wk * share
         element = max(per_element, key=per_element.get)
         on = [k for k, spot in enumerate(spots) if spot[0] == element]
-        best = on[int(np.argmax(w[on]))] if len(on) > 1 else on[0]
+        if on:
+            best = on[int(np.argmax(w[on]))] if len(on) > 1 else on[0]
+            spot = spots[best]
+            mean, sigma = _mixture_offset(hyps, w, self.tracks, element, spots)
+        else:           # no mean on it: the hypothesis with most mass there, at its end
+            best, spot = _most_on(shares, w, element)
+            mean = _offset(self.tracks, hyps[best], spot)
+            i_s = hyps[best].index("s")
+            sigma = float(np.sqrt(hyps[best].P[i_s, i_s]))
         h = hyps[best]
-        mean, sigma = _mixture_offset(hyps, w, self.tracks, element, spots)
         v = float(h.x[h.index("v")])
         self.rows.append({"time_s": time_s, "netelement": element,
-                          "netelement_offset_m": _offset(self.tracks, h, spots[best]),
-                          "direction": int(spots[best][1] * (1 if v >= 0 else -1)),
+                          "netelement_offset_m": _offset(self.tracks, h, spot),
+                          "direction": int(spot[1] * (1 if v >= 0 else -1)),
                           "netelement_probability": per_element[element],
                           "mixture_offset_m": mean, "mixture_sigma_m": sigma,
                           "hypotheses": len(hyps), "evidence_rows": evidence_rows,
@@ -163,6 +176,17 @@ class NetworkRecorder:
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
             spawns=tuple(self.spawns), status_records=self.status_records)
+
+
+def _most_on(shares, w: Array, element: str) -> tuple[int, tuple[str, int, float]]:
+    """The hypothesis holding the most probability on `element` and the point of it
+    nearest its mean (`railnav.navigation.element_shares`)."""
+    mass = [sum(p for e, _, p, _ in parts if e == element) * wk
+            for parts, wk in zip(shares, w.tolist())]
+    best = int(np.argmax(mass))
+    e, o, _, x = max((part for part in shares[best] if part[0] == element),
+                     key=lambda part: part[2])
+    return best, (e, o, x)
 
 
 def _element_log_likelihoods(hyps, log_lik) -> dict[str, float]:

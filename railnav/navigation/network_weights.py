@@ -70,6 +70,8 @@ def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
     elif outcome.screens:
         log_lik = log_lik + share * common_log_likelihoods(outcome.screens)
         rows = len(evidence_rows(outcome.screens))
+    if outcome.evidence_whole is not None:
+        log_lik = log_lik + outcome.evidence_whole
     return log_lik, rows
 
 

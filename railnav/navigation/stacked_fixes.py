@@ -21,7 +21,9 @@ does the same arithmetic for the K hypotheses as arrays:
   all), then the engine's row gate and the Kalman update (Joseph form) of the rows kept.
 * **Evidence** on the common basis of `railnav.navigation.bank.common_log_likelihoods`:
   every fix row is seen by every hypothesis, so the rows count for all when some
-  hypothesis used the fix, and for none when all refused it.
+  hypothesis used the fix, and for none when all refused it. With the fixes' bias
+  modelled (`NetworkNavConfig.fix_bias_sigma_m`), the cross-track row's term is that of
+  `railnav.navigation.fix_bias` instead, returned apart (it counts whole).
 
 Equal to the per-filter path to rounding and the grid's expansion
 (``tests/railnav/navigation/test_stacked_fixes.py``).
@@ -38,6 +40,7 @@ from ekf.outliers import fault_probability
 from ekf.update import LOG_2PI
 from railnav.filters.fault_detection import EpochScreen
 from railnav.filters.fix_rows import FIX_SV_PREFIX
+from railnav.navigation.fix_bias import with_fix_bias
 from railnav.navigation.hypothesis_step import CycleOutcome
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
@@ -197,6 +200,11 @@ class StackedScreens:
             self._S[:, np.arange(var.shape[1]), np.arange(var.shape[1])] = var
         return self._S
 
+    @property
+    def variances(self) -> Array:
+        """The rows' innovation variances (K, m)."""
+        return self._var if self._var is not None else np.diagonal(self._S, axis1=1, axis2=2)
+
     def __len__(self) -> int:
         return self.nu.shape[0]
 
@@ -220,10 +228,14 @@ class StackedFixStepper:
     tracks : railnav.navigation.net_tracks.OrientedTracks
     t : ndarray, shape (M,)
         Sample times, s from the trip start.
+    fix_bias_sigma_m, fix_bias_tau_s : float
+        σ_b (m; 0: none) and τ (s) of the fixes' bias (`railnav.navigation.fix_bias`).
     """
 
-    def __init__(self, config, trip, tracks, t: Array) -> None:
+    def __init__(self, config, trip, tracks, t: Array, *, fix_bias_sigma_m: float = 0.0,
+                 fix_bias_tau_s: float = 0.0) -> None:
         self.config, self.t = config, t
+        self.bias_sigma_m, self.bias_tau_s = float(fix_bias_sigma_m), float(fix_bias_tau_s)
         self.fixes, self.schedule = trip.fixes, trip.schedule
         self.grid = FixGrid(tracks)
         self.q = float(config.along_accel_sigma_mps2) ** 2
@@ -247,18 +259,23 @@ class StackedFixStepper:
         P = np.array([h.P for h in hyps], dtype=float)
         P = self._propagate(x, P, np.diff(self.t[a:b + 1]))
         fix = -1 if epoch is None else self.schedule.split(epoch)[1]
-        screens = evidence = None
+        screens = evidence = whole = None
         rows = 0
         pt = self.grid.points(keys, x[:, 0])
         if fix >= 0:
             x, P, screens, evidence, rows = self._update(keys, x, P, pt, fix)
+            if rows and self.bias_sigma_m > 0.0:
+                evidence, whole = with_fix_bias(
+                    hyps, pt["A"], screens.keys, screens.nu, screens.variances, evidence,
+                    float(self.t[b]), sigma_m=self.bias_sigma_m, tau_s=self.bias_tau_s)
         for k, h in enumerate(hyps):
             h.x, h.P = x[k].copy(), P[k].copy()
         points = None               # one hypothesis has nothing abreast (hypothesis_points)
         if len(hyps) > 1:
             points = (pt["r"], np.einsum("kij,kj->ki", pt["C"], pt["u"]))
         return CycleOutcome(screens, None, None, (b - a) * len(hyps), False,
-                            evidence=evidence, evidence_rows=rows, points=points)
+                            evidence=evidence, evidence_rows=rows, points=points,
+                            evidence_whole=whole)
 
     def _propagate(self, x: Array, P: Array, steps: Array) -> Array:
         """``x`` in place and the new ``P`` after the steps (module docstring): the
