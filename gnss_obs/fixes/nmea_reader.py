@@ -135,6 +135,8 @@ def _add(epochs: list[dict], kind: str, msg) -> None:
         if msg.timestamp is None:
             return
         tod = msg.timestamp
+        if not isinstance(tod, _dt.time):       # pynmea2 returns a field it cannot parse
+            raise ValueError(f"time {tod!r}")
         seconds = tod.hour * 3600 + tod.minute * 60 + tod.second + tod.microsecond * 1e-6
         if not epochs or abs(epochs[-1]["tod_s"] - seconds) > 5e-4:
             epochs.append({"tod_s": seconds, "tod": tod})
@@ -150,6 +152,8 @@ def _add(epochs: list[dict], kind: str, msg) -> None:
     elif kind == "RMC":
         epoch.update(rmc_status=msg.status, rmc_mode=(msg.mode_indicator or "")[:1])
         if msg.datestamp is not None:
+            if not isinstance(msg.datestamp, _dt.date):
+                raise ValueError(f"date {msg.datestamp!r}")
             epoch["date"] = msg.datestamp
         if msg.lat and msg.lon and "lat" not in epoch:
             epoch.update(lat=msg.latitude, lon=msg.longitude)

@@ -136,6 +136,15 @@ def test_nmea_unreadable_field_is_located(tmp_path):
         read_fixes(write_lines(tmp_path / "x.nmea", bad))
 
 
+@pytest.mark.parametrize("date", ["25\x000222", "2502x2"])
+def test_nmea_unparsable_rmc_date_is_located(tmp_path, date):
+    """A date pynmea2 cannot parse (it returns the raw field: the fuzz test's NUL byte)
+    is a located error, not a TypeError when the timestamp is built."""
+    bad = [f"GPRMC,093254.40,A,5053.5503,N,00432.3622,E,0.0,0.0,{date},,,A"]
+    with pytest.raises(GnssInputError, match="line 1.*date"):
+        read_fixes(write_lines(tmp_path / "x.nmea", bad))
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.text(alphabet=st.characters(min_codepoint=32, max_codepoint=126),
                         max_size=60), min_size=1, max_size=5))
