@@ -25,7 +25,9 @@ def nav_config(args: argparse.Namespace):
     from railnav.navigation.hypotheses import NetworkNavConfig
     return with_nav(NetworkNavConfig(), max_hypotheses=getattr(args, "max_hypotheses", None),
                     crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None),
-                    spawn=False if getattr(args, "no_spawn", False) else None)
+                    spawn=False if getattr(args, "no_spawn", False) else None,
+                    evidence_correlation_s=getattr(args, "fix_correlation_s", None),
+                    fix_bias_sigma_m=getattr(args, "fix_bias_sigma_m", None))
 
 
 def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:

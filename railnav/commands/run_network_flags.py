@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import argparse
 
-from railnav.commands.support import augmentation_requested, positive_int
+from railnav.commands.support import (augmentation_requested, nonnegative_float,
+                                      positive_int)
 from railnav.errors import ConfigError
 
 __all__ = ["add_network_arguments", "parse_start", "NETWORK_EXCLUDES"]
@@ -40,6 +41,20 @@ def add_network_arguments(p) -> None:
                         "(--fixes, else each GNSS epoch's own single-point fix of --obs/--nav) "
                         "and the network does, start new ones from a fix of GNSS quality "
                         "(NetworkNavConfig.spawn; the default)")
+    p.add_argument("--fix-correlation-s", type=nonnegative_float, default=None,
+                   metavar="TAU_S",
+                   help="--network, with --fixes: the fixes' errors are correlated over "
+                        "TAU_S seconds (e.g. 60 for a receiver's single-point fixes): each "
+                        "fix then weighs the hypotheses as the share of an independent one "
+                        "that such a sequence brings (NetworkNavConfig."
+                        "evidence_correlation_s; default 0: independent fixes)")
+    p.add_argument("--fix-bias-sigma-m", type=nonnegative_float, default=None,
+                   metavar="SIGMA_M",
+                   help="--network, with --fixes: besides their σ, the fixes carry a bias "
+                        "per horizontal axis (SIGMA_M, Gauss-Markov over --fix-correlation-s; "
+                        "new at every fix without it) "
+                        "that each hypothesis estimates (NetworkNavConfig.fix_bias_sigma_m; "
+                        "default 0: none)")
     p.add_argument("--no-spawn", action="store_true",
                    help="--network: never start hypotheses from the fixes or single-point "
                         "fixes (the test and the status column still run)")
@@ -51,7 +66,9 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         mine = [flag for flag, value in (("--start", args.start),
                                          ("--max-hypotheses", args.max_hypotheses),
                                          ("--spawn", args.spawn or None),
-                                         ("--no-spawn", args.no_spawn or None))
+                                         ("--no-spawn", args.no_spawn or None),
+                                         ("--fix-correlation-s", args.fix_correlation_s),
+                                         ("--fix-bias-sigma-m", args.fix_bias_sigma_m))
                 if value is not None]
         if mine:
             raise ConfigError(f"{', '.join(mine)}: only with --network")
@@ -71,6 +88,11 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         others.append("--smooth")
     if others:
         raise ConfigError(f"{', '.join(others)}: not with --network")
+    fix_model = [flag for flag, value in (("--fix-correlation-s", args.fix_correlation_s),
+                                          ("--fix-bias-sigma-m", args.fix_bias_sigma_m))
+                 if value is not None]
+    if fix_model and args.fixes is None:
+        raise ConfigError(f"{', '.join(fix_model)}: the error model of --fixes (give them)")
     if args.spawn and args.no_spawn:
         raise ConfigError("--spawn, --no-spawn: give one (spawning is the default)")
     if args.spawn and args.fixes is None and args.obs is None:

@@ -65,6 +65,42 @@ def test_bad_input_is_one_line_exit_2_and_nothing_written(tmp_path, capsys, extr
     assert not out.exists()
 
 
+def test_fix_error_model_flags_are_the_api_config(tmp_path, capsys):
+    """``--fix-correlation-s 60 --fix-bias-sigma-m 2`` on the excerpt degraded to
+    single-point quality (`railnav.simulation.fix_degrade`, seed 1) writes the estimates of
+    `run_files_network` with ``NetworkNavConfig(evidence_correlation_s=60,
+    fix_bias_sigma_m=2)``, column for column, and not those of the default (independent
+    fixes, no bias): the flags reach the navigator and change its weights."""
+    from railnav.jobs.network import load_network, run_files_network, write_network_run
+    from railnav.navigation.hypotheses import NetworkNavConfig
+    from railnav.simulation.fix_degrade import degrade_log
+    fixes = tmp_path / "spp.csv"
+    degrade_log(EXCERPT, fixes, seed=1)
+    out = {}
+    for name, flags in (("model", ["--fix-correlation-s", "60", "--fix-bias-sigma-m", "2"]),
+                        ("default", [])):
+        assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(fixes), *flags,
+                     "--no-plots", "--out", str(tmp_path / name)]) == 0
+        out[name] = pd.read_csv(tmp_path / name / "estimates.csv")
+    api = run_files_network(load_network(BRUSSELS), fixes_path=fixes,
+                            nav=NetworkNavConfig(evidence_correlation_s=60.0,
+                                                 fix_bias_sigma_m=2.0))
+    write_network_run(api, tmp_path / "api", plots=False)
+    expected = pd.read_csv(tmp_path / "api" / "estimates.csv")
+    pd.testing.assert_frame_equal(out["model"], expected)
+    assert not out["model"]["netelement_probability"].equals(
+        out["default"]["netelement_probability"])
+
+
+def test_fix_error_model_flags_need_fixes(capsys):
+    assert main(["-q", "run", "--network", BRUSSELS, "--imu", "x.csv",
+                 "--fix-correlation-s", "60", "--out", "never"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == "error: --fix-correlation-s: the error model of --fixes (give them)"
+    assert main(["-q", "run", "data/tracks/curvy.csv", "--fix-bias-sigma-m", "2"]) == 2
+    assert "--fix-bias-sigma-m: only with --network" in capsys.readouterr().err
+
+
 def test_network_flags_need_a_network(capsys):
     assert main(["-q", "run", "data/tracks/curvy.csv", "--start", "x"]) == 2
     assert "--start: only with --network" in capsys.readouterr().err
