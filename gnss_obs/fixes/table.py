@@ -43,12 +43,15 @@ if TYPE_CHECKING:                 # pandas is imported where a table is built
 
 from gnss_obs.errors import GnssInputError
 
-__all__ = ["FIX_COLUMNS", "FIX_QUALITIES", "FixLog", "fix_frame", "SIGMA_COLUMNS",
-           "TIME_SCALES"]
+__all__ = ["FIX_COLUMNS", "FIX_QUALITIES", "DEAD_RECKONING", "FixLog", "fix_frame",
+           "SIGMA_COLUMNS", "TIME_SCALES"]
 
 #: Fix classes, best first: carrier-phase fixed, carrier-phase float, code-differential,
 #: single point, dead reckoning (the receiver's own propagation without GNSS).
 FIX_QUALITIES = ("rtk_fixed", "rtk_float", "dgps", "single", "dead_reckoning")
+#: The class of a receiver's own inertial extrapolation of its last GNSS solution (NMEA GGA 6,
+#: u-blox fix type 1, a log's ``PROPAGATED``): not a measurement of where it is now.
+DEAD_RECKONING = FIX_QUALITIES[-1]
 #: The position and speed σ columns (NaN until a σ is known).
 SIGMA_COLUMNS = ("sigma_east_m", "sigma_north_m", "sigma_up_m", "sigma_speed_mps")
 #: Columns of the fix table, in order (module docstring).

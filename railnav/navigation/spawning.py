@@ -94,13 +94,12 @@ import numpy as np
 import numpy.typing as npt
 from scipy.special import chdtrc
 
+from gnss_obs.fixes.table import DEAD_RECKONING
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
 from railnav.navigation.network_weights import track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
-#: The fix quality (`gnss_obs.fixes.table.FIX_QUALITIES`) never spawned from.
-DEAD_RECKONING = "dead_reckoning"
 
 __all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
 
