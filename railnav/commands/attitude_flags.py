@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 
+from railnav.commands.support import one_of_pair
 from railnav.errors import ConfigError
 
 __all__ = ["add_attitude_arguments", "check_attitude_flags", "attitude_config",
@@ -67,12 +68,11 @@ def check_attitude_flags(args: argparse.Namespace, *, files: bool) -> None:
     if mine and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
         raise ConfigError(f"{', '.join(mine)}: one track only (not with --network or "
                           "several tracks)")
-    recover = [f for f, on in (("--recover", args.recover),
-                               ("--no-recover", getattr(args, "no_recover", False))) if on]
-    if len(recover) == 2:
-        raise ConfigError("--recover, --no-recover: give one (recovery is the default)")
+    recover = one_of_pair(("--recover", args.recover),
+                          ("--no-recover", getattr(args, "no_recover", False)),
+                          default="recovery is the default")
     if recover and (getattr(args, "network", None) is not None or len(args.tracks) > 1):
-        raise ConfigError(f"{recover[0]}: one track only (a network run spawns hypotheses "
+        raise ConfigError(f"{recover}: one track only (a network run spawns hypotheses "
                           "instead: --no-spawn)")
     if args.car_body and (files or len(args.tracks) > 1
                           or getattr(args, "network", None) is not None):

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from railnav.commands.support import (augmentation_requested, nonnegative_float,
-                                      positive_int)
+                                      one_of_pair, positive_int)
 from railnav.errors import ConfigError
 
 __all__ = ["add_network_arguments", "parse_start", "NETWORK_EXCLUDES"]
@@ -93,8 +93,8 @@ def _check_network_flags(args: argparse.Namespace) -> None:
                  if value is not None]
     if fix_model and args.fixes is None:
         raise ConfigError(f"{', '.join(fix_model)}: the error model of --fixes (give them)")
-    if args.spawn and args.no_spawn:
-        raise ConfigError("--spawn, --no-spawn: give one (spawning is the default)")
+    one_of_pair(("--spawn", args.spawn), ("--no-spawn", args.no_spawn),
+                default="spawning is the default")
     if args.spawn and args.fixes is None and args.obs is None:
         raise ConfigError("--spawn: needs --fixes or --obs/--nav (new hypotheses start from "
                           "the fixes or the epochs' single-point fixes)")

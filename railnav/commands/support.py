@@ -16,7 +16,7 @@ __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int"
            "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
            "augmentation_requested", "read_augmentation", "output_path", "same_file",
            "check_outputs", "add_output_arguments", "output_dir", "written_line",
-           "imports_without_gc"]
+           "imports_without_gc", "one_of_pair"]
 
 
 @contextlib.contextmanager
@@ -71,6 +71,21 @@ def progress_bar(desc: str, *, enabled: bool = True) -> Iterator[Callable[[int, 
     finally:
         if bar is not None:
             bar.close()
+
+
+def one_of_pair(on: tuple[str, bool], off: tuple[str, bool], *, default: str) -> str | None:
+    """The flag given of an on/off pair (``("--x", given)``, ``("--no-x", given)``), or
+    None.
+
+    Raises
+    ------
+    ConfigError
+        Both given: ``"--x, --no-x: give one (<default>)"``.
+    """
+    given = [flag for flag, value in (on, off) if value]
+    if len(given) == 2:
+        raise ConfigError(f"{on[0]}, {off[0]}: give one ({default})")
+    return given[0] if given else None
 
 
 def positive_float(text: str) -> float:
