@@ -39,9 +39,9 @@ from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from trackmodel.earth import C_n_e
 from trackmodel.network_points import points_on
 
-__all__ = ["cycle_evidence", "hypothesis_points", "track_points_of", "cycle_points", "abreast",
-           "crossing_matrix",
-           "reweight", "mix_states", "converted", "converted_pairs", "forget_offsets"]
+__all__ = ["cycle_evidence", "hypothesis_points", "ecef_points", "track_points_of",
+           "cycle_points", "abreast", "crossing_matrix", "reweight", "mix_states",
+           "converted", "converted_pairs", "forget_offsets"]
 
 Array = npt.NDArray[np.float64]
 
@@ -81,16 +81,23 @@ def hypothesis_points(hyps, tracks, outcome=None, *, track_points: list | None =
     ``s`` (clamped to its track), shapes (K, 3) (zeros for a single hypothesis); those of
     the cycle's `outcome` when its stepper gave them. `track_points`: the hypotheses'
     `track_points_of` when known."""
-    r, u = np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
     if len(hyps) < 2:                       # nothing to be abreast of
-        return r, u
+        return np.zeros((len(hyps), 3)), np.zeros((len(hyps), 3))
     if outcome is not None and outcome.points is not None:
         return outcome.points
-    points = track_points_of(hyps) if track_points is None else track_points
-    for k, p in enumerate(points):
-        r[k] = p.r_e
-        u[k] = C_n_e(float(p.lat), float(p.lon)) @ np.asarray(p.u_n, dtype=float)
-    return r, u
+    return ecef_points(track_points_of(hyps) if track_points is None else track_points)
+
+
+def ecef_points(points) -> tuple[Array, Array]:
+    """ECEF position (m) and ECEF unit tangent of track points (`track_points_of`'s),
+    shapes (K, 3), all rotated in one evaluation."""
+    if not points:
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    lat = np.array([float(p.lat) for p in points])
+    lon = np.array([float(p.lon) for p in points])
+    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
+    u_n = np.array([np.asarray(p.u_n, dtype=float).reshape(3) for p in points])
+    return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
 
 
 def track_points_of(hyps) -> list:

@@ -97,7 +97,7 @@ from scipy.special import chdtrc
 from gnss_obs.fixes.table import DEAD_RECKONING
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
-from railnav.navigation.network_weights import track_points_of
+from railnav.navigation.network_weights import ecef_points, track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 
@@ -166,15 +166,8 @@ def chi2_isf(p: float) -> float:
 def track_points(hyps) -> tuple[Array, Array]:
     """ECEF position and unit tangent of each hypothesis's track point at its ``s``
     (clamped to its track; `railnav.navigation.network_weights.track_points_of`, one
-    evaluation for all), shapes (K, 3)."""
-    points = track_points_of(hyps)
-    if not points:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    lat = np.array([float(p.lat) for p in points])
-    lon = np.array([float(p.lon) for p in points])
-    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
-    u_n = np.array([np.asarray(p.u_n, dtype=float).reshape(3) for p in points])
-    return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
+    evaluation for all, `railnav.navigation.network_weights.ecef_points`), shapes (K, 3)."""
+    return ecef_points(track_points_of(hyps))
 
 
 class Spawner:
