@@ -48,8 +48,9 @@ def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:
 
 
 def network_report(run, out: Path) -> str:
-    """What a network run prints: the route and its probabilities, the hypotheses, and
-    the truth's scores when there was one."""
+    """What a network run prints: the route and its probabilities, the hypotheses, the
+    truth's scores when there was one, and the status counts (and an end ``lost``)."""
+    from railnav.commands.run_report import monitor_lines
     route = run.outcome.summary["route"]
     res = run.network_result
     lines = [f"network run -> {out}/ ({res.runtime_s:.1f} s, {route['cycles']} cycles, "
@@ -66,4 +67,5 @@ def network_report(run, out: Path) -> str:
                      f"netelements: {truth['passes_truth']}")
     if route["restarts"]:
         lines.append(f"  restarted at t = {', '.join(f'{t:.1f}' for t in route['restarts'])} s")
+    lines.extend(monitor_lines(run.outcome.summary["statistics"].get("monitor"), "spawns"))
     return "\n".join(lines)

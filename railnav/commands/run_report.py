@@ -3,7 +3,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["report"]
+__all__ = ["report", "monitor_lines"]
+
+
+def monitor_lines(mon: dict | None, recoveries: str = "recoveries") -> list[str]:
+    """The divergence monitor's status counts (``summary.json`` ``statistics.monitor``),
+    and a warning when the run ended ``lost`` (issue 14: it exits 0 but says so)."""
+    if not mon:
+        return []
+    e = mon["epochs"]
+    lines = [f"  monitor: {e['ok']} ok, {e['degraded']} degraded, {e['lost']} lost epochs; "
+             f"{mon['recoveries']} {recoveries}"]
+    if mon["final_status"] == "lost":
+        lines.append("  LOST at the end of the run: the last estimates are not to be "
+                     "trusted (monitor status 'lost', estimates.csv 'status')")
+    return lines
 
 
 def report(outcome, out: Path) -> str:
@@ -17,14 +31,7 @@ def report(outcome, out: Path) -> str:
                      f"the track's {left['end']} ({left['track_length_m']:.1f} m); later data "
                      "not used")
     stats = s["statistics"]
-    mon = stats.get("monitor")
-    if mon:
-        e = mon["epochs"]
-        lines.append(f"  monitor: {e['ok']} ok, {e['degraded']} degraded, {e['lost']} lost "
-                     f"epochs; {mon['recoveries']} recoveries")
-        if mon["final_status"] == "lost":
-            lines.append("  LOST at the end of the run: the last estimates are not to be "
-                         "trusted (monitor status 'lost', estimates.csv 'status')")
+    lines.extend(monitor_lines(stats.get("monitor")))
     if "fix_epochs" in stats:
         lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
                      "by the fault screen")

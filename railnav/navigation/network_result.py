@@ -18,7 +18,8 @@ each epoch; and the final hypotheses with their paths. From these:
   Gaussian sum along ``s``), and ``hypotheses`` (the live count); in runs with position
   fixes or GNSS observations also ``status`` (``ok``, ``degraded``, ``lost``: whether any
   live hypothesis agrees with the fixes, or with the GNSS epochs' own single-point fixes,
-  the test of `railnav.navigation.spawning`);
+  the test of `railnav.navigation.spawning`, and whether the rows reported are rejected
+  more often than a fault-free navigator's, `railnav.navigation.network_status`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
   hypothesis (its path), each element with entry and exit times, the probability of the
@@ -43,6 +44,7 @@ from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
 from railnav.navigation.hypotheses import normalized_weights
 from railnav.navigation.monitor import status_at
+from railnav.navigation.network_status import combined_status_records, rejected_row_records
 from railnav.navigation.result import NavigationResult, estimates_frame
 
 __all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
@@ -164,6 +166,8 @@ class NetworkRecorder:
         final = [{"id": h.id, "element": h.element, "orientation": h.orientation,
                   "probability": float(wk), "path": h.path} for h, wk in zip(hyps, w)]
         table = pd.DataFrame(self.rows)
+        innovations = _innovation_frame([(screens[best], time_s) for screens, best, time_s
+                                         in self.innov], self.start_gps_time_s)
         return NetworkResult(
             network=network, tracks=self.tracks, factory=self.factory, config=config,
             nav=nav, start_gps_time_s=self.start_gps_time_s, runtime_s=float(runtime_s),
@@ -171,11 +175,11 @@ class NetworkRecorder:
             element_probability=tuple(self.element_probability),
             element_log_likelihood=tuple(self.element_log_likelihood),
             hypotheses=pd.DataFrame(self.hyp_rows),
-            innovations=_innovation_frame([(screens[best], time_s) for screens, best, time_s
-                                           in self.innov], self.start_gps_time_s),
+            innovations=innovations,
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
-            spawns=tuple(self.spawns), status_records=self.status_records)
+            spawns=tuple(self.spawns), status_records=combined_status_records(
+                self.status_records, rejected_row_records(innovations, config)))
 
 
 def _most_on(shares, w: Array, element: str) -> tuple[int, tuple[str, int, float]]:

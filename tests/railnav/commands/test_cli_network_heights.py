@@ -50,3 +50,28 @@ def test_route_of_a_network_without_heights_is_marked(tmp_path, capsys):
                  "--out", str(out)]) == 0
     assert "# the network has no heights: h = 0 is a placeholder" in out.read_text()
     assert "the network has no heights" in capsys.readouterr().err
+
+
+def test_a_run_whose_fixes_are_all_rejected_says_it_ended_lost(tmp_path, capsys):
+    """Fixes 100 m above the network's heights (tests.support.height_networks): every fix
+    row is rejected (the vertical row fails the gate and takes the fix with it) while the
+    fixes agree horizontally. The run exits 0, prints its status counts and that it ended
+    ``lost`` (railnav.navigation.network_status), and the summary says so."""
+    from tests.support.height_networks import write_fixes, write_geojson
+    network = write_geojson(tmp_path / "net.geojson", heights=True)
+    fixes = write_fixes(tmp_path / "fixes.csv")
+    table = pd.read_csv(fixes)
+    table["h_m"] += 100.0
+    table.to_csv(fixes, index=False, float_format="%.12f")
+    out = tmp_path / "run"
+    assert main(["run", "--network", str(network), "--fixes", str(fixes), "--no-plots",
+                 "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "LOST at the end of the run" in printed
+    rows = pd.read_csv(out / "innovations.csv")
+    assert set(rows["status"]) == {"rejected"}
+    monitor = json.loads((out / "summary.json").read_text())["statistics"]["monitor"]
+    assert monitor["final_status"] == "lost"
+    e = monitor["epochs"]
+    assert f"monitor: {e['ok']} ok, {e['degraded']} degraded, {e['lost']} lost" in printed
+    assert e["lost"] >= rows["epoch"].nunique() - 1

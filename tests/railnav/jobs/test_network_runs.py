@@ -20,6 +20,7 @@ from railnav.jobs.network import (
     simulation_line,
     true_netelements,
 )
+from railnav.navigation.network_status import rejected_row_records
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import get_scenario
 from railnav.simulation.switch_network import (
@@ -67,6 +68,10 @@ def test_the_way_taken_at_each_switch_is_identified(take_loop):
     after = (res.time_s > t_switch + 1.0) & (res.time_s < t_switch + 10.0)
     held = [p.get(e, 0.0) for p, e, a in zip(res.element_probability, truth, after) if a]
     assert min(held) > 0.2
+    # a consistent navigator: the rejected-row test (railnav.navigation.network_status)
+    # raises no alarm (its bound on a fault-free epoch's rejection holds)
+    rows = rejected_row_records(res.innovations, res.config)
+    assert len(rows) == res.innovations["epoch"].nunique() and set(rows["status"]) == {"ok"}
 
 
 def test_true_netelements_follow_the_legs():

@@ -1,0 +1,147 @@
+"""The network run's rejected-row test (`railnav.navigation.network_status`). References:
+the binomial tail summed term by term with `math.comb`, SciPy's χ² survival function for
+the row tests' false rejections, statuses spelled out by hand for the merge, and the
+network with heights ~100 m off its fixes (`tests.support.height_networks`), where every
+fix row is rejected."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.stats import chi2
+
+from railnav.config import NavigatorConfig
+from railnav.jobs.network import run_files_network
+from railnav.navigation.monitor import MonitorConfig
+from railnav.navigation.network_status import (
+    combined_status_records,
+    rejected_row_records,
+    row_false_rejection,
+)
+from tests.support.height_networks import write_fixes, write_geojson
+from trackmodel.network import Network
+from trackmodel.network_routes import load_network
+
+CONFIG = NavigatorConfig()
+
+
+def _p_row(config) -> float:
+    return (1.0 - config.gate_probability) + \
+        float(chi2.sf(config.fault_detection.nis_threshold, 1))
+
+
+def _tail(k: int, n: int, q: float) -> float:
+    """P(X >= k), X ~ Binomial(n, q), term by term."""
+    return sum(math.comb(n, j) * q ** j * (1.0 - q) ** (n - j) for j in range(k, n + 1))
+
+
+def _innovations(statuses: list[list[str]]) -> pd.DataFrame:
+    """One epoch per list (time 0.5 s apart), one row per status."""
+    return pd.DataFrame([{"time_s": 0.5 * e, "epoch": e, "status": s}
+                         for e, rows in enumerate(statuses) for s in rows])
+
+
+def test_false_rejection_is_the_two_row_tests_summed():
+    assert row_false_rejection(CONFIG) == pytest.approx(_p_row(CONFIG), rel=1e-12)
+    assert row_false_rejection(replace(CONFIG, fault_detection=None)) == \
+        pytest.approx(1.0 - CONFIG.gate_probability, rel=1e-12)
+    assert row_false_rejection(replace(CONFIG, fault_detection=None,
+                                       gate_probability=None)) is None
+
+
+def test_tails_are_the_binomial_law_of_rejected_epochs():
+    """A window of 4 epochs: rejected rows in epochs 1 (two of three: counted once), 2 and
+    4; ``excluded`` rows are not rejections; rows per epoch vary (the window's largest
+    count sets q)."""
+    config = replace(CONFIG, monitor=replace(MonitorConfig(), window_epochs=4))
+    statuses = [["used"] * 3, ["rejected", "rejected", "used"], ["rejected", "used"],
+                ["used", "excluded", "used", "used"], ["rejected", "used", "used"],
+                ["used"] * 3]
+    out = rejected_row_records(_innovations(statuses), config)
+    p_row = _p_row(config)
+    rows = [len(r) for r in statuses]
+    bad = [int("rejected" in r) for r in statuses]
+    for k in range(len(statuses)):
+        lo = max(0, k - 3)
+        q = 1.0 - (1.0 - p_row) ** max(rows[lo:k + 1])
+        assert out["p_rejected"].iloc[k] == pytest.approx(
+            _tail(sum(bad[lo:k + 1]), k + 1 - lo, q), rel=1e-9)
+        share = sum(r.count("rejected") for r in statuses[lo:k + 1]) / sum(rows[lo:k + 1])
+        assert out["rejected_share"].iloc[k] == pytest.approx(share, rel=1e-12)
+    np.testing.assert_allclose(out["time_s"], 0.5 * np.arange(len(statuses)))
+    expected = ["ok" if p >= config.monitor.p_degraded else
+                "lost" if p < config.monitor.p_lost and s >= 0.5 else "degraded"
+                for p, s in zip(out["p_rejected"], out["rejected_share"])]
+    assert list(out["status"]) == expected
+    # one rejected epoch in two is not an alarm (2q ≈ 1.7e-3), two in three are
+    assert list(out["status"]) == ["ok", "ok", "degraded", "degraded", "degraded",
+                                   "degraded"]
+
+
+def test_every_row_rejected_is_lost_from_the_second_epoch():
+    """Every epoch's three rows rejected: tail q^k (k epochs, all rejected); q ≈ 3·p_row
+    ≈ 8.7e-4 is below p_degraded alone, q² below p_lost, and the share is 1."""
+    out = rejected_row_records(_innovations([["rejected"] * 3] * 12), CONFIG)
+    q = 1.0 - (1.0 - _p_row(CONFIG)) ** 3
+    n = CONFIG.monitor.window_epochs
+    np.testing.assert_allclose(out["p_rejected"],
+                               [q ** min(k, n) for k in range(1, 13)], rtol=1e-9)
+    assert list(out["status"]) == ["degraded"] + ["lost"] * 11
+
+
+def test_the_worse_of_the_two_tests_holds_until_its_next_record():
+    spawn = pd.DataFrame({"time_s": [1.0, 2.0, 3.0], "status": ["ok", "degraded", "ok"],
+                          "p_fix": [0.5, 1e-4, 0.4], "d2_min": [1.0, 9.0, 1.5],
+                          "action": ["", "", "spawn"]})
+    rows = pd.DataFrame({"time_s": [1.0, 2.5, 3.0], "status": ["lost", "ok", "degraded"],
+                         "p_rejected": [1e-9, 0.3, 1e-4], "rejected_share": [1.0, 0.2, 0.3]})
+    out = combined_status_records(spawn, rows)
+    assert list(out["time_s"]) == [1.0, 2.0, 2.5, 3.0]
+    # 2.0: the rows' last (lost at 1.0) still holds; 2.5: the fix test's degraded holds
+    assert list(out["status"]) == ["lost", "lost", "degraded", "degraded"]
+    assert list(out["action"]) == ["", "", "", "spawn"]
+    assert np.isnan(out["p_fix"].iloc[2]) and np.isnan(out["p_rejected"].iloc[1])
+    assert combined_status_records(spawn, rows.iloc[:0]) is spawn
+    assert combined_status_records(None, rows) is None
+
+
+@pytest.fixture(scope="module")
+def heights_runs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("network_status")
+    fixes = write_fixes(tmp / "fixes.csv")
+    net = load_network(write_geojson(tmp / "net.geojson", heights=False))
+    return {claimed: run_files_network(Network(net.elements, [], heights=claimed),
+                                       fixes_path=fixes).network_result
+            for claimed in (False, True)}
+
+
+def test_a_navigator_that_rejects_every_fix_is_not_ok(heights_runs):
+    """The tracks' h = 0 taken as heights, ~100 m below the fixes: every fix row is
+    rejected. The spawn test alone said ``ok`` on 86 of 90 epochs (the fixes agree
+    horizontally); with the rows' test the status is ``degraded`` at the first fix epoch
+    and ``lost`` from the second, in the estimates and in the summary's counts."""
+    res = heights_runs[True]
+    assert set(res.innovations["status"]) == {"rejected"}
+    status = res.estimates["status"].to_numpy()
+    assert status[0] == "degraded" and set(status[1:]) == {"lost"}
+    assert (res.status_records["p_rejected"].iloc[1:] < CONFIG.monitor.p_lost).all()
+
+
+def test_rows_used_leave_the_spawn_tests_status(heights_runs):
+    """Read without heights the fixes' horizontal rows are all used: the rows' test says
+    ``ok`` throughout and the status is the spawn test's."""
+    res = heights_runs[False]
+    assert set(res.innovations["status"]) == {"used"}
+    records = res.status_records
+    assert (records["p_rejected"] == 1.0).all()
+    # the spawn test's own rule: degraded while its window fills (no p_fix) or below
+    # p_degraded; lost below the spawn p-value (never here)
+    p_fix = records["p_fix"].to_numpy(dtype=float)
+    assert (np.nan_to_num(p_fix, nan=1.0) >= 1e-6).all()
+    expected = np.where(np.isfinite(p_fix) & (p_fix >= CONFIG.monitor.p_degraded), "ok",
+                        "degraded")
+    assert list(records["status"]) == list(expected)
+    assert (res.estimates["status"] == "ok").sum() == (expected == "ok").sum()
