@@ -87,6 +87,13 @@ class NavigatorConfig:
         Rate of the stored estimates, Hz (the filter itself runs at the IMU rate).
     initial_attitude_sigma_rad : float
         1σ of the initial attitude about the track's, rad.
+    track_grade_sigma_rad : float or None
+        1σ of the grade the track does not know, rad (`railnav.filters.grade_noise`: the
+        start's pitch variance and the pseudo-observation's normal row carry it). None
+        (default): the track's own, 0 on a track with heights; a run of recorded files on
+        a network without heights (`trackmodel.network.Network.heights` False, fitted at
+        h = 0) takes `railnav.filters.grade_noise.UNKNOWN_GRADE_SIGMA_RAD`
+        (`railnav.jobs.network.run_files_network`). 0: the heights are known.
     initial_s_sigma_m, initial_v_sigma_mps : float or None
         1σ of the initial distance (m) and speed (m/s); None: from the first GNSS fix.
     initial_clock_bias_sigma_m, initial_clock_drift_sigma_mps : float
@@ -235,6 +242,7 @@ class NavigatorConfig:
     gate_probability: float | None = 0.9999
     output_rate_hz: float = 10.0
     initial_attitude_sigma_rad: float = 1e-3
+    track_grade_sigma_rad: float | None = None
     initial_s_sigma_m: float | None = None
     initial_v_sigma_mps: float | None = None
     initial_clock_bias_sigma_m: float = 30.0
@@ -282,6 +290,11 @@ class NavigatorConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be a finite number > 0, got {value!r}")
+        grade = self.track_grade_sigma_rad
+        if grade is not None and not (isinstance(grade, (int, float)) and
+                                      math.isfinite(grade) and grade >= 0):
+            raise ConfigError(f"track_grade_sigma_rad must be a finite number >= 0 or None, "
+                              f"got {grade!r}")
         if not (self.fault_detection is None
                 or isinstance(self.fault_detection, FaultDetectionConfig)):
             raise ConfigError(f"fault_detection must be a FaultDetectionConfig or None, got "
@@ -306,6 +319,11 @@ class NavigatorConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a finite number >= 0, got {value!r}")
+
+    @property
+    def grade_sigma_rad(self) -> float:
+        """`track_grade_sigma_rad`, 0 for None (the track's heights known), rad."""
+        return float(self.track_grade_sigma_rad or 0.0)
 
     @property
     def imu(self) -> ImuErrors:

@@ -34,7 +34,7 @@ from railnav.evaluation.metrics import ErrorSeries, error_series
 from railnav.simulation.truth import TRUTH_COLUMNS, Truth
 from trackmodel.earth import geodetic_to_ecef
 
-__all__ = ["Reference", "read_reference", "reference_errors", "screen_fix_reference",
+__all__ = ["Reference", "read_reference", "reference_kind", "reference_errors", "screen_fix_reference",
            "truth_from_frame", "MAX_REFERENCE_GAP_S", "REFERENCE_MAX_OFFSET_M",
            "REFERENCE_MAX_JUMP_M", "QUALITY_ORDER"]
 
@@ -182,20 +182,12 @@ def read_reference(path: str | os.PathLike, track, *, start_gps_time_s: float,
         A truth file without its columns; gnss_obs.GnssInputError for an unreadable fix
         file.
     """
-    from gnss_obs.fixes.read import detect_fix_format
-    head = _header(path) if detect_fix_format(path) == "csv" else set()
-    trajectory = bool(head) and ("quality" not in head and {
-        "gps_time_s", "lat_deg", "lon_deg", "h_m"} <= head or any(c.startswith("#") for c in head))
-    if quality is not None and ({"time_s", "s_m", "speed_mps"} <= head or trajectory):
-        raise ConfigError("a reference class (quality) applies to a fix file only, not to a "
-                          "truth or trajectory file", path=path)
-    if quality is not None and quality not in QUALITY_ORDER:
-        raise ConfigError(f"unknown fix class {quality!r} (known: {', '.join(QUALITY_ORDER)})")
-    if {"time_s", "s_m", "speed_mps"} <= head:
+    kind = reference_kind(path, quality)
+    if kind == "truth":
         truth = truth_from_frame(pd.read_csv(path), track, path=path)
         return Reference(truth, ("yaw", "pitch", "roll", "s", "v"),
                          {"source": "truth", "path": os.fspath(path)})
-    if trajectory:
+    if kind == "trajectory":
         from railnav.evaluation.spp_accuracy import read_reference_trajectory
         frame = read_reference_trajectory(path)
         truth = _point_truth(frame["gps_time_s"].to_numpy() - start_gps_time_s,
@@ -205,6 +197,28 @@ def read_reference(path: str | os.PathLike, track, *, start_gps_time_s: float,
         return Reference(truth, ("s",), {"source": "trajectory", "path": os.fspath(path),
                                          "samples": int(len(frame))})
     return _fix_reference(path, track, start_gps_time_s, quality)
+
+
+def reference_kind(path: str | os.PathLike, quality: str | None = None) -> str:
+    """What reference file `path` is, by its content (module docstring): ``"truth"``,
+    ``"trajectory"`` or ``"fixes"``.
+
+    Raises
+    ------
+    ConfigError
+        A fix class `quality` for a truth or trajectory file, or an unknown class.
+    """
+    from gnss_obs.fixes.read import detect_fix_format
+    head = _header(path) if detect_fix_format(path) == "csv" else set()
+    trajectory = bool(head) and ("quality" not in head and {
+        "gps_time_s", "lat_deg", "lon_deg", "h_m"} <= head or any(c.startswith("#") for c in head))
+    truth = {"time_s", "s_m", "speed_mps"} <= head
+    if quality is not None and (truth or trajectory):
+        raise ConfigError("a reference class (quality) applies to a fix file only, not to a "
+                          "truth or trajectory file", path=path)
+    if quality is not None and quality not in QUALITY_ORDER:
+        raise ConfigError(f"unknown fix class {quality!r} (known: {', '.join(QUALITY_ORDER)})")
+    return "truth" if truth else "trajectory" if trajectory else "fixes"
 
 
 def _header(path) -> set[str]:

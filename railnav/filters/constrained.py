@@ -38,6 +38,7 @@ from railnav.filters.constrained_model import (build_constrained_model, isb_stat
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
+from railnav.filters.grade_noise import unknown_grade_density
 from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.one_sided import OneSidedLimit
@@ -226,11 +227,14 @@ class ConstrainedFilter:
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step
         nodes = step_nodes(sigma_s)
-        return {"u": u, "params": params,
-                "r_c": held_density(variance, params, sigma_s_m=sigma_s, speed_mps=speed,
-                                    correlation_s=remainder_correlation_s(
-                                        sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
-                                    held_s=float(t[-1]) - t_prev),
+        r_c = held_density(variance, params, sigma_s_m=sigma_s, speed_mps=speed,
+                           correlation_s=remainder_correlation_s(
+                               sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
+                           held_s=float(t[-1]) - t_prev)
+        if self.config.grade_sigma_rad > 0.0:           # a grade the track does not know
+            r_c[:, 1] += unknown_grade_density(self._along_accel(u, x_prev), speed,
+                                               self.config.grade_sigma_rad)
+        return {"u": u, "params": params, "r_c": r_c,
                 "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
                 "along": along, "speed": speed, "s_prev": s_prev,
@@ -265,14 +269,19 @@ class ConstrainedFilter:
     def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
         """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
         i = self._i
-        gravity = self._gravity_near(x_prev[i["s"]])
-        f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
-        accel = f_x - gravity * np.sin(x_prev[i["pitch"]])
+        accel = self._along_accel(u, x_prev)
         dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
         v = x_prev[i["v"]] + np.cumsum(accel * dt)
         v_mid = 0.5 * (_shifted(v, x_prev[i["v"]]) + v)
         s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
         return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
+
+    def _along_accel(self, u: Array, x_prev: Array) -> Array:
+        """Along-track acceleration of samples `u` from the state `x_prev`,
+        ``f_x − b_ax − g sin θ`` (m/s²)."""
+        gravity = self._gravity_near(x_prev[self._i["s"]])
+        f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
+        return f_x - gravity * np.sin(x_prev[self._i["pitch"]])
 
     def _gravity_near(self, s: float) -> float:
         """|g| (m/s²) at the track point nearest `s`, cached per kilometre of track."""

@@ -269,7 +269,8 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     Returns
     -------
     dict of str to float
-        ``yaw, pitch, roll`` (rad²), the IMU biases ((m/s²)², (rad/s)²), ``clock_bias``
+        ``yaw, pitch, roll`` (rad²; the pitch's with ``config.grade_sigma_rad``'s
+        square added: a grade the track does not know), the IMU biases ((m/s²)², (rad/s)²), ``clock_bias``
         (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*`` (m²), the odometer's
         scale ``odo_scale`` (its prior, `railnav.filters.odometer_epochs.OdometerConfig`)
         and the IMU's mounting ``mount_*`` (rad², with ``config.track_attitude``).
@@ -279,7 +280,8 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
                 _MIN_BIAS_VARIANCE)
     gyro = max(imu.gyro_bias_radps ** 2 + imu.gyro_bias_instability_radps ** 2,
                _MIN_BIAS_VARIANCE)
-    var = {"yaw": attitude, "pitch": attitude, "roll": attitude,
+    pitch = attitude + config.grade_sigma_rad ** 2         # a grade the track does not know
+    var = {"yaw": attitude, "pitch": pitch, "roll": attitude,
            CLOCK_STATE_NAMES[0]: config.initial_clock_bias_sigma_m ** 2,
            CLOCK_STATE_NAMES[1]: config.initial_clock_drift_sigma_mps ** 2}
     var.update({name: accel for name in BIAS_STATE_NAMES[:3]})

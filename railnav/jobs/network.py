@@ -25,8 +25,10 @@ height: the fixes' heights are not used (no ``fix_up`` rows, no start-height che
 ``FixModelConfig(use_height=False)``), the estimates' `HEIGHT_COLUMNS` are empty
 (`railnav.navigation.result.without_heights`) and ``summary.json`` says ``"heights":
 false``. Pseudoranges are refused (their geometry needs the antenna's height: ~100 m off
-at Brussels); an IMU is navigated as on level track (its along-track gravity ``g sinϑ``
-unmodelled: 0.1 m/s² on a 1 % grade), with a warning. A simulated trip on such a network
+at Brussels); an IMU is navigated on the level tracks with the grade unknown
+(``NavigatorConfig.track_grade_sigma_rad`` = `UNKNOWN_GRADE_SIGMA_RAD`, 20 ‰: the start's
+pitch σ and the pseudo-observation's normal row carry it, `railnav.filters.grade_noise`;
+without it a body pitched 1 % leaks 0.1 m/s² of gravity into the speed). A simulated trip on such a network
 (`run_simulated_network`) runs in a world at ``h = 0``: its truth and estimates keep
 their heights.
 """
@@ -42,6 +44,7 @@ import numpy as np
 
 from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError, RailnavError
+from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
 from railnav.evaluation.netelement_truth import (
     collapse,
     netelement_scores,
@@ -145,15 +148,34 @@ def _scored_summary(summary: dict, result, network, truth_time_s, truth, extra: 
     return {**summary, "route": route}
 
 
-def _fix_truth(network, truth_path, quality, start_gps_time_s: float):
-    """Issue 13's netelement truth from the rows of class `quality` (default
-    ``rtk_fixed``) of a fix file: times (s from the trip start) and netelements."""
+def _netelement_truth_of(network, truth_path, quality, start_gps_time_s: float):
+    """Issue 13's netelement truth (`railnav.evaluation.netelement_truth`) at the points
+    of a reference file (`railnav.evaluation.reference.reference_kind`): ``railnav
+    simulate``'s ``truth.csv`` (every sample), a reference trajectory (every row) or a fix
+    file (its rows of class `quality`, default ``rtk_fixed``). Times (s from the trip
+    start) and netelements (None where ambiguous)."""
+    import pandas as pd
+
     from gnss_obs.fixes.read import read_fixes
-    tab = read_fixes(truth_path).table
-    truth = netelement_truth(network, np.radians(tab["lat_deg"].to_numpy()),
-                             np.radians(tab["lon_deg"].to_numpy()))
-    truth[tab["quality"].to_numpy() != (quality or "rtk_fixed")] = None
-    return tab["gps_time_s"].to_numpy(dtype=float) - start_gps_time_s, truth
+    from railnav.evaluation.reference import reference_kind
+    from railnav.evaluation.spp_accuracy import read_reference_trajectory
+    kind = reference_kind(truth_path, quality)
+    if kind == "truth":
+        tab = pd.read_csv(truth_path)
+        missing = {"time_s", "lat_deg", "lon_deg"} - set(tab.columns)
+        if missing:
+            raise ConfigError(f"truth file without {', '.join(sorted(missing))}",
+                              path=truth_path)
+        time_s = tab["time_s"].to_numpy(dtype=float)
+    else:
+        tab = read_reference_trajectory(truth_path) if kind == "trajectory" else \
+            read_fixes(truth_path).table
+        time_s = tab["gps_time_s"].to_numpy(dtype=float) - start_gps_time_s
+    truth = netelement_truth(network, np.radians(tab["lat_deg"].to_numpy(dtype=float)),
+                             np.radians(tab["lon_deg"].to_numpy(dtype=float)))
+    if kind == "fixes":
+        truth[tab["quality"].to_numpy() != (quality or "rtk_fixed")] = None
+    return time_s, truth
 
 
 def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_path=None,
@@ -168,8 +190,10 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
 
     Parameters are those of `railnav.jobs.run.run_files` (the sensor files, the filter
     and fix model), plus `start` (`railnav.navigation.network_start.NetworkStart`, default
-    unknown) and `nav` (`NetworkNavConfig`); `truth_path` is a fix file whose rows of
-    `truth_quality` (default ``rtk_fixed``) give the netelement truth; `window`, an extra
+    unknown) and `nav` (`NetworkNavConfig`); `truth_path` gives the netelement truth:
+    ``railnav simulate``'s ``truth.csv`` (default: the one beside the inputs'
+    ``scenario.json``), a reference trajectory, or a fix file's rows of class
+    `truth_quality` (default ``rtk_fixed``); `window`, an extra
     summary window ``(start_s, end_s)``. On a network without heights, no height is used or
     written (module docstring).
 
@@ -178,7 +202,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     ConfigError
         Pseudoranges (`obs_path`) on a network without heights.
     """
-    from railnav.jobs.scoring import with_timestamps
+    from railnav.jobs.scoring import find_truth, with_timestamps
     _check_heights(network, obs_path=obs_path, imu_path=imu_path)
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -187,6 +211,9 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
                                      fix_model=fix_model)
     if not network.heights:
         config = replace(config, fix_model=replace(config.fix_model, use_height=False))
+        if imu_path is not None and config.track_grade_sigma_rad is None:
+            # the grade is unknown: the start's pitch and the normal row say so
+            config = replace(config, track_grade_sigma_rad=UNKNOWN_GRADE_SIGMA_RAD)
     result = navigate_network(network, data, config, nav=nav, start=start,
                               outages=tuple(outages), progress=progress)
     combined = with_timestamps(result.combined(), data.fixes)
@@ -199,7 +226,8 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
     summary = run_summary(combined, track, None, window, tuple(outages),
                           {**extra, "heights": network.heights})
-    truth_t, truth = (None, None) if truth_path is None else _fix_truth(
+    truth_path = truth_path or find_truth(imu_path, obs_path, fixes_path)
+    truth_t, truth = (None, None) if truth_path is None else _netelement_truth_of(
         network, truth_path, truth_quality, data.start_gps_time_s)
     summary = _scored_summary(summary, result, network, truth_t, truth, {})
     return NetworkRunOutcome(RunOutcome(combined, track, summary, data=data), result, network)
@@ -207,7 +235,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
 
 def _check_heights(network: Network, *, obs_path, imu_path) -> None:
     """A run of recorded files on a network without heights (module docstring): no
-    pseudoranges; an IMU with a warning.
+    pseudoranges; an IMU with the grade unknown (`railnav.filters.grade_noise`).
 
     Raises
     ------
@@ -221,8 +249,9 @@ def _check_heights(network: Network, *, obs_path, imu_path) -> None:
                           "heights (a network folder or GeoJSON file with them, or a track "
                           "file)")
     if imu_path is not None:
-        log.warning("this network has no heights: the IMU is navigated as on level track "
-                    "(its along-track gravity on a grade is not modelled)")
+        log.info("this network has no heights: the IMU is navigated on level tracks with "
+                 "an unknown grade of sigma %.0f per mille (railnav.filters.grade_noise)",
+                 1e3 * UNKNOWN_GRADE_SIGMA_RAD)
 
 
 def simulation_line(network: Network, legs):

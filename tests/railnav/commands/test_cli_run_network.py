@@ -232,3 +232,36 @@ def test_gnss_run_spawns_from_single_point_fixes(tmp_path, capsys):
     assert len(summary["default"]["route"]["spawns"]) >= 1 and abs(error["default"]) < 10.0
     assert summary["default"]["statistics"]["monitor"]["final_status"] == "ok"
     assert status["default"] <= {"ok", "degraded", "lost"}
+
+
+def test_simulated_files_are_scored_against_their_truth(tmp_path, capsys):
+    """``railnav simulate --network`` then ``railnav run --network`` on its fixes: the
+    run finds the ``truth.csv`` beside ``scenario.json`` (as a single-track run does) and
+    scores the netelements against it; ``--truth truth.csv`` gives the same scores, a
+    reference class with it is a one-line error. Reference: the simulated route itself
+    (the truth's unambiguous netelements, in order, are its elements)."""
+    route = ["88_L_111", "88_L_154", "88_L_7815"]
+    sim = tmp_path / "sim"
+    assert main(["-q", "simulate", "--network", BRUSSELS, "--route", ",".join(route),
+                 "--scenario", "curvy", "--duration-s", "90", "--no-gnss", "--fixes-format",
+                 "csv", "--fixes-quality", "rtk_fixed=1", "--out", str(sim)]) == 0
+    scores = {}
+    for name, extra in (("default", []), ("given", ["--truth", str(sim / "truth.csv")])):
+        out = tmp_path / name
+        assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(sim / "fixes.csv"),
+                     "--no-plots", *extra, "--out", str(out)]) == 0
+        summary = json.loads((out / "summary.json").read_text())["route"]
+        assert summary["netelements"][-1] == route[0]      # 90 s: still on the first
+        scores[name] = summary["truth"]
+    truth = scores["default"]
+    assert scores["given"] == truth
+    assert truth["epochs"] > 50 and truth["share_right"] == 1.0
+    assert truth["navigable"] and truth["passes_truth"]
+    capsys.readouterr()
+    out = tmp_path / "quality"
+    assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(sim / "fixes.csv"),
+                 "--truth", str(sim / "truth.csv"), "--truth-quality", "single",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and "applies to a fix file only" in err and "\n" not in err
+    assert not out.exists()
