@@ -19,7 +19,8 @@ each epoch; and the final hypotheses with their paths. From these:
   fixes or GNSS observations also ``status`` (``ok``, ``degraded``, ``lost``: whether any
   live hypothesis agrees with the fixes, or with the GNSS epochs' own single-point fixes,
   the test of `railnav.navigation.spawning`, and whether the rows reported are rejected
-  more often than a fault-free navigator's, `railnav.navigation.network_status`);
+  more often, or disagree more, than a fault-free navigator's,
+  `railnav.navigation.network_status`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
   hypothesis (its path), each element with entry and exit times, the probability of the
@@ -44,7 +45,7 @@ from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
 from railnav.navigation.hypotheses import normalized_weights
 from railnav.navigation.monitor import status_at
-from railnav.navigation.network_status import combined_status_records, rejected_row_records
+from railnav.navigation.network_status import combined_status_records, row_records
 from railnav.navigation.result import NavigationResult, estimates_frame
 
 __all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
@@ -179,7 +180,7 @@ class NetworkRecorder:
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
             spawns=tuple(self.spawns), status_records=combined_status_records(
-                self.status_records, rejected_row_records(innovations, config)))
+                self.status_records, row_records(innovations, config)))
 
 
 def _most_on(shares, w: Array, element: str) -> tuple[int, tuple[str, int, float]]:

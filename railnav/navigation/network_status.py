@@ -1,5 +1,5 @@
-r"""The status of a network run: the spawn test's, and the rejected-row test of the rows the
-navigator reports.
+"""The status of a network run: the spawn test's, and two tests of the rows the navigator
+reports.
 
 A network run's ``status`` column (`railnav.navigation.network_result`) came from one test
 only, `railnav.navigation.spawning`'s: does any live hypothesis agree with the epoch's
@@ -9,33 +9,47 @@ heights are wrong) had every one of their 270 rows rejected, the hypotheses coas
 their start speed, while the status said ``ok`` on 86 of 90 epochs
 (`tests/railnav/navigation/test_network_status.py`).
 
-The single filter's divergence monitor (`railnav.navigation.monitor`) has a test for
-that, the share of rows its gates rejected; this module gives the network run the same
-test on the rows it reports: the innovations of the most probable hypothesis at each
-epoch (``innovations.csv``, `NetworkResult.innovations`).
+The single filter's divergence monitor (`railnav.navigation.monitor`) also tests the rows
+its gates rejected and the NIS of those it used; this module gives the network run the
+same two tests on the rows it reports: the innovations of the most probable hypothesis at
+each epoch (``innovations.csv``, `NetworkResult.innovations`), over the last
+`MonitorConfig.window_epochs` epochs with rows.
 
-**Test.** Over the last `MonitorConfig.window_epochs` epochs with rows, the number of
-epochs with at least one row ``rejected`` (``excluded`` rows, a channel kept out after
-its rejections, are not counted again) against the binomial law of a fault-free epoch's
-rejection: each of its ``m`` rows is rejected with probability at most
-``p_row = P(χ²₁ > fault screen's threshold) + (1 − gate_probability)`` (the fault
-screen's row test, `railnav.filters.fault_detection.FaultDetectionConfig.nis_threshold`,
-1.9e-4 at the defaults, and the navigator's χ² gate, 1e-4; a union bound), so the epoch
-with probability at most ``q = 1 − (1 − p_row)^m`` (``m`` the window's largest row count).
-Epochs, not rows, are counted: the rows of one fix are rejected together
-(`railnav.filters.row_sets.group_status`), so rows are not independent; an epoch's
-rejection is ≤ ``q`` whatever the ties. The tail ``p_rejected = P(X ≥ k)``,
+**Rejected rows.** The number of epochs with at least one row ``rejected`` (``excluded``
+rows, a channel kept out after its rejections, are not counted again) against the
+binomial law of a fault-free epoch's rejection: each of its ``m`` rows is rejected with
+probability at most ``p_row = P(χ²₁ > fault screen's threshold) + (1 − gate_probability)``
+(the fault screen's row test, `railnav.filters.fault_detection.FaultDetectionConfig.
+nis_threshold`, 1.9e-4 at the defaults, and the navigator's χ² gate, 1e-4; a union
+bound), so the epoch with probability at most ``q = 1 − (1 − p_row)^m`` (``m`` the
+window's largest row count). Epochs, not rows, are counted: the rows of one fix are
+rejected together (`railnav.filters.row_sets.group_status`), so rows are not independent;
+an epoch's rejection is ≤ ``q`` whatever the ties. The tail ``p_rejected = P(X ≥ k)``,
 ``X ~ Binomial(n, q)``, is ``lost`` below `MonitorConfig.p_lost` when at least
 `MonitorConfig.lost_rejected_share` of the window's rows were rejected (fewer: the rows,
-not the navigator, are bad), ``degraded`` below `MonitorConfig.p_degraded`, else ``ok``:
-the single monitor's thresholds and rule.
+not the navigator, are bad), ``degraded`` below `MonitorConfig.p_degraded`: the single
+monitor's thresholds and rule.
 
-**Combined.** At each tested time the status is the worse of the two tests' latest
-results (``lost`` > ``degraded`` > ``ok``). This test only reports: spawning stays the
-spawn test's decision (new hypotheses started from the same fixes would reject the same
-rows). The rejected-row test's records are ``p_rejected`` and ``rejected_share`` columns
-of the run's monitor frame (``monitor.csv`` is not written for network runs; the
+**NIS.** The sum of the used rows' ``ν²/S`` against χ² with one degree of freedom per row
+(``p_nis``, its upper tail): ``degraded`` below `MonitorConfig.p_degraded`, as the single
+monitor's GNSS NIS test. The used rows passed the gates, so a gross error shows in the
+rejected rows, a slow one (σ too small for the data) here.
+
+**Combined.** At each tested time the status is the worst of the tests' latest results
+(``lost`` > ``degraded`` > ``ok``). The row tests only report: spawning stays the spawn
+test's decision (new hypotheses started from the same fixes would reject the same rows).
+Their records are the ``p_rejected``, ``rejected_share`` and ``p_nis`` columns of the
+run's monitor frame (``monitor.csv`` is not written for network runs; the
 ``statistics.monitor`` counts and the estimates' ``status`` are).
+
+Measured (load ~2): on the simulated switch runs (`benchmarks/bench_network_switches.py`'s
+10 seeds × 448 epochs, pseudoranges and a tactical IMU, 11 rows rejected of ~62 000) the
+rejected-row test never fires and the NIS test once (2.2e-4 per epoch, below
+``p_degraded``). On the Brussels logs as given (fixes only), the status counts
+(``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
+495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
+test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
+off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0.
 """
 from __future__ import annotations
 
@@ -46,7 +60,7 @@ import pandas as pd
 from railnav.filters.row_sets import ROW_STATUSES
 from railnav.navigation.monitor import STATUSES
 
-__all__ = ["row_false_rejection", "rejected_row_records", "combined_status_records"]
+__all__ = ["row_false_rejection", "row_records", "combined_status_records"]
 
 Array = npt.NDArray[np.float64]
 
@@ -62,7 +76,8 @@ def _at_least(k: Array, n: Array, q: Array) -> Array:
 
 def row_false_rejection(config) -> float | None:
     """``p_row`` of the module docstring for a `railnav.config.NavigatorConfig`: the
-    probability that a fault-free row is rejected (None: nothing rejects rows)."""
+    probability that a fault-free row is rejected (None: nothing rejects rows, and the
+    rejected-row test is off)."""
     from scipy.special import chdtrc
     p = 0.0 if config.gate_probability is None else 1.0 - float(config.gate_probability)
     fd = config.fault_detection
@@ -71,48 +86,62 @@ def row_false_rejection(config) -> float | None:
     return p if p > 0.0 else None
 
 
-def rejected_row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
-    """The rejected-row test at each epoch of `innovations` (module docstring).
+def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
+    """The row tests at each epoch of `innovations` (module docstring).
 
     Parameters
     ----------
     innovations : pandas.DataFrame
-        ``innovations.csv`` of the run: ``time_s``, ``epoch``, ``status`` per row.
+        ``innovations.csv`` of the run: ``time_s``, ``epoch``, ``nis``, ``status`` per row.
     config : railnav.config.NavigatorConfig
         Its ``monitor`` thresholds, gate and fault screen.
 
     Returns
     -------
     pandas.DataFrame
-        ``time_s, status, p_rejected, rejected_share``, one row per epoch, in time order
-        (empty when nothing rejects rows or there are no rows).
+        ``time_s, status, p_rejected, rejected_share, p_nis``, one row per epoch, in time
+        order (empty without rows).
     """
-    columns = ["time_s", "status", "p_rejected", "rejected_share"]
-    p_row = row_false_rejection(config)
-    if p_row is None or len(innovations) == 0:
+    from scipy.special import chdtrc
+    columns = ["time_s", "status", "p_rejected", "rejected_share", "p_nis"]
+    if len(innovations) == 0:
         return pd.DataFrame(columns=columns)
-    rejected = (innovations["status"].to_numpy(dtype=object) == _REJECTED)
-    epochs = innovations.assign(rejected=rejected).groupby("epoch", sort=True).agg(
-        time_s=("time_s", "first"), rows=("rejected", "size"), rejected=("rejected", "sum"))
+    status = innovations["status"].to_numpy(dtype=object)
+    used = status == ROW_STATUSES[0]
+    epochs = innovations.assign(
+        rejected=status == _REJECTED, used=used,
+        used_nis=np.where(used, innovations["nis"].to_numpy(dtype=float), 0.0)).groupby(
+        "epoch", sort=True).agg(time_s=("time_s", "first"), rows=("rejected", "size"),
+                                rejected=("rejected", "sum"), used=("used", "sum"),
+                                nis=("used_nis", "sum"))
     n = int(config.monitor.window_epochs)
-    rows = epochs["rows"].rolling(n, min_periods=1)
-    bad = epochs["rejected"].rolling(n, min_periods=1)
-    q = 1.0 - (1.0 - p_row) ** rows.max().to_numpy(dtype=float)
-    k = (epochs["rejected"] > 0).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
-    p = _at_least(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
-    share = bad.sum().to_numpy(dtype=float) / rows.sum().to_numpy(dtype=float)
+    window = epochs.rolling(n, min_periods=1)
+    rows = window["rows"].sum().to_numpy(dtype=float)
+    share = window["rejected"].sum().to_numpy(dtype=float) / rows
+    p_row = row_false_rejection(config)
+    if p_row is None:
+        p_rejected = np.ones(len(epochs))
+    else:
+        q = 1.0 - (1.0 - p_row) ** window["rows"].max().to_numpy(dtype=float)
+        k = (epochs["rejected"] > 0).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
+        p_rejected = _at_least(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
+    dof = window["used"].sum().to_numpy(dtype=float)
+    p_nis = np.where(dof > 0, chdtrc(np.maximum(dof, 1.0), window["nis"].sum().to_numpy(
+        dtype=float)), 1.0)
     cfg = config.monitor
-    status = np.where((p < cfg.p_lost) & (share >= cfg.lost_rejected_share), STATUSES[2],
-                      np.where(p < cfg.p_degraded, STATUSES[1], STATUSES[0])).astype(object)
-    return pd.DataFrame({"time_s": epochs["time_s"].to_numpy(dtype=float), "status": status,
-                         "p_rejected": p, "rejected_share": share})
+    worst = np.minimum(p_rejected, p_nis)
+    out = np.where((p_rejected < cfg.p_lost) & (share >= cfg.lost_rejected_share),
+                   STATUSES[2], np.where(worst < cfg.p_degraded, STATUSES[1], STATUSES[0]))
+    return pd.DataFrame({"time_s": epochs["time_s"].to_numpy(dtype=float),
+                         "status": out.astype(object), "p_rejected": p_rejected,
+                         "rejected_share": share, "p_nis": p_nis})
 
 
 def combined_status_records(spawn: pd.DataFrame | None, rows: pd.DataFrame) -> pd.DataFrame:
     """The run's status records: `spawn` (`railnav.navigation.spawning.Spawner.frame`)
-    and `rows` (`rejected_row_records`) merged on time, each time's status the worse of
-    the two tests' latest (module docstring); the columns of both (NaN where a test has no
-    record at that time, ``action`` empty)."""
+    and `rows` (`row_records`) merged on time, each time's status the worse of the two
+    latest (module docstring); the columns of both (NaN where one has no record at that
+    time, ``action`` empty)."""
     if spawn is None or len(rows) == 0:
         return spawn
     merged = pd.merge(spawn.rename(columns={"status": "status_fix"}),

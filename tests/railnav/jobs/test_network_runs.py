@@ -20,7 +20,7 @@ from railnav.jobs.network import (
     simulation_line,
     true_netelements,
 )
-from railnav.navigation.network_status import rejected_row_records
+from railnav.navigation.network_status import row_records
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import get_scenario
 from railnav.simulation.switch_network import (
@@ -70,7 +70,7 @@ def test_the_way_taken_at_each_switch_is_identified(take_loop):
     assert min(held) > 0.2
     # a consistent navigator: the rejected-row test (railnav.navigation.network_status)
     # raises no alarm (its bound on a fault-free epoch's rejection holds)
-    rows = rejected_row_records(res.innovations, res.config)
+    rows = row_records(res.innovations, res.config)
     assert len(rows) == res.innovations["epoch"].nunique() and set(rows["status"]) == {"ok"}
 
 

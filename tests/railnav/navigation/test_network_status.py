@@ -1,6 +1,6 @@
-"""The network run's rejected-row test (`railnav.navigation.network_status`). References:
-the binomial tail summed term by term with `math.comb`, SciPy's χ² survival function for
-the row tests' false rejections, statuses spelled out by hand for the merge, and the
+"""The network run's row tests (`railnav.navigation.network_status`). References: the
+binomial tail summed term by term with `math.comb`, SciPy's χ² distribution for the row
+tests' false rejections and the NIS tail, statuses spelled out by hand for the merge, and the
 network with heights ~100 m off its fixes (`tests.support.height_networks`), where every
 fix row is rejected."""
 from __future__ import annotations
@@ -18,7 +18,7 @@ from railnav.jobs.network import run_files_network
 from railnav.navigation.monitor import MonitorConfig
 from railnav.navigation.network_status import (
     combined_status_records,
-    rejected_row_records,
+    row_records,
     row_false_rejection,
 )
 from tests.support.height_networks import write_fixes, write_geojson
@@ -38,10 +38,12 @@ def _tail(k: int, n: int, q: float) -> float:
     return sum(math.comb(n, j) * q ** j * (1.0 - q) ** (n - j) for j in range(k, n + 1))
 
 
-def _innovations(statuses: list[list[str]]) -> pd.DataFrame:
-    """One epoch per list (time 0.5 s apart), one row per status."""
-    return pd.DataFrame([{"time_s": 0.5 * e, "epoch": e, "status": s}
-                         for e, rows in enumerate(statuses) for s in rows])
+def _innovations(statuses: list[list[str]], nis=None) -> pd.DataFrame:
+    """One epoch per list (time 0.5 s apart), one row per status; NIS 1 unless given
+    (a list per epoch)."""
+    return pd.DataFrame([{"time_s": 0.5 * e, "epoch": e, "status": s,
+                          "nis": 1.0 if nis is None else nis[e][j]}
+                         for e, rows in enumerate(statuses) for j, s in enumerate(rows)])
 
 
 def test_false_rejection_is_the_two_row_tests_summed():
@@ -60,7 +62,7 @@ def test_tails_are_the_binomial_law_of_rejected_epochs():
     statuses = [["used"] * 3, ["rejected", "rejected", "used"], ["rejected", "used"],
                 ["used", "excluded", "used", "used"], ["rejected", "used", "used"],
                 ["used"] * 3]
-    out = rejected_row_records(_innovations(statuses), config)
+    out = row_records(_innovations(statuses), config)
     p_row = _p_row(config)
     rows = [len(r) for r in statuses]
     bad = [int("rejected" in r) for r in statuses]
@@ -81,14 +83,34 @@ def test_tails_are_the_binomial_law_of_rejected_epochs():
                                    "degraded"]
 
 
+def test_nis_tail_is_chi2_of_the_used_rows_in_the_window():
+    """Rows' NIS summed over the window's used rows (a rejected row's NIS left out)
+    against χ² with one degree of freedom per used row, from SciPy's distribution; the
+    window of 3 epochs; degraded below p_degraded, never lost."""
+    config = replace(CONFIG, monitor=replace(MonitorConfig(), window_epochs=3))
+    statuses = [["used"] * 2, ["used", "rejected"], ["used"] * 2, ["used"] * 2,
+                ["excluded", "used"]]
+    nis = [[0.5, 1.5], [2.0, 400.0], [9.0, 11.0], [12.0, 10.0], [50.0, 0.1]]
+    out = row_records(_innovations(statuses, nis), config)
+    used = [[v for v, st in zip(n, r) if st == "used"] for n, r in zip(nis, statuses)]
+    for k in range(len(statuses)):
+        window = [v for e in used[max(0, k - 2):k + 1] for v in e]
+        assert out["p_nis"].iloc[k] == pytest.approx(chi2.sf(sum(window), len(window)),
+                                                     rel=1e-9)
+    flags = ["degraded" if p < config.monitor.p_degraded or r < config.monitor.p_degraded
+             else "ok" for p, r in zip(out["p_nis"], out["p_rejected"])]
+    assert list(out["status"]) == flags and "degraded" in flags and "lost" not in flags
+
+
 def test_every_row_rejected_is_lost_from_the_second_epoch():
     """Every epoch's three rows rejected: tail q^k (k epochs, all rejected); q ≈ 3·p_row
     ≈ 8.7e-4 is below p_degraded alone, q² below p_lost, and the share is 1."""
-    out = rejected_row_records(_innovations([["rejected"] * 3] * 12), CONFIG)
+    out = row_records(_innovations([["rejected"] * 3] * 12), CONFIG)
     q = 1.0 - (1.0 - _p_row(CONFIG)) ** 3
     n = CONFIG.monitor.window_epochs
     np.testing.assert_allclose(out["p_rejected"],
                                [q ** min(k, n) for k in range(1, 13)], rtol=1e-9)
+    assert (out["p_nis"] == 1.0).all()                   # no row used: nothing to test
     assert list(out["status"]) == ["degraded"] + ["lost"] * 11
 
 
@@ -136,7 +158,7 @@ def test_rows_used_leave_the_spawn_tests_status(heights_runs):
     res = heights_runs[False]
     assert set(res.innovations["status"]) == {"used"}
     records = res.status_records
-    assert (records["p_rejected"] == 1.0).all()
+    assert (records["p_rejected"] == 1.0).all() and (records["p_nis"] > 0.5).all()
     # the spawn test's own rule: degraded while its window fills (no p_fix) or below
     # p_degraded; lost below the spawn p-value (never here)
     p_fix = records["p_fix"].to_numpy(dtype=float)
