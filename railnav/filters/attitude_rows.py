@@ -130,13 +130,19 @@ class AttitudeRowBuilder:
     layout : ekf.StateLayout
     track : trackmodel.Track
     config : TrackAttitudeConfig
+    use_pitch : bool
+        With the pitch row; False where the track's grade is unknown (a network without
+        heights, `railnav.filters.grade_noise`: the row would hold the body's pitch to the
+        level track's, an error of the whole grade).
     """
 
-    def __init__(self, layout: StateLayout, track, config: TrackAttitudeConfig) -> None:
+    def __init__(self, layout: StateLayout, track, config: TrackAttitudeConfig, *,
+                 use_pitch: bool = True) -> None:
         self.track, self.config = track, config
         self.model = build_attitude_rows(layout)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
-        self.axes = (0, 1, 2) if config.use_roll else (0, 1)
+        self.axes = tuple(k for k, used in enumerate((True, use_pitch, config.use_roll))
+                          if used)
 
     def _chord(self, s: Array, azimuth0: float) -> Array:
         """The chord's azimuth (relative to `azimuth0`, wrapped) and elevation at ``s``,
@@ -178,7 +184,7 @@ class AttitudeRowBuilder:
             if line is not None:
                 common[:4] = line
                 common[4:8] = [0.0, 0.0, 0.0, 0.0]
-            R[:2] += added
+            R += np.array([added[k] if k < 2 else 0.0 for k in self.axes])  # yaw, pitch
         p = np.array([[*np.eye(3)[k], *common] for k in self.axes])
         obs = Observation(self.model, np.zeros((len(self.axes), 1)), R, p)
         return ([obs], np.full(len(self.axes), ATTITUDE_SV, dtype=object),

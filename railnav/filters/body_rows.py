@@ -121,7 +121,9 @@ class BodyRows(SensorRows):
     def __init__(self, layout, track, config, streams: dict) -> None:  # noqa: D107
         self.builders = {}
         if "attitude" in streams:
-            self.builders["attitude"] = AttitudeRowBuilder(layout, track, config.track_attitude)
+            # no pitch row where the grade is unknown (railnav.filters.grade_noise)
+            self.builders["attitude"] = AttitudeRowBuilder(
+                layout, track, config.track_attitude, use_pitch=config.grade_sigma_rad == 0.0)
         if "standstill" in streams:
             self.builders["standstill"] = StandstillRowBuilder(layout, track,
                                                                streams["standstill"],

@@ -15,7 +15,10 @@ filter (`strapdown.reduced`) takes the track's tangent ``u`` as level, so
   the row reads ``a sin γ`` that the model does not have. During an acceleration it then
   holds the body's pitch to the level track's (the pitch follows ``−γ`` off the truth)
   and the along-track accelerometer bias takes ``g γ`` instead: a filter that is sure of
-  both and wrong in both.
+  both and wrong in both;
+* **the track-attitude pitch row** (``NavigatorConfig.track_attitude``,
+  `railnav.filters.attitude_rows`: ``θ_b − ϑ(s)``) would hold the body's pitch to the
+  level track's, off by the whole grade: it is left out (yaw and roll rows kept).
 
 Its noise. The term ``a γ`` is the train's along-track acceleration ``a`` (known to the
 filter's prediction, `unknown_grade_density`'s ``accel_mps2``: ``f_x − b_ax − g sin θ`` at

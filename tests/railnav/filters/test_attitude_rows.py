@@ -129,3 +129,32 @@ def test_standstill_rows(rng):
 def test_bad_attitude_config_is_refused(bad):
     with pytest.raises(ConfigError, match="track attitude"):
         TrackAttitudeConfig(**bad)
+
+
+def test_no_pitch_row_where_the_grade_is_unknown(track, rng):
+    """A network without heights (railnav.filters.grade_noise): the pitch row would hold
+    the body to the level track's pitch. Without it the yaw and roll rows are those of the
+    full builder (same residuals, variances with the same geometry noise added), and a
+    navigator config with an unknown grade builds it so (railnav.filters.body_rows)."""
+    from dataclasses import replace
+
+    from railnav.config import NavigatorConfig
+    from railnav.filters.body_rows import BodyRows
+    x, P = _state(rng), np.diag(np.full(LAYOUT.size, 4.0))
+    (full,), _, kinds = AttitudeRowBuilder(LAYOUT, track, TrackAttitudeConfig()).observations(
+        0, x, P)
+    (obs,), sv, kind = AttitudeRowBuilder(LAYOUT, track, TrackAttitudeConfig(),
+                                          use_pitch=False).observations(0, x, P)
+    assert list(kinds) == ["att_yaw", "att_pitch", "att_roll"]
+    assert list(kind) == ["att_yaw", "att_roll"]
+    np.testing.assert_array_equal(obs.model.evaluate(x, obs.p)[0],
+                                  full.model.evaluate(x, full.p)[0][[0, 2]])
+    np.testing.assert_array_equal(obs.R, full.R[[0, 2]])
+    config = replace(NavigatorConfig(imu_errors="tactical",
+                                     track_attitude=TrackAttitudeConfig()),
+                     track_grade_sigma_rad=0.02)
+    rows = BodyRows(LAYOUT, track, config, {"attitude": None})
+    assert rows.builders["attitude"].axes == (0, 2)
+    rows = BodyRows(LAYOUT, track, replace(config, track_grade_sigma_rad=None),
+                    {"attitude": None})
+    assert rows.builders["attitude"].axes == (0, 1, 2)
