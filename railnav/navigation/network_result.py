@@ -19,8 +19,8 @@ each epoch; and the final hypotheses with their paths. From these:
   fixes or GNSS observations also ``status`` (``ok``, ``degraded``, ``lost``: whether any
   live hypothesis agrees with the fixes, or with the GNSS epochs' own single-point fixes,
   the test of `railnav.navigation.spawning`, and whether the rows reported are rejected
-  more often, or disagree more, than a fault-free navigator's,
-  `railnav.navigation.network_status`);
+  more often, or disagree more, than a fault-free navigator's, and its pseudo-observation
+  too, `railnav.navigation.network_status`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
   hypothesis (its path), each element with entry and exit times, the probability of the
@@ -45,7 +45,8 @@ from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
 from railnav.navigation.hypotheses import normalized_weights
 from railnav.navigation.monitor import status_at
-from railnav.navigation.network_status import combined_status_records, row_records
+from railnav.navigation.network_status import (combined_status_records, pseudo_nis,
+                                                pseudo_records, row_records)
 from railnav.navigation.result import NavigationResult, estimates_frame
 
 __all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
@@ -101,6 +102,9 @@ class NetworkRecorder:
         self.spawns: list[tuple[float, int]] = []
         #: The spawner's test per fix epoch (`railnav.navigation.spawning.Spawner.frame`).
         self.status_records = None
+        #: ``(time_s, NIS sum, degrees of freedom)`` of the most probable hypothesis's
+        #: pseudo-observation in each cycle (`railnav.navigation.network_status`).
+        self.pseudo: list[tuple[float, float, int]] = []
         self.steps = 0
         self._next_hyp_s = -np.inf
         self._last: list = []
@@ -111,8 +115,11 @@ class NetworkRecorder:
         (`log_lik`, each hypothesis's, after the reweighting: `_element_log_likelihoods`)."""
         self.steps += outcome.steps
         self._log_lik = {} if log_lik is None else _element_log_likelihoods(hyps, log_lik)
+        best = int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
+        if outcome.innov_c and len(outcome.innov_c) == len(hyps):
+            self.pseudo.append((time_s, *pseudo_nis(outcome.innov_c[best],
+                                                    outcome.S_c[best])))
         if outcome.screens is not None:
-            best = int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
             screens = outcome.screens
             if isinstance(screens, list):   # else a stepper's stacked screens, read-only:
                 screens, best = [screens[best]], 0  # their EpochScreen made in `result`
@@ -180,7 +187,8 @@ class NetworkRecorder:
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
             spawns=tuple(self.spawns), status_records=combined_status_records(
-                self.status_records, row_records(innovations, config)))
+                self.status_records, row_records(innovations, config),
+                pseudo_records(self.pseudo, config)))
 
 
 def _most_on(shares, w: Array, element: str) -> tuple[int, tuple[str, int, float]]:

@@ -18,8 +18,10 @@ from railnav.jobs.network import run_files_network
 from railnav.navigation.monitor import MonitorConfig
 from railnav.navigation.network_status import (
     combined_status_records,
-    row_records,
+    pseudo_nis,
+    pseudo_records,
     row_false_rejection,
+    row_records,
 )
 from tests.support.height_networks import write_fixes, write_geojson
 from trackmodel.network import Network
@@ -167,3 +169,39 @@ def test_rows_used_leave_the_spawn_tests_status(heights_runs):
                         "degraded")
     assert list(records["status"]) == list(expected)
     assert (res.estimates["status"] == "ok").sum() == (expected == "ok").sum()
+
+
+def test_pseudo_nis_and_its_window():
+    """The cycle's NIS with each step's 2×2 covariance inverted by hand (adjugate over the
+    determinant); the window's tail against SciPy's χ² of the summed NIS and steps × 2
+    degrees of freedom; degraded below p_degraded, never lost."""
+    rng = np.random.default_rng(4)
+    nu = rng.normal(size=(5, 2))
+    a, b, c = 2.0 + rng.random(5), 0.3 * rng.random(5), 1.0 + rng.random(5)
+    S_packed = np.column_stack([a, b, c])              # lower triangle row by row
+    by_hand = sum((c[k] * nu[k, 0] ** 2 - 2 * b[k] * nu[k, 0] * nu[k, 1] + a[k] * nu[k, 1] ** 2)
+                  / (a[k] * c[k] - b[k] ** 2) for k in range(5))
+    nis, dof = pseudo_nis(nu, S_packed)
+    assert nis == pytest.approx(by_hand, rel=1e-12) and dof == 10
+    assert pseudo_nis(np.zeros((0, 2)), np.zeros((0, 3))) == (0.0, 0)
+    config = replace(CONFIG, monitor=replace(MonitorConfig(), window_epochs=2))
+    cycles = [(1.0, 10.0, 10), (2.0, 12.0, 10), (3.0, 60.0, 10), (4.0, 9.0, 10)]
+    out = pseudo_records(cycles, config)
+    sums = [(10.0, 10), (22.0, 20), (72.0, 20), (69.0, 20)]
+    np.testing.assert_allclose(out["p_pseudo_nis"], [chi2.sf(s, d) for s, d in sums],
+                               rtol=1e-9)
+    assert list(out["status"]) == ["ok", "ok", "degraded", "degraded"]
+    assert len(pseudo_records([], config)) == 0
+
+
+def test_three_tests_merge_to_the_worst_latest():
+    spawn = pd.DataFrame({"time_s": [1.0, 3.0], "status": ["ok", "ok"], "p_fix": [0.5, 0.4],
+                          "d2_min": [1.0, 1.5], "action": ["", ""]})
+    rows = pd.DataFrame({"time_s": [1.0, 3.0], "status": ["ok", "ok"],
+                         "p_rejected": [1.0, 1.0], "rejected_share": [0.0, 0.0],
+                         "p_nis": [0.5, 0.5]})
+    pseudo = pd.DataFrame({"time_s": [0.5, 2.0, 3.0], "status": ["ok", "degraded", "ok"],
+                           "p_pseudo_nis": [0.5, 1e-5, 0.2]})
+    out = combined_status_records(spawn, rows, pseudo)
+    assert list(out["time_s"]) == [0.5, 1.0, 2.0, 3.0]
+    assert list(out["status"]) == ["ok", "ok", "degraded", "ok"]
