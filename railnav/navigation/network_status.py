@@ -10,10 +10,10 @@ their start speed, while the status said ``ok`` on 86 of 90 epochs
 (`tests/railnav/navigation/test_network_status.py`).
 
 The single filter's divergence monitor (`railnav.navigation.monitor`) also tests the rows
-its gates rejected and the NIS of those it used; this module gives the network run the
-same two tests on the rows it reports: the innovations of the most probable hypothesis at
-each epoch (``innovations.csv``, `NetworkResult.innovations`), over the last
-`MonitorConfig.window_epochs` epochs with rows.
+its gates rejected, the NIS of those it used and its pseudo-observation's NIS; this module
+gives the network run the same tests of what it reports: the rows of the most probable
+hypothesis at each epoch (``innovations.csv``, `NetworkResult.innovations`), over the last
+`MonitorConfig.window_epochs` epochs with rows, and that hypothesis's pseudo-observation.
 
 **Rejected rows.** The number of epochs with at least one row ``rejected`` (``excluded``
 rows, a channel kept out after its rejections, are not counted again) against the
@@ -57,8 +57,8 @@ rejected-row test never fires and the NIS test once (2.2e-4 per epoch, below
 3.2 times its degrees of freedom, 13-47 m from the joint) whose simulated turnout curve is
 sharper than `railnav.navigation.hypothesis_step.joint_allowance` spreads the map's kink
 (over 100 m and 3σ_s), held for the 10-cycle window. That is the model's, not the test's:
-the allowance is too small there (left). On the Brussels logs as given (fixes only), the status counts
-(``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
+the allowance is too small there (left). On the Brussels logs as given (fixes only), the
+status counts (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
 off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0.
