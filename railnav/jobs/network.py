@@ -28,8 +28,8 @@ false``. Pseudoranges are refused (their geometry needs the antenna's height: ~1
 at Brussels); an IMU is navigated on the level tracks with the grade unknown
 (``NavigatorConfig.track_grade_sigma_rad`` = `UNKNOWN_GRADE_SIGMA_RAD`, 20 ‰: the start's
 pitch σ and the pseudo-observation's normal row carry it, `railnav.filters.grade_noise`;
-without it a body pitched 1 % leaks 0.1 m/s² of gravity into the speed). A simulated trip on such a network
-(`run_simulated_network`) runs in a world at ``h = 0``: its truth and estimates keep
+without it a body pitched 1 % leaks 0.1 m/s² of gravity into the speed). A simulated
+trip on such a network (`run_simulated_network`) runs in a world at ``h = 0``: its truth and estimates keep
 their heights.
 """
 from __future__ import annotations
