@@ -53,12 +53,15 @@ Measured (load ~2): on the simulated switch runs (`benchmarks/bench_network_swit
 10 seeds × 448 epochs, pseudoranges and a tactical IMU, 11 rows rejected of ~62 000) the
 rejected-row test never fires and the NIS test once (2.2e-4 per epoch, below
 ``p_degraded``); the pseudo-observation test flags 42 epochs (0.94 %, above
-``p_degraded``): on 5 of the 10 seeds, each time from one or two cycles at a switch (NIS
-3.2 times its degrees of freedom, 13-47 m from the joint) whose simulated turnout curve is
-sharper than `railnav.navigation.hypothesis_step.joint_allowance` spreads the map's kink
-(over 100 m and 3σ_s), held for the 10-cycle window. That is the model's, not the test's:
-the allowance is too small there (left). On the Brussels logs as given (fixes only), the
-status counts (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
+``p_degraded``): on 5 of the 10 seeds, each time from one or two cycles at a curvature
+step of a turnout's reverse curve (seed 3: 1/500 m to −1/500 m at route 8649 m and to
+−1/1500 m at 8697 m, 1.6 and 1.1 m/s² at 20 m/s; NIS 3.2 times its degrees of freedom in
+the cycle that holds it), held for the 10-cycle window: the pseudo-observation's noise
+model is too small at a curvature step. The network's hypotheses run without the one-sided
+bound that a single filter has at such an onset (`railnav.filters.one_sided`;
+`railnav.navigation.network_navigator` says why); whether that is the whole cause was not
+checked (left). On the Brussels logs as given (fixes only), the status counts
+(``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
 off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0.
