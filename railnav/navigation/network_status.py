@@ -56,11 +56,12 @@ rejected-row test never fires and the NIS test once (2.2e-4 per epoch, below
 ``p_degraded``): on 5 of the 10 seeds, each time from one or two cycles at a curvature
 step of a turnout's reverse curve (seed 3: 1/500 m to −1/500 m at route 8649 m and to
 −1/1500 m at 8697 m, 1.6 and 1.1 m/s² at 20 m/s; NIS 3.2 times its degrees of freedom in
-the cycle that holds it), held for the 10-cycle window: the pseudo-observation's noise
-model is too small at a curvature step. The network's hypotheses run without the one-sided
-bound that a single filter has at such an onset (`railnav.filters.one_sided`;
-`railnav.navigation.network_navigator` says why); whether that is the whole cause was not
-checked (left). On the Brussels logs as given (fixes only), the status counts
+the cycle that holds it), held for the 10-cycle window: the hypothesis's pseudo-observation
+is less consistent than its noise model there. A single filter on the same route line and
+data is not (seed 3: no cycle below 1e-3 of 448, with or without its one-sided bound at
+onsets; seed 7: 1), so it comes from what the network's hypotheses do differently (the
+mixing of abreast hypotheses on the parallel track, the chained pieces' linearization):
+not found this stop (left). On the Brussels logs as given (fixes only), the status counts
 (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
