@@ -59,9 +59,14 @@ step of a turnout's reverse curve (seed 3: 1/500 m to −1/500 m at route 8649 m
 the cycle that holds it), held for the 10-cycle window: the hypothesis's pseudo-observation
 is less consistent than its noise model there. A single filter on the same route line and
 data is not (seed 3: no cycle below 1e-3 of 448, with or without its one-sided bound at
-onsets; seed 7: 1), so it comes from what the network's hypotheses do differently (the
-mixing of abreast hypotheses on the parallel track, the chained pieces' linearization):
-not found this stop (left). On the Brussels logs as given (fixes only), the status counts
+onsets; seed 7: 1). The cause is the track parameter grid
+(`railnav.filters.track_grid`): each sample's track is expanded from the nearest node of
+a 0.5-m grid, and a node on the other side of a curvature step (an arc joining an arc
+without a transition) gives that sample the wrong curvature; whether it happens depends
+on where the grid's nodes fall against the step, which differs between the element's own
+track and the route line. With a 0.05-m grid the alarms go (seed 3: 13 → 0; seed 7: 11 →
+1). Not fixed (nodes on both sides of each section boundary would do it, but change the
+numbers of every run on a track with such a step, paper2017's included): left. On the Brussels logs as given (fixes only), the status counts
 (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
