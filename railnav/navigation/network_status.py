@@ -65,9 +65,9 @@ a 0.5-m grid, and a node on the other side of a curvature step (an arc joining a
 without a transition) gives that sample the wrong curvature; whether it happens depends
 on where the grid's nodes fall against the step, which differs between the element's own
 track and the route line. With a 0.05-m grid the alarms go (seed 3: 13 → 0; seed 7: 11 →
-1). Not fixed (nodes on both sides of each section boundary would do it; the shipped
-paper2017 and curvy tracks have no curvature step, the synthetic switch network and
-fitted tracks that join arcs do): left. On the Brussels logs as given (fixes only), the
+1). Not fixed: a node each side of each horizontal curvature step takes the alarms to 1
+and 1 and leaves paper2017 and curvy (no such step) unchanged, but made the consistency
+table's circle_100mps worse (beyond 3σ_s 0.0 → 1.03 %; branch ``s31grid``): left. On the Brussels logs as given (fixes only), the
 status counts (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
