@@ -67,8 +67,10 @@ on where the grid's nodes fall against the step, which differs between the eleme
 track and the route line. With a 0.05-m grid the alarms go (seed 3: 13 → 0; seed 7: 11 →
 1). Not fixed: a node each side of each horizontal curvature step takes the alarms to 1
 and 1 and leaves paper2017 and curvy (no such step) unchanged, but made the consistency
-table's circle_100mps worse (beyond 3σ_s 0.0 → 1.03 %; branch ``s31grid``): left. On the Brussels logs as given (fixes only), the
-status counts (``ok/degraded/lost`` estimate rows) before → after these tests: log_28554
+table's circle_100mps worse (beyond 3σ_s 0.0 → 1.03 %; branch ``s31grid``): left.
+
+On the Brussels logs as given (fixes only), the status counts (``ok/degraded/lost``
+estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
 off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0.
