@@ -11,18 +11,18 @@ stacked (`TrackStack`, kept for the next cycle asking for the same tracks). The 
 of each point is `Track.at`'s, element by element: the same numbers
 (`tests/trackmodel/test_network_points.py` compares them bit for bit).
 
-`NodePoints` is cheaper still where a point's position and tangent are wanted to a few
-nanometres rather than to the bit (the network navigator's spawn test, every epoch):
+`NodePoints` is cheaper still where a point's position and tangent are wanted to a
+micrometre rather than to the bit (the network navigator's spawn test, every epoch):
 each track is evaluated once on nodes every `NODE_STEP_M`, a block of `BLOCK_NODES` at
 a time when a point first needs them, and a point is its nearest node expanded to second
 order in ``δ = s − s_node`` (`expanded_points`; ``|δ| ≤ NODE_STEP_M/2``). What the
 expansion leaves: the third-order term ``|d²u/ds²| δ³/6`` (``|d²u/ds²| ≲ |dκ/ds| + κ²
-≈ 1.4e-5 m⁻²`` for a 600-m curve entered by a 120-m transition: 4e-8 m; the tangent
-``|d²u/ds²| δ²/2``) and the turn of the local frame over ``δ``, ``θ ≤ δ/(R cos φ)``
-(6e-8 rad at 50°; the position ``θ δ/2``, 8e-9 m). A node across a section joint where
+≈ 1.4e-5 m⁻²`` for a 600-m curve entered by a 120-m transition: 3e-7 m; the tangent
+``|d²u/ds²| δ²/2``, 1.8e-6) and the turn of the local frame over ``δ``, ``θ ≤ δ/(R cos φ)``
+(1.2e-7 rad at 50°; the position ``θ δ/2``, 3e-8 m). A node across a section joint where
 ``du/ds`` jumps by ``Δ`` adds ``Δ δ²/2`` to the position and ``Δ δ`` to the tangent: on
-the shipped tracks (grade and curvature-rate changes) 1.5e-6 m and 1.5e-5; a curve of
-radius ρ meeting a straight without a transition, ``δ²/(2ρ)`` (1e-4 m for ρ = 300 m).
+the shipped tracks (grade and curvature-rate changes) up to ~1e-5 m and 4e-5; a curve of
+radius ρ meeting a straight without a transition, ``δ²/(2ρ)`` (4e-4 m for ρ = 300 m).
 """
 from __future__ import annotations
 
@@ -45,9 +45,9 @@ Array = npt.NDArray[np.float64]
 #: Stacks of tracks kept (then forgotten together).
 MAX_STACKS = 64
 #: Node spacing of `NodePoints`, m.
-NODE_STEP_M = 0.5
-#: Nodes `NodePoints` evaluates in one `Track.at` call: 512 m of track, ~1 ms of CPU
-#: (~40 µs per second of a train at 20 m/s).
+NODE_STEP_M = 1.0
+#: Nodes `NodePoints` evaluates in one `Track.at` call: 1 km of track, ~1.5 ms of CPU
+#: (~30 µs per second of a train at 20 m/s).
 BLOCK_NODES = 1024
 #: Blocks `NodePoints` keeps (then forgets together), 150 kB each.
 MAX_BLOCKS = 256

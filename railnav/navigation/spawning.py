@@ -140,12 +140,13 @@ def fix_disagreement(r_e: Array, tangent_e: Array, sigma_s_m: Array, fixes, k: i
     t = np.atleast_2d(tangent_e) @ C_e_n[:2].T
     t = t / np.maximum(np.hypot(t[:, 0], t[:, 1]), 1e-12)[:, None]
     along, cross = e[:, 0] * t[:, 0] + e[:, 1] * t[:, 1], e[:, 1] * t[:, 0] - e[:, 0] * t[:, 1]
-    F = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2]
-    # the covariance on the track's axes (along t, across c = (-t_n, t_e)): 2×2 in closed form
-    f_aa = np.einsum("ki,ij,kj->k", t, F, t)
-    c = np.stack([-t[:, 1], t[:, 0]], axis=1)
-    f_cc = np.einsum("ki,ij,kj->k", c, F, c)
-    f_ac = np.einsum("ki,ij,kj->k", t, F, c)
+    (f00, f01), (f10, f11) = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2].tolist()
+    # the covariance on the track's axes (along t, across c = (-t_n, t_e)): 2×2 in closed
+    # form, tᵀF t, cᵀF c and tᵀF c elementwise
+    t0, t1 = t[:, 0], t[:, 1]
+    tf0, tf1 = t0 * f00 + t1 * f10, t0 * f01 + t1 * f11
+    cf0, cf1 = t0 * f10 - t1 * f00, t0 * f11 - t1 * f01
+    f_aa, f_cc, f_ac = tf0 * t0 + tf1 * t1, cf1 * t0 - cf0 * t1, tf1 * t0 - tf0 * t1
     a = f_aa + np.asarray(sigma_s_m, dtype=float) ** 2
     b = f_cc + cross_sigma_m ** 2
     det = a * b - f_ac ** 2
@@ -187,9 +188,9 @@ class Spawner:
         Below this tail probability the status is ``degraded``.
     points : callable(hyps) -> (r_e, tangent_e), optional
         The hypotheses' track points (default: from the tracks' nodes,
-        `trackmodel.network_points.NodePoints`: `track_points` to ~1e-7 m, 1.5e-6 m
-        next to a section joint, for ~6 % of its cost; the fix-only stepper's grid is its
-        own).
+        `trackmodel.network_points.NodePoints`: `track_points` to < 1e-6 m, 1e-5 m within
+        a metre of a section joint, for ~5 % of its cost; the fix-only stepper's grid is
+        its own).
     network : trackmodel.network.Network, optional
         Where `_on_network` looks for the nearest centre-lines (None: no such check).
     spp : railnav.filters.fix_epochs.FixEpochs, optional
