@@ -158,7 +158,8 @@ def _candidates(prep: PreparedEpoch, cfg: SppConfig) -> npt.NDArray[np.bool_]:
 
 
 def _design(prep: PreparedEpoch, r_e: Array, systems: str):
-    present = "".join(s for s in systems if np.any(prep.system == s))
+    have = set(prep.system.tolist())
+    present = "".join(s for s in systems if s in have)
     S = system_bias_matrix(prep.system, present)
     rho, H_r, _ = predict_pseudorange(prep, r_e=r_e, b_m=0.0)
     return np.hstack([H_r, S]), prep.pseudorange_m - rho, present

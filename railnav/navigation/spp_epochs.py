@@ -122,10 +122,9 @@ def _guess(last: list, time_s: float, approx):
     if first == len(last) - 1:
         return last[-1][1]
     t = np.array([tk for tk, _ in last[first:]])
-    r = np.array([rk for _, rk in last[first:]])
-    t_mean, r_mean = t.mean(), r.mean(axis=0)
-    v = (t - t_mean) @ (r - r_mean) / float((t - t_mean) @ (t - t_mean))
-    return r_mean + v * (time_s - t_mean)
+    d = np.array([rk for _, rk in last[first:]]) - last[-1][1]     # from the last, m
+    dt = t - t.mean()
+    return last[-1][1] + d.mean(axis=0) + (dt @ d) * ((time_s - t.mean()) / (dt @ dt))
 
 
 def correlation_s(nav, config) -> float:
