@@ -79,7 +79,9 @@ parallel tracks undecided after the spawn). A start on the wrong one of two trac
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
 5-8 s).
-Cost: one single-point solve per GNSS epoch (~1 ms of CPU; `railnav.navigation.spp_epochs`).
+Cost: one single-point solve per GNSS epoch (~0.8 ms of CPU; `railnav.navigation.spp_epochs`)
+and each live hypothesis's track point from its track's nodes
+(`trackmodel.network_points.NodePoints`: tens of µs an epoch).
 
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
 either way): see its documentation for the spawns measured on the real logs.

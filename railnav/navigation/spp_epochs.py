@@ -22,13 +22,14 @@ counts them with (`railnav.navigation.hypotheses.evidence_share`).
 
 Cost: one solve per epoch, from a guess extrapolated from the last fixes (`_guess`: the
 straight line through up to `GUESS_FIXES` of them): one Gauss-Newton iteration (two in
-0.6 % of the epochs of the 1000-s paper run, 22 % from the last two fixes alone) and the
+0.7 % of the epochs of the 1000-s paper run, 22 % from the last two fixes alone) and the
 fault screen's step, without protection levels, DOP or sky (~0.8 ms of CPU an epoch with
 GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
-With the spawn test's own work (the hypotheses' track points) a 1000-s run of
-`benchmarks/bench_network_speed.py` costs ~1.6 s more CPU (``pruned`` 2.3 → 3.9 s,
-``kept`` 9.3 → 11.2 s); `NetworkNavConfig.spawn_window_epochs` = 0 turns test, status
-column and these fixes off.
+In the ``pruned`` 1000-s run of `benchmarks/bench_network_speed.py` these fixes take
+~0.9 s of CPU and the spawn test's own work (`railnav.navigation.spawning`) ~0.15 s
+(on a machine loaded 2-3; 1.2-1.4 s and 0.6 s before the guess from 8 fixes and the
+test's points from nodes); `NetworkNavConfig.spawn_window_epochs` = 0 turns test,
+status column and these fixes off.
 """
 from __future__ import annotations
 
