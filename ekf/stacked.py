@@ -148,8 +148,10 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
                       for a in rows]
             if any(a.shape not in ((M, k), (k,)) for a in arrays):
                 return None
-            fields[name] = np.stack([a if a.ndim == 2 else np.broadcast_to(a, (M, k))
-                                     for a in arrays])
+            full = [a if a.ndim == 2 else np.broadcast_to(a, (M, k)) for a in arrays]
+            # one member: a view with the member axis (`assemble` copies it); np.stack's
+            # generic argument handling costs more than the copy itself
+            fields[name] = full[0][None] if len(full) == 1 else np.stack(full)
     except (TypeError, ValueError):         # not numbers
         return None
     dt = np.diff(t)

@@ -158,7 +158,8 @@ def _candidates(prep: PreparedEpoch, cfg: SppConfig) -> npt.NDArray[np.bool_]:
 
 
 def _design(prep: PreparedEpoch, r_e: Array, systems: str):
-    present = "".join(s for s in systems if np.any(prep.system == s))
+    have = set(prep.system.tolist())
+    present = "".join(s for s in systems if s in have)
     S = system_bias_matrix(prep.system, present)
     rho, H_r, _ = predict_pseudorange(prep, r_e=r_e, b_m=0.0)
     return np.hstack([H_r, S]), prep.pseudorange_m - rho, present
@@ -168,7 +169,10 @@ def _prepare(epoch: EpochData, tx, ctx: _Context, r_e: Array, excluded: set[str]
              coarse: bool = False) -> PreparedEpoch:
     prep = prepare_epoch(epoch, ctx.config.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
                          transmit=tx, coarse=coarse)
-    return prep.subset(_candidates(prep, ctx.config) & ~np.isin(prep.sv, list(excluded)))
+    keep = _candidates(prep, ctx.config)
+    if excluded:
+        keep &= ~np.isin(prep.sv, list(excluded))
+    return prep if keep.all() else prep.subset(keep)       # all kept: the same arrays
 
 
 def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
@@ -268,7 +272,9 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None
     C = C_n_e(lat, lon)
     T = np.eye(3 + len(present))
     T[:3, :3] = C.T  # ECEF -> ENU for the position block
-    step_enu = _to_enu(fde.step, T)
+    step_enu = _to_enu(fde.step, T) if details else None
+    # without details the covariance is all it needs (the same product as `_to_enu`'s)
+    cov_enu = (T @ fde.step.cov @ T.T if step_enu is None else step_enu.cov)[:3, :3]
     ref_clock = float(fde.step.dx[3])  # the others are inter-system biases on top of it
     clocks = {s: ref_clock + (float(fde.step.dx[3 + i]) if i else 0.0)
               for i, s in enumerate(present)}
@@ -281,7 +287,7 @@ def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None
         H, _, _ = _design(prep, r_e, present)
         dop = dilution_of_precision(H[:, :3], H[:, 3:], lat=float(lat), lon=float(lon))
         sky = _sky(epoch, tx, ctx, r_e, clocks)
-    fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=step_enu.cov[:3, :3],
+    fix = EpochFix(gps_time_s=epoch.gps_time_s, r_e=r_e, cov_enu=cov_enu,
                    clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
                    n_tracked=len(epoch), raim_ok=fde.raim_ok,
                    chi2=fde.step.test_statistic, dof=fde.step.dof, hpl_m=hpl, vpl_m=vpl,

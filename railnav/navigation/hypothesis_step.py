@@ -122,9 +122,12 @@ def common_continuous_log_likelihoods(innov: list, S: list) -> Array:
     -------
     ndarray, shape (K,)
     """
-    nu, cov = np.stack(innov), unpack_sym(np.stack(S))       # (K, N, c), (K, N, c, c)
-    widest = np.argmax(np.linalg.det(cov), axis=0)            # (N,)
-    common = cov[widest, np.arange(cov.shape[1])]             # (N, c, c)
+    if len(innov) == 1:       # one hypothesis: its own covariance is the widest
+        nu, common = innov[0][None], unpack_sym(S[0])        # (1, N, c), (N, c, c)
+    else:
+        nu, cov = np.stack(innov), unpack_sym(np.stack(S))   # (K, N, c), (K, N, c, c)
+        widest = np.argmax(np.linalg.det(cov), axis=0)        # (N,)
+        common = cov[widest, np.arange(cov.shape[1])]         # (N, c, c)
     white = np.linalg.solve(common[None], nu[..., None])[..., 0]
     return -0.5 * np.einsum("knc,knc->k", nu, white)
 

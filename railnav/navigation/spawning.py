@@ -79,7 +79,9 @@ parallel tracks undecided after the spawn). A start on the wrong one of two trac
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
 5-8 s).
-Cost: one single-point solve per GNSS epoch (~1 ms of CPU; `railnav.navigation.spp_epochs`).
+Cost: one single-point solve per GNSS epoch (~0.8 ms of CPU; `railnav.navigation.spp_epochs`)
+and each live hypothesis's track point from its track's nodes
+(`trackmodel.network_points.NodePoints`: tens of µs an epoch).
 
 Spawning is on by default (`NetworkNavConfig.spawn`; the test and the status column run
 either way): see its documentation for the spawns measured on the real logs.
@@ -99,6 +101,7 @@ from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
 from railnav.navigation.network_weights import ecef_points, track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
+from trackmodel.network_points import NodePoints
 
 
 __all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
@@ -139,12 +142,13 @@ def fix_disagreement(r_e: Array, tangent_e: Array, sigma_s_m: Array, fixes, k: i
     t = np.atleast_2d(tangent_e) @ C_e_n[:2].T
     t = t / np.maximum(np.hypot(t[:, 0], t[:, 1]), 1e-12)[:, None]
     along, cross = e[:, 0] * t[:, 0] + e[:, 1] * t[:, 1], e[:, 1] * t[:, 0] - e[:, 0] * t[:, 1]
-    F = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2]
-    # the covariance on the track's axes (along t, across c = (-t_n, t_e)): 2×2 in closed form
-    f_aa = np.einsum("ki,ij,kj->k", t, F, t)
-    c = np.stack([-t[:, 1], t[:, 0]], axis=1)
-    f_cc = np.einsum("ki,ij,kj->k", c, F, c)
-    f_ac = np.einsum("ki,ij,kj->k", t, F, c)
+    (f00, f01), (f10, f11) = np.asarray(fixes.cov_n_m2[k], dtype=float)[:2, :2].tolist()
+    # the covariance on the track's axes (along t, across c = (-t_n, t_e)): 2×2 in closed
+    # form, tᵀF t, cᵀF c and tᵀF c elementwise
+    t0, t1 = t[:, 0], t[:, 1]
+    tf0, tf1 = t0 * f00 + t1 * f10, t0 * f01 + t1 * f11
+    cf0, cf1 = t0 * f10 - t1 * f00, t0 * f11 - t1 * f01
+    f_aa, f_cc, f_ac = tf0 * t0 + tf1 * t1, cf1 * t0 - cf0 * t1, tf1 * t0 - tf0 * t1
     a = f_aa + np.asarray(sigma_s_m, dtype=float) ** 2
     b = f_cc + cross_sigma_m ** 2
     det = a * b - f_ac ** 2
@@ -185,8 +189,10 @@ class Spawner:
     p_degraded : float
         Below this tail probability the status is ``degraded``.
     points : callable(hyps) -> (r_e, tangent_e), optional
-        The hypotheses' track points (default `track_points`; the fix-only stepper's grid
-        is faster).
+        The hypotheses' track points (default: from the tracks' nodes,
+        `trackmodel.network_points.NodePoints`: `track_points` to < 1e-6 m, 1e-5 m within
+        a metre of a section joint, for ~5 % of its cost; the fix-only stepper's grid is
+        its own).
     network : trackmodel.network.Network, optional
         Where `_on_network` looks for the nearest centre-lines (None: no such check).
     spp : railnav.filters.fix_epochs.FixEpochs, optional
@@ -202,7 +208,8 @@ class Spawner:
                  p_degraded: float = 1e-3, points=None, network=None, spp=None,
                  spp_correlation_s: float = 0.0) -> None:
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
-        self.points = points or track_points
+        self._nodes = NodePoints()
+        self.points = points or self._node_points
         self.network = network
         own = trip.fixes is not None and len(trip.fixes) > 0
         #: The fixes tested (the run's own, else its epochs' single-point fixes) and which
@@ -257,6 +264,10 @@ class Spawner:
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else ""))
         return out
+
+    def _node_points(self, hyps) -> tuple[Array, Array]:
+        """`track_points` of `hyps` from the tracks' nodes (`points` parameter)."""
+        return self._nodes.ecef([h.filt.track for h in hyps], [h.s_m for h in hyps])
 
     def _on_network(self, window: list[int], shares: list[float]) -> bool:
         """Whether the network explains the window's fixes (indices; their evidence

@@ -20,13 +20,16 @@ Their errors are as correlated from epoch to epoch as the pseudoranges' are: the
 white; 20 s by default, urban code multipath). `correlation_s` gives the τ the spawn test
 counts them with (`railnav.navigation.hypotheses.evidence_share`).
 
-Cost: one solve per epoch, from a guess extrapolated from the last two fixes: one
-Gauss-Newton iteration and the fault screen's step, without protection levels, DOP or
-sky (~1.0 ms of CPU an epoch with GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
-With the spawn test's own work (the hypotheses' track points) a 1000-s run of
-`benchmarks/bench_network_speed.py` costs ~1.6 s more CPU (``pruned`` 2.3 → 3.9 s,
-``kept`` 9.3 → 11.2 s); `NetworkNavConfig.spawn_window_epochs` = 0 turns test, status
-column and these fixes off.
+Cost: one solve per epoch, from a guess extrapolated from the last fixes (`_guess`: the
+straight line through up to `GUESS_FIXES` of them): one Gauss-Newton iteration (two in
+0.7 % of the epochs of the 1000-s paper run, 22 % from the last two fixes alone) and the
+fault screen's step, without protection levels, DOP or sky (~0.8 ms of CPU an epoch with
+GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
+In the ``pruned`` 1000-s run of `benchmarks/bench_network_speed.py` these fixes take
+~0.9 s of CPU and the spawn test's own work (`railnav.navigation.spawning`) ~0.15 s
+(on a machine loaded 2-3; 1.2-1.4 s and 0.6 s before the guess from 8 fixes and the
+test's points from nodes); `NetworkNavConfig.spawn_window_epochs` = 0 turns test,
+status column and these fixes off.
 """
 from __future__ import annotations
 
@@ -43,13 +46,16 @@ __all__ = ["epoch_spp_fixes", "correlation_s", "SPP_QUALITY"]
 #: The fix class (`gnss_obs.fixes.table.FIX_QUALITIES`) of a receiver's single-point fix.
 SPP_QUALITY = "single"
 #: Gauss-Newton stops below this step, m (`gnss_obs.spp.SppConfig.tol_m`): from a guess
-#: extrapolated from the last two fixes (off by their errors, metres), one iteration.
+#: extrapolated from the last fixes (off by their errors, metres), one iteration.
 #: The fault screen's least-squares step from the last iterate follows, so the fix is off
 #: by the linearisation's error only, ``δ²/(2ρ)`` for a step δ at a range ρ ≈ 2e7 m:
 #: ≤ 2e-5 m.
 TOL_M = 30.0
 #: Fixes further apart than this are not extrapolated from, s.
 GUESS_GAP_S = 5.0
+#: Most fixes the guess is extrapolated from: a line through 8 fixes 1 s apart is off by
+#: ~1.2 σ of one fix (two: 2.2 σ) and, on a train accelerating at 1 m/s², by 7 m more.
+GUESS_FIXES = 8
 
 
 def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
@@ -84,14 +90,15 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
     cov = np.full((n, 3, 3), np.nan)
     transmit = getattr(gnss, "transmit", None) or [None] * n
     approx = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
-    last: list = []                               # the last two fixes (time, r_e)
+    last: list = []                               # the last fixes (time, r_e)
     for k, epoch in enumerate(gnss.epochs):
         fix = solve_spp_epoch(epoch, data.nav, cfg, transmit=transmit[k], details=False,
                               approx_e=_guess(last, float(gnss.time_s[k]), approx))
         if fix is None or not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
             continue
         r_e[k], cov[k] = fix.r_e, fix.cov_enu
-        last = (last + [(float(gnss.time_s[k]), np.asarray(fix.r_e, dtype=float))])[-2:]
+        last = (last + [(float(gnss.time_s[k]), np.asarray(fix.r_e, dtype=float))]
+                )[-GUESS_FIXES:]
     lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
     ok = np.all(np.isfinite(r_e), axis=1)
     if ok.any():
@@ -104,15 +111,21 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
 
 
 def _guess(last: list, time_s: float, approx):
-    """The first guess of the epoch at `time_s`: the last two fixes (``(time_s, r_e)``)
-    extrapolated at constant velocity when they are at most `GUESS_GAP_S` apart and
-    before it, the last one alone, else `approx` (the file's approximate position)."""
+    """The first guess of the epoch at `time_s`: the least-squares line through the latest
+    fixes (``(time_s, r_e)``, oldest first) that follow each other at most `GUESS_GAP_S`
+    apart, the last of them at most that before it, evaluated at `time_s` (one fix: that
+    fix); else `approx` (the file's approximate position)."""
     if not last or time_s - last[-1][0] > GUESS_GAP_S:
         return approx
-    if len(last) < 2 or last[1][0] - last[0][0] > GUESS_GAP_S:
+    first = len(last) - 1
+    while first > 0 and last[first][0] - last[first - 1][0] <= GUESS_GAP_S:
+        first -= 1
+    if first == len(last) - 1:
         return last[-1][1]
-    (t0, r0), (t1, r1) = last
-    return r1 + (r1 - r0) * (time_s - t1) / (t1 - t0)
+    t = np.array([tk for tk, _ in last[first:]])
+    d = np.array([rk for _, rk in last[first:]]) - last[-1][1]     # from the last, m
+    dt = t - t.mean()
+    return last[-1][1] + d.mean(axis=0) + (dt @ d) * ((time_s - t.mean()) / (dt @ dt))
 
 
 def correlation_s(nav, config) -> float:

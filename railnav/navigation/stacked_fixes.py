@@ -43,6 +43,7 @@ from railnav.filters.fix_rows import FIX_SV_PREFIX
 from railnav.navigation.fix_bias import with_fix_bias
 from railnav.navigation.hypothesis_step import CycleOutcome
 from trackmodel.earth import C_n_e, geodetic_to_ecef
+from trackmodel.network_points import expanded_points
 
 __all__ = ["StackedFixStepper", "FixGrid", "GRID_STEP_M", "stackable"]
 
@@ -147,11 +148,9 @@ class FixGrid:
 
 
 def _expanded(tab: dict[str, Array], d: Array) -> tuple[Array, Array]:
-    """ECEF position and ENU tangent ``δ = d`` past the nodes of `tab` (`FixGrid._columns`):
-    ``r + C (u δ + du δ²/2)`` and ``u + du δ``."""
-    C, u, du = tab["C"], tab["u"], tab["du"]
-    step_n = u * d[:, None] + 0.5 * du * (d * d)[:, None]
-    return tab["r"] + np.einsum("kij,kj->ki", C, step_n), u + du * d[:, None]
+    """ECEF position and ENU tangent ``δ = d`` past the nodes of `tab` (`FixGrid._columns`;
+    `trackmodel.network_points.expanded_points`)."""
+    return expanded_points(tab["r"], tab["C"], tab["u"], tab["du"], d)
 
 
 #: The table's quantities that enter reductions (einsum, matrix products): taken as

@@ -97,3 +97,55 @@ def test_points_without_positions_have_the_same_angles(tracks):
             assert np.array_equal(np.asarray(getattr(ref, f)), np.asarray(getattr(p, f))), f
         with pytest.raises(AttributeError):
             p.lat
+
+
+def _ecef(points):
+    """ECEF positions and unit tangents ``C_n_e u_n`` of `Track.at` points, (K, 3)."""
+    from trackmodel.earth import C_n_e
+    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
+    return r, np.array([np.asarray(C_n_e(p.lat, p.lon)).reshape(3, 3)
+                        @ np.asarray(p.u_n).reshape(3) for p in points])
+
+
+def test_node_points_are_the_tracks_points_within_their_expansion_error(tracks):
+    """`NodePoints` against `Track.at` point by point (ECEF position and unit tangent):
+    within the module docstring's bounds of the second-order expansion from nodes 1 m
+    apart, ``δ ≤ 0.5 m``. Away from section joints (random distances on all nine tracks:
+    curvy's transitions and curves, double_a, a sphere): the local frame's turn over δ,
+    at most ``θ = δ/(R cos φ)`` (R ≥ 6.3e6 m; position ``θ δ/2``, tangent ``θ``), plus
+    the third-order term (position ``|d²u/ds²| δ³/6``, tangent ``|d²u/ds²| δ²/2``, the
+    track's largest ``|d²u/ds²|`` from `Track.at`). Within a node of a joint, where
+    ``du/ds`` may change its rate or jump, also ``|Δ du/ds| δ²/2`` and ``|Δ du/ds| δ``
+    (the jump read from `Track.at` either side of the joint). The same points asked for
+    again (from the blocks kept) give the same numbers; ``s`` off the track is clamped."""
+    from trackmodel.network_points import NodePoints
+    rng = np.random.default_rng(9)
+    nodes = NodePoints()
+    for t in tracks:
+        joints = t.table.s_start[1:]
+        s = rng.uniform(0.0, t.length_m, 60)
+        if joints.size:
+            s = s[np.min(np.abs(s[:, None] - joints[None, :]), axis=1) > 1.0]
+        d, radius_m = 0.5, 6.3e6
+        along = t.at(np.linspace(0.0, t.length_m, 20001))
+        d2u = np.max(np.linalg.norm(along.d2u_ds2_n, axis=-1))
+        turn = d / (radius_m * np.min(np.cos(along.lat)))      # the ENU frame's, rad
+        bound_r = turn * d / 2 + d2u * d ** 3 / 6 + 1e-9
+        bound_t = turn + d2u * d * d / 2 + 1e-9
+        r, tangent = nodes.ecef([t] * s.size, s)
+        r_ref, t_ref = _ecef([t.at(float(x)) for x in s])
+        assert np.max(np.linalg.norm(r - r_ref, axis=1)) < bound_r
+        assert np.max(np.linalg.norm(tangent - t_ref, axis=1)) < bound_t
+        near = np.concatenate([joints - 0.4, joints + 0.4, [0.0, t.length_m]])
+        r, tangent = nodes.ecef([t] * near.size, near)
+        r_ref, t_ref = _ecef([t.at(float(x)) for x in near])
+        before, after = t.at(np.maximum(joints - 1e-6, 0.0)), t.at(joints + 1e-6)
+        jump = np.max(np.linalg.norm(np.asarray(after.du_ds_n) - np.asarray(before.du_ds_n),
+                                     axis=-1), initial=0.0)
+        assert np.max(np.linalg.norm(r - r_ref, axis=1)) < jump * d * d / 2 + bound_r
+        assert np.max(np.linalg.norm(tangent - t_ref, axis=1)) < jump * d + bound_t
+        again, _ = nodes.ecef([t] * near.size, near)
+        assert np.array_equal(again, r)
+    t = tracks[0]
+    outside, _ = nodes.ecef([t, t], [-3.0, t.length_m + 3.0])
+    assert np.array_equal(outside, nodes.ecef([t, t], [0.0, t.length_m])[0])
