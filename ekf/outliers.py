@@ -133,7 +133,7 @@ def common_offset(innov: npt.ArrayLike, S: npt.ArrayLike, members: npt.ArrayLike
     d = np.asarray(members, dtype=bool).astype(float)
     if S.shape != (nu.size, nu.size) or d.shape != nu.shape:
         raise ModelError(f"common_offset: innov {nu.shape}, S {S.shape}, members {d.shape}")
-    if not d.any():
+    if not np.count_nonzero(d):                # (d.any(), without its wrapper)
         raise ModelError("common_offset needs at least one member component")
     both = np.empty((nu.size, 2))             # np.column_stack([nu, d]), without its wrapper
     both[:, 0], both[:, 1] = nu, d

@@ -269,9 +269,10 @@ class ConstrainedFilter:
         f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
         accel = f_x - gravity * np.sin(x_prev[i["pitch"]])
         dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
-        v = x_prev[i["v"]] + np.cumsum(accel * dt)
+        # np.cumsum's accumulation, without its wrapper
+        v = x_prev[i["v"]] + np.add.accumulate(accel * dt)
         v_mid = 0.5 * (_shifted(v, x_prev[i["v"]]) + v)
-        s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
+        s = x_prev[i["s"]] + np.add.accumulate(v_mid * dt)
         return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
 
     def _gravity_near(self, s: float) -> float:
