@@ -24,6 +24,8 @@ of them failed.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import numpy.typing as npt
 
@@ -57,10 +59,16 @@ def fault_log_odds(nis: npt.ArrayLike, *, prior: float, scale: float) -> Array:
     -------
     ndarray, shape (m,)
     """
-    _check(prior, scale)
     r2 = np.asarray(nis, dtype=float)
-    return (np.log(prior / (1.0 - prior)) - np.log(scale)
-            + 0.5 * r2 * (1.0 - 1.0 / (scale * scale)))
+    return _prior_log_odds(prior, scale) + 0.5 * r2 * (1.0 - 1.0 / (scale * scale))
+
+
+@lru_cache(maxsize=64)
+def _prior_log_odds(prior: float, scale: float) -> float:
+    """``log(p/(1 − p)) − log κ`` (`fault_log_odds`'s constant: once per configuration,
+    the same number), after the parameters' check."""
+    _check(prior, scale)
+    return np.log(prior / (1.0 - prior)) - np.log(scale)
 
 
 def fault_probability(nis: npt.ArrayLike, *, prior: float, scale: float) -> Array:
