@@ -79,11 +79,13 @@ class Channel:
         down = self._cusum[1] - step - cfg.drift_allowance
         up, down = (up if up > 0.0 else 0.0), (down if down > 0.0 else 0.0)
         self._cusum = [up, down]
-        opened = self._open
-        for side, value in ((0, up), (1, down)) if opened[0] or opened[1] else ():
-            if value == 0.0 and opened[side]:
-                self._influence[side] = 0.0
-                opened[side] = False
+        opened = self._open                 # a side back at 0 ends its run's influence
+        if opened[0] and up == 0.0:
+            self._influence[0] = 0.0
+            opened[0] = False
+        if opened[1] and down == 0.0:
+            self._influence[1] = 0.0
+            opened[1] = False
         h = cfg.drift_threshold
         drift = h is not None and (up > h or down > h)
         if drift or (failed and sum(self._failures) >= cfg.exclusion_failures):
