@@ -24,6 +24,8 @@ of them failed.
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import numpy.typing as npt
 
@@ -57,10 +59,16 @@ def fault_log_odds(nis: npt.ArrayLike, *, prior: float, scale: float) -> Array:
     -------
     ndarray, shape (m,)
     """
-    _check(prior, scale)
     r2 = np.asarray(nis, dtype=float)
-    return (np.log(prior / (1.0 - prior)) - np.log(scale)
-            + 0.5 * r2 * (1.0 - 1.0 / (scale * scale)))
+    return _prior_log_odds(prior, scale) + 0.5 * r2 * (1.0 - 1.0 / (scale * scale))
+
+
+@lru_cache(maxsize=64)
+def _prior_log_odds(prior: float, scale: float) -> float:
+    """``log(p/(1 − p)) − log κ`` (`fault_log_odds`'s constant: once per configuration,
+    the same number), after the parameters' check."""
+    _check(prior, scale)
+    return np.log(prior / (1.0 - prior)) - np.log(scale)
 
 
 def fault_probability(nis: npt.ArrayLike, *, prior: float, scale: float) -> Array:
@@ -133,7 +141,7 @@ def common_offset(innov: npt.ArrayLike, S: npt.ArrayLike, members: npt.ArrayLike
     d = np.asarray(members, dtype=bool).astype(float)
     if S.shape != (nu.size, nu.size) or d.shape != nu.shape:
         raise ModelError(f"common_offset: innov {nu.shape}, S {S.shape}, members {d.shape}")
-    if not d.any():
+    if not np.count_nonzero(d):                # (d.any(), without its wrapper)
         raise ModelError("common_offset needs at least one member component")
     both = np.empty((nu.size, 2))             # np.column_stack([nu, d]), without its wrapper
     both[:, 0], both[:, 1] = nu, d

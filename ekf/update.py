@@ -24,6 +24,7 @@ calls an epoch).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -216,7 +217,8 @@ def _log_likelihood(innov: Array, factor: tuple[Array, bool]) -> tuple[float, fl
         c = factor[0]
         white = _solve_lower_transposed(c.T, innov)
         nis = float(white @ white)
-        log_det = 2.0 * float(np.sum(np.log(np.diag(c))))
+        # np.sum(np.log(np.diag(c))): the same reduction, without the wrappers
+        log_det = 2.0 * float(np.add.reduce(np.log(c.diagonal())))
         return nis, -0.5 * (nis + log_det + innov.size * LOG_2PI)
     L = np.triu(factor[0]).T
     white = _solve_lower(L, innov)
@@ -229,9 +231,17 @@ def _joseph(P: Array, K: Array, H: Array, R: Array) -> Array:
     """``A P Aᵀ + K R Kᵀ`` with ``A = I − K H``; `R` a covariance or, shape (m,), the
     variances of a diagonal one (``K * R`` is ``K @ diag(R)`` to the bit: the other
     products are exact zeros)."""
-    A = np.eye(P.shape[0]) - K @ H
+    A = _identity(P.shape[0]) - K @ H
     P_post = A @ P @ A.T + ((K * R) if R.ndim == 1 else (K @ R)) @ K.T
     return 0.5 * (P_post + P_post.T)
+
+
+@lru_cache(maxsize=8)
+def _identity(n: int) -> Array:
+    """The (n, n) identity, read only (`_joseph`'s ``I − K H``)."""
+    eye = np.eye(n)
+    eye.flags.writeable = False
+    return eye
 
 
 def _sequential(x: Array, P: Array, innov: Array, H: Array, r: Array,

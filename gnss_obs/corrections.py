@@ -323,6 +323,8 @@ _PEAK_LOCAL_TIME_S = 50_400.0
 _MAX_IPP_LAT_SC = 0.416
 _SEC_PER_SEMICIRCLE_LON = 43_200.0
 _GPS_L1_HZ = FREQUENCY_HZ["G"][1]
+#: Exponents of the amplitude and period polynomials in the IPP's geomagnetic latitude.
+_POLY_POWERS = np.arange(4)
 
 
 def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, lon: float,
@@ -359,7 +361,7 @@ def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, 
         np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)     # % is np.mod's modulo
     t_local = np.mod(_SEC_PER_SEMICIRCLE_LON * lam_i + sow, DAY_S)
     slant = 1.0 + 16.0 * (0.53 - el_sc) ** 3
-    powers = phi_m[..., None] ** np.arange(4)
+    powers = phi_m[..., None] ** _POLY_POWERS
     amplitude = np.maximum(powers @ alpha, 0.0)
     period = np.maximum(powers @ beta, _MIN_PERIOD_S)
     x = 2.0 * np.pi * (t_local - _PEAK_LOCAL_TIME_S) / period

@@ -171,11 +171,11 @@ def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementCon
     of the ionosphere-free combination. Unknown elevation (NaN) counts as zenith and
     unknown C/N0 as no deficit.
     """
-    inv_sin = np.ones_like(elevation)
+    inv_sin = np.ones(np.shape(elevation))      # (np.ones_like, without its wrapper)
     if config.elevation_weighting:
         el = np.where(np.isfinite(elevation), elevation, np.pi / 2)
         inv_sin = 1.0 / np.sin(np.maximum(el, _MIN_WEIGHT_ELEVATION_RAD))
-    amplitude = np.ones_like(elevation)        # C/N0 deficit as an amplitude ratio
+    amplitude = np.ones(np.shape(elevation))   # C/N0 deficit as an amplitude ratio
     if np.isfinite(config.cn0_ref_dbhz):
         deficit = np.where(np.isfinite(cn0_dbhz), config.cn0_ref_dbhz - cn0_dbhz, 0.0)
         amplitude = 10.0 ** (np.maximum(deficit, 0.0) / 20.0)

@@ -204,23 +204,24 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
     """
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
     weight = np.ones(z.size)
-    core = sigma_core = None
+    core = None
+    change = np.nan
     for k in range(max_iter):        # the weights' solutions: their residuals alone
         # σ / sqrt(1) is σ to the bit: the first iteration's σ as it is
         sigma_w = sigma if k == 0 else sigma / np.sqrt(weight)
-        core, sigma_core = _wls_core(H, z, sigma_w), sigma_w
-        residual = core[4] * sigma_w
-        u = np.abs(residual / sigma)
-        new = np.where(u <= huber_k, 1.0, huber_k / np.maximum(u, huber_k))
+        core = _wls_core(H, z, sigma_w)
+        u = np.abs(core[4] * sigma_w / sigma)
+        # 1 where u <= huber_k (k / k is 1 to the bit), else k / u
+        new = huber_k / np.maximum(u, huber_k)
         # ndarray.max(initial=0.0)'s reduction, without its Python wrapper
         change = np.maximum.reduce(np.abs(new - weight), initial=0.0)
         weight = new
         if change < tol:
             break
     sigma_w = sigma / np.sqrt(weight)
-    # weights that did not change (no residual beyond huber_k): the last solution is the
-    # final one, the same function of the same arrays (same bits), not solved again
-    if sigma_core is not None and np.array_equal(sigma_w, sigma_core):
+    # weights that did not change (change 0: each the same number, so the same σ to the
+    # bit): the last solution is the final one, not solved again
+    if core is not None and change == 0.0:
         return _step(sigma_w, core), sigma_w
     return wls_step(H, z, sigma_w), sigma_w
 

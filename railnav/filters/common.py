@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 from dataclasses import fields
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -58,6 +59,14 @@ ROW_KINDS = ("pseudorange", "range_rate")
 #: Floors of the initial σ taken from a GNSS fix (a fix's own σ can be optimistic), m, m/s.
 MIN_FIX_SIGMA_S_M = 1.0
 MIN_FIX_SIGMA_V_MPS = 0.05
+
+
+@lru_cache(maxsize=64)
+def _kind_column(kind: str, n: int) -> np.ndarray:
+    """`n` rows of `kind` (an object array, read only: shared by the epochs)."""
+    out = np.full(n, kind, dtype=object)
+    out.flags.writeable = False
+    return out
 
 
 class EpochRowBuilder:
@@ -104,7 +113,7 @@ class EpochRowBuilder:
                                    prepared.sigma_pr_m ** 2,
                                    pseudorange_parameters(part, prepared, self.isb_systems)))
             sv.append(prepared.sv)
-            kind.append(np.full(len(prepared), ROW_KINDS[0], dtype=object))
+            kind.append(_kind_column(ROW_KINDS[0], len(prepared)))
         if self.config.use_doppler and len(prepared):
             finite = np.isfinite(prepared.range_rate_mps)
             dop = prepared if finite.all() else prepared.subset(finite)
@@ -112,7 +121,7 @@ class EpochRowBuilder:
                 obs.append(Observation(self.rows.range_rate, dop.range_rate_mps[:, None],
                                        dop.sigma_rr_mps ** 2, range_rate_parameters(part, dop)))
                 sv.append(dop.sv)
-                kind.append(np.full(len(dop), ROW_KINDS[1], dtype=object))
+                kind.append(_kind_column(ROW_KINDS[1], len(dop)))
         self.rows_sv.append(np.concatenate(sv) if sv else np.zeros(0, dtype=object))
         self.rows_kind.append(np.concatenate(kind) if kind else np.zeros(0, dtype=object))
         return obs

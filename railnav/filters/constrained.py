@@ -271,9 +271,10 @@ class ConstrainedFilter:
         i = self._i
         accel = self._along_accel(u, x_prev)
         dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
-        v = x_prev[i["v"]] + np.cumsum(accel * dt)
+        # np.cumsum's accumulation, without its wrapper
+        v = x_prev[i["v"]] + np.add.accumulate(accel * dt)
         v_mid = 0.5 * (_shifted(v, x_prev[i["v"]]) + v)
-        s = x_prev[i["s"]] + np.cumsum(v_mid * dt)
+        s = x_prev[i["s"]] + np.add.accumulate(v_mid * dt)
         return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
 
     def _along_accel(self, u: Array, x_prev: Array) -> Array:

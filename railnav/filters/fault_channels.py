@@ -72,33 +72,38 @@ class Channel:
         """
         cfg = self.config
         self._failures.append(bool(failed))
-        step = min(max(r, -clip), clip)
-        up, down = self._cusum
-        self._cusum = cusum = [max(0.0, up + step - cfg.drift_allowance),
-                               max(0.0, down - step - cfg.drift_allowance)]
-        opened = self._open
-        if opened[0] or opened[1]:
-            for side in (0, 1):
-                if cusum[side] == 0.0 and opened[side]:
-                    self._influence[side] = 0.0
-                    opened[side] = False
-        drift = cfg.drift_threshold is not None and max(cusum) > cfg.drift_threshold
+        # min(max(r, -clip), clip) and max(0.0, ·) written out (the same numbers, without
+        # the calls: this runs for every row)
+        step = -clip if r < -clip else (clip if r > clip else r)
+        up = self._cusum[0] + step - cfg.drift_allowance
+        down = self._cusum[1] - step - cfg.drift_allowance
+        up, down = (up if up > 0.0 else 0.0), (down if down > 0.0 else 0.0)
+        self._cusum = [up, down]
+        opened = self._open                 # a side back at 0 ends its run's influence
+        if opened[0] and up == 0.0:
+            self._influence[0] = 0.0
+            opened[0] = False
+        if opened[1] and down == 0.0:
+            self._influence[1] = 0.0
+            opened[1] = False
+        h = cfg.drift_threshold
+        drift = h is not None and (up > h or down > h)
         if drift or (failed and sum(self._failures) >= cfg.exclusion_failures):
             self.excluded, self._drifted = True, drift
             self._passes.clear()
             return True
         return False
 
-    def open_run(self) -> bool:
-        """Whether a CUSUM side is running (`add_influence` adds to something)."""
-        return self._cusum[0] > 0.0 or self._cusum[1] > 0.0
-
     def add_influence(self, delta_x: Array) -> None:
-        """Add a used row's correction ``K_i ν_i`` (shape (n,)) to the open CUSUM runs."""
-        for side in (0, 1):
-            if self._cusum[side] > 0.0:
-                self._influence[side] += delta_x
-                self._open[side] = True
+        """Add a used row's correction ``K_i ν_i`` (shape (n,)) to the open CUSUM runs
+        (none: nothing to do)."""
+        up, down = self._cusum
+        if up > 0.0:
+            self._influence[0] += delta_x
+            self._open[0] = True
+        if down > 0.0:
+            self._influence[1] += delta_x
+            self._open[1] = True
 
     def contamination(self) -> Array:
         """What the channel may have pulled into the state when its drift test excluded

@@ -302,7 +302,7 @@ class RowScreen:
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
         rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
-                                     H=H[used], R=R[used], groups=np.arange(int(used.sum())))
+                                     H=H[used], R=R[used], groups=np.arange(np.count_nonzero(used)))
         return EpochRows(rows, Q) if np.count_nonzero(Q) else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
@@ -401,10 +401,10 @@ class RowScreen:
             return
         every = K_t.shape[0] == used.size
         delta = K_t * (nu if every else nu[used])[:, None]     # row k: K_k ν_k
-        channels = self._channels
+        get = self._channels.get
         for key, delta_k in zip(keys if every else keys[used], delta):
-            channel = channels.get(key)
-            if channel is not None and channel.open_run():
+            channel = get(key)
+            if channel is not None:
                 channel.add_influence(delta_k)
 
     def clear_records(self) -> None:

@@ -168,10 +168,13 @@ def track_rows(point, *, earth) -> Array:
     C = C_n_e(point.lat, point.lon)
     u_n = np.asarray(point.u_n, dtype=float)
     rate_per_m = omega_en_n(u_n, float(point.lat), float(point.h), earth=earth)
-    k_e = C @ (np.asarray(point.du_ds_n, dtype=float) + _cross3(rate_per_m, u_n))
-    j_e = C @ np.asarray(point.d2u_ds2_n, dtype=float)
-    return np.concatenate([[float(point.s)], np.asarray(point.r_e, dtype=float), C @ u_n, k_e,
-                           j_e])
+    out = np.empty(13)                  # (np.concatenate of the parts, without the lists)
+    out[0] = float(point.s)
+    out[1:4] = np.asarray(point.r_e, dtype=float)
+    out[4:7] = C @ u_n
+    out[7:10] = C @ (np.asarray(point.du_ds_n, dtype=float) + _cross3(rate_per_m, u_n))
+    out[10:13] = C @ np.asarray(point.d2u_ds2_n, dtype=float)
+    return out
 
 
 def _cross3(a: Array, b: Array) -> Array:

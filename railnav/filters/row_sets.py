@@ -80,8 +80,8 @@ def innovation_covariances(rows: list[tuple[Array, Array, Array]]) -> list[Array
     """
     def covariance(H: Array, P: Array, R: Array) -> Array:
         m = R.shape[-1]
-        D = np.zeros(R.shape + (m,))                 # np.diag(R) of each, stacked
-        D[..., np.arange(m), np.arange(m)] = R
+        D = np.zeros(R.shape + (m,))                 # np.diag(R) of each, stacked:
+        D.reshape(R.shape[:-1] + (m * m,))[..., ::m + 1] = R     # every (m+1)-th element
         return H @ P @ np.swapaxes(H, -1, -2) + D
     return _by_shape(covariance, rows)
 

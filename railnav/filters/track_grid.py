@@ -68,8 +68,10 @@ class TrackParameterGrid:
     def nearest(self, s: Array) -> npt.NDArray[np.intp]:
         """Indices of the grid nodes nearest to distances `s` (m, inside the track)."""
         s = np.asarray(s, dtype=float)
-        if not (self._lo <= s.min() and s.max() <= self._hi):
-            self._open(float(s.min()), float(s.max()))
+        # s.min(), s.max(): the same reductions, without the methods' Python wrappers
+        s_min, s_max = np.minimum.reduce(s), np.maximum.reduce(s)
+        if not (self._lo <= s_min and s_max <= self._hi):
+            self._open(float(s_min), float(s_max))
         j = np.minimum(np.maximum(np.searchsorted(self._s, s), 1), self._s.size - 1)
         return np.where(s - self._s[j - 1] <= self._s[j] - s, j - 1, j)
 

@@ -296,7 +296,7 @@ class FilterMonitor:
                 d = (s_fix - s_prior) / np.sqrt(var_fix + var_prior)
                 self._epoch_fixes = fixes
         n_acc = int(np.count_nonzero(acc))
-        self._push(float(nis[acc].sum()), n_acc, acc.size - n_acc, d * d,
+        self._push(float(np.add.reduce(nis[acc])), n_acc, acc.size - n_acc, d * d,
                    float(chunk.nis_c_sum),
                    int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
                    if chunk.innov_c.ndim == 2 else 0, d, small=d_raw * d_raw)
@@ -337,18 +337,19 @@ class FilterMonitor:
         followed), and the filter's σ, built as if they were independent, too small."""
         d2 = self._small[self._small.size - self._n_small:]
         d2 = d2[np.isfinite(d2)]
-        return _chi2_cdf(float(d2.sum()), int(d2.size))
+        return _chi2_cdf(float(np.add.reduce(d2)), int(d2.size))
 
     def _status(self) -> tuple[str, dict]:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
-        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _ = w.sum(axis=1)
+        # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers)
+        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _ = np.add.reduce(w, axis=1)
         n_rows = n_acc + n_rej
         rejected_share = n_rej / n_rows if n_rows else 0.0
         have = np.isfinite(w[_D2])
         d2, d = w[_D2][have], w[_D][have]
-        d2_sum, n_have = float(d2.sum()), d2.size
+        d2_sum, n_have = float(np.add.reduce(d2)), d2.size
         p_nis, p_d2, p_mean, p_pseudo = _chi2_sfs(
-            np.array([nis_sum, d2_sum, float(d.sum()) ** 2 / max(n_have, 1), nisc]),
+            np.array([nis_sum, d2_sum, float(np.add.reduce(d)) ** 2 / max(n_have, 1), nisc]),
             np.array([n_acc, n_have, min(n_have, 1), nisc_dof]))
         tails = {"p_gnss_nis": p_nis,
                  "p_rejected": 1.0 if self.p_reject is None else

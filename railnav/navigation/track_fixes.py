@@ -47,6 +47,13 @@ class TrackFixes:
     start : callable(int) -> (x0, P0), optional
         The filter's whole start from source fix ``i`` (its own start-from-fix code): a
         recovery restarts every state (attitude, IMU biases, clock) from it.
+    lat, lon : ndarray, shape (N,), optional
+        The fixes' geodetic coordinates, rad (`near` projects them near a guess).
+    cov_enu_m2 : ndarray, shape (N, 3, 3), optional
+        Their ENU covariances, m².
+    distance_m : ndarray, shape (N,), optional
+        Horizontal distance of each fix from its whole-track projection ``s_m``, m
+        (`on_track`; `near` compares the projection near a guess with it).
     """
 
     time_s: Array
@@ -60,6 +67,7 @@ class TrackFixes:
     lon: Array | None = None
     cov_enu_m2: Array | None = None
     track: object = None
+    distance_m: Array | None = None
 
     @classmethod
     def on_track(cls, track, *, time_s, lat, lon, cov_enu_m2, v_enu_mps=None,
@@ -80,7 +88,8 @@ class TrackFixes:
                    np.asarray(v, dtype=float)[order], np.asarray(sv, dtype=float)[order],
                    source=order, lat=np.asarray(lat, dtype=float).reshape(-1)[order],
                    lon=np.asarray(lon, dtype=float).reshape(-1)[order],
-                   cov_enu_m2=np.asarray(cov_enu_m2, dtype=float)[order], track=track)
+                   cov_enu_m2=np.asarray(cov_enu_m2, dtype=float)[order], track=track,
+                   distance_m=np.asarray(proj.distance_m, dtype=float)[order])
 
     def near(self, j: int, s_guess: float) -> tuple[float, float]:
         """``s`` and σ_s of fix `j` projected on the track near `s_guess` (Newton from it,
@@ -92,7 +101,10 @@ class TrackFixes:
         if self.track is None or self.lat is None:
             return float(self.s_m[j]), float(self.sigma_s_m[j])
         s_loc, dist_loc = project_near(self.track, self.lat[j], self.lon[j], s_guess)
-        _, dist_glob = project_near(self.track, self.lat[j], self.lon[j], float(self.s_m[j]))
+        # the whole-track projection's distance (`on_track`: not projected again; Newton
+        # from s_m[j] moves it by < its tolerance, 1e-7 m, and its distance by ~1e-14 m)
+        dist_glob = float(self.distance_m[j]) if self.distance_m is not None else \
+            project_near(self.track, self.lat[j], self.lon[j], float(self.s_m[j]))[1]
         sigma_h = float(np.sqrt(np.linalg.eigvalsh(self.cov_enu_m2[j][:2, :2]).max()))
         if not dist_loc <= dist_glob + max(NEAR_TOL_M, NEAR_TOL_SIGMA * sigma_h):
             return float(self.s_m[j]), float(self.sigma_s_m[j])
