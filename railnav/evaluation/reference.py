@@ -35,8 +35,8 @@ from railnav.simulation.truth import TRUTH_COLUMNS, Truth
 from trackmodel.earth import geodetic_to_ecef
 
 __all__ = ["Reference", "read_reference", "reference_kind", "reference_errors",
-           "screen_fix_reference", "truth_from_frame", "MAX_REFERENCE_GAP_S", "REFERENCE_MAX_OFFSET_M",
-           "REFERENCE_MAX_JUMP_M", "QUALITY_ORDER"]
+           "screen_fix_reference", "truth_from_frame", "MAX_REFERENCE_GAP_S",
+           "REFERENCE_MAX_OFFSET_M", "REFERENCE_MAX_JUMP_M", "QUALITY_ORDER"]
 
 log = logging.getLogger(__name__)
 

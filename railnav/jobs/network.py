@@ -29,8 +29,8 @@ at Brussels); an IMU is navigated on the level tracks with the grade unknown
 (``NavigatorConfig.track_grade_sigma_rad`` = `UNKNOWN_GRADE_SIGMA_RAD`, 20 ‰: the start's
 pitch σ and the pseudo-observation's normal row carry it, `railnav.filters.grade_noise`;
 without it a body pitched 1 % leaks 0.1 m/s² of gravity into the speed). A simulated
-trip on such a network (`run_simulated_network`) runs in a world at ``h = 0``: its truth and estimates keep
-their heights.
+trip on such a network (`run_simulated_network`) runs in a world at ``h = 0``: its truth
+and estimates keep their heights.
 """
 from __future__ import annotations
 
@@ -44,13 +44,13 @@ import numpy as np
 
 from railnav.defaults import DEFAULT_HORIZON_M
 from railnav.errors import ConfigError, RailnavError
-from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
 from railnav.evaluation.netelement_truth import (
     collapse,
     netelement_scores,
     netelement_truth,
     route_passes,
 )
+from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
 from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_start
 from railnav.navigation.hypotheses import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
