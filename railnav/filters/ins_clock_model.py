@@ -271,9 +271,10 @@ def initial_variances(config, layout: StateLayout) -> dict[str, float]:
     dict of str to float
         ``yaw, pitch, roll`` (rad²; the pitch's with ``config.grade_sigma_rad``'s
         square added: a grade the track does not know), the IMU biases ((m/s²)²,
-        (rad/s)²), ``clock_bias`` (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*`` (m²), the odometer's
-        scale ``odo_scale`` (its prior, `railnav.filters.odometer_epochs.OdometerConfig`)
-        and the IMU's mounting ``mount_*`` (rad², with ``config.track_attitude``).
+        (rad/s)²), ``clock_bias`` (m²), ``clock_drift`` (m²/s²), the layout's ``isb_*``
+        (m²), the odometer's scale ``odo_scale`` (its prior,
+        `railnav.filters.odometer_epochs.OdometerConfig`) and the IMU's mounting
+        ``mount_*`` (rad², with ``config.track_attitude``).
     """
     imu, attitude = config.imu, config.initial_attitude_sigma_rad ** 2
     accel = max(imu.accel_bias_mps2 ** 2 + imu.accel_bias_instability_mps2 ** 2,
