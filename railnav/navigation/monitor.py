@@ -82,7 +82,7 @@ from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
-__all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at"]
+__all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at", "binom_sf", "chi2_sf"]
 
 Array = npt.NDArray[np.float64]
 
@@ -147,19 +147,22 @@ def _chi2_isf(p: float, dof: int) -> float:
     return float(chdtri(dof, p))
 
 
-def _binom_sf(k: int, n: int, p: float) -> float:
-    """P(X ≥ k), X ~ Binomial(n, p)."""
-    if k <= 0:
-        return 1.0
+def binom_sf(k, n, p):
+    """``P(X ≥ k)``, ``X ~ Binomial(n, p)``, 1 where ``k <= 0``: a float for scalar `k`
+    (an epoch's test, without NumPy's array calls), else elementwise, an array (the
+    network run's records, `railnav.navigation.network_status`)."""
     from scipy.special import bdtrc
-    return float(bdtrc(k - 1, n, p))
+    if np.ndim(k) == 0:
+        return 1.0 if k <= 0 else float(bdtrc(k - 1, n, p))
+    k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
+    return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
 
 
-def _chi2_sfs(values: Array, dofs: Array) -> list[float]:
+def chi2_sf(values: Array, dofs: Array) -> Array:
     """Upper χ² tails ``P(χ²_dof > value)`` elementwise, 1 where ``dof <= 0``: one call of
     SciPy's ufunc for all of them (each element the bits of a call of its own)."""
     from scipy.special import chdtrc
-    return np.where(dofs > 0, chdtrc(dofs, values), 1.0).tolist()
+    return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
@@ -348,12 +351,12 @@ class FilterMonitor:
         have = np.isfinite(w[_D2])
         d2, d = w[_D2][have], w[_D][have]
         d2_sum, n_have = float(np.add.reduce(d2)), d2.size
-        p_nis, p_d2, p_mean, p_pseudo = _chi2_sfs(
+        p_nis, p_d2, p_mean, p_pseudo = chi2_sf(
             np.array([nis_sum, d2_sum, float(np.add.reduce(d)) ** 2 / max(n_have, 1), nisc]),
-            np.array([n_acc, n_have, min(n_have, 1), nisc_dof]))
+            np.array([n_acc, n_have, min(n_have, 1), nisc_dof])).tolist()
         tails = {"p_gnss_nis": p_nis,
                  "p_rejected": 1.0 if self.p_reject is None else
-                 _binom_sf(int(n_rej), int(n_rows), self.p_reject),
+                 binom_sf(int(n_rej), int(n_rows), self.p_reject),
                  "p_fix": min(1.0, 2.0 * min(p_d2, p_mean)),
                  "p_pseudo_nis": p_pseudo,
                  "p_fix_small": self._small_tail(),

@@ -82,7 +82,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from railnav.filters.row_sets import ROW_STATUSES
-from railnav.navigation.monitor import STATUSES
+from railnav.navigation.monitor import STATUSES, binom_sf, chi2_sf
 
 __all__ = ["row_false_rejection", "row_records", "pseudo_nis", "pseudo_records",
            "combined_status_records"]
@@ -90,13 +90,6 @@ __all__ = ["row_false_rejection", "row_records", "pseudo_nis", "pseudo_records",
 Array = npt.NDArray[np.float64]
 
 _REJECTED = ROW_STATUSES[1]
-
-
-def _at_least(k: Array, n: Array, q: Array) -> Array:
-    """``P(X ≥ k)``, ``X ~ Binomial(n, q)``, elementwise (1 where ``k <= 0``)."""
-    from scipy.special import bdtrc
-    k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
-    return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, q), 1.0)
 
 
 def row_false_rejection(config) -> float | None:
@@ -127,7 +120,6 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
         ``time_s, status, p_rejected, rejected_share, p_nis``, one row per epoch, in time
         order (empty without rows).
     """
-    from scipy.special import chdtrc
     columns = ["time_s", "status", "p_rejected", "rejected_share", "p_nis"]
     if len(innovations) == 0:
         return pd.DataFrame(columns=columns)
@@ -149,10 +141,9 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
     else:
         q = 1.0 - (1.0 - p_row) ** window["rows"].max().to_numpy(dtype=float)
         k = (epochs["rejected"] > 0).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
-        p_rejected = _at_least(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
-    dof = window["used"].sum().to_numpy(dtype=float)
-    p_nis = np.where(dof > 0, chdtrc(np.maximum(dof, 1.0), window["nis"].sum().to_numpy(
-        dtype=float)), 1.0)
+        p_rejected = binom_sf(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
+    p_nis = chi2_sf(window["nis"].sum().to_numpy(dtype=float),
+                    window["used"].sum().to_numpy(dtype=float))
     cfg = config.monitor
     worst = np.minimum(p_rejected, p_nis)
     out = np.where((p_rejected < cfg.p_lost) & (share >= cfg.lost_rejected_share),
@@ -190,14 +181,12 @@ def pseudo_records(cycles: list, config) -> pd.DataFrame:
         ``(time_s, NIS sum, degrees of freedom)`` of each cycle, in time order.
     config : railnav.config.NavigatorConfig
     """
-    from scipy.special import chdtrc
     if not cycles:
         return pd.DataFrame(columns=["time_s", "status", "p_pseudo_nis"])
     table = pd.DataFrame(cycles, columns=["time_s", "nis", "dof"])
     window = table.rolling(int(config.monitor.window_epochs), min_periods=1)
-    dof = window["dof"].sum().to_numpy(dtype=float)
-    p = np.where(dof > 0, chdtrc(np.maximum(dof, 1.0), window["nis"].sum().to_numpy(
-        dtype=float)), 1.0)
+    p = chi2_sf(window["nis"].sum().to_numpy(dtype=float),
+                window["dof"].sum().to_numpy(dtype=float))
     status = np.where(p < config.monitor.p_degraded, STATUSES[1], STATUSES[0])
     return pd.DataFrame({"time_s": table["time_s"].to_numpy(dtype=float),
                          "status": status.astype(object), "p_pseudo_nis": p})
