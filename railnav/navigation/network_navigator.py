@@ -179,7 +179,7 @@ def crossing_sample(hyps, tracks, t, a: int, b: int) -> int:
 
 def _grid_points(stepper):
     """The hypotheses' track points from the fix-only stepper's grid (None: another
-    stepper; `railnav.navigation.spawning.track_points` then)."""
+    stepper; the `Spawner`'s own from the tracks' nodes then)."""
     grid = getattr(stepper, "grid", None)
     if grid is None:
         return None

@@ -99,12 +99,11 @@ from scipy.special import chdtrc
 from gnss_obs.fixes.table import DEAD_RECKONING
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
-from railnav.navigation.network_weights import ecef_points, track_points_of
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 from trackmodel.network_points import NodePoints
 
 
-__all__ = ["Spawner", "fix_disagreement", "fix_frames", "track_points"]
+__all__ = ["Spawner", "fix_disagreement", "fix_frames"]
 
 log = logging.getLogger(__name__)
 
@@ -167,13 +166,6 @@ def chi2_isf(p: float) -> float:
     return -2.0 * math.log(p)
 
 
-def track_points(hyps) -> tuple[Array, Array]:
-    """ECEF position and unit tangent of each hypothesis's track point at its ``s``
-    (clamped to its track; `railnav.navigation.network_weights.track_points_of`, one
-    evaluation for all, `railnav.navigation.network_weights.ecef_points`), shapes (K, 3)."""
-    return ecef_points(track_points_of(hyps))
-
-
 class Spawner:
     """The disagreement window and the spawns of one run (module docstring).
 
@@ -190,9 +182,10 @@ class Spawner:
         Below this tail probability the status is ``degraded``.
     points : callable(hyps) -> (r_e, tangent_e), optional
         The hypotheses' track points (default: from the tracks' nodes,
-        `trackmodel.network_points.NodePoints`: `track_points` to < 1e-6 m, 1e-5 m within
-        a metre of a section joint, for ~5 % of its cost; the fix-only stepper's grid is
-        its own).
+        `trackmodel.network_points.NodePoints`: the exact points,
+        `railnav.navigation.network_weights.ecef_points` of ``track_points_of``, to
+        < 1e-6 m, 1e-5 m within a metre of a section joint, for ~5 % of their cost; the
+        fix-only stepper's grid is its own).
     network : trackmodel.network.Network, optional
         Where `_on_network` looks for the nearest centre-lines (None: no such check).
     spp : railnav.filters.fix_epochs.FixEpochs, optional
@@ -266,7 +259,7 @@ class Spawner:
         return out
 
     def _node_points(self, hyps) -> tuple[Array, Array]:
-        """`track_points` of `hyps` from the tracks' nodes (`points` parameter)."""
+        """The track points of `hyps` from the tracks' nodes (`points` parameter)."""
         return self._nodes.ecef([h.filt.track for h in hyps], [h.s_m for h in hyps])
 
     def _on_network(self, window: list[int], shares: list[float]) -> bool:

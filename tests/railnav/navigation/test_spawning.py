@@ -21,7 +21,8 @@ from railnav.evaluation.netelement_truth import (
 from railnav.filters.gnss_only import GnssOnlyFilter
 from railnav.navigation.hypotheses import NetworkNavConfig, hypothesis
 from railnav.navigation.net_tracks import OrientedTracks, bare
-from railnav.navigation.spawning import fix_disagreement, track_points
+from railnav.navigation.network_weights import ecef_points, track_points_of
+from railnav.navigation.spawning import fix_disagreement
 from railnav.simulation.switch_network import SwitchNetworkSpec, switch_network
 from trackmodel.earth import C_n_e, ecef_to_geodetic, geodetic_to_ecef
 
@@ -56,7 +57,8 @@ def test_disagreement_is_the_horizontal_mahalanobis_distance():
     lat, lon, _ = ecef_to_geodetic(r0 + C_n_e(float(p.lat), float(p.lon)) @ offset)
     fixes = SimpleNamespace(lat=np.array([float(lat)]), lon=np.array([float(lon)]),
                             cov_n_m2=np.array([np.diag([sigma_e ** 2] * 3)]))
-    d2 = fix_disagreement(*track_points([h]), np.array([sigma_s]), fixes, 0, sigma_c)
+    d2 = fix_disagreement(*ecef_points(track_points_of([h])), np.array([sigma_s]), fixes, 0,
+                          sigma_c)
     expected = a ** 2 / (sigma_e ** 2 + sigma_s ** 2) + c ** 2 / (sigma_e ** 2 + sigma_c ** 2)
     # the statistic's east/north are those at the fix, the track's tangent the one at the
     # point: frames a few metres apart on the ellipsoid differ by ~d/R ≈ 1e-6 rad
