@@ -211,7 +211,8 @@ class ConstrainedFilter:
         """`inputs` up to the bias steps' densities: the rest of its results, and the
         grid rows of the spread's paths (``paths``, None without bias noise);
         `chunk_step`: `_chunk_step` of these samples, when known."""
-        s_pred = self.predict_s(t, u, x_prev, t_prev)
+        accel = self._along_accel(u, x_prev)
+        s_pred = self.predict_s(t, accel, x_prev, t_prev)
         params, grid_nodes = self._grid.parameters(s_pred)
         self._chunk_end = self._grid.point(int(grid_nodes[-1]))
         i_s, i_v = self._i["s"], self._i["v"]
@@ -232,8 +233,7 @@ class ConstrainedFilter:
                                sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
                            held_s=float(t[-1]) - t_prev)
         if self.config.grade_sigma_rad > 0.0:           # a grade the track does not know
-            r_c[:, 1] += unknown_grade_density(self._along_accel(u, x_prev), speed,
-                                               self.config.grade_sigma_rad)
+            r_c[:, 1] += unknown_grade_density(accel, speed, self.config.grade_sigma_rad)
         return {"u": u, "params": params, "r_c": r_c,
                 "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
@@ -266,10 +266,10 @@ class ConstrainedFilter:
         if self._along is not None and parent._along is not None:
             self._along = parent._along.copy()
 
-    def predict_s(self, t: Array, u: Array, x_prev: Array, t_prev: float) -> Array:
-        """Along-track distance at ``t`` predicted from the state at ``t_prev`` (m)."""
+    def predict_s(self, t: Array, accel: Array, x_prev: Array, t_prev: float) -> Array:
+        """Along-track distance at ``t`` predicted from the state at ``t_prev`` and the
+        samples' along-track acceleration `accel` (m/s², `_along_accel`), m."""
         i = self._i
-        accel = self._along_accel(u, x_prev)
         dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
         # np.cumsum's accumulation, without its wrapper
         v = x_prev[i["v"]] + np.add.accumulate(accel * dt)

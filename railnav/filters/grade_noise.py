@@ -22,11 +22,12 @@ filter (`strapdown.reduced`) takes the track's tangent ``u`` as level, so
 
 Its noise. The term ``a γ`` is the train's along-track acceleration ``a`` (known to the
 filter's prediction, `unknown_grade_density`'s ``accel_mps2``: ``f_x − b_ax − g sin θ`` at
-each sample, `ConstrainedFilter.predict_s`'s) times a grade that holds over a stretch of
-track: variance ``(a σ_γ)²``, correlation time ``L_γ / |v|`` (`GRADE_LENGTH_M` of track,
-capped at `MAX_CORRELATION_S`), as a density on the normal row, ``(a σ_γ)² L_γ/|v|``: the
-information a white noise of that density gives over one correlation time equals one look
-at the held grade (`railnav.filters.held_remainder`'s rule for a held constant).
+each sample, the one `ConstrainedFilter.predict_s` integrates) times a grade that holds
+over a stretch of track: variance ``(a σ_γ)²``, correlation time ``L_γ / |v|``
+(`GRADE_LENGTH_M` of track, capped at `MAX_CORRELATION_S`), as a density on the normal
+row, ``(a σ_γ)² L_γ/|v|``: the information a white noise of that density gives over one
+correlation time equals one look at the held grade (`railnav.filters.held_remainder`'s
+rule for a held constant).
 
 Measured (``tests/railnav/filters/test_grade_noise.py``): a trip simulated on a track
 with 1.2 % grades, navigated on the same track made level with single-point fixes and a
