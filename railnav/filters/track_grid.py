@@ -9,18 +9,31 @@ spacing ``h`` leaves ``|δ| ≤ h/2``, and the first neglected term of the tange
 by a 120 m transition), is ~3e-10 for ``h = 0.5 m``. One `Track.at` call then serves a
 window of track instead of one call per filter chunk (the call's fixed cost dominates for
 short queries).
+
+A curvature step (an arc or straight joined to another without a transition: turnouts'
+reverse curves, a circle entered straight) has no expansion across it: a sample on one
+side whose nearest node lies on the other took that side's curvature, an error of
+``v² Δκ`` in the pseudo-observation (1.6 m/s² at 20 m/s on a 500-m reverse curve). The
+grid therefore also has a node `STEP_SIDE_M` before and after each such step, so the
+nearest node is on the sample's side. Measured on the synthetic switch network
+(`benchmarks/bench_network_switches.py`, seeds 3 and 7): the network run's
+pseudo-observation alarms (`railnav.navigation.network_status`) 13 and 11 → see the
+commit; the shipped ``paper2017`` and ``curvy`` tracks have no horizontal curvature step,
+so their runs are unchanged. Vertical-curvature steps (a grade entering a parabolic
+vertical curve: ``curvy`` has 12, 7.5e-5 1/m) are not treated so (left).
 """
 from __future__ import annotations
 
 from dataclasses import fields
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 import numpy.typing as npt
 
 from strapdown.reduced import track_parameters
 
-__all__ = ["TrackParameterGrid", "GRID_STEP_M", "GRID_WINDOW_M"]
+__all__ = ["TrackParameterGrid", "GRID_STEP_M", "GRID_WINDOW_M", "CURVATURE_STEP_1PM",
+           "STEP_SIDE_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -28,6 +41,11 @@ Array = npt.NDArray[np.float64]
 GRID_STEP_M = 0.5
 #: Length of track sampled per window, m (re-sampled when the vehicle leaves it).
 GRID_WINDOW_M = 2000.0
+#: A curvature jump at a joint larger than this is a step (module docstring), 1/m; a
+#: clothoid's joints change it by ~1e-11 over `STEP_SIDE_M`.
+CURVATURE_STEP_1PM = 1e-9
+#: The nodes beside a curvature step lie this far from it, m.
+STEP_SIDE_M = 1e-6
 
 
 @lru_cache(maxsize=8)
@@ -59,11 +77,27 @@ class TrackParameterGrid:
         start = max(s_min - 0.25 * span, 0.0)
         stop = min(max(start + span, s_max), length)
         k = np.arange(np.floor(start / self.step_m), np.ceil(stop / self.step_m) + 1.0)
-        nodes = np.unique(np.minimum(k * self.step_m, length))   # the track end is a node
+        nodes = np.minimum(k * self.step_m, length)                # the track end is a node
+        steps = self._curvature_steps
+        steps = steps[(steps > start) & (steps < stop)]
+        if steps.size:              # a node each side of a curvature step (module docstring)
+            nodes = np.concatenate([nodes, steps - STEP_SIDE_M, steps + STEP_SIDE_M])
+        nodes = np.unique(nodes)
         self._points = self.track.at(nodes)
         self._params = track_parameters(self._points, earth=self.track.earth)
         self._s = nodes
         self._lo, self._hi = nodes[0], nodes[-1]
+
+    @cached_property
+    def _curvature_steps(self) -> Array:
+        """``s`` of the section joints where the horizontal curvature jumps by more than
+        `CURVATURE_STEP_1PM` (an arc or a straight joined without a transition), m."""
+        joints = np.asarray(self.track.table.s_start, dtype=float)[1:]
+        if not joints.size:
+            return joints
+        before = self.track.at(joints - STEP_SIDE_M).curvature_1pm
+        after = self.track.at(joints + STEP_SIDE_M).curvature_1pm
+        return joints[np.abs(after - before) > CURVATURE_STEP_1PM]
 
     def nearest(self, s: Array) -> npt.NDArray[np.intp]:
         """Indices of the grid nodes nearest to distances `s` (m, inside the track)."""

@@ -56,3 +56,25 @@ def test_grid_reference_reproduces_the_exact_reference(curvy):
     h_grid = np.array([np.asarray(model.h_c(x[k], imu.u[k], grid_params[k])).ravel()
                        for k in range(0, truth.s.size, 7)])
     np.testing.assert_allclose(h_grid, h_exact, rtol=0, atol=ATOL_PSEUDO_OBS_MPS2)
+
+
+def test_a_curvature_step_takes_the_samples_side():
+    """A straight of 100.2 m joined to an arc of R 200 m without a transition: nodes at
+    100.0 and 100.5 m. A sample at 100.21 m is on the arc but nearer the 100.0-m node (on
+    the straight); the grid's node beside the step gives it the arc's curvature. Reference:
+    `Track.at` of the sample itself (0 before the step, 1/200 1/m after); the node's
+    |du/ds| (level track) is that curvature."""
+    from trackmodel.sections import Section
+    from trackmodel.track import Track
+    track = Track.from_sections([Section(100.2, azimuth_deg=30.0, elevation_deg=0.0),
+                                 Section(100.0, curvature_1pm=1 / 200.0)],
+                                lat=np.radians(47.0), lon=np.radians(8.0))
+    grid = TrackParameterGrid(track)
+    s = np.array([99.99, 100.1, 100.19, 100.21, 100.3, 100.45, 150.0])
+    params, _ = grid.parameters(s)
+    names = ("du_E_ds", "du_N_ds")
+    from strapdown.reduced import TRACK_PARAMETER_NAMES
+    cols = [TRACK_PARAMETER_NAMES.index(n) for n in names]
+    np.testing.assert_allclose(np.hypot(*params[:, cols].T),
+                               np.abs(track.at(s).curvature_1pm), atol=1e-9)
+    assert np.all(np.abs(params[:, 0] - s) <= GRID_STEP_M / 2 + 1e-9)
