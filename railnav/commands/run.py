@@ -28,7 +28,7 @@ from railnav.commands.run_flags import (
     seed,
     time_window,
 )
-from railnav.commands.run_report import report
+from railnav.commands.run_report import fix_hint_lines, report
 from railnav.commands.support import (
     imports_without_gc,
     output_dir,
@@ -125,7 +125,10 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
     written = write_run(outcome, tmp, plots=not args.no_plots, plotter=plotter)
     if baro_check is not None:
         written += _write_baro(baro_check, tmp)
-    return report(outcome, Path(args.out)), written + _exports(args, outcome, tmp)
+    text = report(outcome, Path(args.out))
+    if args.fixes is not None and not args.correlated_fix_errors:
+        text = "\n".join([text, *fix_hint_lines(outcome.summary)])
+    return text, written + _exports(args, outcome, tmp)
 
 
 def _exports(args: argparse.Namespace, outcome, tmp: Path) -> list[Path]:

@@ -145,6 +145,13 @@ def add_file_arguments(p) -> None:
                         "fix σ, m (default 1.5)")
     p.add_argument("--no-fix-heights", action="store_true",
                    help="ignore the fixes' heights (a track without heights)")
+    p.add_argument("--correlated-fix-errors", action="store_true",
+                   help="the code fixes' (single-point, DGPS) errors are correlated from "
+                        "epoch to epoch like their pseudoranges': their rows are inflated "
+                        "and their slow part estimated (FixModelConfig."
+                        "correlated_code_errors; the gnss-only filter on one track). Use it "
+                        "for a receiver's single-point fixes: on the shared urban drive's, "
+                        "the epochs beyond 3σ_s go from 315 to 0 of 952")
     p.add_argument("--truth", metavar="FILE",
                    help="score the run against railnav's truth.csv, a reference trajectory "
                         "(gps_time_s or GPS week/SOW, lat, lon, h) or a fix file (its best "
@@ -208,9 +215,15 @@ def _check_fix_flags(args: argparse.Namespace, kind, several: bool) -> None:
     fix_flags = [flag for flag, given in (("--fix-sigma", args.fix_sigma),
                                           ("--fix-track-sigma-m",
                                            args.fix_track_sigma_m is not None),
-                                          ("--no-fix-heights", args.no_fix_heights)) if given]
+                                          ("--no-fix-heights", args.no_fix_heights),
+                                          ("--correlated-fix-errors",
+                                           args.correlated_fix_errors)) if given]
     if fix_flags and args.fixes is None:
         raise ConfigError(f"{', '.join(fix_flags)}: only with --fixes")
+    if args.correlated_fix_errors and (several or args.network is not None
+                                       or args.filter != "gnss-only"):
+        raise ConfigError("--correlated-fix-errors: the gnss-only filter on one track only "
+                          "(a network run takes --fix-correlation-s)")
     if args.fixes is not None and not kind.fixes:
         takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).fixes)
         raise ConfigError(f"--fixes: the {args.filter} filter takes no fixes (the {takes} "
@@ -352,14 +365,16 @@ def fix_sigmas(args: argparse.Namespace) -> dict | None:
 
 
 def fix_model(args: argparse.Namespace):
-    """The fix model's settings from --fix-track-sigma-m and --no-fix-heights (None:
-    the defaults)."""
-    if args.fix_track_sigma_m is None and not args.no_fix_heights:
+    """The fix model's settings from --fix-track-sigma-m, --no-fix-heights and
+    --correlated-fix-errors (None: the defaults)."""
+    if args.fix_track_sigma_m is None and not args.no_fix_heights \
+            and not args.correlated_fix_errors:
         return None
     from railnav.filters.fix_epochs import FixModelConfig
     extra = {} if args.fix_track_sigma_m is None else {
         "track_cross_sigma_m": args.fix_track_sigma_m}
-    return FixModelConfig(use_height=not args.no_fix_heights, **extra)
+    return FixModelConfig(use_height=not args.no_fix_heights,
+                          correlated_code_errors=args.correlated_fix_errors, **extra)
 
 
 def augmentation(args: argparse.Namespace) -> dict:

@@ -3,7 +3,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["report", "monitor_lines"]
+__all__ = ["report", "monitor_lines", "fix_hint_lines"]
+
+#: Share of the monitor's epochs not ``ok`` above which a gnss-only run on fixes taken as
+#: white gets the `fix_hint_lines` hint.
+HINT_NOT_OK_SHARE = 0.5
 
 
 def monitor_lines(mon: dict | None, recoveries: str = "recoveries") -> list[str]:
@@ -18,6 +22,22 @@ def monitor_lines(mon: dict | None, recoveries: str = "recoveries") -> list[str]
         lines.append("  LOST at the end of the run: the last estimates are not to be "
                      "trusted (monitor status 'lost', estimates.csv 'status')")
     return lines
+
+
+def fix_hint_lines(summary: dict) -> list[str]:
+    """A hint for a gnss-only run on fixes taken as white (``--correlated-fix-errors`` not
+    given) whose monitor found most epochs not ``ok``: a receiver's single-point fixes
+    have correlated errors (the urban drive's SPP fixes: every epoch ``degraded``, NEES
+    4.7 for one state; with the flag 178 of 180 ``ok``)."""
+    mon = summary["statistics"].get("monitor")
+    if summary["filter"] != "gnss-only" or "fix_epochs" not in summary["statistics"] \
+            or not mon:
+        return []
+    e = mon["epochs"]
+    if e["degraded"] + e["lost"] <= HINT_NOT_OK_SHARE * sum(e.values()):
+        return []
+    return ["  hint: if the fixes are a receiver's single-point or DGPS solutions, their "
+            "errors are correlated from epoch to epoch: --correlated-fix-errors"]
 
 
 def report(outcome, out: Path) -> str:
