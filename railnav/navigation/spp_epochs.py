@@ -45,11 +45,11 @@ Gauss-Newton iteration (two in 0.7 % of the epochs of the 1000-s paper run, 22 %
 the last two fixes alone) and the fault screen's step, without protection levels, DOP or
 sky (~0.8 ms of CPU an epoch with GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
 Linearized at a hypothesis: no preparation and no iteration, the fault screen's step
-alone (about a third of that). In the ``pruned`` 1000-s run of
-`benchmarks/bench_network_speed.py` the navigator's CPU went from 2.96 s to 2.50 s with
-it (median of A/B rounds; the fixes from the guess took ~0.9 s of CPU);
-`NetworkNavConfig.spawn_window_epochs` = 0 turns test, status column and these fixes
-off.
+alone. In the ``pruned`` 1000-s run of `benchmarks/bench_network_speed.py` (every epoch
+linearized) these fixes take 0.29 s of CPU (0.82 s from the guess; with
+`gnss_obs.observables.predict_pseudorange` through the function's buffer; a machine loaded
+2.5-3); `NetworkNavConfig.spawn_window_epochs` = 0 turns test, status column and these
+fixes off.
 """
 from __future__ import annotations
 
