@@ -208,13 +208,18 @@ def _near_surface(r_e: Array) -> bool:
     return abs(float(ecef_to_geodetic(r_e)[2])) < MAX_RECEIVER_HEIGHT_M
 
 
-def _position(epoch: EpochData, tx, ctx: _Context, r0: Array):
-    """Position fix with FDE: (r_e, prep, FdeResult, present systems) or None."""
+def _position(epoch: EpochData, tx, ctx: _Context, r0: Array, prepared=None):
+    """Position fix with FDE: (r_e, prep, FdeResult, present systems) or None (`prepared`:
+    the epoch prepared at `r0`, `solve_spp_epoch`'s)."""
     cfg = ctx.config
     excluded: set[str] = set()
     r_e = r0
     while True:
-        solved = _gauss_newton(epoch, tx, ctx, r_e, excluded)
+        if prepared is not None and not excluded:   # r0's own preparation: no iteration
+            keep = _candidates(prepared, cfg)
+            solved = r0, (prepared if keep.all() else prepared.subset(keep))
+        else:
+            solved = _gauss_newton(epoch, tx, ctx, r_e, excluded)
         if solved is None:
             return None
         r_e, prep = solved
@@ -225,6 +230,10 @@ def _position(epoch: EpochData, tx, ctx: _Context, r0: Array):
         fde = fault_detection_exclusion(H, z, prep.sigma_pr_m, p_false_alarm=cfg.p_false_alarm,
                                         max_exclusions=max_excl, huber_k=cfg.huber_k)
         if fde.n_excluded == 0:
+            if prepared is not None and not excluded and \
+                    np.linalg.norm(fde.step.dx[:3]) > cfg.tol_m:
+                prepared, r_e = None, r_e + fde.step.dx[:3]    # too far: iterate from there
+                continue
             r_e = r_e + fde.step.dx[:3]
             return r_e, prep, fde, present, sorted(excluded)
         excluded |= set(prep.sv[~fde.kept])
@@ -260,11 +269,11 @@ def _sky(epoch: EpochData, tx, ctx: _Context, r_e: Array, clocks: dict[str, floa
 
 
 def _solve_epoch(epoch: EpochData, ctx: _Context, guess: Array, *, transmit=None,
-                 details: bool = True) -> EpochFix | None:
+                 details: bool = True, prepared=None) -> EpochFix | None:
     cfg = ctx.config
     tx = transmit_states(epoch, cfg.measurement, precise=ctx.precise) if transmit is None \
         else transmit
-    pos = _position(epoch, tx, ctx, guess)
+    pos = _position(epoch, tx, ctx, guess, prepared)
     if pos is None:
         return None
     r_e, prep, fde, present, excluded = pos
@@ -408,7 +417,8 @@ def _klobuchar(nav, mc: MeasurementConfig) -> tuple[Array, Array] | None:
 
 def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
                     approx_e: Array | None = None, transmit=None,
-                    details: bool = True) -> EpochFix | None:
+                    details: bool = True, prepared: PreparedEpoch | None = None
+                    ) -> EpochFix | None:
     """The fix of one epoch as `solve_spp` solves an observation file of that epoch alone:
     from the guess `approx_e` (the file's approximate position; the Earth's centre without
     one), broadcast orbits.
@@ -430,6 +440,14 @@ def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
     details : bool
         Also the protection levels, dilutions of precision and per-satellite sky; False:
         NaN and an empty ``sky`` (the position, clocks and covariance are the same).
+    prepared : PreparedEpoch, optional
+        The epoch prepared at `approx_e` as `prepare_epoch` prepares it with
+        ``config.measurement`` (e.g. a filter's, at its prior): the fix is then the fault
+        screen's one step from `approx_e`, without preparing the epoch again, when that
+        step is below ``config.tol_m`` (else iterated from there as without it). Its
+        corrections and weights are then those at `approx_e`, not at the least-squares
+        solution where `solve_spp` takes its last step: the fix differs by their change
+        over the step (~1e-3 of it; `railnav.navigation.spp_epochs`).
 
     Returns
     -------
@@ -441,4 +459,4 @@ def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
         return None
     ctx = _Context(cfg, _klobuchar(nav, cfg.measurement))
     return _solve_epoch(epoch, ctx, _initial_guess(approx_e), transmit=transmit,
-                        details=details)
+                        details=details, prepared=prepared)

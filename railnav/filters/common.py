@@ -83,6 +83,10 @@ class EpochRowBuilder:
     ----------
     rows_sv, rows_kind : list of ndarray
         Per processed epoch, the satellite and kind of each row (in update order).
+    latest : (int, ndarray (3,), gnss_obs.PreparedEpoch) or None
+        The latest epoch's index, receiver guess (ECEF, m) and satellites prepared there:
+        the linearization point a network run's single-point fix of that epoch may start
+        from (`railnav.navigation.spp_epochs.EpochSppFixes.solve`).
     """
 
     def __init__(self, rows: GnssRows, gnss, config) -> None:
@@ -90,6 +94,7 @@ class EpochRowBuilder:
         self.isb_systems = tuple(name.removeprefix("isb_") for name in rows.isb_names)
         self.rows_sv: list[np.ndarray] = []
         self.rows_kind: list[np.ndarray] = []
+        self.latest: tuple | None = None
 
     def rows_at(self, index: int, r_guess_e: Array, part: Array) -> list[Observation]:
         """The rows of GNSS epoch `index`, satellites prepared at `r_guess_e`.
@@ -102,11 +107,14 @@ class EpochRowBuilder:
         part : ndarray, shape (k,)
             The receiver part of every row (`railnav.filters.gnss_rows.pseudorange_parameters`).
         """
-        return self.rows_of(self.gnss.prepare(index, r_guess_e), part)
+        return self.rows_of(index, r_guess_e, self.gnss.prepare(index, r_guess_e), part)
 
-    def rows_of(self, prepared, part: Array) -> list[Observation]:
-        """The rows of a prepared epoch (`railnav.filters.gnss_epochs.GnssEpochs.prepare`)
-        with the receiver part `part` (as `rows_at`), recorded in `rows_sv`, `rows_kind`."""
+    def rows_of(self, index: int, r_guess_e: Array, prepared, part: Array
+                ) -> list[Observation]:
+        """The rows of epoch `index` prepared at `r_guess_e`
+        (`railnav.filters.gnss_epochs.GnssEpochs.prepare`) with the receiver part `part`
+        (as `rows_at`), recorded in `rows_sv`, `rows_kind` and `latest`."""
+        self.latest = (index, r_guess_e, prepared)
         obs, sv, kind = [], [], []
         if len(prepared):
             obs.append(Observation(self.rows.pseudorange, prepared.pseudorange_m[:, None],
@@ -201,8 +209,10 @@ def gnss_rows_together(builders, index: int, states, references) -> list[list[Ob
     gnss = builders[0].gnss if builders else None
     if any(b.gnss is not gnss for b in builders):
         return [b.rows_at(index, part[1:4], part) for b, part in zip(builders, parts)]
-    prepared = gnss.prepare_together(index, np.array([part[1:4] for part in parts]))
-    return [b.rows_of(one, part) for b, one, part in zip(builders, prepared, parts)]
+    guesses = np.array([part[1:4] for part in parts])
+    prepared = gnss.prepare_together(index, guesses)
+    return [b.rows_of(index, r, one, part)
+            for b, r, one, part in zip(builders, guesses, prepared, parts)]
 
 
 def scalar_point(points, i: int):

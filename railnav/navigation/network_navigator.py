@@ -65,7 +65,7 @@ from railnav.navigation.network_start import NetworkStart, start_hypotheses
 from railnav.navigation.s_split import needs_split, split
 from railnav.navigation.spawning import Spawner
 from railnav.navigation.spp_epochs import correlation_s as spp_correlation_s
-from railnav.navigation.spp_epochs import epoch_spp_fixes
+from railnav.navigation.spp_epochs import EpochSppFixes
 from railnav.navigation.stacked_fixes import StackedFixStepper, stackable
 from railnav.navigation.network_weights import (
     abreast,
@@ -197,7 +197,7 @@ def _spp_fixes(trip, data, config, nav) -> dict:
     if not nav.spawn_window_epochs or (trip.fixes is not None and len(trip.fixes)) or \
             trip.gnss is None:
         return {}
-    return {"spp": epoch_spp_fixes(trip.gnss, data, config),
+    return {"spp": EpochSppFixes.of(trip.gnss, data, config),
             "spp_correlation_s": spp_correlation_s(nav, config)}
 
 

@@ -64,7 +64,8 @@ element it started on.)
 Runs without position fixes (GNSS observations, with or without an IMU) test and spawn
 from each GNSS epoch's own single-point fix instead (`railnav.navigation.spp_epochs`:
 the epoch's pseudoranges alone, weighted least squares with the run's σ model and the
-receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior). Their
+receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior, only
+linearized at the most probable one's preparation of the epoch when that is near). Their
 errors are counted as correlated over the larger of `NetworkNavConfig.
 evidence_correlation_s` and the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for
 simulated trips; 20 s by default for real ones: a 5-epoch window at 1 Hz is then one
@@ -79,7 +80,8 @@ parallel tracks undecided after the spawn). A start on the wrong one of two trac
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
 5-8 s).
-Cost: one single-point solve per GNSS epoch (~0.8 ms of CPU; `railnav.navigation.spp_epochs`)
+Cost: one single-point solve per GNSS epoch (one least-squares step from a hypothesis's
+preparation of the epoch, ~0.3 ms of CPU; `railnav.navigation.spp_epochs`)
 and each live hypothesis's track point from its track's nodes
 (`trackmodel.network_points.NodePoints`: tens of µs an epoch).
 
@@ -99,6 +101,7 @@ from scipy.special import chdtrc
 from gnss_obs.fixes.table import DEAD_RECKONING
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.hypotheses import entered, evidence_share
+from railnav.navigation.spp_epochs import EpochSppFixes
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 from trackmodel.network_points import NodePoints
 
@@ -166,6 +169,18 @@ def chi2_isf(p: float) -> float:
     return -2.0 * math.log(p)
 
 
+def _linearization(hyps: list, f: int):
+    """GNSS epoch `f` as the most probable of `hyps` that prepared it did
+    (`railnav.filters.common.EpochRowBuilder.latest`): its receiver guess and the
+    satellites there (`railnav.navigation.spp_epochs.EpochSppFixes.solve`'s
+    ``linearized``); None when none did (children born this cycle, other filters)."""
+    for h in sorted(hyps, key=lambda h: -h.log_weight):
+        latest = getattr(getattr(h.filt, "rows", None), "latest", None)
+        if latest is not None and latest[0] == f:
+            return latest[1], latest[2]
+    return None
+
+
 class Spawner:
     """The disagreement window and the spawns of one run (module docstring).
 
@@ -188,10 +203,11 @@ class Spawner:
         fix-only stepper's grid is its own).
     network : trackmodel.network.Network, optional
         Where `_on_network` looks for the nearest centre-lines (None: no such check).
-    spp : railnav.filters.fix_epochs.FixEpochs, optional
+    spp : railnav.navigation.spp_epochs.EpochSppFixes or FixEpochs, optional
         A run without position fixes: its GNSS epochs' own single-point fixes, one per
-        epoch of ``trip.gnss`` (`railnav.navigation.spp_epochs.epoch_spp_fixes`); a run
-        with fixes tests those.
+        epoch of ``trip.gnss``, each solved when the test reaches it, linearized at the
+        most probable hypothesis's preparation of the epoch (`_linearization`), or given
+        (`railnav.navigation.spp_epochs.epoch_spp_fixes`); a run with fixes tests those.
     spp_correlation_s : float
         τ of `spp`'s errors, s (`railnav.navigation.spp_epochs.correlation_s`): the
         window counts them as `NetworkNavConfig.evidence_correlation_s` says for fixes.
@@ -205,14 +221,18 @@ class Spawner:
         self.points = points or self._node_points
         self.network = network
         own = trip.fixes is not None and len(trip.fixes) > 0
+        #: The single-point fixes' solver (None: the fixes are given).
+        self._solver = spp if not own and isinstance(spp, EpochSppFixes) else None
         #: The fixes tested (the run's own, else its epochs' single-point fixes) and which
         #: of `EpochSchedule.split`'s indices is theirs.
-        self.fixes, self._column = (trip.fixes, 1) if own else (spp, 0)
+        self.fixes, self._column = (trip.fixes, 1) if own else \
+            (spp.fixes if self._solver is not None else spp, 0)
         # the window counts the single-point fixes' correlated errors (their τ)
         self._shares = nav if own else replace(
             nav, evidence_correlation_s=max(nav.evidence_correlation_s, spp_correlation_s))
-        self._frames = fix_frames(self.fixes) if self.fixes is not None and \
-            len(self.fixes) else None
+        have = self.fixes is not None and len(self.fixes) > 0
+        # the given fixes' frames at once; solved ones' as they come (`fix_disagreement`)
+        self._frames = fix_frames(self.fixes) if have and self._solver is None else None
         self.p_degraded = p_degraded
         self.window: list[float] = []
         self.shares: list[float] = []
@@ -222,20 +242,21 @@ class Spawner:
         self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
         self.spawns: list[tuple[float, int]] = []
-        self.active = bool(nav.spawn_window_epochs) and self._frames is not None and \
-            trip.schedule is not None
+        self.active = bool(nav.spawn_window_epochs) and have and trip.schedule is not None
 
     def after_epoch(self, hyps: list, epoch: int | None, time_s: float) -> list:
         """`hyps`, with new hypotheses when the window's test fails at this epoch."""
         if not self.active or epoch is None or not hyps:
             return hyps
         f = self.trip.schedule.split(epoch)[self._column]
+        if f >= 0 and self._solver is not None:
+            self._solver.solve(f, _linearization(hyps, f))
         if f < 0 or not np.isfinite(self.fixes.lat[f]):
             return hyps
         r_e, tangent_e = self.points(hyps)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in hyps], 0.0))
         d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
-                              (self._frames[0][f], self._frames[1][f]))
+                              self._frame(f))
         share = evidence_share(self._shares, time_s - self._last_s)
         self._last_s = time_s
         self.window.append(float(np.min(d2)))
@@ -257,6 +278,10 @@ class Spawner:
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else ""))
         return out
+
+    def _frame(self, f: int):
+        """Fix `f`'s frame (`fix_disagreement`'s ``frame``; None: computed there)."""
+        return None if self._frames is None else (self._frames[0][f], self._frames[1][f])
 
     def _node_points(self, hyps) -> tuple[Array, Array]:
         """The track points of `hyps` from the tracks' nodes (`points` parameter)."""
@@ -317,7 +342,7 @@ class Spawner:
         r_e, tangent_e = self.points(new)
         sigma_s = np.sqrt(np.maximum([h.P[h.index("s"), h.index("s")] for h in new], 0.0))
         d2 = fix_disagreement(r_e, tangent_e, sigma_s, self.fixes, f, self.cross_sigma_m,
-                              (self._frames[0][f], self._frames[1][f]))
+                              self._frame(f))
         new = [h for h, d in zip(new, d2) if chdtrc(2.0, float(d)) >= self.nav.spawn_p_value]
         if not new:
             return hyps

@@ -4,7 +4,8 @@ hypotheses", for runs on pseudoranges without a fix log).
 
 `epoch_spp_fixes` solves every GNSS epoch of a run (`railnav.filters.gnss_epochs.GnssEpochs`,
 the epochs the hypotheses' filters read, with their satellites' states at transmission)
-alone by `gnss_obs.spp.solve_spp_epoch`, with the run's measurement settings and
+alone (a network run: `EpochSppFixes`, each epoch as the run reaches it) by
+`gnss_obs.spp.solve_spp_epoch`, with the run's measurement settings and
 elevation mask (`railnav.navigation.track_fixes.spp_config_of`): weighted least squares
 with the pseudorange σ model the run declares (`gnss_obs.MeasurementConfig.sigma_model`,
 ``sigma_pr_m``), the receiver's χ² fault detection and exclusion and Huber weights. The
@@ -15,21 +16,40 @@ The fixes are independent of the hypotheses (no prior enters), so a set of hypot
 started wrong cannot pull them along. An epoch whose fault detection still fails after the
 exclusions (``raim_ok`` False) or with too few satellites has no fix (NaN).
 
+Linearized at a hypothesis (`EpochSppFixes.solve`'s ``linearized``, the network run's):
+the epoch's satellites as the most probable hypothesis's filter prepared them at its prior
+(`railnav.filters.common.EpochRowBuilder.latest`: the same function, settings and
+transmission states as the fix's own preparation) are the start of the fix, which is then
+the fault screen's one least-squares step from there, without a preparation of its own,
+when that step is below `TOL_M` (else it is solved from the extrapolated guess as without
+one). Only the linearization point comes from the hypothesis: the fix is still the
+pseudoranges' own least-squares solution, but its corrections and weights (troposphere,
+ionosphere, Sagnac, elevation σ) are those at that point instead of at the plain
+least-squares solution (where `gnss_obs.solve_spp` takes its last step): their gradients,
+of order 1e-3 per metre, move it by ~1e-3 of the step (the geometry's own linearization
+error, δ²/(2ρ), is < 1e-5 m). Measured against `solve_spp`: ≤ 1.1 cm, median 2.4 mm, at
+most 7.3e-4 of the distance, in the ``pruned`` 1000-s run of
+`benchmarks/bench_network_speed.py` (every epoch linearized, steps ≤ 27.5 m, median 8.2
+m); on curvy (σ_pr 3 m) < 1 % of the fix's smallest horizontal σ
+(`tests/railnav/navigation/test_spp_epochs.py`), against the metres the spawn test
+compares. A hypothesis that is wrong by more than `TOL_M` gets the fix of the guess path.
+
 Their errors are as correlated from epoch to epoch as the pseudoranges' are: the run's
 ``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips, whose errors are
 white; 20 s by default, urban code multipath). `correlation_s` gives the τ the spawn test
 counts them with (`railnav.navigation.hypotheses.evidence_share`).
 
 Cost: one solve per epoch, from a guess extrapolated from the last fixes (`_guess`: the
-straight line through up to `GUESS_FIXES` of them): one Gauss-Newton iteration (two in
-0.7 % of the epochs of the 1000-s paper run, 22 % from the last two fixes alone) and the
-fault screen's step, without protection levels, DOP or sky (~0.8 ms of CPU an epoch with
-GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
-In the ``pruned`` 1000-s run of `benchmarks/bench_network_speed.py` these fixes take
-~0.9 s of CPU and the spawn test's own work (`railnav.navigation.spawning`) ~0.15 s
-(on a machine loaded 2-3; 1.2-1.4 s and 0.6 s before the guess from 8 fixes and the
-test's points from nodes); `NetworkNavConfig.spawn_window_epochs` = 0 turns test,
-status column and these fixes off.
+straight line through up to `GUESS_FIXES` of them): two preparations of the epoch, one
+Gauss-Newton iteration (two in 0.7 % of the epochs of the 1000-s paper run, 22 % from
+the last two fixes alone) and the fault screen's step, without protection levels, DOP or
+sky (~0.8 ms of CPU an epoch with GPS, 2.6 ms with `gnss_obs.spp.SppConfig`'s defaults).
+Linearized at a hypothesis: no preparation and no iteration, the fault screen's step
+alone. In the ``pruned`` 1000-s run of `benchmarks/bench_network_speed.py` (every epoch
+linearized) these fixes take 0.29 s of CPU (0.82 s from the guess; with
+`gnss_obs.observables.predict_pseudorange` through the function's buffer; a machine loaded
+2.5-3); `NetworkNavConfig.spawn_window_epochs` = 0 turns test, status column and these
+fixes off.
 """
 from __future__ import annotations
 
@@ -41,7 +61,7 @@ from railnav.filters.fix_epochs import FixEpochs
 from railnav.navigation.track_fixes import spp_config_of
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["epoch_spp_fixes", "correlation_s", "SPP_QUALITY"]
+__all__ = ["epoch_spp_fixes", "EpochSppFixes", "correlation_s", "SPP_QUALITY"]
 
 #: The fix class (`gnss_obs.fixes.table.FIX_QUALITIES`) of a receiver's single-point fix.
 SPP_QUALITY = "single"
@@ -75,39 +95,95 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
     Returns
     -------
     railnav.filters.fix_epochs.FixEpochs or None
+        As `EpochSppFixes.fixes`, every epoch solved.
+    """
+    solver = EpochSppFixes.of(gnss, data, config)
+    if solver is None:
+        return None
+    for k in range(len(gnss.epochs)):
+        solver.solve(k)
+    return solver.fixes
+
+
+class EpochSppFixes:
+    """The single-point fixes of a run's GNSS epochs, each solved when the run reaches it
+    (`solve`, in time order: the guess of each comes from the fixes before it).
+
+    Parameters
+    ----------
+    gnss, data, config
+        As `epoch_spp_fixes` (`gnss` with epochs, `data.nav` given: `of`).
+
+    Attributes
+    ----------
+    fixes : railnav.filters.fix_epochs.FixEpochs
         ``time_s`` of the epochs (s from the trip start), ``lat``/``lon`` (rad), ``h_m``,
         ``cov_n_m2`` the ENU position covariance (m², (E, 3, 3)), ``quality``
-        `SPP_QUALITY`; no velocity.
+        `SPP_QUALITY`; no velocity; NaN until solved, and where an epoch has no fix.
     """
-    from gnss_obs.spp import solve_spp_epoch
-    if gnss is None or data.nav is None or not len(gnss.epochs):
-        return None
-    # a position is all it needs; the fault screen's step after the iterations leaves an
-    # error of the order of (last step)² / (2 range): TOL_M costs ~2e-5 m at most
-    cfg = replace(spp_config_of(config), velocity=False, tol_m=TOL_M)
-    n = len(gnss.epochs)
-    r_e = np.full((n, 3), np.nan)
-    cov = np.full((n, 3, 3), np.nan)
-    transmit = getattr(gnss, "transmit", None) or [None] * n
-    approx = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
-    last: list = []                               # the last fixes (time, r_e)
-    for k, epoch in enumerate(gnss.epochs):
-        fix = solve_spp_epoch(epoch, data.nav, cfg, transmit=transmit[k], details=False,
-                              approx_e=_guess(last, float(gnss.time_s[k]), approx))
+
+    def __init__(self, gnss, data, config) -> None:
+        # a position is all it needs; the fault screen's step after the iterations leaves
+        # an error of the order of (last step)² / (2 range): TOL_M costs ~2e-5 m at most
+        self.cfg = replace(spp_config_of(config), velocity=False, tol_m=TOL_M)
+        self.gnss, self.nav = gnss, data.nav
+        n = len(gnss.epochs)
+        nan = np.full(n, np.nan)
+        self.fixes = FixEpochs(time_s=np.asarray(gnss.time_s, dtype=float), lat=nan,
+                               lon=nan.copy(), h_m=nan.copy(),
+                               cov_n_m2=np.full((n, 3, 3), np.nan),
+                               v_n_mps=np.full((n, 3), np.nan),
+                               sigma_speed_mps=nan.copy(),
+                               quality=np.full(n, SPP_QUALITY, dtype=object))
+        self._transmit = getattr(gnss, "transmit", None) or [None] * n
+        self._approx = getattr(getattr(data.obs, "header", None), "approx_position_e", None)
+        # the filters' preparations are this fix's when prepared alike (`solve`)
+        self._alike = getattr(gnss, "config", None) == self.cfg.measurement and \
+            getattr(gnss, "elevation_mask_rad", None) == np.deg2rad(self.cfg.elevation_mask_deg)
+        self._solved = np.zeros(n, dtype=bool)
+        self._last: list = []                          # the last fixes (time, r_e)
+
+    @classmethod
+    def of(cls, gnss, data, config) -> "EpochSppFixes | None":
+        """The solver of a run's epochs; None without epochs or navigation file."""
+        if gnss is None or data.nav is None or not len(gnss.epochs):
+            return None
+        return cls(gnss, data, config)
+
+    def solve(self, k: int, linearized=None) -> None:
+        """Solve epoch `k` into `fixes` (once; later calls do nothing).
+
+        Parameters
+        ----------
+        k : int
+            The epoch.
+        linearized : (ndarray (3,), gnss_obs.PreparedEpoch), optional
+            A receiver position (ECEF, m) and the epoch's satellites prepared there by
+            the run's filters (`railnav.filters.common.EpochRowBuilder.latest`, a
+            hypothesis's prior): the fix is then the one least-squares step from it
+            (`gnss_obs.spp.solve_spp_epoch`'s ``prepared``) when that step is below
+            `TOL_M`, else solved from the extrapolated guess as without it.
+        """
+        if self._solved[k]:
+            return
+        from gnss_obs.spp import solve_spp_epoch
+        self._solved[k] = True
+        time_s = float(self.gnss.time_s[k])
+        if linearized is not None and self._alike:
+            approx, prepared = linearized
+        else:
+            approx, prepared = _guess(self._last, time_s, self._approx), None
+        fix = solve_spp_epoch(self.gnss.epochs[k], self.nav, self.cfg,
+                              transmit=self._transmit[k], details=False,
+                              approx_e=approx, prepared=prepared)
         if fix is None or not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
-            continue
-        r_e[k], cov[k] = fix.r_e, fix.cov_enu
-        last = (last + [(float(gnss.time_s[k]), np.asarray(fix.r_e, dtype=float))]
-                )[-GUESS_FIXES:]
-    lat, lon, h = np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan)
-    ok = np.all(np.isfinite(r_e), axis=1)
-    if ok.any():
-        lat[ok], lon[ok], h[ok] = (np.asarray(a, dtype=float).reshape(-1)
-                                   for a in ecef_to_geodetic(r_e[ok]))
-    return FixEpochs(time_s=np.asarray(gnss.time_s, dtype=float), lat=lat, lon=lon, h_m=h,
-                     cov_n_m2=cov, v_n_mps=np.full((n, 3), np.nan),
-                     sigma_speed_mps=np.full(n, np.nan),
-                     quality=np.full(n, SPP_QUALITY, dtype=object))
+            return
+        r_e = np.asarray(fix.r_e, dtype=float)
+        f = self.fixes
+        f.lat[k], f.lon[k], f.h_m[k] = (float(np.asarray(a).reshape(-1)[0])
+                                        for a in ecef_to_geodetic(r_e))
+        f.cov_n_m2[k] = fix.cov_enu
+        self._last = (self._last + [(time_s, r_e)])[-GUESS_FIXES:]
 
 
 def _guess(last: list, time_s: float, approx):

@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 
 from gnss_obs.epoch import PreparedEpoch
-from gnss_obs.observables import (build_measurement_model, predict_pseudorange,
-                                  predict_range_rate, system_bias_matrix)
+from gnss_obs.observables import (build_measurement_model, mapped_measurement_model,
+                                  predict_pseudorange, predict_range_rate,
+                                  system_bias_matrix)
 
 ATOL_M = 1e-6        # closed-form range at 2e7 m: double precision ~4e-9 m
 ATOL_MPS = 1e-9
@@ -100,6 +101,25 @@ def test_batch_equals_single_satellite(rng):
         out = single(r, 5.0, p.sat_pos_e[k], p.sat_clock_m[k], p.delays_m[k])
         assert float(out[0]) == pytest.approx(rho[k], abs=1e-9)
         np.testing.assert_allclose(np.asarray(out[1]).ravel(), H_r[k], atol=1e-15)
+
+
+@pytest.mark.parametrize("n", [1, 3, 7, 12])
+def test_buffered_evaluation_is_the_mapped_functions_call(rng, n):
+    """`predict_pseudorange` evaluates the mapped function through its buffer: the same
+    numbers, to the bit, as the function called with its arguments (``DM``), a scalar and a
+    per-satellite clock, sizes interleaved (each size its own buffer)."""
+    for b in (rng.normal(scale=1e5), rng.normal(scale=1e5, size=n)):
+        p = _prepared(rng, n + 2)
+        p = p.subset(np.arange(n))
+        r = np.array([4.77e6, 0.196e6, 4.21e6]) + rng.normal(scale=50.0, size=3)
+        rho, H_r, H_b = predict_pseudorange(p, r_e=r, b_m=b)
+        predict_pseudorange(_prepared(rng, n + 1), r_e=r, b_m=0.0)    # another size between
+        b_sat = np.broadcast_to(np.asarray(b, dtype=float), (n,))
+        out = mapped_measurement_model(n).pseudorange(
+            r, b_sat[None, :], p.sat_pos_e.T, p.sat_clock_m[None, :], p.delays_m[None, :])
+        np.testing.assert_array_equal(rho, np.asarray(out[0]).reshape(-1))
+        np.testing.assert_array_equal(H_r, np.asarray(out[1]).reshape(n, 3))
+        np.testing.assert_array_equal(H_b, np.asarray(out[2]).reshape(-1))
 
 
 def test_system_bias_matrix():

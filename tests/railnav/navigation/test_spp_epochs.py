@@ -83,6 +83,43 @@ def test_fixes_are_the_receivers_single_point_solutions(curvy_trip):
     np.testing.assert_allclose(fixes.cov_n_m2, spp.cov_enu_m2[k], rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.parametrize("offset_m", [3.0, 10.0, 100.0])
+def test_fixes_linearized_at_a_hypothesis(curvy_trip, offset_m):
+    """Solved from the satellites a hypothesis's filter prepared at its prior
+    (`EpochSppFixes.solve`'s ``linearized``: one least-squares step from there, no
+    preparation of its own, when that step is below `TOL_M`), here a point `offset_m` in a
+    random direction from `gnss_obs.solve_spp`'s fix: the corrections and weights are
+    those of that point instead of the plain least-squares solution's, where `solve_spp`
+    takes its last step (troposphere, ionosphere, Sagnac, elevation σ: gradients of order
+    1e-3 per metre; the geometry's own linearization error δ²/(2ρ) is < 1e-5 m).
+    What the spawn test needs: each fix within 1 % of its smallest horizontal σ of
+    `solve_spp`'s (its ``d_h²`` then moves by < 2 % of ``d_h``) and its covariance
+    within 1e-3; measured here < 8 mm and 3e-5. From beyond `TOL_M` (100 m) the fix is
+    iterated as without a linearization: < 1e-4 m."""
+    from gnss_obs.spp import solve_spp
+    from railnav.navigation.spp_epochs import TOL_M, EpochSppFixes
+    from railnav.navigation.track_fixes import spp_config_of
+    _, data, config, samples = curvy_trip
+    g = samples.gnss
+    spp = solve_spp(data.obs, data.nav, spp_config_of(config))
+    k_spp = np.searchsorted(spp.gps_time_s - data.start_gps_time_s, g.time_s)
+    rng = np.random.default_rng(11)
+    solver = EpochSppFixes.of(g, data, config)
+    for k, j in enumerate(k_spp):
+        step = rng.normal(size=3)
+        r0 = spp.r_e[j] + offset_m * step / np.linalg.norm(step)
+        solver.solve(k, (r0, g.prepare(k, r0)))
+    fixes = solver.fixes
+    assert np.isfinite(fixes.lat).all()
+    r_fix = np.asarray(geodetic_to_ecef(fixes.lat, fixes.lon, fixes.h_m)).reshape(-1, 3)
+    error_m = np.linalg.norm(r_fix - spp.r_e[k_spp], axis=1)
+    if offset_m > TOL_M:
+        assert np.max(error_m) < 1e-4
+    sigma_min = np.sqrt(np.linalg.eigvalsh(fixes.cov_n_m2[:, :2, :2])[:, 0])
+    assert np.all(error_m < 0.01 * sigma_min)
+    np.testing.assert_allclose(fixes.cov_n_m2, spp.cov_enu_m2[k_spp], rtol=1e-3, atol=1e-9)
+
+
 def test_no_epochs_no_fixes():
     assert epoch_spp_fixes(None, SimpleNamespace(nav=None), NavigatorConfig()) is None
 
