@@ -222,6 +222,9 @@ def _stages_child() -> None:
     helper, less ``write_csv_s``); ``import_matplotlib_s`` and ``plots_s`` are the same
     figures drawn in this process after the tables (the path without fork)."""
     import importlib
+
+    from railnav.deferred_imports import defer_numpy_tools
+    defer_numpy_tools()                 # as `railnav.cli.main` does before the command
     laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)
