@@ -17,7 +17,8 @@ from collections import Counter
 
 #: (module, class, method, label) of each part.
 PARTS = (("ekf.compiled", "CompiledLoop", "run", "c_step_loop_s"),
-         ("railnav.filters.gnss_epochs", "GnssEpochs", "prepare_together", "epoch_preparation_s"),
+         ("railnav.filters.gnss_epochs", "GnssEpochs", "prepare_together",
+          "epoch_preparation_s"),
          ("railnav.filters.common", "EpochRowBuilder", "rows_of", "gnss_rows_s"),
          ("railnav.filters.constrained", "ConstrainedFilter", "inputs", "inputs_s"),
          ("railnav.filters.fault_detection", "RowScreen", "screen", "fault_screen_s"),
