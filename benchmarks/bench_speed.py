@@ -11,6 +11,9 @@ On this machine, in one invocation (the load average is recorded before and afte
   pointing at a new directory): what the first run on a machine costs;
 * ``filter``: `railnav.navigate` alone on that trip's sensor data, in this process
   (`bench_navigator._time_filter`: compiled code built and a first call made before timing);
+* ``filter_parts``: the CPU of that filter run by component (the compiled step loop,
+  epoch preparation, GNSS rows, inputs, fault screen, update, divergence monitor and the
+  rest; `_filter_parts`);
 * ``numpy_loop``: the plain NumPy EKF of the same size in this process (7 states, a 2-D
   correlated pseudo-measurement at each of the 100 000 steps, 1000 updates of 20 rows;
   `bench_ekf_engine._time_numpy`), the whole loop unless ``--numpy-fraction`` < 1;
@@ -222,6 +225,9 @@ def _stages_child() -> None:
     helper, less ``write_csv_s``); ``import_matplotlib_s`` and ``plots_s`` are the same
     figures drawn in this process after the tables (the path without fork)."""
     import importlib
+
+    from railnav.deferred_imports import defer_numpy_tools
+    defer_numpy_tools()                 # as `railnav.cli.main` does before the command
     laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)
@@ -320,6 +326,7 @@ def main(argv: list[str] | None = None) -> dict:
     import bench_ekf_engine  # the plain NumPy loop
     import bench_navigator  # the 2017 trip, the filter timing
     import bench_studies  # the 10-h streamed trip
+    from _filter_parts import paper2017_parts  # the filter's CPU by component
     import numpy as np
     if args.quick:
         args.repeats, args.numpy_fraction, args.no_streaming = 1, 0.05, True
@@ -331,6 +338,7 @@ def main(argv: list[str] | None = None) -> dict:
                        bool(os.environ.get("PYTHONDONTWRITEBYTECODE"))},
            "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
            "filter": bench_navigator._time_filter(args.repeats),
+           "filter_parts": paper2017_parts(args.repeats),
            "stages": _stages(args.repeats)}
     samples, epochs = bench_ekf_engine._scenario(np.random.default_rng(7))
     doc["numpy_loop"] = bench_ekf_engine._time_numpy(samples, epochs, args.numpy_fraction)
@@ -363,6 +371,8 @@ def _print(doc: dict) -> None:
           f"{doc['filter']['real_time_factor']:.0f}x")
     print(f"NumPy loop            {doc['numpy_loop']['run_s']:.2f} s "
           f"({doc['ratios']['numpy_loop_over_filter']:.1f}x the filter)")
+    print("filter parts, CPU     " + ", ".join(f"{k.removesuffix('_s')} {v:.3f}"
+                                                for k, v in doc["filter_parts"].items()))
     if doc["bank"]:
         print(f"bank of 8             {doc['bank']['best_s']:.2f} s = "
               f"{doc['bank']['real_time_factor']:.0f}x")
