@@ -23,10 +23,11 @@ each epoch; and the final hypotheses with their paths. From these:
   too, `railnav.navigation.network_status`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
-  hypothesis (its path, excursions back and forth across a joint that never went
-  surely across it taken out: `railnav.navigation.route_path.route`), each element with entry and exit times, the probability of the
-  final mixture that its path went through that element (``probability``) and the share
-  the element held while the train was on it (``mean_probability``, ``min_probability``);
+  hypothesis (its path without the visits across a joint and back that never went surely
+  across it: `railnav.navigation.route_path.route`), each element with entry and exit
+  times, the probability of the final mixture that its route went through that element
+  (``probability``) and the share the element held while the train was on it
+  (``mean_probability``, ``min_probability``);
 * `NetworkResult.combined`: a `railnav.navigation.result.NavigationResult` of the
   estimates and innovations, for the writers, plots and scores of single-track runs.
 

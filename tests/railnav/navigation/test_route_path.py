@@ -11,10 +11,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from gnss_obs.gpstime import gps_time_s_to_utc_iso
 from railnav.jobs.network import load_network, run_files_network
 from railnav.navigation.route_path import EXCURSION_SIGMAS, PathEntry, entered, route
 from railnav.simulation.switch_network import SwitchNetworkSpec, route_track, switch_network
-from gnss_obs.gpstime import gps_time_s_to_utc_iso
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 REPO = Path(__file__).resolve().parents[3]
