@@ -42,7 +42,7 @@ from railnav.navigation.fix_bias import merged
 from railnav.navigation.net_tracks import OrientedTracks, bare
 
 __all__ = ["NetworkNavConfig", "Hypothesis", "hypothesis", "branch", "branch_ahead",
-           "rebased", "entered", "tail_pieces", "merge_coinciding", "prune", "carried_state",
+           "rebased", "tail_pieces", "merge_coinciding", "prune", "carried_state",
            "normalized_weights", "evidence_share", "LEAD_MARGIN_M", "CYCLE_REACH_S"]
 
 Array = npt.NDArray[np.float64]
@@ -198,9 +198,9 @@ class Hypothesis:
         Unnormalized log probability.
     filt : railnav.filters.protocol.Filter
         The hypothesis's own filter object (rows, fault screen with its channel memory).
-    path : tuple of (str, int, float)
-        ``(element, orientation, entry time s)`` of every element it went through, the
-        current last (inherited from its ancestors).
+    path : tuple of railnav.navigation.route_path.PathEntry
+        Every element it went through, the current last (inherited from its ancestors;
+        `railnav.navigation.route_path.entered`).
     id, parent : int
         Unique id, and the id it branched from (-1: a start).
     fix_bias : railnav.navigation.fix_bias.FixBias or None
@@ -369,13 +369,6 @@ def rebased(hyp: Hypothesis, tracks: OrientedTracks, make_child) -> Hypothesis:
                      fix_bias=hyp.fix_bias)
     out.id = hyp.id
     return rebased(out, tracks, make_child)
-
-
-def entered(hyp: Hypothesis, time_s: float) -> None:
-    """Append to `hyp`'s path the element it is on when that is a new one."""
-    element, orientation, _ = hyp.where()
-    if not hyp.path or hyp.path[-1][:2] != (element, orientation):
-        hyp.path = hyp.path + ((element, orientation, float(time_s)),)
 
 
 def _sv_block(hyp: Hypothesis) -> tuple[Array, Array]:

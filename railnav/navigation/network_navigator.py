@@ -49,7 +49,6 @@ from railnav.navigation.hypotheses import (
     NetworkNavConfig,
     branch,
     branch_ahead,
-    entered,
     evidence_share,
     merge_coinciding,
     normalized_weights,
@@ -62,6 +61,7 @@ from railnav.navigation.navigator import trip_samples
 from railnav.navigation.net_tracks import OrientedTracks
 from railnav.navigation.network_result import NetworkRecorder, NetworkResult
 from railnav.navigation.network_start import NetworkStart, start_hypotheses
+from railnav.navigation.route_path import entered
 from railnav.navigation.s_split import needs_split, split
 from railnav.navigation.spawning import Spawner
 from railnav.navigation.spp_epochs import correlation_s as spp_correlation_s

@@ -23,9 +23,11 @@ each epoch; and the final hypotheses with their paths. From these:
   too, `railnav.navigation.network_status`);
 * `NetworkResult.hypotheses`: ``hypotheses.csv``;
 * `NetworkResult.route_frame`: ``route.csv``, the route of the final most probable
-  hypothesis (its path), each element with entry and exit times, the probability of the
-  final mixture that its path went through that element (``probability``) and the share
-  the element held while the train was on it (``mean_probability``, ``min_probability``);
+  hypothesis (its path without the visits across a joint and back that never went surely
+  across it: `railnav.navigation.route_path.route`), each element with entry and exit
+  times, the probability of the final mixture that its route went through that element
+  (``probability``) and the share the element held while the train was on it
+  (``mean_probability``, ``min_probability``);
 * `NetworkResult.combined`: a `railnav.navigation.result.NavigationResult` of the
   estimates and innovations, for the writers, plots and scores of single-track runs.
 
@@ -48,6 +50,7 @@ from railnav.navigation.monitor import status_at
 from railnav.navigation.network_status import (combined_status_records, pseudo_nis,
                                                 pseudo_records, row_records)
 from railnav.navigation.result import NavigationResult, estimates_frame
+from railnav.navigation.route_path import route
 
 __all__ = ["NetworkRecorder", "NetworkResult", "NETWORK_COLUMNS"]
 
@@ -327,16 +330,17 @@ class NetworkResult:
 
     def route_frame(self) -> pd.DataFrame:
         """``route.csv`` (module docstring)."""
-        best = max(self.final, key=lambda f: f["probability"])
+        routes = [route(f["path"]) for f in self.final]
+        best = routes[max(range(len(routes)), key=lambda k: self.final[k]["probability"])]
         t = self.time_s
         rows = []
-        for k, (element, orientation, entry) in enumerate(best["path"]):
-            leave = best["path"][k + 1][2] if k + 1 < len(best["path"]) else float(t[-1])
-            last = k + 1 == len(best["path"])
+        for k, (element, orientation, entry, *_) in enumerate(best):
+            leave = best[k + 1].entry_time_s if k + 1 < len(best) else float(t[-1])
+            last = k + 1 == len(best)
             share = [p.get(element, 0.0) for p, tk in zip(self.element_probability, t)
                      if entry - 1e-9 <= tk and (tk < leave - 1e-9 or last)]
-            passed = sum(f["probability"] for f in self.final
-                         if element in {e for e, _, _ in f["path"]})
+            passed = sum(f["probability"] for f, r in zip(self.final, routes)
+                         if element in {p.element for p in r})
             rows.append({"netelement": element, "orientation": orientation,
                          "entry_time_s": float(entry), "exit_time_s": float(leave),
                          "entry_gps_time_s": float(entry) + self.start_gps_time_s,

@@ -28,6 +28,7 @@ from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
 from railnav.navigation.hypotheses import Hypothesis, hypothesis
 from railnav.navigation.net_tracks import bare
 from railnav.navigation.initialization import InitialState, first_fix
+from railnav.navigation.route_path import PathEntry
 from trackmodel.earth import ecef_to_geodetic
 
 __all__ = ["NetworkStart", "start_hypotheses", "orientations_of"]
@@ -145,7 +146,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                 init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
             time_s = init.time_s if time_s is None else time_s
             hyps.append(hypothesis(tracks, bare(element, orientation), init.x0, init.P0,
-                                   0.0, filt, ((element, orientation, float(init.time_s)),)))
+                                   0.0, filt, (PathEntry(element, orientation,
+                                                         float(init.time_s)),)))
     if not hyps:
         raise RailnavError("no start hypothesis")
     log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),

@@ -100,7 +100,8 @@ from scipy.special import chdtrc
 
 from gnss_obs.fixes.table import DEAD_RECKONING
 from railnav.errors import ConfigError, RailnavError
-from railnav.navigation.hypotheses import entered, evidence_share
+from railnav.navigation.hypotheses import evidence_share
+from railnav.navigation.route_path import entered
 from railnav.navigation.spp_epochs import EpochSppFixes
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 from trackmodel.network_points import NodePoints
@@ -356,9 +357,9 @@ class Spawner:
         for h in new:
             h.log_weight = math.log(p / len(new))
             # the route so far is what the navigator said (the most probable hypothesis's
-            # path); `railnav.navigation.hypotheses.entered` appends the new element
+            # path); `railnav.navigation.route_path.entered` appends the new element
             h.path = best.path
-            entered(h, time_s)
+            entered(h, time_s, through_joint=False)
         self.spawns.append((float(time_s), len(new)))
         log.info("t=%.1f s: no hypothesis agrees with the fixes: %d new from the fix on %s",
                  time_s, len(new), ", ".join(sorted({h.element for h in new})))

@@ -240,6 +240,7 @@ def test_simulated_files_are_scored_against_their_truth(tmp_path, capsys):
     scores the netelements against it; ``--truth truth.csv`` gives the same scores, a
     reference class with it is a one-line error. Reference: the simulated route itself
     (the truth's unambiguous netelements, in order, are its elements)."""
+    from trackmodel.network_io import read_network
     route = ["88_L_111", "88_L_154", "88_L_7815"]
     sim = tmp_path / "sim"
     assert main(["-q", "simulate", "--network", BRUSSELS, "--route", ",".join(route),
@@ -252,6 +253,12 @@ def test_simulated_files_are_scored_against_their_truth(tmp_path, capsys):
                      "--no-plots", *extra, "--out", str(out)]) == 0
         summary = json.loads((out / "summary.json").read_text())["route"]
         assert summary["netelements"][-1] == route[0]      # 90 s: still on the first
+        # it stood 10 s at the first's joint: each element once (its fix-only mean
+        # crossed the joint back and forth), no element but the first and the one joined
+        # to it there (the network's connections)
+        joined = {e for e, _ in read_network(BRUSSELS).successors(route[0], 1)}
+        assert len(set(summary["netelements"])) == len(summary["netelements"])
+        assert set(summary["netelements"]) <= {route[0]} | joined
         scores[name] = summary["truth"]
     truth = scores["default"]
     assert scores["given"] == truth

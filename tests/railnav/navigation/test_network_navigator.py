@@ -24,13 +24,13 @@ from railnav.navigation.hypotheses import (
     NetworkNavConfig,
     branch,
     branch_ahead,
-    entered,
     hypothesis,
     merge_coinciding,
     prune,
     rebased,
 )
 from railnav.navigation.net_tracks import OrientedTracks, bare, track_tail
+from railnav.navigation.route_path import PathEntry, entered
 from railnav.simulation.switch_network import SwitchNetworkSpec, switch_network
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
@@ -52,7 +52,7 @@ def _hyp(element: str, s: float, *, v: float = 10.0, log_weight: float = 0.0,
     if P is not None:
         full[:2, :2] = P                    # the layout starts with s, v
     return hypothesis(TRACKS, pieces, x, full, log_weight, filt,
-                      ((element, orientation, 0.0),))
+                      (PathEntry(element, orientation, 0.0),))
 
 
 def _make_child(parent, pieces):
@@ -71,7 +71,8 @@ def test_branch_spawns_one_child_per_way_with_s_carried_across():
         assert k.s_m == pytest.approx(2.0)
         assert k.log_weight == pytest.approx(-1.0 - math.log(2.0))
         entered(k, 5.0)
-        assert k.path == (("A0", 1, 0.0), (k.element, 1, 5.0)) and k.parent == h.id
+        assert [p[:3] for p in k.path] == [("A0", 1, 0.0), (k.element, 1, 5.0)]
+        assert k.parent == h.id
     assert branch(_hyp("A0", L - 1.0), TRACKS, _make_child, 5.0) is None
     back = branch(_hyp("A1", -3.0, v=-5.0), TRACKS, _make_child, 5.0)
     assert [(k.element, k.orientation) for k in back] == [("A0", 1)]
