@@ -127,12 +127,17 @@ def output_directory(path: str | os.PathLike, *, overwrite: bool = False,
     if parent.is_dir():
         _remove_stale(parent, final.name)
     _check_destination(final, overwrite, inputs)
+    tmp = None
     try:
         parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}{_TMP_TAG}{os.getpid()}-",
                                     dir=parent))
         os.chmod(tmp, 0o777 & ~_umask())
-    except OSError as exc:
+    except BaseException as exc:        # Ctrl-C included: the sibling made goes too
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        if not isinstance(exc, OSError):
+            raise
         raise InputError(f"cannot write here: {exc.strerror or exc}", path=final) from None
     try:
         yield tmp

@@ -75,3 +75,20 @@ def test_issue18_stale_siblings_of_dead_processes_are_removed(tmp_path):
     with output_directory(tmp_path / "o"):
         pass
     assert not stale.exists() and alive.exists() and other.exists()
+
+
+@pytest.mark.parametrize("error", [KeyboardInterrupt, PermissionError])
+def test_issue18_interrupted_while_the_sibling_is_made(tmp_path, monkeypatch, error):
+    """Ctrl-C (or an OSError) after the hidden sibling exists but before the block runs
+    (its permissions being set): the sibling goes, nothing is left; an OSError is the
+    usual one-line `InputError` naming the destination."""
+    import trackmodel.files as files
+
+    def interrupted(path, mode):
+        raise error(13, "interrupted here", str(path))
+    monkeypatch.setattr(files.os, "chmod", interrupted)
+    expected = InputError if error is PermissionError else KeyboardInterrupt
+    with pytest.raises(expected):
+        with output_directory(tmp_path / "out"):
+            pytest.fail("the block must not run")
+    assert list(tmp_path.iterdir()) == []
