@@ -70,8 +70,10 @@ fix-disagreement statistic is heavier-tailed than χ²ₙ; the fix σ are floore
 """
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import cache
 
 import numpy as np
 import numpy.typing as npt
@@ -137,22 +139,35 @@ class MonitorConfig:
 
 
 
+@cache
+def _special():
+    """`scipy.special`, imported at the first test, not with this module (which
+    `railnav.config` imports: a start-up without SciPy); a ``from scipy.special import``
+    in each function cost ~2 µs a call, 5-6 calls an epoch."""
+    import scipy.special
+    return scipy.special
+
+
 def _chi2_cdf(value: float, dof: float) -> float:
-    from scipy.special import chdtr
-    return float(chdtr(dof, value)) if dof > 0 else 1.0
+    return float(_special().chdtr(dof, value)) if dof > 0 else 1.0
+
+
+def _chi2_sf(value: float, dof: float) -> float:
+    """``P(χ²_dof > value)``, 1 where ``dof <= 0``: `chi2_sf` of one value, without its
+    arrays (the same bits)."""
+    return float(_special().chdtrc(dof, value)) if dof > 0 else 1.0
 
 
 def _chi2_isf(p: float, dof: int) -> float:
-    from scipy.special import chdtri
-    return float(chdtri(dof, p))
+    return float(_special().chdtri(dof, p))
 
 
 def binom_sf(k, n, p):
     """``P(X ≥ k)``, ``X ~ Binomial(n, p)``, 1 where ``k <= 0``: a float for scalar `k`
     (an epoch's test, without NumPy's array calls), else elementwise, an array (the
     network run's records, `railnav.navigation.network_status`)."""
-    from scipy.special import bdtrc
-    if np.ndim(k) == 0:
+    bdtrc = _special().bdtrc
+    if isinstance(k, int) or np.ndim(k) == 0:
         return 1.0 if k <= 0 else float(bdtrc(k - 1, n, p))
     k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
     return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
@@ -161,8 +176,7 @@ def binom_sf(k, n, p):
 def chi2_sf(values: Array, dofs: Array) -> Array:
     """Upper χ² tails ``P(χ²_dof > value)`` elementwise, 1 where ``dof <= 0``: one call of
     SciPy's ufunc for all of them (each element the bits of a call of its own)."""
-    from scipy.special import chdtrc
-    return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
+    return np.where(dofs > 0, _special().chdtrc(dofs, values), 1.0)
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
@@ -344,31 +358,33 @@ class FilterMonitor:
 
     def _status(self) -> tuple[str, dict]:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
-        # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers)
-        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _ = np.add.reduce(w, axis=1)
+        # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers;
+        # Python floats after, each the float64 it was)
+        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _ = np.add.reduce(w, axis=1).tolist()
         n_rows = n_acc + n_rej
         rejected_share = n_rej / n_rows if n_rows else 0.0
         have = np.isfinite(w[_D2])
-        d2, d = w[_D2][have], w[_D][have]
-        d2_sum, n_have = float(np.add.reduce(d2)), d2.size
-        p_nis, p_d2, p_mean, p_pseudo = chi2_sf(
-            np.array([nis_sum, d2_sum, float(np.add.reduce(d)) ** 2 / max(n_have, 1), nisc]),
-            np.array([n_acc, n_have, min(n_have, 1), nisc_dof])).tolist()
-        tails = {"p_gnss_nis": p_nis,
-                 "p_rejected": 1.0 if self.p_reject is None else
-                 binom_sf(int(n_rej), int(n_rows), self.p_reject),
-                 "p_fix": min(1.0, 2.0 * min(p_d2, p_mean)),
-                 "p_pseudo_nis": p_pseudo,
+        n_have = int(np.count_nonzero(have))
+        # every epoch with a fix: the rows as they are (their sums are those of the copies)
+        d2, d = (w[_D2], w[_D]) if n_have == have.size else (w[_D2][have], w[_D][have])
+        d2_sum = float(np.add.reduce(d2))
+        p_fix = min(1.0, 2.0 * min(_chi2_sf(d2_sum, n_have), _chi2_sf(
+            float(np.add.reduce(d)) ** 2 / max(n_have, 1), min(n_have, 1))))
+        p_rejected = 1.0 if self.p_reject is None else \
+            binom_sf(int(n_rej), int(n_rows), self.p_reject)
+        tails = {"p_gnss_nis": _chi2_sf(nis_sum, n_acc),
+                 "p_rejected": p_rejected,
+                 "p_fix": p_fix,
+                 "p_pseudo_nis": _chi2_sf(nisc, nisc_dof),
                  "p_fix_small": self._small_tail(),
-                 "fix_disagreement_sigma": float(np.sqrt(w[_D2, -1])) if have[-1] else np.nan,
-                 "variance_factor": float(d2_sum / n_have) if n_have else np.nan}
+                 "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
+                 "variance_factor": d2_sum / n_have if n_have else np.nan}
         cfg = self.config
-        if tails["p_fix"] < cfg.p_lost or (tails["p_rejected"] < cfg.p_lost
-                                           and rejected_share >= cfg.lost_rejected_share):
+        if p_fix < cfg.p_lost or (p_rejected < cfg.p_lost
+                                  and rejected_share >= cfg.lost_rejected_share):
             return "lost", tails
-        worst = min(tails[k] for k in ("p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
-                                       "p_fix_small"))
-        if worst < cfg.p_degraded or self._seen < cfg.min_epochs:
+        if min(tails["p_gnss_nis"], p_rejected, p_fix, tails["p_pseudo_nis"],
+               tails["p_fix_small"]) < cfg.p_degraded or self._seen < cfg.min_epochs:
             return "degraded", tails
         return "ok", tails
 
