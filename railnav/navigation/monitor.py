@@ -141,9 +141,9 @@ class MonitorConfig:
 
 @cache
 def _special():
-    """`scipy.special`, imported at the first test, not with this module (which
-    `railnav.config` imports: a start-up without SciPy); a ``from scipy.special import``
-    in each function cost ~2 µs a call, 5-6 calls an epoch."""
+    """`scipy.special`, imported at the first test, not with this module (its imports stay
+    free of SciPy, as the start-up wants: ``tests/railnav/commands/test_cli_startup.py``); a
+    ``from scipy.special import`` in each function cost ~2 µs a call, 5-6 calls an epoch."""
     import scipy.special
     return scipy.special
 
