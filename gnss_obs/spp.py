@@ -169,10 +169,16 @@ def _prepare(epoch: EpochData, tx, ctx: _Context, r_e: Array, excluded: set[str]
              coarse: bool = False) -> PreparedEpoch:
     prep = prepare_epoch(epoch, ctx.config.measurement, r_rx_e=r_e, klobuchar=ctx.klobuchar,
                          transmit=tx, coarse=coarse)
-    keep = _candidates(prep, ctx.config)
+    return _usable(prep, ctx.config, excluded)
+
+
+def _usable(prep: PreparedEpoch, cfg: SppConfig, excluded=()) -> PreparedEpoch:
+    """`prep`'s satellites that `_candidates` keeps and that are not `excluded` (all kept:
+    `prep` itself, the same arrays)."""
+    keep = _candidates(prep, cfg)
     if excluded:
         keep &= ~np.isin(prep.sv, list(excluded))
-    return prep if keep.all() else prep.subset(keep)       # all kept: the same arrays
+    return prep if keep.all() else prep.subset(keep)
 
 
 def _gauss_newton(epoch: EpochData, tx, ctx: _Context, r_e: Array,
@@ -216,8 +222,7 @@ def _position(epoch: EpochData, tx, ctx: _Context, r0: Array, prepared=None):
     r_e = r0
     while True:
         if prepared is not None and not excluded:   # r0's own preparation: no iteration
-            keep = _candidates(prepared, cfg)
-            solved = r0, (prepared if keep.all() else prepared.subset(keep))
+            solved = r0, _usable(prepared, cfg)
         else:
             solved = _gauss_newton(epoch, tx, ctx, r_e, excluded)
         if solved is None:

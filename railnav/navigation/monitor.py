@@ -152,12 +152,6 @@ def _chi2_cdf(value: float, dof: float) -> float:
     return float(_special().chdtr(dof, value)) if dof > 0 else 1.0
 
 
-def _chi2_sf(value: float, dof: float) -> float:
-    """``P(χ²_dof > value)``, 1 where ``dof <= 0``: `chi2_sf` of one value, without its
-    arrays (the same bits)."""
-    return float(_special().chdtrc(dof, value)) if dof > 0 else 1.0
-
-
 def _chi2_isf(p: float, dof: int) -> float:
     return float(_special().chdtri(dof, p))
 
@@ -173,10 +167,14 @@ def binom_sf(k, n, p):
     return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
 
 
-def chi2_sf(values: Array, dofs: Array) -> Array:
-    """Upper χ² tails ``P(χ²_dof > value)`` elementwise, 1 where ``dof <= 0``: one call of
-    SciPy's ufunc for all of them (each element the bits of a call of its own)."""
-    return np.where(dofs > 0, _special().chdtrc(dofs, values), 1.0)
+def chi2_sf(values, dofs):
+    """Upper χ² tails ``P(χ²_dof > value)``, 1 where ``dof <= 0``: a float for a scalar
+    `values` (an epoch's test, without NumPy's array calls), else elementwise, an array
+    (one call of SciPy's ufunc for all; each element the bits of a call of its own)."""
+    chdtrc = _special().chdtrc
+    if isinstance(values, float) or np.ndim(values) == 0:
+        return float(chdtrc(dofs, values)) if dofs > 0 else 1.0
+    return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
@@ -368,14 +366,14 @@ class FilterMonitor:
         # every epoch with a fix: the rows as they are (their sums are those of the copies)
         d2, d = (w[_D2], w[_D]) if n_have == have.size else (w[_D2][have], w[_D][have])
         d2_sum = float(np.add.reduce(d2))
-        p_fix = min(1.0, 2.0 * min(_chi2_sf(d2_sum, n_have), _chi2_sf(
+        p_fix = min(1.0, 2.0 * min(chi2_sf(d2_sum, n_have), chi2_sf(
             float(np.add.reduce(d)) ** 2 / max(n_have, 1), min(n_have, 1))))
         p_rejected = 1.0 if self.p_reject is None else \
             binom_sf(int(n_rej), int(n_rows), self.p_reject)
-        tails = {"p_gnss_nis": _chi2_sf(nis_sum, n_acc),
+        tails = {"p_gnss_nis": chi2_sf(nis_sum, n_acc),
                  "p_rejected": p_rejected,
                  "p_fix": p_fix,
-                 "p_pseudo_nis": _chi2_sf(nisc, nisc_dof),
+                 "p_pseudo_nis": chi2_sf(nisc, nisc_dof),
                  "p_fix_small": self._small_tail(),
                  "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
                  "variance_factor": d2_sum / n_have if n_have else np.nan}
