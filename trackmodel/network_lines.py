@@ -48,7 +48,7 @@ from trackmodel.sections import Section
 from trackmodel.track import Track
 
 __all__ = ["RouteLine", "route_line", "reversed_track", "chain_tracks", "tail_sections",
-           "ROUTE_REFIT_TOL_M", "ROUTE_MIN_RADIUS_M", "TRANSITION_MAX_M"]
+           "ROUTE_REFIT_TOL_M", "ROUTE_MIN_RADIUS_M", "TRANSITION_MAX_M", "EXACT_KINK_RAD"]
 
 Array = npt.NDArray[np.float64]
 

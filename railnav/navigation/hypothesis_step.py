@@ -15,10 +15,20 @@ of the samples ``t[a..b]`` from that posterior (`Filter.inputs`), the engine pro
 5–11° in the Brussels network) where the vehicle runs a curve; the accelerometer
 pseudo-observation of the inertial filters would take the curve's lateral acceleration for
 an error of the state. Within `KINK_WINDOW_M` (plus 3σ_s) of a joint of its track that
-kinks by more than `trackmodel.network.CONTINUOUS_KINK_RAD`, a hypothesis's
-pseudo-observation noise density gets the curve a train would run there,
+is not tangent-continuous and closed (its kink, or the S-curve that closes its gap,
+`railnav.navigation.net_tracks.OrientedTracks.joints`, above
+`trackmodel.network_lines.EXACT_KINK_RAD`: where a route line puts a transition), a
+hypothesis's pseudo-observation noise density gets the curve a train would run there,
 ``(v²θ/w)² · w/|v|`` (θ the kink, ``w`` the window): the filter then leans on its IMU
-through the joint.
+through the joint. Small kinks too (until 2026-12-07 only those above
+`trackmodel.network.CONTINUOUS_KINK_RAD`, 0.5°, had it): a corner of 0.28° is still a curve
+the map does not carry, and on an element whose curvature changes along it (the reverse
+clothoid of a crossover, Brussels 88_L_2016: ``v² dκ/ds`` = 1.6e-3 m/s² per metre at
+20 m/s) the pseudo-observation took the 0.02-0.09 m/s² of the route line's transition
+there for an error of ``s``: 8 m behind one second past the joint, 100-254 m off at the
+end of `benchmarks/bench_network_routes.py`'s trips on 88_L_5900 > 88_L_2016 > 88_L_16908
+with σ_s 0.3-0.7 m (its element right by luck until the spawn test of GNSS runs saw it
+lost and spawned). The allowance goes as θ², so a 0.02° joint gets 1/200 of a 0.28° one's.
 
 **Continuous evidence on a common covariance** (`common_continuous_log_likelihoods`). Each
 step's pseudo-observation innovation ``ν_j`` of hypothesis j is scored against one
@@ -49,8 +59,7 @@ from ekf.stacked import propagate_members, update_members
 from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
 from railnav.navigation.loop import filter_engine
-from trackmodel.network import CONTINUOUS_KINK_RAD
-from trackmodel.network_lines import TRANSITION_MAX_M
+from trackmodel.network_lines import EXACT_KINK_RAD, TRANSITION_MAX_M
 
 __all__ = ["EngineStepper", "CycleOutcome", "common_continuous_log_likelihoods",
            "KINK_WINDOW_M", "joint_allowance"]
@@ -137,7 +146,7 @@ def joint_allowance(h, tracks, t: Array) -> Array | None:
     hypothesis's track (module docstring), shape (M,); None where there is none."""
     if tracks is None:
         return None
-    joints = [(s_j, k) for s_j, k in tracks.joints(h.pieces) if k >= CONTINUOUS_KINK_RAD]
+    joints = [(s_j, k) for s_j, k in tracks.joints(h.pieces) if k > EXACT_KINK_RAD]
     if not joints:
         return None
     i_s, i_v = h.index("s"), h.index("v")
