@@ -302,8 +302,8 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
     epoch, config, klobuchar, transmit, coarse
         As `prepare_epoch`.
     r_rx_e : array_like, shape (K, 3), or (3,)
-        Receiver position guesses, ECEF, m (one guess, shape (3,): a list of one,
-        computed as `prepare_epoch` computes it).
+        Receiver position guesses, ECEF, m (one guess, shape (3,) or (1, 3): a list of
+        one, computed as `prepare_epoch` computes it).
     elevation_mask_rad : float, optional
         Keep only the satellites with a finite pseudorange at or above this elevation
         (rad; NaN elevations, at an unknown guess, are below it).
@@ -316,7 +316,9 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
     r_rx_e = np.asarray(r_rx_e, dtype=float)
     if r_rx_e.ndim not in (1, 2) or r_rx_e.shape[-1] != 3:
         raise ValueError(f"r_rx_e must have shape (K, 3) or (3,), got {r_rx_e.shape}")
-    return _prepared(epoch, config, r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad)
+    # one guess of K: the same numbers through the one-guess path, at half its cost
+    return _prepared(epoch, config, r_rx_e[0] if r_rx_e.shape[0] == 1 and r_rx_e.ndim == 2
+                     else r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad)
 
 
 def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuchar,

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from railnav.filters.scale_noise import AlongForceSteps, smoothed_along_force
 from strapdown.imu_errors import ImuErrors
 
-__all__ = ["AlongForceNoise"]
+__all__ = ["AlongForceNoise", "forces_together"]
 
 Array = npt.NDArray[np.float64]
 
@@ -104,3 +104,21 @@ class AlongForceNoise:
     def copy(self) -> "AlongForceNoise":
         """An independent copy (a hypothesis's child goes on from its parent's memory)."""
         return copy.deepcopy(self)
+
+
+def forces_together(noises, t: Array, u: Array) -> list:
+    """`AlongForceNoise.force` of several filters' noises (a bank's hypotheses; None: a
+    filter without) over the same samples: computed once for the noises whose low-pass
+    carries the same last sample (``last_f``, compared bit for bit: hypotheses stepped
+    over the same cycles since their common start), each then left where its own call
+    would leave it. Returns each noise's smoothed force (shared, read-only), in order."""
+    out: list = [None] * len(noises)
+    done: dict = {}
+    for k, noise in enumerate(noises):
+        if noise is None:
+            continue
+        key = None if noise.last_f is None else np.array(noise.last_f).tobytes()
+        if key not in done:
+            done[key] = (noise.force(t, u), noise.last_f)
+        out[k], noise.last_f = done[key]
+    return out

@@ -25,7 +25,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
-from railnav.filters.along_force_noise import AlongForceNoise
+from railnav.filters.along_force_noise import AlongForceNoise, forces_together
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (
     GnssRowBuilder,
@@ -195,22 +195,26 @@ class ConstrainedFilter:
         """`inputs` of several filters (a bank's hypotheses) over the same samples, each
         from its own prior ``priors[k] = (x_prev, P_prev)``: the bias steps' densities of
         all their spread's paths in one `path_bias_step_densities` call (pure per row:
-        each filter's numbers are those of its own `inputs`). Returns `inputs`'s tuple
-        for each filter, in order."""
+        each filter's numbers are those of its own `inputs`), and the along-track force
+        once for the filters whose low-pass is at the same sample (`forces_together`).
+        Returns `inputs`'s tuple for each filter, in order."""
         # the chunk's median step, for the filters without a nominal one: the same for all
         step = _chunk_step(t, t_prev) if any(f.sample_interval_s is None for f in filters) \
             else None
-        pending = [f._start_inputs(t, u, x, P, t_prev, chunk_step=step)
-                   for f, (x, P) in zip(filters, priors)]
+        forces = forces_together([f._along for f in filters], t, u)
+        pending = [f._start_inputs(t, u, x, P, t_prev, chunk_step=step, along=along)
+                   for f, (x, P), along in zip(filters, priors, forces)]
         return [f._finish_inputs(p, found) for f, p, found
                 in zip(filters, pending,
                        bias_together([f.path_noise for f in filters], pending))]
 
     def _start_inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
-                      t_prev: float, *, chunk_step: float | None = None) -> dict:
+                      t_prev: float, *, chunk_step: float | None = None,
+                      along: Array | None = None) -> dict:
         """`inputs` up to the bias steps' densities: the rest of its results, and the
         grid rows of the spread's paths (``paths``, None without bias noise);
-        `chunk_step`: `_chunk_step` of these samples, when known."""
+        `chunk_step`: `_chunk_step` of these samples, when known; `along`: the
+        along-force noise's `force` of them, when computed (`forces_together`)."""
         accel = self._along_accel(u, x_prev)
         s_pred = self.predict_s(t, accel, x_prev, t_prev)
         params, grid_nodes = self._grid.parameters(s_pred)
@@ -223,7 +227,8 @@ class ConstrainedFilter:
         step = self.sample_interval_s
         if step is None:
             step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
-        along = self._along.force(t, u) if self._along is not None else None
+        if along is None and self._along is not None:
+            along = self._along.force(t, u)
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
         steps[:-1] = t[1:] - t[:-1]
         steps[-1] = step

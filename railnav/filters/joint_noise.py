@@ -57,6 +57,19 @@ class JointRateNoise:
     def __init__(self, track) -> None:
         self.s_joint_m, self.d_kappa_1pm, self.d_grade_1pm = _rate_jumps(track)
 
+    def crossed(self, s_prev_m: float, s_m: Array, offsets: Array) -> bool:
+        """Whether the paths ``[s_prev_m, s_m] + offset`` (m) may cross a joint for any of
+        `offsets` (m; `densities` of each path shifted so): False only when none does.
+
+        The shifted paths' extremes are the path's plus the offset, rounded (rounding is
+        monotonic): a joint one of them crosses lies in ``(min + min(offsets),
+        max + max(offsets)]``."""
+        if self.s_joint_m.size == 0:
+            return False
+        lo = min(s_prev_m, float(np.minimum.reduce(s_m))) + float(np.min(offsets))
+        hi = max(s_prev_m, float(np.maximum.reduce(s_m))) + float(np.max(offsets))
+        return bool(np.any((self.s_joint_m > lo) & (self.s_joint_m <= hi)))
+
     def densities(self, s_prev_m: float, s_m: Array, speed_mps: float,
                   step_s: Array) -> tuple[npt.NDArray[np.intp], Array] | None:
         """Samples whose step follows a joint crossing, and their extra gyro densities.

@@ -78,10 +78,12 @@ class PathNoise:
             pending["nodes"]
         s_prev, speed = pending["s_prev"], pending["speed"]
         joints = []
-        for offset, weight in nodes:
-            one = self.joints.densities(s_prev + offset, s_pred + offset, speed, steps)
-            if one is not None:
-                joints.append((one[0], weight * one[1]))
+        # one test for all the nodes' paths first: most chunks cross no joint
+        if self.joints.crossed(s_prev, s_pred, [offset for offset, _ in nodes]):
+            for offset, weight in nodes:
+                one = self.joints.densities(s_prev + offset, s_pred + offset, speed, steps)
+                if one is not None:
+                    joints.append((one[0], weight * one[1]))
         bias = weighted_path_densities(nodes, found)
         if along is not None and along.any():
             extra = np.zeros((t.size, 6))

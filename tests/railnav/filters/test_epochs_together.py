@@ -170,8 +170,9 @@ def test_bank_epoch_equals_each_filter_alone(bank):
 
 def test_prepare_epochs_equals_prepare_epoch_per_guess(bank):
     """`prepare_epochs` at guesses on every hypothesis's track, plus an unknown guess
-    (the origin) and one 200 km up: each guess's prepared satellites equal its own
-    `prepare_epoch` (then masked as `GnssEpochs.prepare` masks), field by field."""
+    (the origin) and one 200 km up, and one guess alone (shape (1, 3)): each guess's
+    prepared satellites equal its own `prepare_epoch` (then masked as `GnssEpochs.prepare`
+    masks), field by field."""
     gnss = bank["gnss"]
     filters = _filters(bank)
     e = 5
@@ -186,6 +187,13 @@ def test_prepare_epochs_equals_prepare_epoch_per_guess(bank):
         for name, value in vars(alone).items():
             np.testing.assert_array_equal(getattr(one, name), value, strict=True)
     assert np.isnan(found[-2].elevation).all() and np.isfinite(found[0].elevation).all()
+    single = prepare_epochs(gnss.epochs[e], gnss.config, r_rx_e=np.array(guesses[:1]),
+                            klobuchar=gnss.klobuchar, transmit=gnss.transmit[e])
+    alone = prepare_epoch(gnss.epochs[e], gnss.config, r_rx_e=guesses[0],
+                          klobuchar=gnss.klobuchar, transmit=gnss.transmit[e])
+    assert len(single) == 1                         # one guess of shape (1, 3)
+    for name, value in vars(alone).items():
+        np.testing.assert_array_equal(getattr(single[0], name), value, strict=True)
     masked = gnss.prepare_together(e, np.array(guesses[:2]))
     for guess, one in zip(guesses[:2], masked):
         assert len(one) and np.all(one.elevation >= gnss.elevation_mask_rad)

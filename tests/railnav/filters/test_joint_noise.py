@@ -70,6 +70,27 @@ def test_no_noise_on_clothoids_or_straights():
     assert noise.densities(0.0, np.linspace(1.0, 1199.0, 50), 20.0, np.full(50, 0.01)) is None
 
 
+def test_crossed_is_false_only_where_no_shifted_path_crosses():
+    """`JointRateNoise.crossed` against `densities` of each shifted path (its own test of
+    a crossing): over paths ending on, just short of and just past the circle's first
+    joint (1000 m, in ulps), and shifted by ±σ-like offsets, False never where a shifted
+    path crosses a joint; True where one does."""
+    noise = JointRateNoise(_circle_track())
+    joint = float(noise.s_joint_m[0])
+    rng = np.random.default_rng(8)
+    found = {False: 0, True: 0}
+    for end in [joint + k * np.spacing(joint) for k in range(-3, 4)] + \
+            list(joint + rng.uniform(-3.0, 3.0, 200)):
+        s = np.linspace(end - 0.25, end, 26)
+        for offsets in ([0.0], [-1.2, -0.6, 0.0, 0.6, 1.2], list(rng.normal(0.0, 1.0, 5))):
+            any_found = any(noise.densities(s[0] - 0.01 + o, s + o, 20.0, np.full(26, 0.01))
+                            is not None for o in offsets)
+            crossed = noise.crossed(s[0] - 0.01, s, np.array(offsets))
+            assert crossed or not any_found
+            found[any_found] += 1
+    assert found[True] > 100 and found[False] > 100
+
+
 def test_grade_step_goes_to_the_pitch_axis():
     track = Track([Section(500.0, 0.0, 0.0), Section(300.0, None, None, 0.0, None, 1.0),
                    Section(500.0, None, None)], Origin(50.0, 30.0, 100.0), WGS84)

@@ -231,3 +231,31 @@ def test_filters_inputs_together_are_their_inputs_one_by_one(grade):
         for x, _ in priors:
             x[layout.index("s")] += 20.0
         t0 = float(t[-1])
+
+
+def test_forces_together_are_each_noise_force():
+    """`forces_together` of four filters' along-force noises over a chunk (two with the
+    same history, one that saw another chunk before, one fresh, and a filter without the
+    noise) equals each noise's own `AlongForceNoise.force` on a copy, to the bit, and
+    leaves each low-pass where its own call leaves it."""
+    import copy
+    from railnav.filters.along_force_noise import forces_together
+    scenario = get_scenario("curvy")
+    config = navigator_config_for(scenario)
+    base = read_track(TRACKS_DIR / scenario.default_track)
+    noises = [ConstrainedFilter(base, config, None)._along for _ in range(4)]
+    rng = np.random.default_rng(5)
+
+    def chunk(t0):
+        t = t0 + 0.01 * np.arange(1, 101)
+        return t, np.column_stack([rng.normal(0.3, 0.05, t.size), np.zeros((t.size, 5))])
+    first, other = chunk(0.0), chunk(0.0)
+    for k in (0, 1, 2):
+        noises[k].force(*(other if k == 2 else first))
+    t, u = chunk(1.0)
+    alone = [copy.deepcopy(n) for n in noises]
+    got = forces_together([*noises, None], t, u)
+    assert got[-1] is None and got[0] is got[1] and got[0] is not got[2]
+    for noise, ref, found in zip(noises, alone, got):
+        assert np.array_equal(found, ref.force(t, u))
+        assert noise.last_f == ref.last_f
