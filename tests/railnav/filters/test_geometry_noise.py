@@ -103,6 +103,28 @@ def test_no_geometry_noise_where_the_model_is_exact(step_track):
     assert np.all(var < 1e-20)
 
 
+@pytest.mark.parametrize("interval_m, fraction", [(1.0, 3.0 / 8.0), (0.0, 0.0)])
+def test_a_sample_straddling_a_step_leaves_its_blend(step_track, interval_m, fraction):
+    """A sample is the mean over its interval: 0.125 m before the step with 1 m run per
+    sample, 3/8 of its interval lies on the arc, so its centripetal term is 3/8 of the
+    arc's against the straight's 0 that the local expansion predicts; with σ_s = 1 mm the
+    remainder's variance is v⁴(3/8 κ)² (the 8-point rule resolves 3/8 exactly; the window
+    is centred on the predicted ``s``, not on the parameters' node at the step's straight
+    side, 0.125 m away, where the blend would be 1/2). A point sample there (no interval)
+    has no remainder."""
+    grid = TrackParameterGrid(step_track)
+    s_m = np.array([1000.0 - 0.125])
+    params, _ = grid.parameters(s_m)
+    _, var = statistical_parameters(grid, params, sigma_s_m=1e-3, speed_mps=SPEED,
+                                    interval_m=interval_m, s_m=s_m)
+    lateral, _ = cross_track_basis(params[:, 7:10])
+    arc, _ = grid.parameters(np.array([1000.0 + 1e-3]))       # the arc at the step
+    kappa_l = float(arc[0, 10:13] @ lateral[0])
+    assert abs(kappa_l) == pytest.approx(KAPPA, rel=1e-9)
+    assert var[0, 0] == pytest.approx(SPEED ** 4 * (fraction * kappa_l) ** 2, rel=1e-6,
+                                      abs=1e-20)
+
+
 @pytest.mark.parametrize("sigma", [0.5, 50.0, 400.0])
 def test_one_straight_section_takes_the_shortcut_the_quadrature_agrees_with(sigma):
     """Inside one loxodrome `statistical_parameters` returns zero without the quadrature; the
