@@ -54,8 +54,9 @@ switched off in the simulation only, the filter still assuming the full grade;
   simulated samples are interval means across such joints
   (`railnav.simulation.joint_average`), whose trapezoid keeps the angle, the joint noise
   is gone, and the geometry remainder is that of the sample's interval, centred on the
-  predicted ``s`` (`railnav.filters.geometry_noise`). Seeds 11-100: beyond 3σ_s
-  1.49 → 0.49 % (NEES 8.56 → 7.50), half a sample off 1.59 → 0.64 % (7.69 → 7.17).
+  predicted ``s``, and statistically linearized where it meets the step
+  (`railnav.filters.geometry_noise`). Seeds 11-100: beyond 3σ_s 1.49 → 0.08 % (NEES
+  8.56 → 6.70), half a sample off 1.59 → 0.63 % (7.69 → 6.58).
   (2) The accelerometer misalignment. On that track, without it the NEES is 7.0 and the
   roll's mean z² 0.54 instead of 2.9. Where the curvature steps, the misalignment steps
   the z bias by ``M_zy v²κ`` (σ 20 mm/s²). The filter gives that variance along the

@@ -57,7 +57,15 @@ point on its side), and the prior's nodes are centred on the predicted ``s`` its
 behind the predicted ``s`` missed the exit that the sample's interval straddled, and the
 filter took a 4.4 m/s² blend at a density of 1e-8 (m/s²)²·s (seed 72 of the circle:
 0.58 m and 8 mrad in one step, NEES 1100 after the exit; `docs/consistency-ablations.md`,
-stop 33). Without the interval the same circle's NEES was 92 over 90 seeds.
+stop 33). Without the interval the same circle's NEES was 92 over 90 seeds. Where the
+prior's window and the interval meet a horizontal curvature step (the grid's
+`curvature_steps`), the blend is a ramp over ``|v| dt`` in ``s``, which neither side's
+expansion carries: those samples' parameters are the interval means' statistical
+linearization over the prior (their mean and regression slope on the prior's exact
+offsets: the grid's nodes are coarser than σ_s there), so a straddling sample is
+predicted as a blend and tells ``s`` where the step is (circle, seeds 11–100 with the
+joint on a sample: beyond 3σ_s 0.49 → 0.08 %). Grade-rate steps are left as point values
+(the grid has no nodes beside them, `railnav.filters.track_grid`).
 
 Limit: this is still one Gaussian. When σ_s is tens of metres at the onset of a curve's
 centripetal acceleration (a long outage with a MEMS IMU), the filter can explain the
@@ -159,10 +167,38 @@ def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: 
         slope = np.einsum("mki,mk,k->mi", du, centred, _W) / var_delta[:, None]
         params[:, _DU] = np.einsum("mki,k->mi", du, _W) - slope * mean_delta[:, None]
         params[:, _D2U] = slope
-    if interval_m <= 0.0:
+    near = _near_a_step(grid, centre + offsets[0] - half, centre + offsets[-1] + half) \
+        if interval_m > 0.0 else np.zeros(m, dtype=bool)
+    if not near.any():
         return params, _remainder_variance(params, du, delta, speed_mps)
-    box = _interval_means(grid, params, offsets, interval_m, centre)
+    box = du.copy()
+    box[near] = _interval_means(grid, params[near], offsets, interval_m, centre[near])
+    params, delta = _across_a_step(params, box, delta, centre, offsets, near)
     return params, _remainder_variance(params, box, delta, speed_mps)
+
+
+def _near_a_step(grid, lo: Array, hi: Array) -> Array:
+    """Which samples' windows ``[lo, hi]`` (m, shape (M,)) hold a horizontal curvature step
+    of the grid's track (`TrackParameterGrid.curvature_steps`), shape (M,)."""
+    steps = grid.curvature_steps
+    return np.any((steps[None, :] > lo[:, None]) & (steps[None, :] < hi[:, None]), axis=1)
+
+
+def _across_a_step(params: Array, box: Array, delta: Array, centre: Array, offsets: Array,
+                   rows: Array) -> tuple[Array, Array]:
+    """The parameters of `rows` (whose prior and interval meet a curvature step)
+    linearized statistically over the prior (module docstring, "Interval means"): the
+    interval means' regression on the prior's offsets, exact ones (the grid's nodes are
+    coarser than σ_s there); those offsets as the rows' ``delta``."""
+    params = params.copy()
+    d_q = (centre - params[:, 0])[:, None] + offsets[None, :]
+    mean_d = d_q @ _W
+    centred = d_q - mean_d[:, None]
+    variance = np.maximum(centred ** 2 @ _W, np.finfo(float).tiny)      # σ_s = 0: no slope
+    slope = np.einsum("mki,mk,k->mi", box, centred, _W) / variance[:, None]
+    params[rows, _DU] = (np.einsum("mki,k->mi", box, _W) - slope * mean_d[:, None])[rows]
+    params[rows, _D2U] = slope[rows]
+    return params, np.where(rows[:, None], d_q, delta)
 
 
 def remainder_correlation_s(*, sigma_s_m: float, speed_mps: float, step_s: float) -> float:
