@@ -16,7 +16,10 @@ The linear interpolation of the input makes the scheme second-order in the input
 variation (error ``dt³ ü/8`` per step in the increment); for smooth motion at 100 Hz this
 is far below any sensor error. An input that jumps between two samples (e.g. a pitch rate
 step where a vertical curve starts) leaves an error up to ``dt · Δu/2`` in the increment
-that no sample-based scheme can avoid.
+when the samples are point values of the jump; samples that are means over their
+intervals (what increment and decimating sensors deliver; the simulator's,
+`railnav.simulation.joint_average`) leave only a one-sample transient of at most
+``dt · Δu/4``: the trapezoid over two intervals is their exact integral.
 
 `integrate` runs the recursion in CasADi ``mapaccum`` blocks of `BLOCK_STEPS` steps (100 000
 steps of the reduced model in a fraction of a second); Python loops only over blocks.

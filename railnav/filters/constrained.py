@@ -144,8 +144,8 @@ class ConstrainedFilter:
         bias_noise = self.path_noise.bias_noise
         self._along = AlongForceNoise.for_grade(config.imu, self._b_ax, bias_noise) \
             if bias_noise is not None else None
-        #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with the
-        #: sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`).
+        #: ``q_c`` of the latest `inputs` call's samples: `q_c`, or (M, n_w) rows with what
+        #: the predicted path adds (`railnav.filters.path_noise`).
         self.step_q_c = self.q_c
         #: The run's nominal sample interval, s (`inputs`; set by the chunk loop).
         self.sample_interval_s: float | None = None
@@ -222,11 +222,12 @@ class ConstrainedFilter:
         i_s, i_v = self._i["s"], self._i["v"]
         s_prev = float(x_prev[i_s])
         sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
-        params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
-                                                  speed_mps=speed)
         step = self.sample_interval_s
         if step is None:
             step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
+        params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
+                                                  speed_mps=speed, interval_m=speed * step,
+                                                  s_m=s_pred)
         if along is None and self._along is not None:
             along = self._along.force(t, u)
         steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step

@@ -4,15 +4,19 @@
 chunk of IMU samples and linearizes the track along it. The steps along that path add to the
 IMU grade's and oscillator's densities ``q_c`` (`PathNoise.step_q_c`, one row per sample):
 
-* the sampling error of the angular-rate steps at joints (`railnav.filters.joint_noise`),
-  over the spread of paths that σ_s allows (`railnav.filters.scale_noise.step_nodes`);
 * the bias steps of the scale factors and misalignments that the state does not carry
-  (`railnav.filters.scale_noise`), along the same paths (`PathNoise.path_rows`: one grid
-  lookup for all; a bank's hypotheses in one density call, `bias_together`);
+  (`railnav.filters.scale_noise`), over the spread of paths that σ_s allows
+  (`railnav.filters.scale_noise.step_nodes`, `PathNoise.path_rows`: one grid lookup for
+  all; a bank's hypotheses in one density call, `bias_together`);
 * the accelerometer biases' steps from the along-track force
   (`railnav.filters.along_force_noise`, given by the filter);
 * on a car body (``config.track_attitude`` or ``config.suspension_noise``) the sampling error
   of its suspension's rates (`railnav.filters.suspension_noise`).
+
+An angular-rate step at a joint adds nothing: the samples are means over their
+intervals (`railnav.simulation.joint_average`), whose trapezoid keeps the angle; the
+blend of the sample that straddles the joint is the geometry remainder's
+(`railnav.filters.geometry_noise`, "Interval means").
 """
 from __future__ import annotations
 
@@ -20,7 +24,6 @@ import numpy as np
 import numpy.typing as npt
 
 from railnav.filters.attitude_config import TrackAttitudeConfig
-from railnav.filters.joint_noise import JointRateNoise
 from railnav.filters.scale_noise import path_bias_step_densities, weighted_path_densities
 from railnav.filters.suspension_noise import sampling_densities
 from strapdown.kinematics import BIAS_STATE_NAMES
@@ -54,9 +57,7 @@ class PathNoise:
                  estimate_biases: bool) -> None:
         self.track, self.grid, self.q_c = track, grid, q_c
         self.imu, self.scale_elements = config.imu, scale_elements
-        self.joints = JointRateNoise(track)
         names = list(noise_names)
-        self._gyro_yz = [names.index(n) for n in ("w_wy", "w_wz")]
         self._gyro = [names.index(n) for n in ("w_wx", "w_wy", "w_wz")]
         #: Whose suspension parameters give the gyros its sampling noise
         #: (`railnav.filters.suspension_noise`): the rows' config, else the defaults with
@@ -69,21 +70,13 @@ class PathNoise:
 
     def step_q_c(self, pending: dict, found, along: Array | None = None) -> Array:
         """`q_c` for the samples of `pending` (the filter's ``_start_inputs``: ``t``,
-        ``s_pred``, ``steps``, ``nodes``, ``s_prev``, ``speed``), with what the steps of the
+        ``steps``, ``nodes``, ``speed``), with what the steps of the
         predicted path add (module docstring): `found`, the densities of the spread's
         paths (`path_bias_step_densities`'s, None without), and `along`, the step variances
         (M, 3) of the accelerometer biases from the along-track force, each sample's given
         to the step from it. Returns `q_c` itself when nothing is added, else (M, n_w)."""
-        t, s_pred, steps, nodes = pending["t"], pending["s_pred"], pending["steps"], \
-            pending["nodes"]
-        s_prev, speed = pending["s_prev"], pending["speed"]
-        joints = []
-        # one test for all the nodes' paths first: most chunks cross no joint
-        if self.joints.crossed(s_prev, s_pred, [offset for offset, _ in nodes]):
-            for offset, weight in nodes:
-                one = self.joints.densities(s_prev + offset, s_pred + offset, speed, steps)
-                if one is not None:
-                    joints.append((one[0], weight * one[1]))
+        t, steps, nodes, speed = pending["t"], pending["steps"], pending["nodes"], \
+            pending["speed"]
         bias = weighted_path_densities(nodes, found)
         if along is not None and along.any():
             extra = np.zeros((t.size, 6))
@@ -91,11 +84,9 @@ class PathNoise:
             bias = extra if bias is None else bias + extra
         body = None if self._suspension is None else \
             sampling_densities(self._suspension, steps[:t.size], speed)
-        if not joints and bias is None and body is None:
+        if bias is None and body is None:
             return self.q_c
         q = np.tile(self.q_c, (t.size, 1))
-        for rows, extra in joints:
-            np.add.at(q, (rows[:, None], np.array(self._gyro_yz)[None, :]), extra)
         if bias is not None:
             q[:, self.bias_noise] += bias
         if body is not None:

@@ -76,8 +76,7 @@ path's steps weighted by its node's weight), so that the bias variance grows as 
 probability that the truth has crossed, the total still ``σ² X²``. Giving it all 3σ_s
 early instead (a lead) overshoots: the bias then loosens on the straight, where the
 pseudo-observation ties it again before the truth's step (seed 2: NEES 18 with a 3σ lead,
-39 with 6σ; 11-12 spread). The sampling error of the rate step
-(`railnav.filters.joint_noise`) is spread over the same paths.
+39 with 6σ; 11-12 spread).
 """
 from __future__ import annotations
 

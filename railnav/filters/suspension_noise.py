@@ -15,8 +15,7 @@ Brownian motion of intensity ``q``. The IMU samples are instantaneous values
 (`strapdown.imu_errors`, ``docs/file-formats.md``) and the filter's step interpolates the
 rate linearly between two samples (`ekf.step`, ``input_hold="linear"``): over a step of
 length ``dt`` the trapezoid misses the integral of the rate's Brownian bridge, of variance
-``q dt³/12``, independently from step to step (the same 1/12 as
-`railnav.filters.joint_noise`, whose rate steps are the deterministic case). The attitude
+``q dt³/12``, independently from step to step (`SAMPLING_VARIANCE_FACTOR`). The attitude
 therefore makes a random walk the gyros do not report, of density
 
     ``q_s = q dt²/12``   (rad/s)²·s per axis, added to the gyro white noise of that axis,
@@ -52,14 +51,17 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from railnav.filters.joint_noise import SAMPLING_VARIANCE_FACTOR
 
-__all__ = ["DEFAULT_SUSPENSION_SIGMA_RAD", "DEFAULT_SUSPENSION_FREQUENCY_HZ",
+__all__ = ["SAMPLING_VARIANCE_FACTOR", "DEFAULT_SUSPENSION_SIGMA_RAD",
+           "DEFAULT_SUSPENSION_FREQUENCY_HZ",
            "DEFAULT_SUSPENSION_DAMPING", "DEFAULT_FULL_MOTION_SPEED_MPS",
            "excitation_density", "motion_gain", "sampling_densities"]
 
 Array = npt.NDArray[np.float64]
 
+#: The Brownian bridge's variance at mid-step, ``dt/12`` of its intensity per ``dt²``
+#: (module docstring).
+SAMPLING_VARIANCE_FACTOR = 1.0 / 12.0
 #: 1σ of the suspension's yaw, pitch, roll at speed, rad.
 DEFAULT_SUSPENSION_SIGMA_RAD = (1e-3, 2e-3, 3e-3)
 #: Natural frequency of the car body's modes on its secondary suspension, Hz (bounce,

@@ -78,7 +78,7 @@ class TrackParameterGrid:
         stop = min(max(start + span, s_max), length)
         k = np.arange(np.floor(start / self.step_m), np.ceil(stop / self.step_m) + 1.0)
         nodes = np.minimum(k * self.step_m, length)                # the track end is a node
-        steps = self._curvature_steps
+        steps = self.curvature_steps
         steps = steps[(steps > start) & (steps < stop)]
         if steps.size:              # a node each side of a curvature step (module docstring)
             nodes = np.concatenate([nodes, steps - STEP_SIDE_M, steps + STEP_SIDE_M])
@@ -89,7 +89,7 @@ class TrackParameterGrid:
         self._lo, self._hi = nodes[0], nodes[-1]
 
     @cached_property
-    def _curvature_steps(self) -> Array:
+    def curvature_steps(self) -> Array:
         """``s`` of the section joints where the horizontal curvature jumps by more than
         `CURVATURE_STEP_1PM` (an arc or a straight joined without a transition), m."""
         joints = np.asarray(self.track.table.s_start, dtype=float)[1:]

@@ -110,7 +110,7 @@ class MonitorConfig:
     recover : bool
         Re-initialise (or widen) when ``lost``. On by default (``railnav run
         --no-recover``: off). It was off while a consistent 100 m/s run round R = 100 m
-        (`tests/railnav/filters/test_joint_noise.py`) said ``lost`` on 160 of 280 epochs
+        (`tests/railnav/filters/test_rate_step_joint.py`) said ``lost`` on 160 of 280 epochs
         (restarts took the NEES from 7.6 to 7.8e8); that cause (single-point fixes
         projected on the wrong pass of the circle) is fixed (module docstring). Measured
         since: no ``lost`` epoch in any of `benchmarks/bench_consistency.py`'s ten

@@ -272,6 +272,7 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
         For a bad track file.
     """
     # here, not at the top: the scenario table is read without CasADi (the CLI's parser)
+    from railnav.simulation.joint_average import interval_mean_imu
     from railnav.simulation.truth import ideal_imu, simulate_truth_with_points
     from trackmodel.io import read_track
 
@@ -294,7 +295,9 @@ def simulate_scenario(scenario: Scenario, *, track: Any = None, seed: int = 0,
                  truth.time_s[-1], scenario.duration_s)
     tick(1, 3)
     if scenario.car_body is None:
-        imu_ideal = ideal_imu(track, truth, point=point)
+        imu_ideal = interval_mean_imu(track, scenario.profile, ideal_imu(track, truth,
+                                                                         point=point),
+                                      start_s=scenario.start_s, rate_hz=scenario.imu_rate_hz)
     else:
         from railnav.simulation.car_body_motion import car_body_trip
         truth, imu_ideal = car_body_trip(

@@ -32,6 +32,7 @@ from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import GnssEpochs
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import gnss_sim_config_for
+from railnav.simulation.joint_average import interval_mean_imu
 from railnav.simulation.truth import Truth, ideal_imu, iter_truth_with_points
 from strapdown.imu import Imu
 from strapdown.imu_errors import (
@@ -216,7 +217,9 @@ def trip_segments(scenario: Scenario, track, *, seed: int, config: NavigatorConf
     blocks = iter_truth_with_points(track, scenario.profile, duration_s=scenario.duration_s,
                                     rate_hz=rate, start_s=scenario.start_s, block_size=block)
     for index, (truth, point) in enumerate(blocks):
-        imu = imu_errors.apply(ideal_imu(track, truth, point=point))
+        imu = imu_errors.apply(interval_mean_imu(track, scenario.profile,
+                                                 ideal_imu(track, truth, point=point),
+                                                 start_s=scenario.start_s, rate_hz=rate))
         gnss, obs, clock = None, None, _EMPTY_CLOCK
         if nav is not None:
             gnss, obs, clock, head = _segment_gnss(scenario, truth, step, nav, config,

@@ -103,6 +103,60 @@ def test_no_geometry_noise_where_the_model_is_exact(step_track):
     assert np.all(var < 1e-20)
 
 
+@pytest.mark.parametrize("interval_m, fraction", [(1.0, 3.0 / 8.0), (0.0, 0.0)])
+def test_a_sample_straddling_a_step_is_predicted_as_its_blend(step_track, interval_m,
+                                                               fraction):
+    """A sample is the mean over its interval: 0.125 m before the step with 1 m run per
+    sample, 3/8 of its interval lies on the arc, so its centripetal term is 3/8 of the
+    arc's. With σ_s = 1 mm the parameters predict that blend at the predicted ``s`` (the
+    window is centred there, not on the parameters' node at the step's straight side,
+    0.125 m away, where the blend would be 1/2), with no remainder left (the 8-point rule
+    resolves 3/8 exactly). A point sample there (no interval) is the straight's 0, and
+    has no remainder either."""
+    grid = TrackParameterGrid(step_track)
+    s_m = np.array([1000.0 - 0.125])
+    params, _ = grid.parameters(s_m)
+    eff, var = statistical_parameters(grid, params, sigma_s_m=1e-3, speed_mps=SPEED,
+                                      interval_m=interval_m, s_m=s_m)
+    lateral, _ = cross_track_basis(params[:, 7:10])
+    arc, _ = grid.parameters(np.array([1000.0 + 1e-3]))       # the arc at the step
+    kappa_l = float(arc[0, 10:13] @ lateral[0])
+    assert abs(kappa_l) == pytest.approx(KAPPA, rel=1e-9)
+    predicted = (eff[0, 10:13] + eff[0, 13:16] * (s_m[0] - params[0, 0])) @ lateral[0]
+    assert predicted == pytest.approx(fraction * kappa_l, rel=1e-6, abs=1e-15)
+    assert var[0, 0] < 1e-6 * SPEED ** 4 * KAPPA ** 2
+
+
+def test_the_blend_is_linearized_across_the_interval(step_track):
+    """σ_s = 0.3 m, the predicted ``s`` on the step, 1 m run per sample: the interval's
+    mean is the ramp ``κ (1/2 + x)`` for ``|x| ≤ 1/2`` (x = s' − s_j in m), which the prior
+    (±4σ = ±1.2 m) overruns into the flat parts; the parameters carry the regression of
+    the 8-point staircase of that ramp, compared here with the same regression of the
+    exact ramp (the staircase's steps of 1/8 move it by less than 1/16 of κ), and the
+    remainder is what the line misses of the ramp (its variance within 5 % plus the
+    staircase's κ²/12·(1/8)² of rounding)."""
+    grid = TrackParameterGrid(step_track)
+    s_m = np.array([1000.0])
+    sigma = 0.3
+    params, _ = grid.parameters(s_m)
+    eff, var = statistical_parameters(grid, params, sigma_s_m=sigma, speed_mps=SPEED,
+                                      interval_m=1.0, s_m=s_m)
+    lateral, _ = cross_track_basis(params[:, 7:10])
+    kappa_l = float(grid.parameters(np.array([1000.0 + 1e-3]))[0][0, 10:13] @ lateral[0])
+    x = sigma * _XI
+    w = np.exp(-0.5 * _XI ** 2)
+    w /= w.sum()
+    ramp = kappa_l * np.clip(0.5 + x, 0.0, 1.0)
+    slope = np.sum(w * ramp * x) / np.sum(w * x * x)
+    mean = np.sum(w * ramp)
+    at_s = (eff[0, 10:13] + eff[0, 13:16] * (s_m[0] - params[0, 0])) @ lateral[0]
+    assert at_s == pytest.approx(mean, abs=abs(kappa_l) / 16)
+    assert eff[0, 13:16] @ lateral[0] == pytest.approx(slope, abs=abs(kappa_l) / 16 / sigma)
+    missed = SPEED ** 4 * np.sum(w * (ramp - mean - slope * x) ** 2)
+    rounding = SPEED ** 4 * kappa_l ** 2 / 12 / 64
+    assert var[0, 0] == pytest.approx(missed, rel=0.05, abs=rounding)
+
+
 @pytest.mark.parametrize("sigma", [0.5, 50.0, 400.0])
 def test_one_straight_section_takes_the_shortcut_the_quadrature_agrees_with(sigma):
     """Inside one loxodrome `statistical_parameters` returns zero without the quadrature; the

@@ -196,7 +196,7 @@ def test_injected_imu_bias_is_flagged(paper_track):
 def _circle_scenario():
     from railnav.simulation.profiles import constant_speed
     from railnav.simulation.scenarios import Scenario
-    from tests.railnav.filters.test_joint_noise import SPEED_MPS
+    from tests.railnav.filters.test_rate_step_joint import SPEED_MPS
     modelled = replace(imu_grade("tactical"), accel_scale_factor_ppm=0.0,
                        gyro_scale_factor_ppm=0.0, accel_misalignment_rad=0.0,
                        gyro_misalignment_rad=0.0, name="tactical-modelled")
@@ -206,14 +206,14 @@ def _circle_scenario():
 
 def test_high_speed_circle_raises_no_false_lost():
     """The consistent 100 m/s run round three full turns of R = 100 m
-    (`test_joint_noise`, NEES inside its χ² band): the merged monitor said ``lost`` on
+    (`test_rate_step_joint`, NEES inside its χ² band): the merged monitor said ``lost`` on
     160 of 280 epochs, its fix test comparing the filter with single-point fixes projected
     on the whole track, where each fix lands on any of the three passes (628 m apart).
     Now, over 4 seeds: no ``lost`` (a false ``lost`` has probability ≤ 2·p_lost per epoch,
     so any in N epochs ≤ 2·p_lost·N ≈ 2e-4), and the fix disagreements, independent from
     epoch to epoch (innovations) with variance ≤ 1 (the fix σ floor only widens them),
     square-sum below χ²_N's 1e-3 upper quantile."""
-    from tests.railnav.filters.test_joint_noise import _circle_track
+    from tests.railnav.filters.test_rate_step_joint import _circle_track
     cfg = MonitorConfig()
     statuses, d = [], []
     for seed in range(1, 5):
@@ -241,7 +241,7 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     from railnav.jobs.run import truth_start
     from railnav.navigation.navigator import navigate
     from railnav.simulation.trip import simulate_trip
-    from tests.railnav.filters.test_joint_noise import _circle_track
+    from tests.railnav.filters.test_rate_step_joint import _circle_track
     sc = _circle_scenario()
     config = navigator_config_for(sc)
     config = replace(config, monitor=replace(config.monitor, recover=False))   # flags alone
@@ -275,7 +275,7 @@ def ring_restart_run():
     from railnav.jobs.run import truth_start
     from railnav.navigation.navigator import navigate
     from railnav.simulation.trip import simulate_trip
-    from tests.railnav.filters.test_joint_noise import _circle_track
+    from tests.railnav.filters.test_rate_step_joint import _circle_track
     config = replace(navigator_config_for(_circle_scenario()), initial_s_sigma_m=1.0)
     assert config.monitor.recover
     trip = simulate_trip(_circle_scenario(), track=_circle_track(0.3), seed=1)

@@ -1,7 +1,7 @@
 """Fixes on the track for the divergence monitor (railnav/navigation/track_fixes.py).
 
 References: the closed-form geometry of a circle driven round three times
-(`tests.railnav.filters.test_joint_noise`).
+(`tests.railnav.filters.test_rate_step_joint`).
 """
 from __future__ import annotations
 
@@ -12,12 +12,12 @@ from railnav.navigation.track_fixes import TrackFixes
 
 
 def test_fix_projects_on_the_pass_near_the_filter():
-    """A fix on the circle driven round three times (`test_joint_noise`) projects, over
+    """A fix on the circle driven round three times (`test_rate_step_joint`) projects, over
     the whole track, on any pass; near a prior on the first pass it takes that pass's
     point, 2·(2πR) before the same place on the third (closed form, to within the
     track's own closure of its repeated arcs), with the same σ
     along the (identical) tangent."""
-    from tests.railnav.filters.test_joint_noise import RADIUS_M, _circle_track
+    from tests.railnav.filters.test_rate_step_joint import RADIUS_M, _circle_track
     track = _circle_track()
     lap = 2 * np.pi * RADIUS_M
     s_third = 1000.0 + 2 * lap + 0.3 * lap
