@@ -177,6 +177,9 @@ class NavigatorConfig:
         (``tests/railnav/jobs/test_real_data.py``, the track ``data/tracks/
         barcelona_drive.csv``) rises to 0.56 / 0.51 of single-point's (GPS / GPS+Galileo;
         issue 7's target 0.5).
+    track_heading_huber_k : float or None
+        GNSS-only filter: Huber threshold on each epoch's heading angle (k σ; None: off;
+        `railnav.filters.gnss_only_noise.robust_heading_sigma_rad`, with its figures).
     code_bias : railnav.filters.code_bias.CodeBiasConfig
         GNSS-only filter: the slow part of the code errors, an along-track bias state shared
         by each epoch's position rows (`railnav.filters.code_bias`); with
@@ -254,6 +257,7 @@ class NavigatorConfig:
     track_heading_sigma_rad: float = 0.03
     track_heading_curvature_m: float = 0.0
     track_heading_correlation_m: float = 0.0
+    track_heading_huber_k: float | None = 4.0
     code_bias: CodeBiasConfig = CodeBiasConfig()
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
     fix_model: FixModelConfig = FixModelConfig()
@@ -319,6 +323,10 @@ class NavigatorConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be a finite number >= 0, got {value!r}")
+        k = self.track_heading_huber_k
+        if k is not None and not (isinstance(k, (int, float)) and math.isfinite(k) and k > 0):
+            raise ConfigError(f"track_heading_huber_k must be None or a finite number > 0, "
+                              f"got {k!r}")
 
     @property
     def grade_sigma_rad(self) -> float:

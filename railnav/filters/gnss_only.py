@@ -66,6 +66,7 @@ from railnav.filters.gnss_only_noise import (
     heading_covariance_mps2,
     heading_inflation,
     heading_sigma_rad,
+    robust_heading_sigma_rad,
 )
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.filters.odometer_epochs import SCALE_STATE
@@ -245,7 +246,7 @@ class GnssOnlyFilter:
                 if factor != 1.0:
                     obs = replace(obs, R=obs.R * factor)
             elif obs.model is models.range_rate:
-                obs = self._heading_rows(obs, speed)
+                obs = self._heading_rows(obs, x, P, speed)
             rows.append(obs)
         if self.huber_k is None:
             return rows
@@ -265,7 +266,8 @@ class GnssOnlyFilter:
             if math.isfinite(variance) else 0.0
         return replace(obs, model=self._bias_rows.pseudorange, p=cb.with_scale(obs.p, scale))
 
-    def _heading_rows(self, obs: Observation, speed: float) -> Observation:
+    def _heading_rows(self, obs: Observation, x: Array, P: Array, speed: float
+                      ) -> Observation:
         """Range-rate rows with the velocity's angle to the track (`heading_covariance_mps2`,
         `heading_sigma_rad`; `heading_inflation` for an angle that lasts a distance): the
         covariance, or only its diagonal where the fault screen tests the rows one by one
@@ -275,6 +277,11 @@ class GnssOnlyFilter:
         if cfg.track_heading_sigma_rad > 0.0 and speed != 0.0:
             sigma = heading_sigma_rad(obs.p, cfg.track_heading_sigma_rad,
                                       cfg.track_heading_curvature_m)
+            if cfg.track_heading_huber_k is not None:
+                z_pred, H = obs.model.evaluate(x, obs.p)
+                sigma = robust_heading_sigma_rad(obs.z.reshape(-1) - z_pred, H, P, obs.R,
+                                                 obs.p, speed, sigma,
+                                                 cfg.track_heading_huber_k)
             cov = heading_covariance_mps2(obs.p, speed, sigma) * heading_inflation(
                 cfg.pseudorange_correlation_s, cfg.track_heading_correlation_m, speed,
                 self.gnss_interval_s)

@@ -209,9 +209,11 @@ def test_station_stop_is_tracked():
     _within_sigmas(out)
 
 
-def _reversal_run(track: Track, duration_s: float, speed_mps: float, seed: int):
+def _reversal_run(track: Track, duration_s: float, speed_mps: float, seed: int,
+                  filter_track: Track | None = None):
     """Hand-made truth (the profiles are for v >= 0): s = s0 + (V T/π) sin(π t/T),
-    v = V cos(π t/T): forwards, a stop at T/2, then backwards; GNSS simulated on it."""
+    v = V cos(π t/T): forwards, a stop at T/2, then backwards; GNSS simulated on it
+    (on `track`; the filter's track `filter_track`, default the same)."""
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, duration_s + 0.5)
     s0 = 200.0
@@ -231,7 +233,8 @@ def _reversal_run(track: Track, duration_s: float, speed_mps: float, seed: int):
     x_true0 = np.array([s[0], v[0], clock["clock_bias_m"].iloc[0],
                         clock["clock_drift_mps"].iloc[0]])
     x0 = x_true0 + np.linalg.cholesky(P0) @ rng.standard_normal(4)
-    result = navigate(track, data, config, initial=InitialState(0.0, x0, P0))
+    result = navigate(filter_track or track, data, config,
+                      initial=InitialState(0.0, x0, P0))
     return result, t, s, v
 
 
@@ -244,6 +247,30 @@ def test_reversal_is_tracked():
     assert v_true.min() < -7.0 and result.left_track is None     # it did reverse
     assert np.all(np.abs(est["s_m"] - s_true) <= MAX_SIGMAS * est["sigma_s_m"])
     assert np.all(np.abs(est["speed_mps"] - v_true) <= MAX_SIGMAS * est["sigma_speed_mps"])
+
+
+def test_a_vehicle_that_turns_round_just_past_the_end_is_not_stopped():
+    """A terminus: the truth runs 4 m past the end of the filter's track (a 600 m straight
+    cut at 259.7 m; σ_s ~0.7 m), stops and comes back. The filter's state does go beyond
+    the end by 3σ_s while moving away by 3σ_v (`beyond_track` alone ended this run at
+    17-18 s, seeds 2 and 3; 3 m past: at 19 s; 2 m past: never), yet the run goes on to
+    the end of the drive (`TrackEndWatch`), the state's ``s`` within its bound. Its limit:
+    6 m past, this run is stopped at 19 s (it moves on by 3σ_s once beyond by 3σ_s)."""
+    from railnav.navigation.loop import beyond_track
+    origin = Origin(45.0, 7.0, 250.0)
+    turn_m = 200.0 + 5.0 * 40.0 / math.pi                    # _reversal_run's s0 + V T/π
+    short = Track([Section(turn_m - 4.0, 90.0, 0.3)], origin)
+    result, t, s, v = _reversal_run(Track([Section(600.0, 90.0, 0.3)], origin), 40.0, 5.0,
+                                    seed=2, filter_track=short)
+    filt = GnssOnlyFilter(short, _config())
+    from ekf.packing import unpack_sym
+    P = [unpack_sym(p) for p in result.P]
+    assert any(beyond_track(filt, x, Pk, 0.0) is not None for x, Pk in zip(result.x, P))
+    assert result.left_track is None and result.time_s[-1] >= t[-1] - 1.0
+    i = result.layout.index("s")
+    s_true = np.interp(result.time_s, t, s)
+    sigma = np.sqrt([Pk[i, i] for Pk in P])
+    assert np.all(np.abs(result.x[:, i] - s_true) <= MAX_SIGMAS * sigma)
 
 
 def test_run_stops_when_the_vehicle_leaves_the_track_end():
