@@ -3,11 +3,10 @@
 Data: the full urban drive, a folder given as ``--data DIR`` (rover 2020-11-29 12:40-12:48
 GPST, PPK reference; provenance in ``data/gnss/README.md``); track: ``data/tracks/barcelona_drive.csv``, the reference's first leg fitted by
 ``railnav track fit`` (the car turns round after SoW 46006 and drives back in the other
-lane: the filter stops when it leaves the track's end, `railnav.navigate`).
+lane; the run navigates through the turn: `railnav.navigation.loop.TrackEndWatch`).
 
 Solutions, each scored against the reference on the SAME epochs (those where every
-solution has a position and the reference one; gnss-only's end at the track end bounds
-them):
+solution has a position and the reference one):
 
 * ``gnss-only G|GE`` — ``railnav run TRACK --obs --nav --filter gnss-only`` (`run_files`
   with the CLI's configuration);
