@@ -57,6 +57,10 @@ run (0.13 %). It flagged 43 (0.96 %) at the curvature steps of turnouts' reverse
 until the track parameter grid (`railnav.filters.track_grid`) had a node each side of
 each horizontal curvature step: before, a sample whose nearest 0.5-m node lay across the
 step took the other side's curvature (seed 3: 13 → 1 flagged epochs, seed 7: 11 → 1).
+Since the simulated IMU's interval means and their blend at the steps
+(`railnav.filters.geometry_noise`, "Interval means"): 14 (0.31 %), 10 of them one event of
+seed 9, a hypothesis whose ``s`` the blend at one step left at z −4 and that the next step's
+straddling sample found out (`docs/consistency-ablations.md`, stop 33, s33alarm).
 
 On the Brussels logs as given (fixes only), the status counts (``ok/degraded/lost``
 estimate rows) before → after these tests: log_28554
