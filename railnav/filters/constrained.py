@@ -243,7 +243,7 @@ class ConstrainedFilter:
         return {"u": u, "params": params, "r_c": r_c,
                 "t": t, "t_prev": t_prev, "s_pred": s_pred, "x_prev": x_prev,
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
-                "along": along, "speed": speed, "s_prev": s_prev,
+                "along": along, "speed": speed,
                 "paths": None if self.path_noise.bias_noise is None else
                 self.path_noise.path_rows(s_pred, s_prev, nodes)}
 

@@ -29,8 +29,8 @@ from ekf.step import WINDOW_TOL_S, StepOptions, window_median_at
 from railnav.filters.common import JACOBIAN_WINDOW_S
 from railnav.navigation.initialization import InitialState
 
-__all__ = ["ChunkLoop", "TrackEndWatch", "beyond_track", "filter_engine", "EPOCH_TIME_TOL_S", "MAX_CHUNK_S",
-           "END_MARGIN_SIGMA"]
+__all__ = ["ChunkLoop", "TrackEndWatch", "beyond_track", "filter_engine", "EPOCH_TIME_TOL_S",
+           "MAX_CHUNK_S", "END_MARGIN_SIGMA"]
 
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -261,9 +261,9 @@ class TrackEndWatch:
     gnss-only filter with the heading's Huber weight is there within 0.4 m of it at 46009
     (3.03σ_s beyond the end, its speed 0.37 m/s at 3.4σ_v away: `beyond_track` alone
     stopped the run, losing the drive back's 70 epochs); a second later its speed is
-    below 3σ_v (GPS+Galileo: two epochs, 0.15 m on against 3σ_s = 3.5 m). A vehicle driving off the end at 10 m/s is stopped one
-    1-Hz epoch (10 m) later than by `beyond_track` alone
-    (``tests/railnav/filters/test_gnss_only_filter.py``).
+    below 3σ_v (GPS+Galileo: two epochs, 0.15 m on against 3σ_s = 3.5 m). A vehicle
+    driving off the end at 10 m/s is stopped one 1-Hz epoch (10 m) later than by
+    `beyond_track` alone (``tests/railnav/filters/test_gnss_only_filter.py``).
     """
 
     def __init__(self) -> None:

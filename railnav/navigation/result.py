@@ -117,9 +117,10 @@ class NavigationResult:
         The filter that ran (`railnav.filters.constrained.ConstrainedFilter`, ...): its
         layout, track and ``truth_states`` for evaluation.
     left_track : dict or None
-        Where the run stopped because ``s`` left the track (`railnav.navigation.navigator.beyond_track`:
-        ``time_s, gps_time_s, s_m, sigma_s_m, end, track_length_m``); None when it ran
-        through the data.
+        Where the run stopped because ``s`` left the track
+        (`railnav.navigation.loop.TrackEndWatch`, `railnav.navigation.loop.beyond_track`'s
+        record: ``time_s, gps_time_s, s_m, sigma_s_m, end, track_length_m``); None when it
+        ran through the data.
     """
 
     filter: str

@@ -30,9 +30,9 @@ from gnss_obs.simulate import simulate_gnss
 from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.errors import ConfigError
 from railnav.filters.gnss_epochs import GnssEpochs
+from railnav.simulation.joint_average import interval_mean_imu
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import gnss_sim_config_for
-from railnav.simulation.joint_average import interval_mean_imu
 from railnav.simulation.truth import Truth, ideal_imu, iter_truth_with_points
 from strapdown.imu import Imu
 from strapdown.imu_errors import (
