@@ -156,6 +156,12 @@ def _chi2_isf(p: float, dof: int) -> float:
     return float(_special().chdtri(dof, p))
 
 
+@cache
+def _lost_gate(p_lost: float) -> float:
+    """The χ²₁ quantile of `p_lost` as a number of σ (4.89 at 1e-6)."""
+    return math.sqrt(_chi2_isf(p_lost, 1))
+
+
 def binom_sf(k, n, p):
     """``P(X ≥ k)``, ``X ~ Binomial(n, p)``, 1 where ``k <= 0``: a float for scalar `k`
     (an epoch's test, without NumPy's array calls), else elementwise, an array (the
@@ -301,6 +307,7 @@ class FilterMonitor:
             if j is None and self.fix_at is not None:
                 fixes = self.fix_at(time_s)
                 j = None if fixes is None else fixes.at(time_s)
+            j = self._on_track(fixes, j)
             if j is not None:
                 s_fix, sigma_fix = fixes.near(j, s_prior)
                 # a filter that inflates its rows for correlated errors (its code fixes
@@ -326,13 +333,23 @@ class FilterMonitor:
         fixes, self._epoch_fixes = self._epoch_fixes or self.fixes, None
         if far and j is None and self.fix_at is not None:   # solved now, for the restart
             fixes = self.fix_at(time_s)
-            j = None if fixes is None else fixes.at(time_s)
+            j = self._on_track(fixes, None if fixes is None else fixes.at(time_s))
         far = far and j is not None
         recovered = self._recover(fixes, j if far else None, x, P)
         record["action"] = "reinit" if far else "widen"
         self._n_window = self._n_small = 0             # the windows restart
         self._seen = 0
         return recovered
+
+    def _on_track(self, fixes: TrackFixes | None, j: int | None) -> int | None:
+        """`j`, or None where fix `j` lies off the track beyond the χ²₁ quantile of
+        `MonitorConfig.p_lost` of its cross-track σ (floored at
+        `MonitorConfig.min_fix_sigma_m`; `TrackFixes.off_track`): a receiver's jump, not a
+        position on the track, neither tested against the filter nor restarted from."""
+        if j is None or not fixes.off_track(j, floor_m=self.config.min_fix_sigma_m,
+                                            gate_sigma=_lost_gate(self.config.p_lost)):
+            return j
+        return None
 
     def _push(self, *row: float, small: float) -> None:
         """Append one epoch's quantities (`_NIS` ... `_D`) and its unfloored ``d²`` to the

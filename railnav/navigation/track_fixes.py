@@ -54,6 +54,9 @@ class TrackFixes:
     distance_m : ndarray, shape (N,), optional
         Horizontal distance of each fix from its whole-track projection ``s_m``, m
         (`on_track`; `near` compares the projection near a guess with it).
+    sigma_cross_m : ndarray, shape (N,), optional
+        σ of each fix across the track (the horizontal normal at ``s_m``), m
+        (`off_track`).
     """
 
     time_s: Array
@@ -68,6 +71,7 @@ class TrackFixes:
     cov_enu_m2: Array | None = None
     track: object = None
     distance_m: Array | None = None
+    sigma_cross_m: Array | None = None
 
     @classmethod
     def on_track(cls, track, *, time_s, lat, lon, cov_enu_m2, v_enu_mps=None,
@@ -75,8 +79,12 @@ class TrackFixes:
         """Project fixes (radians; ENU covariances (N, 3, 3)) on `track`."""
         time_s = np.asarray(time_s, dtype=float)
         proj = track.project(np.asarray(lat, dtype=float), np.asarray(lon, dtype=float))
-        u = np.asarray(track.at(proj.s).u_n, dtype=float).reshape(-1, 3)
+        points = track.at(proj.s)
+        u = np.asarray(points.u_n, dtype=float).reshape(-1, 3)
         var_s = np.einsum("ki,kij,kj->k", u, cov_enu_m2, u)
+        A = np.asarray(points.azimuth, dtype=float).reshape(-1)
+        cross = np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])
+        var_cross = np.einsum("ki,kij,kj->k", cross, cov_enu_m2, cross)
         if v_enu_mps is None:
             v = sv = np.full(time_s.size, np.nan)
         else:
@@ -89,7 +97,18 @@ class TrackFixes:
                    source=order, lat=np.asarray(lat, dtype=float).reshape(-1)[order],
                    lon=np.asarray(lon, dtype=float).reshape(-1)[order],
                    cov_enu_m2=np.asarray(cov_enu_m2, dtype=float)[order], track=track,
-                   distance_m=np.asarray(proj.distance_m, dtype=float)[order])
+                   distance_m=np.asarray(proj.distance_m, dtype=float)[order],
+                   sigma_cross_m=np.sqrt(var_cross)[order])
+
+    def off_track(self, j: int, *, floor_m: float, gate_sigma: float) -> bool:
+        """Whether fix `j` lies farther from the track than `gate_sigma` times its σ across
+        it (floored at `floor_m`): not a position on this track at all (a jump of the
+        receiver's solution, another track), whatever the filter's state; False without
+        the distances."""
+        if self.distance_m is None or self.sigma_cross_m is None:
+            return False
+        return bool(self.distance_m[j] > gate_sigma * max(float(self.sigma_cross_m[j]),
+                                                          floor_m))
 
     def near(self, j: int, s_guess: float) -> tuple[float, float]:
         """``s`` and σ_s of fix `j` projected on the track near `s_guess` (Newton from it,

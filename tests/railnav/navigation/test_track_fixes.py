@@ -82,3 +82,35 @@ def test_fix_at_from_the_filter_epochs_equals_the_fix_of_the_epoch_alone():
         j = old.at(time_s)
         assert old.near(j, float(old.s_m[j]) + 2.0) == new.near(j, float(new.s_m[j]) + 2.0)
     assert solved == len(times) - 1                  # all but the time between epochs
+
+
+def test_off_track_is_the_cross_track_distance_against_its_sigma():
+    """Fixes placed at known distances across a straight of the paper2017 track (along
+    its horizontal normal from the track's point) with a covariance built from a known σ
+    across and along: `on_track` gives back the distance and the σ across, and
+    `off_track` says off exactly beyond `gate_sigma` times that σ (floored)."""
+    from trackmodel.earth import C_n_e, ecef_to_geodetic
+    from trackmodel.io import read_track
+    from railnav.simulation.scenarios import TRACKS_DIR
+    track = read_track(TRACKS_DIR / "paper2017.csv")
+    pt = track.at(5000.0)
+    A = float(pt.azimuth)
+    normal_n = np.array([np.cos(A), -np.sin(A), 0.0])       # horizontal, across the track
+    offsets = np.array([0.0, 3.0, 4.8, 5.2, 30.0, 200.0])
+    r_e = np.asarray(pt.r_e, dtype=float).reshape(3) \
+        + (C_n_e(float(pt.lat), float(pt.lon)) @ normal_n)[None] * offsets[:, None]
+    lat, lon, _ = ecef_to_geodetic(r_e, earth=track.earth)
+    sigma_cross = 1.0
+    along_n = np.array([np.sin(A), np.cos(A), 0.0])
+    cov = sigma_cross ** 2 * np.outer(normal_n, normal_n) + 0.5 ** 2 * np.outer(
+        along_n, along_n) + np.diag([0.0, 0.0, 4.0])        # σ 1 m across, 0.5 m along
+    cov_n = np.repeat(cov[None], offsets.size, axis=0)
+    fixes = TrackFixes.on_track(track, time_s=np.arange(offsets.size, dtype=float),
+                                lat=lat, lon=lon, cov_enu_m2=cov_n)
+    assert fixes.sigma_cross_m == pytest.approx(np.full(offsets.size, sigma_cross), rel=1e-9)
+    assert fixes.distance_m == pytest.approx(offsets, abs=1e-3)
+    off = [fixes.off_track(j, floor_m=0.5, gate_sigma=5.0) for j in range(offsets.size)]
+    assert off == [False, False, False, True, True, True]
+    # a floor above σ moves the gate to 10 m: only the 30 and 200 m fixes are off
+    off = [fixes.off_track(j, floor_m=2.0, gate_sigma=5.0) for j in range(offsets.size)]
+    assert off == [False, False, False, False, True, True]
