@@ -3,11 +3,13 @@ piece over the urban drive (issue 14; the measurements: ``bench_doppler_carrier.
 
 Per piece of ``bench_real_pieces.py`` (its tracks, its filter configuration), the gnss-only
 filter's speed ``|v|`` at each second against the carrier's (GPS+Galileo L1C, time-differenced,
-`bench_doppler_carrier.tdcp`) on the seconds faster than
+`_carrier_phase.tdcp`) on the seconds faster than
 `bench_doppler_carrier.MIN_SPEED_MPS`: the mean and RMS difference and the instant it
 matches, ``t - τ`` (`bench_doppler_carrier.doppler_instant`: a lagging speed has τ > 0).
 
-Per window of `bench_doppler_carrier.WINDOWS` inside a piece, the change of the filter's
+Per window of `bench_doppler_carrier.WINDOWS` inside a piece (a second without a carrier
+solution takes the GPS+Galileo Doppler's mean over it: ``seconds_from_doppler``), the
+change of the filter's
 along-track error in distance travelled, ``Δe = |Δs_filter| - |Δs_reference|`` (m, negative:
 the filter behind), split into three parts that add up to it:
 
@@ -27,15 +29,15 @@ the filters' ``sigma_rr_mps`` with it: what a carrier range-rate row could buy.
 
 Findings (``results/doppler_filters.json``, ``--oracle central``):
 
-* The gnss-only filter's speed does not lag the carrier's on any piece: τ between -0.18
-  and +0.03 s (-0.18 on leg 1 part 4, RMS 0.30 m/s there; -0.025 on leg 1, 272 s),
-  mean -0.049 ... +0.026 m/s, RMS 0.10-0.30 m/s.
-* 45966-45983 (17 s), in the three pieces that hold it: the filter falls behind the
-  reference by 2.5 / 1.7 / 3.0 m (leg 1 / leg 1 part 6 / the U-turn piece); of that its
-  speed against the carrier -0.23 / -0.38 / -0.34 m, the carrier against the reference
-  -1.25 / -1.18 / -1.39 m (-0.95 m of it the reference's own distance, second by
-  second), the updates -1.02 / -0.14 / -1.25 m. Leg 1's 45740-45780 and 45769-45777
-  lack the carrier on 21 and 2 seconds (no split).
+* The gnss-only filter's speed does not lag the carrier's on any piece: τ between -0.16
+  and +0.03 s (-0.16 on leg 1 part 4, 23 s, RMS 0.26 m/s there; -0.018 on leg 1, 229 s),
+  mean -0.042 ... +0.012 m/s, RMS 0.10-0.26 m/s.
+* 45966-45983 (17 s, 2 of them from the Doppler), in the three pieces that hold it: the
+  filter falls behind the reference by 2.50 / 1.70 / 2.98 m (leg 1 / leg 1 part 6 / the
+  U-turn piece); of that its speed against the carrier -0.65 / -0.79 / -0.75 m, the
+  carrier against the reference -0.83 / -0.76 / -0.98 m (-0.54 m of it the reference's
+  own distance, the rest its projection on the fitted track), the updates -1.02 / -0.14
+  / -1.25 m. Leg 1's 45740-45780 has no carrier on 23 of its seconds.
 * Carrier range rates in place of the Doppler, at the filters' σ (``central``): the U-turn
   piece 2.37/5.79 → 2.12/4.45 m (RMS/max; SPP 2.90/3.82), leg 2 1.03/2.03 → 0.76/1.36,
   leg 1 1.65/5.78 → 1.51/5.12, but leg 1 part 3 3.20/4.95 → 3.47/6.22, part 5
@@ -64,6 +66,7 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_doppler_carrier as dc  # noqa: E402
 import bench_real_pieces as rp  # noqa: E402
+from _carrier_phase import L1_HZ, carrier_rates  # noqa: E402
 from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS  # noqa: E402
@@ -133,7 +136,7 @@ def window_split(est: pd.DataFrame, carrier_m: pd.Series, reference_m: pd.Series
 def carrier_doppler(table: pd.DataFrame, mode: str) -> pd.DataFrame:
     """`table` with the GPS/Galileo L1C Doppler replaced, where the carrier allows, by the
     carrier range rate (module docstring, ``--oracle``), in Hz."""
-    rates = dc.carrier_rates(table)
+    rates = carrier_rates(table)
     rates = rates[rates["signal"] == "1C"].set_index(["t", "sv"])
     if mode == "causal":
         prev = rates["back"].rename(lambda k: k, level=0)
@@ -146,7 +149,7 @@ def carrier_doppler(table: pd.DataFrame, mode: str) -> pd.DataFrame:
     key = pd.MultiIndex.from_arrays([np.round(out["gps_time_s"]).astype(np.int64), out["sv"]])
     new = rate.reindex(key).to_numpy()
     use = (out["signal"].to_numpy() == "1C") & np.isfinite(new)
-    out.loc[use, "doppler_hz"] = -new[use] * dc.L1_HZ / SPEED_OF_LIGHT_MPS
+    out.loc[use, "doppler_hz"] = -new[use] * L1_HZ / SPEED_OF_LIGHT_MPS
     return out
 
 
@@ -178,14 +181,20 @@ def main(argv=None) -> int:
     obs, nav, reference, spp = rp.load_drive(data)
     _, _, v = dc.drive_velocities(obs, nav, reference)
     al = dc.along_track(v)
-    carrier_m, reference_m = (pd.Series(np.linalg.norm(v[[f"{p}e", f"{p}n"]].to_numpy(),
-                                                       axis=1), index=v.index)
-                              for p in ("Tb", "Rb"))
+    carrier_m, reference_m, doppler = (pd.Series(np.linalg.norm(
+        v[[f"{p}e", f"{p}n"]].to_numpy(), axis=1), index=v.index) for p in ("Tb", "Rb", "G"))
+    # a second without a carrier solution: the GPS+Galileo Doppler's mean over it
+    filled = carrier_m.isna() & (0.5 * (doppler + doppler.shift(1))).notna()
+    carrier_m = carrier_m.fillna(0.5 * (doppler + doppler.shift(1)))
     pieces = {}
     for piece in rp.pieces(reference):
         est = filter_run(piece, obs, nav, reference)
         splits = {name: window_split(est, carrier_m, reference_m, a, b)
                   for name, (a, b) in dc.WINDOWS.items()}
+        for name, w in splits.items():
+            if w:
+                w["seconds_from_doppler"] = int(filled.loc[w["seconds"][0] + 1:
+                                                           w["seconds"][1]].sum())
         pieces[piece["name"]] = {"speed": speed_against_carrier(est, al),
                                  "windows": {k: w for k, w in splits.items() if w}}
         print(piece["name"], json.dumps(pieces[piece["name"]]), flush=True)

@@ -43,8 +43,9 @@ and SPP on the same track: on 15 SPP's along-track error is beyond 3σ_s too, th
 sign; on 10 more SPP errs the same way by 1.6-3σ_s with the filter 1-2 m further (leg 1
 at 45769-45777 s of week, the stretch whose reference is in question below, and 45981-2,
 where the Doppler speed ran 0.2-0.6 m/s low for 10 s: single-point Doppler minus the
-reference, summed over 45966-45983, -2.1 m; against the rover's own carrier phase most of
-that is the reference's, ``bench_doppler_carrier.py``); the measurements hold these errors, and no
+reference, summed over 45966-45983, -2.1 m; against the rover's own carrier phase, on the
+14 seconds with all three, -1.20 m = Doppler -0.77 m (white noise, no lag) + reference
+-0.42 m, ``bench_doppler_carrier.py``); the measurements hold these errors, and no
 test of the filter against its own rows sees them. 10 are not SPP's: part 1's last two
 (a corner of ~5 m radius), part 6's start, and 7 on the U-turn piece (45988-45993: the car
 drives back through leg 2's curve 4-8° off the fitted line for 4 s, δs = δψ/κ taken at
@@ -61,9 +62,11 @@ The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.56 m
 grows by 3.0 m (gnss-only) over the next 17 s, while their code rows, as the calibrated slow
 error model says, pull slowly (the worst epochs: e_s 5.5 m at σ_s 1.9 m, 2.8σ; 4.3 m at
 2.6 m). Against the carrier (``bench_doppler_filters.py``) those 3.0 m are the filter's
-speed short of the carrier's distance by 0.34 m, the reference's distance beyond the
-carrier's by 1.39 m, and the updates holding ``s`` back by 1.25 m: the Doppler neither lags nor is biased (``bench_doppler_carrier.py``), and
-carrier range rates in its place leave the piece at 2.12/4.45 m.
+speed short of the carrier's distance by 0.75 m (white Doppler noise, 0.18 m/s RMS a
+second), the reference's distance along the track beyond the carrier's by 0.98 m, and
+the updates holding ``s`` back by 1.25 m: the Doppler neither lags nor is biased
+(``bench_doppler_carrier.py``), and carrier range rates in its place leave the piece at
+2.12/4.45 m.
 
 Before the heading's weight and this scoring (main 9ee4652's analysis): the 53 gnss-only
 epochs beyond 3σ_s (of 952; main 008931e), one by one against the
