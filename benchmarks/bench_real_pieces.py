@@ -43,7 +43,9 @@ and SPP on the same track: on 15 SPP's along-track error is beyond 3σ_s too, th
 sign; on 10 more SPP errs the same way by 1.6-3σ_s with the filter 1-2 m further (leg 1
 at 45769-45777 s of week, the stretch whose reference is in question below, and 45981-2,
 where the Doppler speed ran 0.2-0.6 m/s low for 10 s: single-point Doppler minus the
-reference, summed over 45966-45983, -2.1 m); the measurements hold these errors, and no
+reference, summed over 45966-45983, -2.1 m; against the rover's own carrier phase, on the
+14 seconds with all three, -1.20 m = Doppler -0.77 m (white noise, no lag) + reference
+-0.42 m, ``bench_doppler_carrier.py``); the measurements hold these errors, and no
 test of the filter against its own rows sees them. 10 are not SPP's: part 1's last two
 (a corner of ~5 m radius), part 6's start, and 7 on the U-turn piece (45988-45993: the car
 drives back through leg 2's curve 4-8° off the fitted line for 4 s, δs = δψ/κ taken at
@@ -56,10 +58,15 @@ flags none at 1e-3 and 6 (the U-turn's) at 2σ with 2 of the 903. Neither is def
 the simulated runs (no heading rows, no code-bias state there). The monitor is unchanged.
 
 The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.56 m, SPP
-3.82 m): both start at the first fix's slow error (+2.5 / +1.7 m along the track) and add
-the Doppler's -2.1 m over the next 17 s, while their code rows, as the calibrated slow
+3.82 m): both start at the first fix's slow error (+2.5 / +1.7 m along the track), which
+grows by 3.0 m (gnss-only) over the next 17 s, while their code rows, as the calibrated slow
 error model says, pull slowly (the worst epochs: e_s 5.5 m at σ_s 1.9 m, 2.8σ; 4.3 m at
-2.6 m).
+2.6 m). Against the carrier (``bench_doppler_filters.py``) those 3.0 m are the filter's
+speed short of the carrier's distance by 0.75 m (white Doppler noise, 0.18 m/s RMS a
+second), the reference's distance along the track beyond the carrier's by 0.98 m, and
+the updates holding ``s`` back by 1.25 m: the Doppler neither lags nor is biased
+(``bench_doppler_carrier.py``), and carrier range rates in its place leave the piece at
+2.12/4.45 m.
 
 Before the heading's weight and this scoring (main 9ee4652's analysis): the 53 gnss-only
 epochs beyond 3σ_s (of 952; main 008931e), one by one against the
@@ -292,6 +299,34 @@ def group_totals(results: dict) -> dict:
     return out
 
 
+def bench_config(*, recover: bool = True) -> NavigatorConfig:
+    """The filters' configuration here: the run's defaults (gnss-only), the monitor's
+    recovery as asked, and the SPP fixes' errors correlated as their pseudoranges'."""
+    config = NavigatorConfig(filter="gnss-only")
+    # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
+    return replace(config, monitor=replace(config.monitor, recover=recover),
+                   fix_model=replace(config.fix_model, correlated_code_errors=True))
+
+
+def run_pieces(obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
+               config: NavigatorConfig) -> dict:
+    """`run_piece` on every piece of `pieces`, each printed as it ends."""
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for piece in pieces(reference):
+            results[piece["name"]] = r = run_piece(piece, obs, nav, reference, spp,
+                                                   Path(tmp), config)
+            g, f, s = r["gnss-only"], r["fixes"], r["spp"]
+            print(f"{piece['name']}: {r['epochs']} epochs; horizontal RMS/max gnss-only "
+                  f"{g['horizontal_rms_m']:.2f}/{g['horizontal_max_m']:.2f}"
+                  f", fixes {f['horizontal_rms_m']:.2f}/{f['horizontal_max_m']:.2f}"
+                  f", SPP {s['horizontal_rms_m']:.2f}/{s['horizontal_max_m']:.2f} m; "
+                  f">3σ not flagged {g['epochs_beyond_3sigma_not_flagged']}/"
+                  f"{g['epochs_beyond_3sigma']}, {f['epochs_beyond_3sigma_not_flagged']}/"
+                  f"{f['epochs_beyond_3sigma']}", flush=True)
+    return results
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     add_data_argument(parser, DATA_FILES)
@@ -308,34 +343,17 @@ def main(argv=None) -> int:
                         help="the filters use the additive pseudorange σ model "
                              "(gnss_obs.measurements.URBAN_CODE_SIGMAS); SPP keeps its own")
     args = parser.parse_args(argv)
-    config = NavigatorConfig(filter="gnss-only")
+    config = bench_config(recover=not args.no_recovery)
     if args.urban_sigmas:
         config = replace(config, measurement=replace(config.measurement, **URBAN_CODE_SIGMAS))
     if args.heading_curvature_m is not None:
         config = replace(config, track_heading_curvature_m=args.heading_curvature_m)
     if args.heading_correlation_m is not None:
         config = replace(config, track_heading_correlation_m=args.heading_correlation_m)
-    # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
-    config = replace(config, monitor=replace(config.monitor, recover=not args.no_recovery),
-                     # SPP fixes: their errors are their pseudoranges', correlated alike
-                     fix_model=replace(config.fix_model, correlated_code_errors=True))
     data = checked_data_dir(parser, args.data, DATA_FILES)
     started = time.perf_counter()
     obs, nav, reference, spp = load_drive(data)
-    results = {}
-    with tempfile.TemporaryDirectory() as tmp:
-        for piece in pieces(reference):
-            results[piece["name"]] = run_piece(piece, obs, nav, reference, spp, Path(tmp),
-                                               config)
-            r = results[piece["name"]]
-            print(f"{piece['name']}: {r['epochs']} epochs; horizontal RMS/max gnss-only "
-                  f"{r['gnss-only']['horizontal_rms_m']:.2f}/{r['gnss-only']['horizontal_max_m']:.2f}"
-                  f", fixes {r['fixes']['horizontal_rms_m']:.2f}/{r['fixes']['horizontal_max_m']:.2f}"
-                  f", SPP {r['spp']['horizontal_rms_m']:.2f}/{r['spp']['horizontal_max_m']:.2f} m; "
-                  f">3σ not flagged {r['gnss-only']['epochs_beyond_3sigma_not_flagged']}/"
-                  f"{r['gnss-only']['epochs_beyond_3sigma']}, "
-                  f"{r['fixes']['epochs_beyond_3sigma_not_flagged']}/"
-                  f"{r['fixes']['epochs_beyond_3sigma']}", flush=True)
+    results = run_pieces(obs, nav, reference, spp, config)
     out = {"data": "gnss_urban_drive", "tightest_track_radius_m": TIGHTEST_TRACK_RADIUS_M,
            "recovery": not args.no_recovery,
            "track_heading_curvature_m": config.track_heading_curvature_m,
