@@ -303,7 +303,7 @@ def bench_config(*, recover: bool = True) -> NavigatorConfig:
     """The filters' configuration here: the run's defaults (gnss-only), the monitor's
     recovery as asked, and the SPP fixes' errors correlated as their pseudoranges'."""
     config = NavigatorConfig(filter="gnss-only")
-    # recovery is opt-in in MonitorConfig (its docstring): the benchmark asks for it
+    # recovery is on by default (MonitorConfig.recover); --no-recovery turns it off here
     return replace(config, monitor=replace(config.monitor, recover=recover),
                    fix_model=replace(config.fix_model, correlated_code_errors=True))
 
