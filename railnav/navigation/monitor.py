@@ -63,6 +63,11 @@ noisy fix never replaces it.
 After a recovery the windows restart, and the status is ``degraded`` until
 `MonitorConfig.min_epochs` epochs have been seen again.
 
+A fix farther from the track than the χ²₁ quantile of `MonitorConfig.p_lost` of its own
+cross-track σ (floored at `MonitorConfig.min_fix_sigma_m`; `TrackFixes.off_track`) is not a
+position on this track (a receiver's jump: log 29083 of the Brussels logs jumps 90-200 m
+off it): the monitor neither tests the filter against it nor restarts from it.
+
 Real-data caveat: urban SPP errors are correlated from epoch to epoch (multipath), so the
 fix-disagreement statistic is heavier-tailed than χ²ₙ; the fix σ are floored at
 `MonitorConfig.min_fix_sigma_m`. The figures on the urban drive are in
