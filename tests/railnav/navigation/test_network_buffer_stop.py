@@ -36,7 +36,7 @@ S0_M = 200.0
 MAX_SIGMAS = 4.5
 
 
-def _run(s_of_t, v_of_t, duration_s: float, element_m: float, seed: int):
+def _run(monkeypatch, s_of_t, v_of_t, duration_s: float, element_m: float, seed: int):
     """The network run of fixes (single-point class, σ 2.5 m, 1 Hz) of the truth ``s(t)``
     on `LINE`, on the network of `LINE`'s first `element_m`; the result, the truth's
     times and ``s``, and every `beyond_track` record the run's end watches saw."""
@@ -56,28 +56,25 @@ def _run(s_of_t, v_of_t, duration_s: float, element_m: float, seed: int):
         if record is not None:
             hits.append(record)
         return record
-    loop.beyond_track = beyond
-    try:
-        run = navigate_network(network, SensorData(START_GPS_S, fixes=fixes),
-                               NavigatorConfig(filter="gnss-only"))
-    finally:
-        loop.beyond_track = one_epoch
+    monkeypatch.setattr(loop, "beyond_track", beyond)
+    run = navigate_network(network, SensorData(START_GPS_S, fixes=fixes),
+                           NavigatorConfig(filter="gnss-only"))
     return run, t, s, hits
 
 
 @pytest.mark.parametrize("seed", [1, 2])
-def test_a_hypothesis_that_turns_round_4_m_past_a_buffer_stop_lives_on(seed):
+def test_a_hypothesis_that_turns_round_4_m_past_a_buffer_stop_lives_on(seed, monkeypatch):
     """The truth runs 4 m past the element's end (σ_s ~0.9 m there), stops and comes
     back. The hypothesis's state does go beyond the end by 3σ_s while moving away by
     3σ_v (`beyond_track` alone killed it at 17-18 s, seeds 1-3, and the run started
     again from the next fix), yet it lives to the end of the drive, the estimates'
     ``s`` within their bound."""
     duration_s, speed_mps = 40.0, 5.0
-    turn_m = S0_M + speed_mps * duration_s / math.pi
+    reach_m = speed_mps * duration_s / math.pi               # s0 + V T/π: where it turns
     run, t, s, hits = _run(
-        lambda t: S0_M + speed_mps * duration_s / math.pi * np.sin(math.pi * t / duration_s),
+        monkeypatch, lambda t: S0_M + reach_m * np.sin(math.pi * t / duration_s),
         lambda t: speed_mps * np.cos(math.pi * t / duration_s), duration_s,
-        turn_m - 4.0, seed)
+        S0_M + reach_m - 4.0, seed)
     assert hits and all(h["end"] == "end" for h in hits)
     assert run.restarts == () and run.cycles["time_s"].iloc[-1] >= duration_s - 1e-6
     est = run.estimates
@@ -85,13 +82,13 @@ def test_a_hypothesis_that_turns_round_4_m_past_a_buffer_stop_lives_on(seed):
     assert np.all(np.abs(est["netelement_offset_m"] - s_true) <= MAX_SIGMAS * est["sigma_s_m"])
 
 
-def test_a_hypothesis_that_drives_off_a_buffer_stop_dies():
+def test_a_hypothesis_that_drives_off_a_buffer_stop_dies(monkeypatch):
     """The truth drives on at 10 m/s past the end of the 300-m element: the hypothesis
     dies once it is beyond the end by 3σ_s, moving away, and has moved on by 3σ_s more,
     not before the truth is past the end and not long after; no fix is near the network
     after that, so the run ends there."""
     speed_mps, element_m = 10.0, 300.0
-    run, t, s, hits = _run(lambda t: S0_M + speed_mps * t,
+    run, t, s, hits = _run(monkeypatch, lambda t: S0_M + speed_mps * t,
                            lambda t: np.full_like(t, speed_mps), 35.0, element_m, seed=1)
     assert len(run.restarts) == 1
     died_s = run.restarts[0]
