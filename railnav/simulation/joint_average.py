@@ -15,8 +15,8 @@ the ends of a vertical curve: `trackmodel.sections.JointSteps.rate_steps_m`), th
 vehicle's angular rate steps by ``v Δκ`` and its specific force by ``v² Δκ``. A point
 sample of that step is what no sensor delivers: the trapezoid over the point samples is
 off by ``Δω (τ − dt/2)`` of angle for a crossing ``τ`` after a sample, for good (5 mrad
-of yaw at 100 m/s on a 100-m arc with the joint on a sample). The simulator therefore gives each sample whose interval
-``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact mean of the
+of yaw at 100 m/s on a 100-m arc with the joint on a sample). The simulator therefore
+gives each sample whose interval ``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact mean of the
 ideal IMU over the interval: the interval split at the crossing time (the profile's
 distance solved for the joint's ``s`` by bisection) and each piece integrated by
 Gauss–Legendre, where the motion is smooth. With these means the trapezoid's angle is
