@@ -10,18 +10,18 @@ the integral of the rate: the trapezoid of the filter's step (`strapdown.rk4`, l
 interpolation of the samples) over two or more intervals telescopes to the exact angle,
 whatever the rate does in between.
 
-Where a track's curvature or grade rate steps (an arc entered without a transition, or
-the ends of a vertical curve: `trackmodel.sections.JointSteps.rate_steps_m`), the
-vehicle's angular rate steps by ``v Δκ`` and its specific force by ``v² Δκ``. A point
-sample of that step is what no sensor delivers: the trapezoid over the point samples is
-off by ``Δω (τ − dt/2)`` of angle for a crossing ``τ`` after a sample, for good (5 mrad
-of yaw at 100 m/s on a 100-m arc with the joint on a sample). The simulator therefore
-gives each sample whose interval ``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact mean of the
-ideal IMU over the interval: the interval split at the crossing time (the profile's
-distance solved for the joint's ``s`` by bisection) and each piece integrated by
+Where a track's curvature or grade rate steps (an arc entered without a transition, or the
+ends of a vertical curve: `trackmodel.sections.JointSteps.rate_steps_m`), the vehicle's
+angular rate steps by ``v Δκ`` and its specific force by ``v² Δκ``. A point sample of that
+step is what no sensor delivers: the trapezoid over the point samples is off by
+``Δω (τ − dt/2)`` of angle for a crossing ``τ`` after a sample, for good (5 mrad of yaw at
+100 m/s on a 100-m arc with the joint on a sample). The simulator therefore gives each sample
+whose interval ``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact
+mean of the ideal IMU over the interval: the interval split at the crossing time (the
+profile's distance solved for the joint's ``s`` by bisection) and each piece integrated by
 Gauss–Legendre, where the motion is smooth. With these means the trapezoid's angle is
-exact again one sample after the joint (a transient of at most ``Δω dt/4`` at the
-sample in the joint's interval).
+exact again one sample after the joint (a transient of at most ``Δω dt/4`` at the sample
+in the joint's interval).
 
 Everywhere else the sample stays the ideal IMU at ``t_k``: where the motion is smooth
 over the interval the interval mean is that value to ``dt² |ü|/24`` (a 0.4-mm/s² and
