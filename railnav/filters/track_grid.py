@@ -11,11 +11,12 @@ window of track instead of one call per filter chunk (the call's fixed cost domi
 short queries).
 
 A curvature step (an arc or straight joined to another without a transition: turnouts'
-reverse curves, a circle entered straight) has no expansion across it: a sample on one
-side whose nearest node lies on the other took that side's curvature, an error of
-``v² Δκ`` in the pseudo-observation (1.6 m/s² at 20 m/s on a 500-m reverse curve). The
-grid therefore also has a node `STEP_SIDE_M` before and after each such step, so the
-nearest node is on the sample's side. Measured on the synthetic switch network
+reverse curves, a circle entered straight; `trackmodel.sections.JointSteps.
+curvature_steps_m`) has no expansion across it: a sample on one side whose nearest node
+lies on the other took that side's curvature, an error of ``v² Δκ`` in the
+pseudo-observation (1.6 m/s² at 20 m/s on a 500-m reverse curve). The grid therefore
+also has a node `trackmodel.sections.JOINT_SIDE_M` before and after each such step, so
+the nearest node is on the sample's side. Measured on the synthetic switch network
 (`benchmarks/bench_network_switches.py`, seeds 3 and 7): the network run's
 pseudo-observation alarms (`railnav.navigation.network_status`) 13 → 1 and 11 → 1. The
 shipped ``paper2017`` and ``curvy`` tracks have no horizontal curvature step, so their
@@ -31,9 +32,9 @@ import numpy as np
 import numpy.typing as npt
 
 from strapdown.reduced import track_parameters
+from trackmodel.sections import JOINT_SIDE_M, joint_steps
 
-__all__ = ["TrackParameterGrid", "GRID_STEP_M", "GRID_WINDOW_M", "CURVATURE_STEP_1PM",
-           "STEP_SIDE_M"]
+__all__ = ["TrackParameterGrid", "GRID_STEP_M", "GRID_WINDOW_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -41,11 +42,6 @@ Array = npt.NDArray[np.float64]
 GRID_STEP_M = 0.5
 #: Length of track sampled per window, m (re-sampled when the vehicle leaves it).
 GRID_WINDOW_M = 2000.0
-#: A curvature jump at a joint larger than this is a step (module docstring), 1/m; a
-#: clothoid's joints change it by ~1e-11 over `STEP_SIDE_M`.
-CURVATURE_STEP_1PM = 1e-9
-#: The nodes beside a curvature step lie this far from it, m.
-STEP_SIDE_M = 1e-6
 
 
 @lru_cache(maxsize=8)
@@ -81,7 +77,7 @@ class TrackParameterGrid:
         steps = self.curvature_steps
         steps = steps[(steps > start) & (steps < stop)]
         if steps.size:              # a node each side of a curvature step (module docstring)
-            nodes = np.concatenate([nodes, steps - STEP_SIDE_M, steps + STEP_SIDE_M])
+            nodes = np.concatenate([nodes, steps - JOINT_SIDE_M, steps + JOINT_SIDE_M])
         nodes = np.unique(nodes)
         self._points = self.track.at(nodes)
         self._params = track_parameters(self._points, earth=self.track.earth)
@@ -90,14 +86,9 @@ class TrackParameterGrid:
 
     @cached_property
     def curvature_steps(self) -> Array:
-        """``s`` of the section joints where the horizontal curvature jumps by more than
-        `CURVATURE_STEP_1PM` (an arc or a straight joined without a transition), m."""
-        joints = np.asarray(self.track.table.s_start, dtype=float)[1:]
-        if not joints.size:
-            return joints
-        before = self.track.at(joints - STEP_SIDE_M).curvature_1pm
-        after = self.track.at(joints + STEP_SIDE_M).curvature_1pm
-        return joints[np.abs(after - before) > CURVATURE_STEP_1PM]
+        """``s`` of the track's horizontal curvature steps
+        (`trackmodel.sections.JointSteps.curvature_steps_m`), m."""
+        return joint_steps(self.track.table).curvature_steps_m
 
     def nearest(self, s: Array) -> npt.NDArray[np.intp]:
         """Indices of the grid nodes nearest to distances `s` (m, inside the track)."""

@@ -11,8 +11,11 @@ weight. After each cycle of the lockstep (`railnav.navigation.network_navigator`
   the route, everything else as it is), the weight split evenly among the children (the
   prior of a switch's ways:
   equal, the evidence decides). A hypothesis at a buffer stop has no passage: it runs on
-  (its filter extrapolates the track) until `railnav.navigation.loop.beyond_track` says
-  the vehicle has left the track, and then dies.
+  (its filter extrapolates the track) until its `railnav.navigation.loop.TrackEndWatch`
+  (``Hypothesis.end_watch``, the single-track runs' rule) says the vehicle has left the
+  track, and then dies: one that turns round a few metres past the stop lives on.
+  A child at a joint starts a watch of its own (its parent's had no run going: it was
+  not beyond an end that has a passage).
 * **Merging** (`merge_coinciding`, GPB1, the seed's "pulsating" filter): hypotheses on one
   element and orientation whose ``(s, v)`` differ by less than
   `NetworkNavConfig.merge_mahalanobis` in the metric of their summed covariances are one
@@ -39,6 +42,7 @@ from ekf.bank import logsumexp, merge_gaussians
 from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S
 from railnav.errors import ConfigError
 from railnav.navigation.fix_bias import merged
+from railnav.navigation.loop import TrackEndWatch
 from railnav.navigation.net_tracks import OrientedTracks, bare
 
 __all__ = ["NetworkNavConfig", "Hypothesis", "hypothesis", "branch", "branch_ahead",
@@ -205,6 +209,9 @@ class Hypothesis:
         Unique id, and the id it branched from (-1: a start).
     fix_bias : railnav.navigation.fix_bias.FixBias or None
         Its estimate of the fixes' bias (`NetworkNavConfig.fix_bias_sigma_m`).
+    end_watch : railnav.navigation.loop.TrackEndWatch
+        Whether its vehicle has left its track at a buffer stop (module docstring); a
+        rebased hypothesis keeps it (shifted with ``s``), a merged one the heavier's.
     """
 
     pieces: tuple
@@ -217,6 +224,7 @@ class Hypothesis:
     parent: int = -1
     id: int = field(default_factory=lambda: next(_IDS))
     fix_bias: object = None
+    end_watch: TrackEndWatch = field(default_factory=TrackEndWatch)
 
     def index(self, name: str) -> int:
         """Position of state `name` in the filter's layout."""
@@ -253,12 +261,15 @@ class Hypothesis:
 
 
 def hypothesis(tracks: OrientedTracks, pieces, x: Array, P: Array, log_weight: float, filt,
-               path: tuple = (), parent: int = -1, *, fix_bias=None) -> Hypothesis:
-    """A `Hypothesis` on `pieces` (its piece ends from the network)."""
+               path: tuple = (), parent: int = -1, *, fix_bias=None,
+               end_watch: TrackEndWatch | None = None) -> Hypothesis:
+    """A `Hypothesis` on `pieces` (its piece ends from the network; a new end watch
+    unless given)."""
     pieces = tuple((e, int(o), float(st)) for e, o, st in pieces)
     return Hypothesis(pieces, tuple(float(v) for v in tracks.piece_ends(pieces)),
                       np.asarray(x, dtype=float), np.asarray(P, dtype=float),
-                      float(log_weight), filt, tuple(path), parent, fix_bias=fix_bias)
+                      float(log_weight), filt, tuple(path), parent, fix_bias=fix_bias,
+                      end_watch=end_watch or TrackEndWatch())
 
 
 def evidence_share(nav: NetworkNavConfig, since_epoch_s: float) -> float:
@@ -366,7 +377,7 @@ def rebased(hyp: Hypothesis, tracks: OrientedTracks, make_child) -> Hypothesis:
     filt = make_child(hyp, pieces)
     out = hypothesis(tracks, pieces, carried_state(filt, hyp.x, hyp.s_m - hyp.ends[0]),
                      hyp.P, hyp.log_weight, filt, hyp.path, hyp.parent,
-                     fix_bias=hyp.fix_bias)
+                     fix_bias=hyp.fix_bias, end_watch=hyp.end_watch.shifted(-hyp.ends[0]))
     out.id = hyp.id
     return rebased(out, tracks, make_child)
 

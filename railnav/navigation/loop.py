@@ -269,6 +269,16 @@ class TrackEndWatch:
     def __init__(self) -> None:
         self.first: dict | None = None
 
+    def shifted(self, by_m: float) -> "TrackEndWatch":
+        """A copy of this watch for the same vehicle where ``s`` reads `by_m` more (a
+        network hypothesis's track rebased, or a component of its Gaussian sum along
+        ``s``: `railnav.navigation.hypotheses`): how far it has moved since the first
+        check of its run is kept."""
+        out = TrackEndWatch()
+        if self.first is not None:
+            out.first = dict(self.first, s_m=self.first["s_m"] + by_m)
+        return out
+
     def check(self, filt, x: Array, P: Array, time_s: float) -> dict | None:
         """`beyond_track`'s record once the vehicle has left (class docstring), else None.
 

@@ -19,7 +19,8 @@ past its element). After each cycle:
 3. hypotheses that have left their element branch into its navigable successors, those
    that coincide merge, the improbable ones are pruned and the count is capped
    (`railnav.navigation.hypotheses`); a hypothesis at a buffer stop whose vehicle has
-   left the track (`railnav.navigation.loop.beyond_track`) dies;
+   left the track dies (its `railnav.navigation.loop.TrackEndWatch`, the single-track
+   runs' rule: beyond the end and moving away, then on by 3σ_s more);
 4. the cycle is recorded (`railnav.navigation.network_result.NetworkRecorder`).
 
 Hypotheses live on netelements, not on whole routes: two ways through a switch share the
@@ -56,7 +57,7 @@ from railnav.navigation.hypotheses import (
     rebased,
 )
 from railnav.navigation.hypothesis_step import EngineStepper
-from railnav.navigation.loop import EPOCH_TIME_TOL_S, MAX_CHUNK_S, beyond_track
+from railnav.navigation.loop import EPOCH_TIME_TOL_S, MAX_CHUNK_S
 from railnav.navigation.navigator import trip_samples
 from railnav.navigation.net_tracks import OrientedTracks
 from railnav.navigation.network_result import NetworkRecorder, NetworkResult
@@ -374,7 +375,7 @@ def _after_cycle(hyps, outcome, tracks, factory, nav, time_s: float, dt_s: float
             children = branch_ahead(h, tracks, factory.child)
         if children is not None:
             out.extend(children)
-        elif beyond_track(h.filt, h.x, h.P, time_s) is not None:
+        elif h.end_watch.check(h.filt, h.x, h.P, time_s) is not None:
             log.debug("hypothesis %d left %s at its buffer stop", h.id, h.element)
         elif outcome.continuous and needs_split(h, nav):
             out.extend(split(h, tracks, factory.child))

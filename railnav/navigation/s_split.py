@@ -101,5 +101,6 @@ def split(h, tracks, make_child) -> list:
     for w, m in zip(SPLIT_WEIGHTS, SPLIT_OFFSETS):
         x = h.x + gain * (m * sigma)
         out.append(hypothesis(tracks, h.pieces, x, P.copy(), h.log_weight + math.log(w),
-                              make_child(h, h.pieces), h.path, h.id, fix_bias=h.fix_bias))
+                              make_child(h, h.pieces), h.path, h.id, fix_bias=h.fix_bias,
+                              end_watch=h.end_watch.shifted(m * sigma)))
     return out

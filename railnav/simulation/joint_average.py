@@ -10,18 +10,18 @@ the integral of the rate: the trapezoid of the filter's step (`strapdown.rk4`, l
 interpolation of the samples) over two or more intervals telescopes to the exact angle,
 whatever the rate does in between.
 
-Where a track's curvature or grade rate steps (an arc entered without a transition, or
-the ends of a vertical curve: `rate_step_joints`), the vehicle's angular rate steps by ``v Δκ`` and its
-specific force by ``v² Δκ``. A point sample of that step is what no sensor delivers:
-the trapezoid over the point samples is off by ``Δω (τ − dt/2)`` of angle for a
-crossing ``τ`` after a sample, for good (5 mrad of yaw at 100 m/s on a 100-m arc with the joint
-on a sample). The simulator therefore gives each sample whose interval
-``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact mean of the
-ideal IMU over the interval: the interval split at the crossing time (the profile's
-distance solved for the joint's ``s`` by bisection) and each piece integrated by
+Where a track's curvature or grade rate steps (an arc entered without a transition, or the
+ends of a vertical curve: `trackmodel.sections.JointSteps.rate_steps_m`), the vehicle's
+angular rate steps by ``v Δκ`` and its specific force by ``v² Δκ``. A point sample of that
+step is what no sensor delivers: the trapezoid over the point samples is off by
+``Δω (τ − dt/2)`` of angle for a crossing ``τ`` after a sample, for good (5 mrad of yaw at
+100 m/s on a 100-m arc with the joint on a sample). The simulator therefore gives each sample
+whose interval ``[t_k − dt/2, t_k + dt/2)`` holds the crossing of such a joint the exact
+mean of the ideal IMU over the interval: the interval split at the crossing time (the
+profile's distance solved for the joint's ``s`` by bisection) and each piece integrated by
 Gauss–Legendre, where the motion is smooth. With these means the trapezoid's angle is
-exact again one sample after the joint (a transient of at most ``Δω dt/4`` at the
-sample in the joint's interval).
+exact again one sample after the joint (a transient of at most ``Δω dt/4`` at the sample
+in the joint's interval).
 
 Everywhere else the sample stays the ideal IMU at ``t_k``: where the motion is smooth
 over the interval the interval mean is that value to ``dt² |ü|/24`` (a 0.4-mm/s² and
@@ -39,9 +39,10 @@ import numpy.typing as npt
 
 from railnav.simulation.truth import ideal_imu, truth_at
 from strapdown.imu import Imu
+from trackmodel.sections import joint_steps
 
 __all__ = ["interval_mean_imu", "average_across_joints", "joint_crossing_times",
-           "rate_step_joints", "GAUSS_NODES"]
+           "GAUSS_NODES"]
 
 Array = npt.NDArray[np.float64]
 
@@ -50,17 +51,6 @@ Array = npt.NDArray[np.float64]
 GAUSS_NODES = 3
 #: Bisection steps for a crossing time (the bracket, one sample interval, halves each).
 _BISECTIONS = 60
-
-
-def rate_step_joints(track) -> tuple[Array, Array, Array]:
-    """Joints of `track` where ``dA/ds`` or ``dϑ/ds`` steps: ``s`` (m, shape (J,)), and the
-    steps of ``dA/ds`` and of ``dϑ/ds`` there (1/m, shape (J,) each)."""
-    table = track.table
-    grade_rate = (table.elevation1 - table.elevation0) / table.length
-    d_kappa = table.curvature0[1:] - table.curvature1[:-1]
-    d_grade = grade_rate[1:] - grade_rate[:-1]
-    keep = (d_kappa != 0.0) | (d_grade != 0.0)
-    return table.s_start[1:][keep], d_kappa[keep], d_grade[keep]
 
 
 def interval_mean_imu(track, profile, imu: Imu, *, start_s: float, rate_hz: float) -> Imu:
@@ -115,7 +105,7 @@ def joint_crossing_times(track, profile, *, start_s: float, t0_s: float, t1_s: f
     ndarray, shape (J,)
         The first time at which ``s(t)`` reaches each joint, s.
     """
-    joints = rate_step_joints(track)[0]
+    joints = joint_steps(track.table).rate_steps_m
     s0, s1 = start_s + profile.evaluate([t0_s, t1_s]).s
     joints = joints[(joints > s0) & (joints <= s1)]
     lo = np.full(joints.size, float(t0_s))

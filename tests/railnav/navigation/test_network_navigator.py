@@ -77,7 +77,7 @@ def test_branch_spawns_one_child_per_way_with_s_carried_across():
     back = branch(_hyp("A1", -3.0, v=-5.0), TRACKS, _make_child, 5.0)
     assert [(k.element, k.orientation) for k in back] == [("A0", 1)]
     assert back[0].s_m == pytest.approx(L - 3.0)
-    # the end of the line has no passage: no children (it dies at beyond_track)
+    # the end of the line has no passage: no children (it dies by its end watch)
     last = f"A{2 * SPEC.loops}"
     assert branch(_hyp(last, NET.length_m(last) + 1.0), TRACKS, _make_child, 5.0) is None
 
