@@ -264,6 +264,8 @@ class CompiledLoop:
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
         self._ptrs = (ctypes.c_void_p * self.n_out)()
+        #: The addresses of the buffers every call passes (held by this object).
+        self._fixed = (ctypes.addressof(self._ptrs), address(self._iw), address(self._w))
 
     def run(self, x0: np.ndarray, P0: np.ndarray, d: np.ndarray) -> list[np.ndarray]:
         """Run ``N = len(d)`` steps.
@@ -291,9 +293,7 @@ class CompiledLoop:
         outs = [np.empty((N, size)) for size in self.sizes_out]
         for i, out in enumerate(outs):
             self._ptrs[i] = address(out)
-        status = self._fun(N, address(x0), address(P0), address(d),
-                           ctypes.addressof(self._ptrs), address(self._iw),
-                           address(self._w))
+        status = self._fun(N, address(x0), address(P0), address(d), *self._fixed)
         if status:
             raise FilterError("the compiled step function reported an error")
         return outs
@@ -319,6 +319,8 @@ class CompiledRows:
         self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
+        #: The addresses of the work buffers every call passes (held by this object).
+        self._fixed = (address(self._iw), address(self._w))
 
     def run(self, x: np.ndarray, p_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``z (m * k,)`` and ``H (m * k, n)`` for ``x (n,)`` and ``p_rows (m, n_p)``."""
@@ -327,7 +329,6 @@ class CompiledRows:
         m = p_rows.shape[0]
         z = np.empty(m * self.k)
         H = np.empty((m * self.k, self.n))
-        if self._fun(m, address(x), address(p_rows), address(z), address(H),
-                     address(self._iw), address(self._w)):
+        if self._fun(m, address(x), address(p_rows), address(z), address(H), *self._fixed):
             raise FilterError("the compiled measurement function reported an error")
         return z, H
