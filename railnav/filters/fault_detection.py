@@ -301,14 +301,8 @@ class RowScreen:
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
-        n_used = np.count_nonzero(used)
-        if n_used == used.size:          # every row (most epochs): the arrays as they are
-            rows = EvaluatedObservations(observations, x=x, innov=nu, H=H, R=R,
-                                         groups=np.arange(n_used))
-        else:
-            rows = EvaluatedObservations(subset_rows(observations, used), x=x,
-                                         innov=nu[used], H=H[used], R=R[used],
-                                         groups=np.arange(n_used))
+        rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
+                                     H=H[used], R=R[used], groups=np.arange(np.count_nonzero(used)))
         return EpochRows(rows, Q) if np.count_nonzero(Q) else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
