@@ -138,8 +138,6 @@ class Recorder:
     full_covariance: bool = False
     smoothing: bool = False
     _parts: dict[str, list[Array]] = field(default_factory=dict)
-    #: ``(t, nis, log_likelihood, rows, accepted rows)`` of each update (`update`).
-    _epochs: list[tuple] = field(default_factory=list)
     nis_c_sum: float = 0.0
     nis_c_count: int = 0
     epochs: int = 0
@@ -185,24 +183,18 @@ class Recorder:
             self._add("s_t", t)
 
     def update(self, t: float, record: UpdateRecord) -> None:
-        """Record one discrete update at time ``t`` (its numbers per epoch kept as Python
-        numbers, made arrays by `result`)."""
-        self._epochs.append((float(t), record.nis, record.log_likelihood, record.innov.size,
-                             np.count_nonzero(record.accepted)))
+        """Record one discrete update at time ``t``."""
+        m = record.innov.size
+        self._add("t_d", np.array([t]))
+        self._add("nis_d", np.array([record.nis]))
+        self._add("log_lik_d", np.array([record.log_likelihood]))
+        self._add("m_d", np.array([m]))
+        self._add("accepted_d", np.array([np.count_nonzero(record.accepted)]))
+        self._add("epoch_of", np.full(m, self.epochs))
         self._add("innov_d", record.innov)
         self._add("s_d", record.S.diagonal().copy())
         self._add("accepted", record.accepted)
         self.epochs += 1
-
-    def _per_epoch(self) -> dict[str, Array]:
-        """``t_d, nis_d, log_lik_d, m_d, accepted_d, epoch_of`` of the recorded updates."""
-        t_d, nis_d, log_lik_d, m_d, accepted_d = (
-            np.array(column, dtype=dtype) for column, dtype in
-            zip(zip(*self._epochs), (float, float, float, int, int))) if self._epochs \
-            else (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, int), np.zeros(0, int))
-        return {"t_d": t_d, "nis_d": nis_d, "log_lik_d": log_lik_d, "m_d": m_d,
-                "accepted_d": accepted_d,
-                "epoch_of": np.repeat(np.arange(m_d.size), m_d)}
 
     def result(self, x_final: Array, P_final: Array) -> FilterResult:
         """The recorded history as a :class:`FilterResult`."""
@@ -222,7 +214,10 @@ class Recorder:
             P=self._get("P", (n_p,)) if self.full_covariance else None,
             t_c=self._get("t", ()), innov_c=self._get("innov_c", (n_c,)),
             nis_c=self._get("nis_c", ()), nis_c_sum=self.nis_c_sum,
-            nis_c_count=self.nis_c_count, **self._per_epoch(), innov_d=self._get("innov_d", ()),
+            nis_c_count=self.nis_c_count, t_d=self._get("t_d", ()),
+            nis_d=self._get("nis_d", ()), log_lik_d=self._get("log_lik_d", ()),
+            m_d=self._get("m_d", (), int), accepted_d=self._get("accepted_d", (), int),
+            epoch_of=self._get("epoch_of", (), int), innov_d=self._get("innov_d", ()),
             s_d=self._get("s_d", ()), accepted=self._get("accepted", (), bool),
             smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final),
             n_steps=self.n_steps)
