@@ -243,11 +243,8 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
         times = np.repeat([e.gps_time_s for e in epochs], sizes)
     states, clock_m = transmit_states(EpochData(times, meas, eph), config, precise=precise)
     bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
-    # each epoch's rows of every field (`dataclasses.replace` of each, without its
-    # per-call field walk: ~8 µs an epoch)
-    kind, columns = type(states), [getattr(states, f.name) for f in fields(states)]
-    return [(kind(*(column[a:b] for column in columns)), clock_m[a:b])
-            for a, b in zip(bounds[:-1], bounds[1:])]
+    return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
+             clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
