@@ -19,6 +19,7 @@ survives the process.
 from __future__ import annotations
 
 import ctypes
+import functools
 import hashlib
 import logging
 import os
@@ -185,7 +186,7 @@ def build_library(fun: ca.Function, templates: tuple[str, ...], entry: str,
     library, entry function, compile seconds (0 when cached)
     """
     command = opts.command()
-    key = _cache_key(fun, templates, entry, command)
+    key = _cache_key(fun, templates, entry, tuple(command))
     lib, seconds = load_library(opts.directory(), key,
                                 lambda path: compile_source(source(), command, path))
     function = getattr(lib, entry)
@@ -193,11 +194,14 @@ def build_library(fun: ca.Function, templates: tuple[str, ...], entry: str,
     return lib, function, seconds
 
 
+@functools.lru_cache(maxsize=64)
 def _cache_key(fun: ca.Function, templates: tuple[str, ...], entry: str,
-               command: list[str]) -> str:
+               command: tuple[str, ...]) -> str:
     """What a library is, hashed without generating its code: the function (CasADi's
     serialization, stable across processes), the C templates and entry name, the compiler
-    command and the CasADi version (whose code generator writes the C)."""
+    command and the CasADi version (whose code generator writes the C). Kept per function
+    object (a CasADi function is immutable; its serialization costs ~6-12 ms for a
+    filter's step: `ekf.step.build_step` returns the same object for the same model)."""
     digest = hashlib.sha256()
     for part in (ca.__version__, *templates, entry, " ".join(command), fun.serialize()):
         digest.update(part.encode())
@@ -260,6 +264,8 @@ class CompiledLoop:
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
         self._ptrs = (ctypes.c_void_p * self.n_out)()
+        #: The addresses of the buffers every call passes (held by this object).
+        self._fixed = (ctypes.addressof(self._ptrs), address(self._iw), address(self._w))
 
     def run(self, x0: np.ndarray, P0: np.ndarray, d: np.ndarray) -> list[np.ndarray]:
         """Run ``N = len(d)`` steps.
@@ -287,9 +293,7 @@ class CompiledLoop:
         outs = [np.empty((N, size)) for size in self.sizes_out]
         for i, out in enumerate(outs):
             self._ptrs[i] = address(out)
-        status = self._fun(N, address(x0), address(P0), address(d),
-                           ctypes.addressof(self._ptrs), address(self._iw),
-                           address(self._w))
+        status = self._fun(N, address(x0), address(P0), address(d), *self._fixed)
         if status:
             raise FilterError("the compiled step function reported an error")
         return outs
@@ -315,6 +319,8 @@ class CompiledRows:
         self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
+        #: The addresses of the work buffers every call passes (held by this object).
+        self._fixed = (address(self._iw), address(self._w))
 
     def run(self, x: np.ndarray, p_rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``z (m * k,)`` and ``H (m * k, n)`` for ``x (n,)`` and ``p_rows (m, n_p)``."""
@@ -323,7 +329,6 @@ class CompiledRows:
         m = p_rows.shape[0]
         z = np.empty(m * self.k)
         H = np.empty((m * self.k, self.n))
-        if self._fun(m, address(x), address(p_rows), address(z), address(H),
-                     address(self._iw), address(self._w)):
+        if self._fun(m, address(x), address(p_rows), address(z), address(H), *self._fixed):
             raise FilterError("the compiled measurement function reported an error")
         return z, H

@@ -175,7 +175,7 @@ class Recorder:
         self._add("innov_c", take(out.innov))
         if out.nis.size:
             self._add("nis_c", take(out.nis))
-            self.nis_c_sum += float(np.sum(out.nis))
+            self.nis_c_sum += float(np.add.reduce(out.nis))     # np.sum's reduction
             self.nis_c_count += int(out.nis.size)
         if self.smoothing:
             for key in ("x_filt", "P_filt", "x_next", "P_next", "Phi"):

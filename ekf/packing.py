@@ -48,6 +48,7 @@ def diagonal_indices(n: int) -> np.ndarray:
     return index
 
 
+@lru_cache(maxsize=64)
 def _size_from_packed(m: int) -> int:
     n = int(round((np.sqrt(8 * m + 1) - 1) / 2))
     if packed_size(n) != m:
