@@ -78,7 +78,6 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cache
 
 import numpy as np
 import numpy.typing as npt
@@ -87,9 +86,10 @@ import pandas as pd
 from railnav.filters.code_bias import apparent_variance
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
+from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
-__all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at", "binom_sf", "chi2_sf"]
+__all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at"]
 
 Array = npt.NDArray[np.float64]
 
@@ -141,51 +141,6 @@ class MonitorConfig:
     lost_rejected_share: float = 0.5
     min_fix_sigma_m: float = 1.0
     min_fix_sigma_mps: float = 0.05
-
-
-
-@cache
-def _special():
-    """`scipy.special`, imported at the first test, not with this module (its imports stay
-    free of SciPy, as the start-up wants: ``tests/railnav/commands/test_cli_startup.py``); a
-    ``from scipy.special import`` in each function cost ~2 µs a call, 5-6 calls an epoch."""
-    import scipy.special
-    return scipy.special
-
-
-def _chi2_cdf(value: float, dof: float) -> float:
-    return float(_special().chdtr(dof, value)) if dof > 0 else 1.0
-
-
-def _chi2_isf(p: float, dof: int) -> float:
-    return float(_special().chdtri(dof, p))
-
-
-@cache
-def _lost_gate(p_lost: float) -> float:
-    """The χ²₁ quantile of `p_lost` as a number of σ (4.89 at 1e-6)."""
-    return math.sqrt(_chi2_isf(p_lost, 1))
-
-
-def binom_sf(k, n, p):
-    """``P(X ≥ k)``, ``X ~ Binomial(n, p)``, 1 where ``k <= 0``: a float for scalar `k`
-    (an epoch's test, without NumPy's array calls), else elementwise, an array (the
-    network run's records, `railnav.navigation.network_status`)."""
-    bdtrc = _special().bdtrc
-    if isinstance(k, int) or np.ndim(k) == 0:
-        return 1.0 if k <= 0 else float(bdtrc(k - 1, n, p))
-    k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
-    return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
-
-
-def chi2_sf(values, dofs):
-    """Upper χ² tails ``P(χ²_dof > value)``, 1 where ``dof <= 0``: a float for a scalar
-    `values` (an epoch's test, without NumPy's array calls), else elementwise, an array
-    (one call of SciPy's ufunc for all; each element the bits of a call of its own)."""
-    chdtrc = _special().chdtrc
-    if isinstance(values, float) or np.ndim(values) == 0:
-        return float(chdtrc(dofs, values)) if dofs > 0 else 1.0
-    return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
@@ -334,7 +289,7 @@ class FilterMonitor:
         self.records.append(record)
         if status != "lost" or not self.config.recover:
             return None
-        far = np.isfinite(d) and d * d > _chi2_isf(self.config.p_lost, 1)
+        far = np.isfinite(d) and d * d > chi2_isf(self.config.p_lost, 1)
         fixes, self._epoch_fixes = self._epoch_fixes or self.fixes, None
         if far and j is None and self.fix_at is not None:   # solved now, for the restart
             fixes = self.fix_at(time_s)
@@ -352,7 +307,7 @@ class FilterMonitor:
         `MonitorConfig.min_fix_sigma_m`; `TrackFixes.off_track`): a receiver's jump, not a
         position on the track, neither tested against the filter nor restarted from."""
         if j is None or not fixes.off_track(j, floor_m=self.config.min_fix_sigma_m,
-                                            gate_sigma=_lost_gate(self.config.p_lost)):
+                                            gate_sigma=sigma_gate(self.config.p_lost)):
             return j
         return None
 
@@ -374,7 +329,7 @@ class FilterMonitor:
         followed), and the filter's σ, built as if they were independent, too small."""
         d2 = self._small[self._small.size - self._n_small:]
         d2 = d2[np.isfinite(d2)]
-        return _chi2_cdf(float(np.add.reduce(d2)), int(d2.size))
+        return chi2_cdf(float(np.add.reduce(d2)), int(d2.size))
 
     def _status(self) -> tuple[str, dict]:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first

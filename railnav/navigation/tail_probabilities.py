@@ -1,0 +1,59 @@
+"""Tail probabilities of the divergence monitor's tests (`railnav.navigation.monitor`,
+`railnav.navigation.network_status`): χ² and binomial, through `scipy.special`'s ufuncs,
+imported at the first call, with scalar paths that avoid NumPy's array calls (an epoch's
+test calls them 5-6 times).
+"""
+from __future__ import annotations
+
+import math
+from functools import cache
+
+import numpy as np
+
+__all__ = ["binom_sf", "chi2_cdf", "chi2_isf", "chi2_sf", "sigma_gate"]
+
+
+@cache
+def _special():
+    """`scipy.special`, imported at the first test, not with this module (its imports stay
+    free of SciPy, as the start-up wants: ``tests/railnav/commands/test_cli_startup.py``); a
+    ``from scipy.special import`` in each function cost ~2 µs a call, 5-6 calls an epoch."""
+    import scipy.special
+    return scipy.special
+
+
+def chi2_cdf(value: float, dof: float) -> float:
+    """Lower χ² tail ``P(χ²_dof ≤ value)``, 1 where ``dof <= 0``."""
+    return float(_special().chdtr(dof, value)) if dof > 0 else 1.0
+
+
+def chi2_isf(p: float, dof: int) -> float:
+    """The χ² quantile with upper tail `p`."""
+    return float(_special().chdtri(dof, p))
+
+
+@cache
+def sigma_gate(p: float) -> float:
+    """The χ²₁ quantile of `p` as a number of σ (4.89 at 1e-6)."""
+    return math.sqrt(chi2_isf(p, 1))
+
+
+def binom_sf(k, n, p):
+    """``P(X ≥ k)``, ``X ~ Binomial(n, p)``, 1 where ``k <= 0``: a float for scalar `k`
+    (an epoch's test, without NumPy's array calls), else elementwise, an array (the
+    network run's records, `railnav.navigation.network_status`)."""
+    bdtrc = _special().bdtrc
+    if isinstance(k, int) or np.ndim(k) == 0:
+        return 1.0 if k <= 0 else float(bdtrc(k - 1, n, p))
+    k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
+    return np.where(k > 0, bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
+
+
+def chi2_sf(values, dofs):
+    """Upper χ² tails ``P(χ²_dof > value)``, 1 where ``dof <= 0``: a float for a scalar
+    `values` (an epoch's test, without NumPy's array calls), else elementwise, an array
+    (one call of SciPy's ufunc for all; each element the bits of a call of its own)."""
+    chdtrc = _special().chdtrc
+    if isinstance(values, float) or np.ndim(values) == 0:
+        return float(chdtrc(dofs, values)) if dofs > 0 else 1.0
+    return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
