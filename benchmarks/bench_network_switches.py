@@ -23,6 +23,8 @@ Figures, over all seeds:
 * **not-ok epochs**: the epochs beyond each run's first `START_EPOCHS` whose ``status``
   (`railnav.navigation.network_status`) is not ``ok``, and their times (the start's
   first epochs are the spawn test's own settling);
+* **z of s**: the most probable hypothesis's along-track error (against the truth's
+  position) over its σ_s: the largest |z| and the epochs with |z| > 3;
 * **spawns**: hypotheses started from the epochs' single-point fixes when none agreed
   (`railnav.navigation.spawning`; every one of them a false alarm here, the start is
   right).
@@ -87,6 +89,7 @@ def _run(net, spec, seed: int) -> dict:
     sure_wrong = (~right) & (cyc["netelement_probability"].to_numpy() >= 0.99)
     status = res.estimates["status"].to_numpy(dtype=object)[START_EPOCHS:]
     not_ok = status != "ok"
+    z = run.outcome.errors.along_track_m / res.estimates["sigma_s_m"].to_numpy()
     route = [e for e in res.route_frame()["netelement"]]
     true = [e for e, _ in legs]
     ways = [(true[2 * k + 1], route[2 * k + 1] if 2 * k + 1 < len(route) else None)
@@ -102,6 +105,8 @@ def _run(net, spec, seed: int) -> dict:
             "spawns": len(res.spawns),
             "not_ok_epochs": int(not_ok.sum()),
             "not_ok_times_s": [float(v) for v in res.time_s[START_EPOCHS:][not_ok]],
+            "max_abs_z_s": float(np.nanmax(np.abs(z))),
+            "beyond_3sigma_epochs": int(np.sum(np.abs(z) > 3.0)),
             "hypotheses_median": float(cyc["hypotheses"].median()),
             "wall_s": wall, "trip_s": float(scenario.duration_s)}
 
@@ -125,7 +130,7 @@ def main(argv=None) -> int:
                                                    "cycles_after_settle", "switches",
                                                    "switches_right",
                                                    "confidently_wrong_cycles", "spawns",
-                                                   "not_ok_epochs")}
+                                                   "not_ok_epochs", "beyond_3sigma_epochs")}
     out = {"network": {"loops": spec.loops, "switches": 2 * spec.loops,
                        "spacing_m": spec.spacing_m, "turnout_radius_m": spec.turnout_radius_m,
                        "elements": len(net.elements)},
