@@ -194,7 +194,7 @@ def across_a_step(grid, s_m: Array, *, sigma_s_m: float, interval_m: float) -> A
 
 
 def blend_parameters(grid, params: Array, rows: Array, *, s_m: Array, sigma_s_m: Array,
-                         speed_mps: float, interval_m: float) -> tuple[Array, Array]:
+                     speed_mps: float, interval_m: float) -> tuple[Array, Array]:
     """The blend's linearization of `rows` over each one's own ``N(s_m, sigma_s_m²)``
     (`railnav.filters.step_blend`: the filter's prior at that sample).
 

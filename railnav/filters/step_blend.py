@@ -37,10 +37,14 @@ taken from each sample's own, shrinking, σ_s, a run of samples still short of t
 (seed 5, 254.37 s: z 28, the status ``degraded`` for 12 s).
 
 **Tried and not kept: posterior linearization** (García-Fernández et al. 2015: each
-sample's line regressed again over its posterior, two more times). On seeds 1, 7 and 9 it
-gave 25 not-``ok`` epochs where this gives 1: a truncation ("not past the step yet")
-taken as a Gaussian posterior is narrow near the step, the ramp's slope over it large,
-and the iterated rows collapsed σ_s (seed 9, 274.37 s: 0.41 → 0.009 m, error 0.21 m).
+sample's line regressed again over the posterior it gave, from the same prior). Seeds 1,
+5, 7, 9 of the switch network: epochs beyond 3σ_s 0 (max |z| 2.9) at the prior only, 4
+(3.6) with one posterior pass, 6 (8.9) with two; a whole cycle re-run over the previous
+run's posteriors (``T_c`` from each sample's σ_s) gave 23 not-``ok`` epochs over ten seeds
+where this gives 4. A
+truncation ("not past the step yet") taken as a Gaussian posterior is narrow next to the
+step, the ramp's regression over it steep, and the re-fitted rows collapse σ_s where the
+truth is not.
 """
 from __future__ import annotations
 
@@ -131,29 +135,30 @@ def relinearized(filt, series: InputSeries, trial, prior: tuple[Array, Array]
                  ) -> InputSeries:
     """The run `series` of `filt`'s latest inputs with each straddling sample's blend
     regressed over the filter's prior at that sample (module docstring); `series` itself
-    when there is none (or no ``filt.refit``).
+    when there is none (or no ``filt.step_blend``).
 
     Parameters
     ----------
     filt : railnav.filters.protocol.Filter
-        With a `StepBlend` as ``filt.refit`` (else nothing is done).
+        With a `StepBlend` as ``filt.step_blend`` (else nothing is done).
     series : InputSeries
         The run's samples, shaped for the engine (`ekf.InputSeries.shaped`), the first
         at the prior: the filter's latest ``inputs`` (any allowance the driver adds to
         ``r_c`` included).
     trial : callable
         ``trial(x, P_packed, samples) -> StepOutputs``: the steps of `samples` (an
-        `InputSeries`) from the prior ``(x, P_packed)`` at their first sample.
+        `InputSeries`) from the prior ``(x, P_packed)`` at their first sample
+        (`ekf.CdFilter.steps_from`).
     prior : (ndarray (n,), ndarray (n(n+1)/2,))
         The state and packed covariance at ``series.t[0]``.
     """
-    refit = getattr(filt, "refit", None)
-    if refit is None or not refit.pending:
+    blend = getattr(filt, "step_blend", None)
+    if blend is None or not blend.pending:
         return series
-    steps = refit.steps(series.t[:-1])
+    steps = blend.steps(series.t[:-1])
     if not steps:
         return series
-    i_s = refit.i_s
+    i_s = blend.i_s
     p, r_c = series.p.copy(), series.r_c.copy()
     (x, P), start = prior, 0
     for k, sample in steps:
@@ -162,6 +167,6 @@ def relinearized(filt, series: InputSeries, trial, prior: tuple[Array, Array]
                                       r_c=r_c[start:k + 1]))
             x, P, start = out.x_next[-1], out.P_next[-1], k
         sigma = float(np.sqrt(max(unpack_sym(P)[i_s, i_s], 0.0)))
-        p[k], delta = refit.line(sample, s_m=float(x[i_s]), sigma_s_m=sigma)
+        p[k], delta = blend.line(sample, s_m=float(x[i_s]), sigma_s_m=sigma)
         r_c[k] = series.r_c[k] + delta
     return replace(series, p=p, r_c=r_c)

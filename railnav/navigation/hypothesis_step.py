@@ -168,8 +168,8 @@ def _relinearized(engine, h, series: InputSeries) -> InputSeries:
     their own priors (`railnav.filters.step_blend.relinearized`: trial steps through
     the engine's propagator from `h`'s prior, the engine's own state left alone);
     `series` itself when it has none."""
-    refit = getattr(h.filt, "refit", None)
-    if series.r_c is None or refit is None or not refit.pending:
+    blend = getattr(h.filt, "step_blend", None)
+    if series.r_c is None or blend is None or not blend.pending:
         return series
     m = engine.model
     return relinearized(h.filt, series.shaped(m.n_u, m.n_p, m.n_c, m.n_w),

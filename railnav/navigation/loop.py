@@ -140,8 +140,8 @@ class ChunkLoop:
         """`chunk` with its samples across a curvature step linearized over their
         own priors (`railnav.filters.step_blend.relinearized`, trial steps from the
         engine's state); `chunk` itself when it has none."""
-        refit = getattr(self.filt, "refit", None)
-        if refit is None or not refit.pending:
+        blend = getattr(self.filt, "step_blend", None)
+        if blend is None or not blend.pending:
             return chunk
         engine = self.engine
         steps = engine.steps_of(chunk)
