@@ -3,7 +3,7 @@ each epoch, on a double line with passing loops.
 
 Usage::
 
-    python benchmarks/bench_network_switches.py [--seeds 10] [--loops 10]
+    python benchmarks/bench_network_switches.py [--seeds 10] [--loops 10] [--only 9 ...]
 
 The network is `railnav.simulation.switch_network` (double line A/B 4.5 m apart, a
 passing loop 4.5 m to the right of A at each of ``--loops`` places: two switches each,
@@ -20,6 +20,11 @@ Figures, over all seeds:
   the true one (issue 13: ≥ 99.5 %, Heirich 2016: 97.2 % of switch ways, 99.3 % track-
   selective); also without the first 10 s (the start between A and B) and how many
   cycles gave P >= 0.99 to a wrong netelement;
+* **not-ok epochs**: the epochs beyond each run's first `START_EPOCHS` whose ``status``
+  (`railnav.navigation.network_status`) is not ``ok``, and their times (the start's
+  first epochs are the spawn test's own settling);
+* **z of s**: the most probable hypothesis's along-track error (against the truth's
+  position) over its σ_s: the largest |z| and the epochs with |z| > 3;
 * **spawns**: hypotheses started from the epochs' single-point fixes when none agreed
   (`railnav.navigation.spawning`; every one of them a false alarm here, the start is
   right).
@@ -60,6 +65,8 @@ SPEED_MPS = 20.0
 START_S_M, END_MARGIN_M = 50.0, 100.0
 #: The start's ambiguity between A and B is left out of the second per-epoch figure, s.
 SETTLE_S = 10.0
+#: The not-ok count leaves out each run's first this many epochs.
+START_EPOCHS = 4
 
 
 def _run(net, spec, seed: int) -> dict:
@@ -80,6 +87,9 @@ def _run(net, spec, seed: int) -> dict:
     right = cyc["netelement"].to_numpy() == truth
     late = res.time_s > SETTLE_S
     sure_wrong = (~right) & (cyc["netelement_probability"].to_numpy() >= 0.99)
+    status = res.estimates["status"].to_numpy(dtype=object)[START_EPOCHS:]
+    not_ok = status != "ok"
+    z = run.outcome.errors.along_track_m / res.estimates["sigma_s_m"].to_numpy()
     route = [e for e in res.route_frame()["netelement"]]
     true = [e for e, _ in legs]
     ways = [(true[2 * k + 1], route[2 * k + 1] if 2 * k + 1 < len(route) else None)
@@ -93,6 +103,10 @@ def _run(net, spec, seed: int) -> dict:
             "switches_right": 2 * sum(t == r for t, r in ways),
             "route_right": route == true, "hypotheses_max": int(cyc["hypotheses"].max()),
             "spawns": len(res.spawns),
+            "not_ok_epochs": int(not_ok.sum()),
+            "not_ok_times_s": [float(v) for v in res.time_s[START_EPOCHS:][not_ok]],
+            "max_abs_z_s": float(np.nanmax(np.abs(z))),
+            "beyond_3sigma_epochs": int(np.sum(np.abs(z) > 3.0)),
             "hypotheses_median": float(cyc["hypotheses"].median()),
             "wall_s": wall, "trip_s": float(scenario.duration_s)}
 
@@ -101,18 +115,22 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=10)
     parser.add_argument("--loops", type=int, default=10)
+    parser.add_argument("--only", type=int, nargs="+", default=None,
+                        help="run these seeds only (default: 1 .. --seeds)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
     spec = SwitchNetworkSpec(loops=args.loops)
     net = switch_network(spec)
     load_before = os.getloadavg()
-    runs = [_run(net, spec, seed) for seed in range(1, args.seeds + 1)]
+    seeds = args.only if args.only else range(1, args.seeds + 1)
+    runs = [_run(net, spec, seed) for seed in seeds]
     total = {k: sum(r[k] for r in runs) for k in ("cycles", "netelement_right",
                                                    "netelement_right_after_settle",
                                                    "cycles_after_settle", "switches",
                                                    "switches_right",
-                                                   "confidently_wrong_cycles", "spawns")}
+                                                   "confidently_wrong_cycles", "spawns",
+                                                   "not_ok_epochs", "beyond_3sigma_epochs")}
     out = {"network": {"loops": spec.loops, "switches": 2 * spec.loops,
                        "spacing_m": spec.spacing_m, "turnout_radius_m": spec.turnout_radius_m,
                        "elements": len(net.elements)},
@@ -125,11 +143,11 @@ def main(argv=None) -> int:
                        "load_average_before": load_before,
                        "load_average_after": os.getloadavg()}}
     atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
-    print(f"{args.seeds} seeds x {2 * spec.loops} switches: switches right "
+    print(f"{len(runs)} seeds x {2 * spec.loops} switches: switches right "
           f"{out['share_switches_right']:.4f}, per-epoch netelement right "
           f"{out['share_netelement_right']:.4f} ({out['share_netelement_right_after_settle']:.4f}"
           f" after {SETTLE_S:g} s), confidently wrong cycles {total['confidently_wrong_cycles']}"
-          f", spawns {total['spawns']}; {sum(r['wall_s'] for r in runs):.0f} s")
+          f", spawns {total['spawns']}, not-ok epochs {total['not_ok_epochs']}; {sum(r['wall_s'] for r in runs):.0f} s")
     return 0
 
 
