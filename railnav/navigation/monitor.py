@@ -2,9 +2,9 @@ r"""Divergence monitor: is a filter still consistent with its data, and what to 
 
 `FilterMonitor` watches one track-based filter (states ``s``, ``v``) epoch by epoch while it
 runs (`railnav.navigation.loop.ChunkLoop.monitored`) and gives each measurement epoch a
-status, ``ok``, ``degraded`` or ``lost``, from four windowed tests over the last
-`MonitorConfig.window_epochs` epochs. Each is a tail probability of a χ² (or binomial)
-statistic that is exact when the filter's σ are right:
+status, ``ok``, ``degraded`` or ``lost``, from windowed tests over the last
+`MonitorConfig.window_epochs` epochs and one of the epoch alone. Each is a tail
+probability of a χ² (or binomial) statistic that is exact when the filter's σ are right:
 
 * **GNSS NIS**: the sum of the accepted rows' ``ν_i²/S_ii`` against χ² with one degree of
   freedom per row;
@@ -15,10 +15,9 @@ statistic that is exact when the filter's σ are right:
   measurements); ``Σ d²`` against χ²ₙ and the signed mean, ``(Σ d)²/n`` against χ²₁ (a
   filter off by a steady offset), the smaller tail doubled (Bonferroni). The fix is the
   epoch's own position rows (pseudoranges, or a fix's position rows) solved alone on the
-  track, linearised at the prior (`railnav.navigation.track_fixes.snapshot_fix`: no extra
-  satellite computation, and no projection of a fix on the whole track, which put fixes
-  on the wrong pass of a circle driven round three times and said ``lost`` on 160 of 280
-  epochs of a consistent run). Where the filter's fault screen kept some of those rows out
+  track, linearised at the prior (`railnav.navigation.track_fixes.snapshot_fix`; a fix
+  projected on the whole track, on the wrong pass of a ring, said ``lost`` on 160 of 280
+  consistent epochs). Where the filter's fault screen kept some of those rows out
   of the update (a choice made at the prior, so the rows left are not independent of it),
   the fix is instead the run's position fix of the epoch (`track_fixes.fix_log_track_fixes`)
   or the receiver's single-point fix of that epoch, solved then (`track_fixes.spp_fix_at`),
@@ -27,6 +26,10 @@ statistic that is exact when the filter's σ are right:
   (`railnav.filters.code_bias.apparent_variance`);
 * **pseudo-observation NIS**: the continuous (accelerometer) pseudo-observation's NIS
   summed over the window's steps against χ² with its total dimension;
+* **a whole kind rejected** (``p_kind_rejected``, this epoch): where all (≥ 4) range rates,
+  or pseudoranges, fail the fault screen's row gate at the prior, their NIS less one
+  common offset (a receiver clock step) against χ²_{m−1} (`railnav.navigation.kind_rejection`:
+  six range rates rejected at 56σ had left the rejected-row test at p = 1);
 * **fix disagreement too small** (``p_fix_small``, ``degraded`` only): the lower χ² tail of
   ``Σ d²`` over the last `MonitorConfig.small_window_epochs` epochs, with the fixes' own σ
   (not floored). Fixes that agree with the filter far better than both their σ say are
@@ -34,19 +37,18 @@ statistic that is exact when the filter's σ are right:
   were independent and too small. On the urban drive this is what flags the fix-based
   filter's steady 2-5 m along-track errors at σ_s 0.6 m (leg 1: 134 of 157 such epochs
   unflagged without it, 7 with it); on the consistent simulations it adds no alarm.
-  It is off for a filter that inflates its
-  rows for correlated errors (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real
-  data, its pseudoranges, and its code fixes with ``FixModelConfig.correlated_code_errors``:
-  `fix_inflation`): there its fixes are correlated with it
-  by the filter's own model, and the test fired on every epoch (the fix-based filter
-  ``degraded`` on 406 of 407 epochs of leg 1 once its fixes were inflated).
+  It is off for a filter that inflates its rows for correlated errors
+  (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real data, its pseudoranges, and
+  its code fixes with ``FixModelConfig.correlated_code_errors``: `fix_inflation`): there
+  its fixes are correlated with it by the filter's own model, and the test fired on every
+  epoch (the fix-based filter ``degraded`` on 406 of 407 epochs of leg 1, fixes inflated).
 
 Thresholds: a test *fails at level p* when its tail probability is below ``p``. The status is
-``lost`` when the fix-disagreement test fails at `MonitorConfig.p_lost` (default 1e-6), or
-the rejected-row test does and at least `MonitorConfig.lost_rejected_share` of the window's
-rows were rejected, ``degraded`` when any test fails at `MonitorConfig.p_degraded` (1e-3),
-else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 5·p_degraded per epoch
-(five tests), false ``lost`` ≤ 2·p_lost; the windows overlap, so alarms come in runs.
+``lost`` when the fix-disagreement or whole-kind test fails at `MonitorConfig.p_lost`
+(1e-6), or the rejected-row test does and at least `MonitorConfig.lost_rejected_share` of the
+window's rows were rejected, ``degraded`` when any test fails at `MonitorConfig.p_degraded`
+(1e-3), else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 7·p_degraded
+per epoch (two kinds), false ``lost`` ≤ 4·p_lost; the windows overlap: alarms come in runs.
 
 Recovery (`MonitorConfig.recover`): when ``lost`` and this epoch's fix alone disagrees
 beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at 1e-6), ``s`` (and ``v`` where
@@ -68,10 +70,9 @@ cross-track σ (floored at `MonitorConfig.min_fix_sigma_m`; `TrackFixes.off_trac
 position on this track (a receiver's jump: log 29083 of the Brussels logs jumps 90-200 m
 off it): the monitor neither tests the filter against it nor restarts from it.
 
-Real-data caveat: urban SPP errors are correlated from epoch to epoch (multipath), so the
-fix-disagreement statistic is heavier-tailed than χ²ₙ; the fix σ are floored at
-`MonitorConfig.min_fix_sigma_m`. The figures on the urban drive are in
-``benchmarks/results/real_pieces.json``.
+Real-data caveat: urban SPP errors are correlated from epoch to epoch (multipath): the fix
+test is heavier-tailed than χ²ₙ; the fix σ are floored at `MonitorConfig.min_fix_sigma_m`.
+The figures on the urban drive are in ``benchmarks/results/real_pieces.json``.
 """
 from __future__ import annotations
 
@@ -86,6 +87,7 @@ import pandas as pd
 from railnav.filters.code_bias import apparent_variance
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
+from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
@@ -113,17 +115,13 @@ class MonitorConfig:
     p_degraded, p_lost : float
         Tail probabilities below which a test flags ``degraded`` / ``lost``.
     recover : bool
-        Re-initialise (or widen) when ``lost``. On by default (``railnav run
-        --no-recover``: off). It was off while a consistent 100 m/s run round R = 100 m
-        (`tests/railnav/filters/test_rate_step_joint.py`) said ``lost`` on 160 of 280 epochs
-        (restarts took the NEES from 7.6 to 7.8e8); that cause (single-point fixes
-        projected on the wrong pass of the circle) is fixed (module docstring). Measured
-        since: no ``lost`` epoch in any of `benchmarks/bench_consistency.py`'s ten
-        simulated cases (10 seeds each, 4 for a 10-h trip: ~6e5 epochs,
-        ``consistency.json``'s status counts), so recovery changes none of them, nor any
-        piece of the real urban drive (``real_pieces.json``: 0 lost, 0 recoveries); a
-        filter that does get lost (a MEMS IMU told it is navigation grade) is restarted
-        instead of ending 1 km off (`tests/railnav/commands/test_cli_attitude.py`).
+        Re-initialise (or widen) when ``lost``; on by default (``railnav run
+        --no-recover``: off). No ``lost`` epoch in `benchmarks/bench_consistency.py`'s ten
+        simulated cases (``consistency.json``) nor on the urban drive
+        (``real_pieces.json``); a filter that does get lost (a MEMS IMU told it is
+        navigation grade) is restarted instead of ending 1 km off
+        (`tests/railnav/commands/test_cli_attitude.py`). (It was off while fixes projected
+        on the wrong pass of a ring said ``lost`` on 160 of 280 consistent epochs.)
     lost_rejected_share : float
         The rejected-row test says ``lost`` only when at least this share of the window's
         rows was rejected (fewer: the rows, not the prior, are bad: multipath).
@@ -189,6 +187,8 @@ class FilterMonitor:
         self.pseudorange_inflation = float(pseudorange_inflation)
         self.fix_at, self.screen = fix_at, screen
         self._screened = None if screen is None or not screen.epochs else screen.epochs[-1]
+        self._gate = getattr(getattr(screen, "config", None), "nis_threshold", None)
+        self._kind_tail = 1.0                  # this epoch's whole-kind test (`_screened_out`)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
         self.p_reject = None if gate_probability is None else 1.0 - gate_probability
         self._prior: tuple[float, float, float] | None = None
@@ -227,6 +227,8 @@ class FilterMonitor:
         if last is None or last is self._screened:     # the screen did not run this epoch
             return False
         self._screened = last
+        if self._gate is not None:
+            self._kind_tail = kind_rejected_tail(last, self._gate)
         out_rows = ~last.used
         if not out_rows.any():                 # every row used: none out (SCREENED_MIN_ROWS)
             return False
@@ -256,6 +258,7 @@ class FilterMonitor:
         d = np.nan
         j = None if self.fixes is None else self.fixes.at(time_s)
         snapshot, self._snapshot = self._snapshot, None
+        kind_tail, self._kind_tail = self._kind_tail, 1.0
         d_raw = np.nan
         if snapshot is not None:                       # this epoch's own rows, on the track
             ds, var_fix, white = snapshot
@@ -283,7 +286,7 @@ class FilterMonitor:
                    int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
                    if chunk.innov_c.ndim == 2 else 0, d, small=d_raw * d_raw)
         self._seen += 1
-        status, tails = self._status()
+        status, tails = self._status(kind_tail)
         record = {"time_s": time_s, "status": status, **tails,
                   "sigma_s_prior_m": float(np.sqrt(var_prior)), "action": ""}
         self.records.append(record)
@@ -331,7 +334,7 @@ class FilterMonitor:
         d2 = d2[np.isfinite(d2)]
         return chi2_cdf(float(np.add.reduce(d2)), int(d2.size))
 
-    def _status(self) -> tuple[str, dict]:
+    def _status(self, kind_tail: float) -> tuple[str, dict]:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
         # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers;
         # Python floats after, each the float64 it was)
@@ -352,14 +355,15 @@ class FilterMonitor:
                  "p_fix": p_fix,
                  "p_pseudo_nis": chi2_sf(nisc, nisc_dof),
                  "p_fix_small": self._small_tail(),
+                 "p_kind_rejected": kind_tail,
                  "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
                  "variance_factor": d2_sum / n_have if n_have else np.nan}
         cfg = self.config
-        if p_fix < cfg.p_lost or (p_rejected < cfg.p_lost
-                                  and rejected_share >= cfg.lost_rejected_share):
+        if min(p_fix, kind_tail) < cfg.p_lost or (
+                p_rejected < cfg.p_lost and rejected_share >= cfg.lost_rejected_share):
             return "lost", tails
-        if min(tails["p_gnss_nis"], p_rejected, p_fix, tails["p_pseudo_nis"],
-               tails["p_fix_small"]) < cfg.p_degraded or self._seen < cfg.min_epochs:
+        if min(tails["p_gnss_nis"], p_rejected, p_fix, tails["p_pseudo_nis"], tails[
+                "p_fix_small"], kind_tail) < cfg.p_degraded or self._seen < cfg.min_epochs:
             return "degraded", tails
         return "ok", tails
 
@@ -405,7 +409,7 @@ class FilterMonitor:
         σ_s and the recovery ``action`` (``reinit``, ``widen`` or empty)."""
         return pd.DataFrame.from_records(self.records, columns=[
             "time_s", "status", "p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
-            "p_fix_small",
+            "p_fix_small", "p_kind_rejected",
             "fix_disagreement_sigma", "variance_factor", "sigma_s_prior_m", "action"])
 
 

@@ -303,6 +303,45 @@ def test_a_restart_on_a_ring_stays_on_the_filters_lap():
 
 
 
+def test_a_speed_far_off_is_lost_at_once_by_its_range_rates(paper_track, monkeypatch):
+    """Issue 14 (the ring of stop 34: all six range rates rejected at 56σ, the monitor
+    ``degraded`` only, its rejected-row test counting the window's rows of all kinds):
+    a converged paper2017 filter (σ_v 0.09 m/s at 15 s) whose speed is set 50 m/s off
+    after the 15-s update (through the loop's state-replacement path, as a restart;
+    recovery off). At the next epoch every range rate fails the screen's row gate while
+    the pseudoranges pass and the fix test does not fire (p_fix 1 at 16 s): the
+    whole-kind test says ``lost`` there (c64c01c: ``degraded`` from 16 s to 21 s, the
+    fix test's first ``lost`` later)."""
+    sc = _scenario(20.0)
+    config = navigator_config_for(sc)
+    config = replace(config, monitor=replace(config.monitor, recover=False))
+    epoch, seen = FilterMonitor.epoch, {}
+
+    def injected(self, chunk, x, P):
+        time_s = self._prior[0] if self._prior is not None else None
+        out = epoch(self, chunk, x, P)
+        if time_s == 15.0:
+            x = x.copy()
+            x[self.i_v] += 50.0
+            seen["sigma_v"] = float(np.sqrt(P[self.i_v, self.i_v]))
+            return x, P
+        if time_s == 16.0:
+            seen["screened"] = self.screen.epochs[-1]
+        return out
+    monkeypatch.setattr(FilterMonitor, "epoch", injected)
+    out = run_simulated(paper_track, sc, config=config, seed=1)
+    mon = out.result.monitor.set_index("time_s")
+    assert seen["sigma_v"] < 0.2                              # 50 m/s: > 250σ off
+    assert (mon.loc[:15.0, "status"] != "lost").all()
+    assert mon.loc[16.0, "status"] == "lost"
+    screened = seen["screened"]
+    z2 = np.asarray(screened.innov) ** 2 / np.diagonal(screened.S)
+    doppler = np.array([k.endswith("/range_rate") for k in screened.keys])
+    assert doppler.sum() >= 4
+    assert (z2[doppler] > stats.chi2.isf(1.9e-4, 1)).all()     # every range rate fails
+    assert mon.loc[16.0, "p_fix"] > 1e-3                        # the fix test does not
+
+
 # --- the monitor's windows against a plain recomputation on real runs -----------------
 
 def _epoch_inputs(monkeypatch, paper_track, scenario, config):
@@ -321,6 +360,8 @@ def _epoch_inputs(monkeypatch, paper_track, scenario, config):
 
     def recording_epoch(self, chunk, x, P):
         prior, snapshot = self._prior, self._snapshot
+        screened = self._screened               # the screen's epoch (None: no screen)
+        fresh = screened is not None and all(screened is not e["screened"] for e in inputs[-1:])
         n_records = len(self.records)
         out = epoch(self, chunk, x, P)
         if len(self.records) > n_records:
@@ -330,7 +371,9 @@ def _epoch_inputs(monkeypatch, paper_track, scenario, config):
                                S=chunk.s_d.copy(), accepted=np.asarray(chunk.accepted),
                                nis_c=float(chunk.nis_c_sum), nis_c_dof=pseudo_dof,
                                record=dict(self.records[-1]), config=self.config,
-                               p_reject=self.p_reject))
+                               p_reject=self.p_reject, screened=screened,
+                               kind=screened if fresh else None,
+                               gate=self.screen.config.nis_threshold if fresh else None))
         return out
 
     monkeypatch.setattr(FilterMonitor, "epoch", recording_epoch)
@@ -339,6 +382,27 @@ def _epoch_inputs(monkeypatch, paper_track, scenario, config):
     for e in inputs:
         e["near"] = near.get(e["prior"][0])
     return inputs
+
+
+def _kind_tail(screened, gate):
+    """The whole-kind test the plain way (module docstring of `kind_rejection`): for each
+    of pseudorange / range rate with >= 4 rows all beyond the gate, the χ²_{m−1} tail of
+    ``νᵀS⁻¹ν − (1ᵀS⁻¹ν)²/(1ᵀS⁻¹1)``; the smallest, 1 where none."""
+    if screened is None:
+        return 1.0
+    tail = 1.0
+    kinds = [key.split("/")[-1] for key in screened.keys]
+    for kind in ("pseudorange", "range_rate"):
+        rows = [i for i, k in enumerate(kinds) if k == kind]
+        nu = np.asarray(screened.innov)[rows]
+        S = np.asarray(screened.S)[np.ix_(rows, rows)]
+        if len(rows) < 4 or any(n * n <= gate * S[i, i] for i, n in enumerate(nu)):
+            continue
+        Si = np.linalg.inv(S)
+        one = np.ones(len(rows))
+        residual = nu @ Si @ nu - (one @ Si @ nu) ** 2 / (one @ Si @ one)
+        tail = min(tail, float(stats.chi2.sf(residual, len(rows) - 1)))
+    return tail
 
 
 def _reference_statuses(inputs):
@@ -383,14 +447,16 @@ def _reference_statuses(inputs):
                                sum(w["nis_c_dof"] for w in window)),
             "p_fix_small": float(stats.chi2.cdf(sum(v * v for v in raw), len(raw)))
             if raw else 1.0,
+            "p_kind_rejected": _kind_tail(e["kind"], e["gate"]),
             "fix_disagreement_sigma": abs(d) if np.isfinite(d) else np.nan,
             "variance_factor": sum(v * v for v in ds_) / len(ds_) if ds_ else np.nan}
         share = n_rej / (n_acc + n_rej) if n_acc + n_rej else 0.0
-        if tails["p_fix"] < cfg.p_lost or (tails["p_rejected"] < cfg.p_lost
-                                           and share >= cfg.lost_rejected_share):
+        if min(tails["p_fix"], tails["p_kind_rejected"]) < cfg.p_lost or (
+                tails["p_rejected"] < cfg.p_lost and share >= cfg.lost_rejected_share):
             status = "lost"
         elif min(tails[k] for k in ("p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
-                                    "p_fix_small")) < cfg.p_degraded or seen < cfg.min_epochs:
+                                    "p_fix_small", "p_kind_rejected")
+                 ) < cfg.p_degraded or seen < cfg.min_epochs:
             status = "degraded"
         else:
             status = "ok"
