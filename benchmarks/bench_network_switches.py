@@ -4,6 +4,7 @@ each epoch, on a double line with passing loops.
 Usage::
 
     python benchmarks/bench_network_switches.py [--seeds 10] [--loops 10] [--only 9 ...]
+                                                [--single-track]
 
 The network is `railnav.simulation.switch_network` (double line A/B 4.5 m apart, a
 passing loop 4.5 m to the right of A at each of ``--loops`` places: two switches each,
@@ -29,6 +30,12 @@ Figures, over all seeds:
   (`railnav.navigation.spawning`; every one of them a false alarm here, the start is
   right).
 
+``--single-track`` adds, per seed, the epochs beyond 3σ_s (and their times) of the
+network run and of one constrained filter told the route: the same trip on the route's
+line (`railnav.jobs.run.run_simulated`, the same seed, sensors and start draw), scored at
+the network run's epochs. An event in both is the filter's, not the network's
+(`docs/consistency-ablations.md`, stop 34, s34seed2).
+
 Writes ``benchmarks/results/network_switches.json``.
 """
 from __future__ import annotations
@@ -49,6 +56,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from railnav.jobs.network import run_simulated_network, true_netelements  # noqa: E402
+from railnav.jobs.run import run_simulated  # noqa: E402
 from railnav.simulation.profiles import constant_speed  # noqa: E402
 from railnav.simulation.scenarios import get_scenario  # noqa: E402
 from railnav.simulation.switch_network import (  # noqa: E402
@@ -69,7 +77,26 @@ SETTLE_S = 10.0
 START_EPOCHS = 4
 
 
-def _run(net, spec, seed: int) -> dict:
+def _beyond_3sigma(z, time_s) -> dict:
+    """The epochs whose along-track z (error over σ_s) is beyond 3, and the largest |z|."""
+    beyond = np.abs(z) > 3.0
+    return {"max_abs_z_s": float(np.nanmax(np.abs(z))), "beyond_3sigma_epochs": int(beyond.sum()),
+            "beyond_3sigma_times_s": [float(v) for v in time_s[beyond]]}
+
+
+def _single_track(line, scenario, seed: int, time_s) -> dict:
+    """`_beyond_3sigma` of one constrained filter on the route's `line` (the network
+    run's trip: same scenario and seed), at those of the network run's epochs `time_s`
+    where it has an estimate (all but the trip's end, which the network run adds)."""
+    single = run_simulated(line, scenario, seed=seed)
+    t = single.errors.time_s
+    k = np.clip(np.searchsorted(t, time_s), 0, t.size - 1)
+    same = np.abs(t[k] - time_s) < 1e-6
+    z = single.errors.along_track_m / single.result.estimates["sigma_s_m"].to_numpy()
+    return _beyond_3sigma(z[k[same]], time_s[same]) | {"epochs_scored": int(same.sum())}
+
+
+def _run(net, spec, seed: int, single_track: bool = False) -> dict:
     rng = np.random.default_rng(1000 + seed)
     takes = [bool(v) for v in rng.integers(0, 2, spec.loops)]
     legs = loop_route(spec, takes)
@@ -78,7 +105,8 @@ def _run(net, spec, seed: int) -> dict:
                        duration_s=(length - START_S_M - END_MARGIN_M) / SPEED_MPS,
                        outages=(), start_s=START_S_M)
     started = time.perf_counter()
-    run = run_simulated_network(net, legs, scenario, line=route_track(net, legs), seed=seed)
+    line = route_track(net, legs)
+    run = run_simulated_network(net, legs, scenario, line=line, seed=seed)
     wall = time.perf_counter() - started
     res = run.network_result
     cyc = res.cycles
@@ -94,7 +122,10 @@ def _run(net, spec, seed: int) -> dict:
     true = [e for e, _ in legs]
     ways = [(true[2 * k + 1], route[2 * k + 1] if 2 * k + 1 < len(route) else None)
             for k in range(spec.loops)]
-    return {"seed": seed, "takes": takes, "cycles": int(len(cyc)),
+    single = ({"network": _beyond_3sigma(z, res.time_s),
+               "single_track": _single_track(line, scenario, seed, res.time_s)}
+              if single_track else {})
+    return single | {"seed": seed, "takes": takes, "cycles": int(len(cyc)),
             "netelement_right": int(right.sum()),
             "netelement_right_after_settle": int(right[late].sum()),
             "cycles_after_settle": int(late.sum()),
@@ -117,6 +148,8 @@ def main(argv=None) -> int:
     parser.add_argument("--loops", type=int, default=10)
     parser.add_argument("--only", type=int, nargs="+", default=None,
                         help="run these seeds only (default: 1 .. --seeds)")
+    parser.add_argument("--single-track", action="store_true",
+                        help="also the epochs beyond 3 sigma_s of one filter told the route")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
@@ -124,7 +157,7 @@ def main(argv=None) -> int:
     net = switch_network(spec)
     load_before = os.getloadavg()
     seeds = args.only if args.only else range(1, args.seeds + 1)
-    runs = [_run(net, spec, seed) for seed in seeds]
+    runs = [_run(net, spec, seed, args.single_track) for seed in seeds]
     total = {k: sum(r[k] for r in runs) for k in ("cycles", "netelement_right",
                                                    "netelement_right_after_settle",
                                                    "cycles_after_settle", "switches",
