@@ -22,6 +22,7 @@ import pandas as pd
 
 from ekf.packing import unpack_sym
 from railnav.errors import ConfigError
+from railnav.filters.track_frame import track_axes_many_n
 from trackmodel.earth import C_n_e, geodetic_to_ecef
 
 __all__ = ["ErrorSeries", "error_series", "summarize", "ERROR_QUANTITIES", "check_trip_times"]
@@ -140,9 +141,8 @@ def error_series(result, truth, track, *, clock_truth=None, known_states=None,
     r_true = geodetic_to_ecef(tr["lat"], tr["lon"], tr["h"], earth=earth)
     e_n = np.einsum("kji,kj->ki", C_n_e(tr["lat"], tr["lon"]), r_est - r_true)
     point = track.at(np.clip(tr["s"], 0.0, track.length_m))
-    A, E = point.azimuth, point.elevation
-    right = np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])
-    up = np.column_stack([-np.sin(E) * np.sin(A), -np.sin(E) * np.cos(A), np.cos(E)])
+    axes = track_axes_many_n(point.azimuth, point.elevation)
+    right, up = axes["cross"], axes["up"]
     nan = np.full(t.size, np.nan)
     att = {}
     for name in ("yaw", "pitch", "roll"):

@@ -1,8 +1,9 @@
 r"""The vehicle's frame on the track, and the lever arms of its sensors in it.
 
-**Track frame** at a point (`track_axes_n`, ENU): ``along`` the unit tangent ``u`` (+s),
-``along_h`` its horizontal direction, ``cross`` horizontal and right of +s, ``left =
-−cross``, ``up`` the up-normal ``[−sinϑ sinA, −sinϑ cosA, cosϑ]`` (ϑ elevation, A azimuth).
+**Track frame** at a point (`track_axes_n`, ENU; `track_axes_many_n` at many): ``along``
+the unit tangent ``u`` (+s), ``along_h`` its horizontal direction, ``cross`` horizontal and
+right of +s, ``left = −cross``, ``up`` the up-normal ``[−sinϑ sinA, −sinϑ cosA, cosϑ]`` (ϑ
+elevation, A azimuth).
 The track has no cant, so the vehicle's forward-left-up frame is this one.
 
 **Lever arms** (`LeverArms`): where the sensors are relative to the vehicle's *reference
@@ -35,8 +36,8 @@ import numpy.typing as npt
 from railnav.errors import ConfigError
 from trackmodel.earth import C_n_e
 
-__all__ = ["track_axes_n", "LeverArms", "antenna_offset_e", "antenna_track_part",
-           "OFFSET_STEP_M", "parse_lever_arm"]
+__all__ = ["track_axes_n", "track_axes_many_n", "LeverArms", "antenna_offset_e",
+           "antenna_track_part", "OFFSET_STEP_M", "parse_lever_arm"]
 
 Array = npt.NDArray[np.float64]
 
@@ -57,6 +58,30 @@ def track_axes_n(point) -> dict[str, Array]:
     return {"along": np.asarray(point.u_n, dtype=float),
             "along_h": np.array([np.sin(A), np.cos(A), 0.0]), "cross": cross, "left": -cross,
             "up": np.array([-np.sin(E) * np.sin(A), -np.sin(E) * np.cos(A), np.cos(E)])}
+
+
+def track_axes_many_n(azimuth_rad, elevation_rad=None) -> dict[str, Array]:
+    """`track_axes_n`'s horizontal axes, and ``up`` when the elevations are given, at many
+    track points, ENU (module docstring).
+
+    Parameters
+    ----------
+    azimuth_rad, elevation_rad : array_like, shape (N,)
+        The points' azimuth and elevation, rad.
+
+    Returns
+    -------
+    dict of str to ndarray (N, 3)
+        ``along_h``, ``cross`` (right of +s), and ``up`` with `elevation_rad`.
+    """
+    A = np.asarray(azimuth_rad, dtype=float)
+    out = {"along_h": np.column_stack([np.sin(A), np.cos(A), np.zeros_like(A)]),
+           "cross": np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])}
+    if elevation_rad is not None:
+        E = np.asarray(elevation_rad, dtype=float)
+        out["up"] = np.column_stack([-np.sin(E) * np.sin(A), -np.sin(E) * np.cos(A),
+                                     np.cos(E)])
+    return out
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import numpy.typing as npt
 from ekf.gating import chi2_threshold
 from railnav.errors import ConfigError, RailnavError
 from railnav.filters.common import scalar_point
-from railnav.filters.fix_rows import track_axes_n
+from railnav.filters.track_frame import track_axes_many_n, track_axes_n
 from railnav.navigation.initialization import GnssFix, InitialState
 from trackmodel.earth import C_n_e
 
@@ -52,9 +52,8 @@ def _offsets(track, fixes, n: int, cfg, first: int = 0):
     part = slice(first, first + n)
     proj = track.project(fixes.lat[part], fixes.lon[part])
     points = track.at(proj.s)
-    A = points.azimuth
-    along_h = np.column_stack([np.sin(A), np.cos(A), np.zeros_like(A)])
-    cross = np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])
+    axes = track_axes_many_n(points.azimuth)
+    along_h, cross = axes["along_h"], axes["cross"]
     cov = fixes.cov_n_m2[part]
     var_along = np.einsum("ki,kij,kj->k", along_h, cov, along_h)
     var_cross = np.einsum("ki,kij,kj->k", cross, cov, cross) + cfg.track_cross_sigma_m ** 2

@@ -20,6 +20,7 @@ from functools import cache
 import numpy as np
 import numpy.typing as npt
 
+from railnav.filters.track_frame import track_axes_many_n
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["FIX_TIME_TOL_S", "TrackFixes", "project_near", "spp_track_fixes", "spp_fix_at",
@@ -82,8 +83,7 @@ class TrackFixes:
         points = track.at(proj.s)
         u = np.asarray(points.u_n, dtype=float).reshape(-1, 3)
         var_s = np.einsum("ki,kij,kj->k", u, cov_enu_m2, u)
-        A = np.asarray(points.azimuth, dtype=float).reshape(-1)
-        cross = np.column_stack([np.cos(A), -np.sin(A), np.zeros_like(A)])
+        cross = track_axes_many_n(np.asarray(points.azimuth, dtype=float).reshape(-1))["cross"]
         var_cross = np.einsum("ki,kij,kj->k", cross, cov_enu_m2, cross)
         if v_enu_mps is None:
             v = sv = np.full(time_s.size, np.nan)
