@@ -188,7 +188,7 @@ class FilterMonitor:
         self.fix_at, self.screen = fix_at, screen
         self._screened = None if screen is None or not screen.epochs else screen.epochs[-1]
         self._gate = getattr(getattr(screen, "config", None), "nis_threshold", None)
-        self._kind_tail = 1.0                  # this epoch's whole-kind test (`_screened_out`)
+        self._kind_tail = 1.0                  # this epoch's whole-kind test (`prior`)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
         self.p_reject = None if gate_probability is None else 1.0 - gate_probability
         self._prior: tuple[float, float, float] | None = None
@@ -209,26 +209,35 @@ class FilterMonitor:
         """The prior of the epoch at `time_s` (before its update), and the rows the filter
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
-        self._snapshot = None if observations is None or self._screened_out() else \
+        last = None if observations is None else self._new_screen_epoch()
+        if last is not None and self._gate is not None:
+            self._kind_tail = kind_rejected_tail(last, self._gate)
+        self._snapshot = None if observations is None or self._screened_out(last) else \
             snapshot_fix(observations, x, self.i_s, self._clock_columns,
                          pseudorange_inflation=self.pseudorange_inflation)
         if self._snapshot is not None and self.i_bias is not None:
             self._prior = self._prior[:2] + (
                 apparent_variance(observations, x, P, self.i_s, self.i_bias),)
 
-    def _screened_out(self) -> bool:
-        """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`)
-        kept `SCREENED_SHARE` of this epoch's position rows (at least `SCREENED_MIN_ROWS`)
-        from the update: its choice was made at the prior, so the rows left are not
-        independent of it (a filter far off keeps the rows that agree with it), and the
-        epoch's fix is then solved from all its data. One satellite left out (its channel
-        excluded over a stretch of epochs) leaves the snapshot to the others."""
+    def _new_screen_epoch(self):
+        """The fault screen's epoch (`railnav.filters.fault_detection.EpochScreen`) if the
+        screen ran since the last call, else None."""
         last = None if self.screen is None or not self.screen.epochs else self.screen.epochs[-1]
         if last is None or last is self._screened:     # the screen did not run this epoch
-            return False
+            return None
         self._screened = last
-        if self._gate is not None:
-            self._kind_tail = kind_rejected_tail(last, self._gate)
+        return last
+
+    def _screened_out(self, last) -> bool:
+        """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`),
+        in its epoch `last` (None: it did not run), kept `SCREENED_SHARE` of this epoch's
+        position rows (at least `SCREENED_MIN_ROWS`) from the update: its choice was made
+        at the prior, so the rows left are not independent of it (a filter far off keeps
+        the rows that agree with it), and the epoch's fix is then solved from all its data.
+        One satellite left out (its channel excluded over a stretch of epochs) leaves the
+        snapshot to the others."""
+        if last is None:
+            return False
         out_rows = ~last.used
         if not out_rows.any():                 # every row used: none out (SCREENED_MIN_ROWS)
             return False
