@@ -1,7 +1,7 @@
 """The along-track force's accelerometer-bias steps as the constrained filter's process
 noise, chunk by chunk (`railnav.filters.constrained.ConstrainedFilter`).
 
-`railnav.filters.scale_noise.AlongForceSteps` is the envelope (what each sample's change of
+`railnav.filters.along_force_steps.AlongForceSteps` is the envelope (what each sample's change of
 the along-track specific force gives the biases, and what a tie takes back);
 `AlongForceNoise` is its bookkeeping against the engine: the low-passed force carried
 across chunks (`smoothed_along_force`), the tie at the first chunk after an epoch, the
@@ -17,7 +17,7 @@ import copy
 import numpy as np
 import numpy.typing as npt
 
-from railnav.filters.scale_noise import AlongForceSteps, smoothed_along_force
+from railnav.filters.along_force_steps import AlongForceSteps, smoothed_along_force
 from strapdown.imu_errors import ImuErrors
 
 __all__ = ["AlongForceNoise", "forces_together"]
@@ -30,7 +30,7 @@ class AlongForceNoise:
 
     Parameters
     ----------
-    steps : railnav.filters.scale_noise.AlongForceSteps
+    steps : railnav.filters.along_force_steps.AlongForceSteps
     i_ax : int
         Index of ``b_ax`` in the state (``b_ay``, ``b_az`` follow).
     bias_noise : sequence of int

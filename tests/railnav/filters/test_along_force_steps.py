@@ -1,5 +1,5 @@
 """The accelerometer biases' step from the along-track specific force
-(`railnav.filters.scale_noise.AlongForceSteps`; issue 14, outage_20min seed 5).
+(`railnav.filters.along_force_steps.AlongForceSteps`; issue 14, outage_20min seed 5).
 
 References: (1) a Monte Carlo of the triad error ``(S + M) Δf`` with ``S``, ``M`` drawn as
 `strapdown.imu_errors` draws them, for ``Δf = (−1, 0, 0)`` m/s² (braking from cruise);
@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from railnav.filters.scale_noise import AlongForceSteps, smoothed_along_force
+from railnav.filters.along_force_steps import AlongForceSteps, smoothed_along_force
 from strapdown.imu_errors import imu_grade
 
 DRAWS = 40_000
