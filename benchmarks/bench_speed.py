@@ -14,6 +14,10 @@ On this machine, in one invocation (the load average is recorded before and afte
 * ``filter_parts``: the CPU of that filter run by component (the compiled step loop,
   epoch preparation, GNSS rows, inputs, fault screen, update, divergence monitor and the
   rest; `_filter_parts`);
+* ``filter_detail``: what is inside those parts and the rest (the track grid, the
+  receiver's track part, the screen's clock-jump test and channel rows, the monitor's
+  own-rows fix and the fixes it solves, the engine's bookkeeping, ...; inclusive CPU,
+  `_filter_parts.DETAIL`);
 * ``numpy_loop``: the plain NumPy EKF of the same size in this process (7 states, a 2-D
   correlated pseudo-measurement at each of the 100 000 steps, 1000 updates of 20 rows;
   `bench_ekf_engine._time_numpy`), the whole loop unless ``--numpy-fraction`` < 1;
@@ -326,7 +330,7 @@ def main(argv: list[str] | None = None) -> dict:
     import bench_ekf_engine  # the plain NumPy loop
     import bench_navigator  # the 2017 trip, the filter timing
     import bench_studies  # the 10-h streamed trip
-    from _filter_parts import paper2017_parts  # the filter's CPU by component
+    from _filter_parts import paper2017_detail, paper2017_parts  # the filter's CPU
     import numpy as np
     if args.quick:
         args.repeats, args.numpy_fraction, args.no_streaming = 1, 0.05, True
@@ -339,6 +343,7 @@ def main(argv: list[str] | None = None) -> dict:
            "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
            "filter": bench_navigator._time_filter(args.repeats),
            "filter_parts": paper2017_parts(args.repeats),
+           "filter_detail": paper2017_detail(args.repeats),
            "stages": _stages(args.repeats)}
     samples, epochs = bench_ekf_engine._scenario(np.random.default_rng(7))
     doc["numpy_loop"] = bench_ekf_engine._time_numpy(samples, epochs, args.numpy_fraction)
@@ -373,6 +378,8 @@ def _print(doc: dict) -> None:
           f"({doc['ratios']['numpy_loop_over_filter']:.1f}x the filter)")
     print("filter parts, CPU     " + ", ".join(f"{k.removesuffix('_s')} {v:.3f}"
                                                 for k, v in doc["filter_parts"].items()))
+    print("  inside (inclusive)  " + ", ".join(f"{k.removesuffix('_s')} {v:.3f}"
+                                                for k, v in doc["filter_detail"].items()))
     if doc["bank"]:
         print(f"bank of 8             {doc['bank']['best_s']:.2f} s = "
               f"{doc['bank']['real_time_factor']:.0f}x")
