@@ -56,6 +56,8 @@ would flag 17 of them but also 118 of the 903 epochs within 3σ_s (corners tight
 the track, the U-turn); the code-bias state against its prior, ``b²/(1 − σ_b²)`` (χ²₁),
 flags none at 1e-3 and 6 (the U-turn's) at 2σ with 2 of the 903. Neither is defined on
 the simulated runs (no heading rows, no code-bias state there). The monitor is unchanged.
+The same 35 one by one, with the rover's own carrier phase as a second reference:
+``bench_unflagged.py`` and ``docs/consistency-ablations.md`` ("Stop 35").
 
 The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.56 m, SPP
 3.82 m): both start at the first fix's slow error (+2.5 / +1.7 m along the track), which
