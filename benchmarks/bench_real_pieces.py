@@ -56,6 +56,8 @@ would flag 17 of them but also 118 of the 903 epochs within 3σ_s (corners tight
 the track, the U-turn); the code-bias state against its prior, ``b²/(1 − σ_b²)`` (χ²₁),
 flags none at 1e-3 and 6 (the U-turn's) at 2σ with 2 of the 903. Neither is defined on
 the simulated runs (no heading rows, no code-bias state there). The monitor is unchanged.
+The same 35 one by one, with the rover's own carrier phase as a second reference:
+``bench_unflagged.py`` and ``docs/consistency-ablations.md`` ("Stop 35").
 
 The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.56 m, SPP
 3.82 m): both start at the first fix's slow error (+2.5 / +1.7 m along the track), which
@@ -134,12 +136,14 @@ import pandas as pd
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
 
+from ekf.packing import diagonal_indices  # noqa: E402
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
 from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
 from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
 from railnav.config import NavigatorConfig, SensorData  # noqa: E402
+from railnav.filters.gnss_only_model import CODE_BIAS_STATE  # noqa: E402
 from railnav.evaluation.spp_accuracy import read_reference_trajectory, spp_errors  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
@@ -209,10 +213,25 @@ def _at_epochs(estimates: pd.DataFrame) -> pd.DataFrame:
     return out.drop_duplicates("gps_time_s", keep="last")
 
 
-def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
-              workdir: Path, config: NavigatorConfig = NavigatorConfig(filter="gnss-only")
-              ) -> dict:
-    """The three solutions on one piece, scored (module docstring)."""
+def _state_columns(result) -> dict:
+    """``s_state_m`` (the state's s as it is: estimates.csv clamps s_m to [0, length], its
+    position is on the track, which hides a filter beyond a piece's start as an error of
+    ~0) and, where the run has the code-bias state, ``code_bias`` and its σ."""
+    names = result.layout.names
+    out = {"s_state_m": result.x[:, names.index("s")]}
+    if CODE_BIAS_STATE in names:
+        i = names.index(CODE_BIAS_STATE)
+        variance = result.P[:, diagonal_indices(len(names))[i]]      # P is packed
+        out.update(code_bias=result.x[:, i], sigma_code_bias=np.sqrt(variance))
+    return out
+
+
+def solve_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
+                workdir: Path, config: NavigatorConfig) -> tuple[dict, dict, tuple]:
+    """The three solutions on one piece (module docstring), unscored: ``solutions``
+    (``spp``, ``gnss-only``, ``fixes``: frames at whole seconds, the filters' with the
+    unclamped state ``s_state_m``), the two filters' `railnav.NavigationResult` s, and the
+    piece's ``(t0, t1)`` GPS seconds."""
     times = reference["gps_time_s"].to_numpy()[piece["rows"]]
     t0, t1 = float(times[0]), float(times[-1])
     table = obs.table
@@ -226,11 +245,18 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
     for name, data in (("gnss-only", SensorData(start_gps_time_s=t0, obs=piece_obs, nav=nav)),
                        ("fixes", SensorData(start_gps_time_s=t0, fixes=read_fixes(fix_path)))):
         result = navigate(track, data, config)
-        # the state's s as it is: estimates.csv clamps s_m to [0, length] (its position is
-        # on the track), which hides a filter beyond a piece's start as an error of ~0
-        solutions[name] = _at_epochs(result.estimates.assign(
-            s_state_m=result.x[:, result.layout.index("s")]))
+        solutions[name] = _at_epochs(result.estimates.assign(**_state_columns(result)))
         monitor[name] = result
+    return solutions, monitor, (t0, t1)
+
+
+def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
+              workdir: Path, config: NavigatorConfig = NavigatorConfig(filter="gnss-only")
+              ) -> dict:
+    """The three solutions on one piece, scored (module docstring)."""
+    solutions, monitor, (t0, t1) = solve_piece(piece, obs, nav, reference, spp, workdir,
+                                               config)
+    track = piece["track"]
     errors = {k: spp_errors(v, reference) for k, v in solutions.items()}
     common = None
     for e in errors.values():
