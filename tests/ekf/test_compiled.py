@@ -62,10 +62,13 @@ def test_a_cache_hit_generates_no_code(tmp_path, monkeypatch):
         CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O1",)))
 
 
-@pytest.mark.skipif(not compiled.has_avx2(), reason="no AVX2 on this processor")
-def test_native_flags_change_no_bit(tmp_path, rng):
-    """`NATIVE_FLAGS` are for speed only: the same outputs, to the bit, as ``-O2`` alone
-    (a step with trigonometry, Cholesky solves and congruences, over random inputs)."""
+@pytest.mark.parametrize("native", [False, True])
+def test_native_and_inline_flags_change_no_bit(tmp_path, rng, native):
+    """`INLINE_FLAGS` and `NATIVE_FLAGS` are for speed only: the same outputs, to the bit,
+    as ``-O2`` alone (a step with trigonometry, Cholesky solves and congruences, over
+    random inputs)."""
+    if native and not compiled.has_avx2():
+        pytest.skip("no AVX2 on this processor")
     model = attitude_speed_clock_toy("nativecheck")
     step = build_step(model)
     n_steps = 50
@@ -77,11 +80,11 @@ def test_native_flags_change_no_bit(tmp_path, rng):
                                     r_c=np.full((n_steps, 2), 1e-6))
     x0 = np.concatenate([rng.normal(0, 0.1, 3), rng.normal(0, 1, 4)])
     P0 = pack_sym(np.diag(rng.uniform(1e-6, 1.0, 7)))
-    native = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path),
-                                               flags=("-O2", *compiled.NATIVE_FLAGS)))
+    flags = ("-O2", *compiled.INLINE_FLAGS, *(compiled.NATIVE_FLAGS if native else ()))
+    fast = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=flags))
     plain = CompiledLoop(step, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
     assert len(list(tmp_path.glob("*.so"))) == 2
-    for a, b in zip(native.run(x0, P0, d), plain.run(x0, P0, d)):
+    for a, b in zip(fast.run(x0, P0, d), plain.run(x0, P0, d)):
         assert np.all(np.isfinite(a)) and np.array_equal(a, b)
 
 
@@ -103,7 +106,8 @@ def test_native_flags_change_no_bit_of_geodetic_rows(tmp_path, rng):
         p = np.column_stack([rng.normal(2e7, 5e6, (40, 3)),
                              rng.normal(0, 1e3, (40, model.n_p - 3))])
         native = CompiledRows(fun, CompileOptions(cache_dir=str(tmp_path),
-                                                  flags=("-O2", *compiled.NATIVE_FLAGS)))
+                                                  flags=("-O2", *compiled.INLINE_FLAGS,
+                                                         *compiled.NATIVE_FLAGS)))
         plain = CompiledRows(fun, CompileOptions(cache_dir=str(tmp_path), flags=("-O2",)))
         for a, b in zip(native.run(x, p), plain.run(x, p)):
             assert np.array_equal(a, b)
@@ -112,10 +116,11 @@ def test_native_flags_change_no_bit_of_geodetic_rows(tmp_path, rng):
 def test_native_flags_only_with_avx2_and_never_fma():
     """The default flags are the portable ``-O2`` unless the processor has AVX2; no flag
     may enable fused multiply-adds (other bits) or tune for the compiling machine."""
-    expected = ("-O2", *compiled.NATIVE_FLAGS) if compiled.has_avx2() else ("-O2",)
+    expected = ("-O2", *compiled.INLINE_FLAGS,
+                *(compiled.NATIVE_FLAGS if compiled.has_avx2() else ()))
     assert CompileOptions().flags == expected
-    assert not any(f.startswith(("-march", "-mfma", "-mavx512", "-ffast-math"))
-                   for f in compiled.NATIVE_FLAGS)
+    assert not any(f.startswith(("-march", "-mfma", "-mavx512", "-ffast-math", "-O3"))
+                   for f in (*compiled.INLINE_FLAGS, *compiled.NATIVE_FLAGS))
     assert "-ffp-contract=off" in compiled.NATIVE_FLAGS
 
 
