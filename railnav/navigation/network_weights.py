@@ -142,12 +142,11 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
         return out
     d = np.linalg.norm(r_e[:, None, :] - r_e[None, :, :], axis=2)
     same_way = (tangent_e @ tangent_e.T > 0.0) | _signed_speed(hyps[0].filt)
-    on = [h.where()[:2] for h in hyps]
-    for i in range(K):
-        for j in range(K):
-            if i != j and d[i, j] <= radius_m and same_way[i, j] and on[i] != on[j]:
-                out[i].append(j)
-    return out
+    codes: dict[tuple, int] = {}
+    on = np.array([codes.setdefault(h.where()[:2], len(codes)) for h in hyps])
+    # i != j follows from another element or orientation
+    linked = (d <= radius_m) & same_way & (on[:, None] != on[None, :])
+    return [np.flatnonzero(row).tolist() for row in linked]
 
 
 def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
