@@ -333,7 +333,8 @@ def _newton_many(p_g: list, p_src: list, s_g: list) -> list[float | None]:
     lat = np.array([float(p.lat) for p in p_g])
     lon = np.array([float(p.lon) for p in p_g])
     u_n = np.array([np.asarray(p.u_n, dtype=float) for p in p_g])
-    d = np.array([np.asarray(a.r_e) for a in p_g]) - np.array([np.asarray(b.r_e) for b in p_src])
+    d = np.array([np.asarray(a.r_e) for a in p_g]) - \
+        np.array([np.asarray(b.r_e) for b in p_src])
     tangent = (np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3) @ u_n[..., None])
     step = -(d[:, None, :] @ tangent)[:, 0, 0]
     return [g + float(st) if abs(float(st)) <= NEWTON_MAX_STEP_M else None
