@@ -59,6 +59,7 @@ _EXPORTS = {
     "fault_probability": "outliers", "fault_threshold": "outliers", "imm_mixing": "bank",
     "imm_starts": "bank",
     "kalman_update": "update", "log_predict": "bank", "logsumexp": "bank", "merge_gaussians": "bank",
+    "merge_gaussians_many": "bank",
     "normalized_squares": "consistency", "predict_linear": "linear",
     "rts_smooth": "smoother", "switching_update": "bank", "uniform_switching": "bank",
 }

@@ -39,9 +39,9 @@ from ekf.errors import ModelError
 from ekf.linear import LinearModel
 from ekf.update import UpdateRecord
 
-__all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians", "switching_update",
-           "log_predict", "logsumexp", "imm_starts", "imm_mixing", "uniform_switching",
-           "Convert"]
+__all__ = ["Hypothesis", "BankStep", "ModelBank", "merge_gaussians", "merge_gaussians_many",
+           "switching_update", "log_predict", "logsumexp", "imm_starts", "imm_mixing",
+           "uniform_switching", "Convert"]
 
 Array = npt.NDArray[np.float64]
 Mode = Literal["static", "gpb1", "imm"]
@@ -89,11 +89,34 @@ def merge_gaussians(weights: Array, means: Array, covs: Array) -> tuple[Array, A
     cov : ndarray, shape (n, n)
         ``Σ w_j (P_j + (x_j − x)(x_j − x)ᵀ)``.
     """
-    mean = weights @ means
-    spread = means - mean
-    cov = np.einsum("j,jab->ab", weights, covs) + np.einsum("j,ja,jb->ab", weights, spread,
-                                                           spread)
-    return mean, 0.5 * (cov + cov.T)
+    mean, cov = merge_gaussians_many(np.asarray(weights, dtype=float)[None],
+                                     np.asarray(means, dtype=float)[None],
+                                     np.asarray(covs, dtype=float)[None])
+    return mean[0], cov[0]
+
+
+def merge_gaussians_many(weights: Array, means: Array, covs: Array) -> tuple[Array, Array]:
+    """`merge_gaussians` of T mixtures of J components each, in one evaluation (NumPy's
+    stacked ``matmul`` and ``einsum`` sum each mixture's products as for it alone: the
+    same numbers).
+
+    Parameters
+    ----------
+    weights : ndarray, shape (T, J)
+        Each mixture's, summing to 1.
+    means : ndarray, shape (T, J, n)
+    covs : ndarray, shape (T, J, n, n)
+
+    Returns
+    -------
+    mean : ndarray, shape (T, n)
+    cov : ndarray, shape (T, n, n)
+    """
+    mean = (weights[:, None, :] @ means)[:, 0, :]
+    spread = means - mean[:, None, :]
+    cov = np.einsum("tj,tjab->tab", weights, covs) + np.einsum("tj,tja,tjb->tab", weights,
+                                                               spread, spread)
+    return mean, 0.5 * (cov + np.swapaxes(cov, -1, -2))
 
 
 def logsumexp(a: npt.ArrayLike, axis: int | None = None) -> Array | float:
@@ -183,18 +206,25 @@ def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[A
         ``Σ_i μ_{i|j} x_{i→j}`` and its moment-matched covariance, ``μ_{i|j} = Π_ij μ_i / c_j``.
     """
     weights, uses = imm_mixing(mu, transition, min_weight)
-    x0, P0 = [], []
+    x0, P0 = list(xs), list(Ps)
+    # the estimates each start mixes (converted in the order of the starts), then the
+    # starts that mix as many merged together (`merge_gaussians_many`: the same numbers)
+    mixed: dict[int, list[tuple[int, Array, list]]] = {}
     for j, use in enumerate(uses):
         if use == [j]:
-            x0.append(xs[j])
-            P0.append(Ps[j])
             continue
         pairs = [(xs[i], Ps[i]) if i == j or convert is None else convert(i, j, xs[i], Ps[i])
                  for i in use]
-        w = weights[use, j] / weights[use, j].sum()
-        x, P = merge_gaussians(w, np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs]))
-        x0.append(x)
-        P0.append(P)
+        mixed.setdefault(len(use), []).append((j, weights[use, j] / weights[use, j].sum(),
+                                               pairs))
+    for group in mixed.values():
+        x, P = merge_gaussians_many(np.array([w for _, w, _ in group]),
+                                    np.array([[p[0] for p in pairs] for *_, pairs in group],
+                                             dtype=float),
+                                    np.array([[p[1] for p in pairs] for *_, pairs in group],
+                                             dtype=float))
+        for (j, _, _), x_j, P_j in zip(group, x, P):
+            x0[j], P0[j] = x_j, P_j
     return x0, P0
 
 

@@ -75,6 +75,9 @@ class OrientedTracks:
         self.network = network
         self._tracks: dict[tuple, Track] = {}
         self._kinks: dict[tuple[str, int], float] | None = None
+        #: `piece_ends` and `joints` of each chained track asked for
+        self._ends: dict[tuple, np.ndarray] = {}
+        self._joints: dict[tuple, tuple] = {}
 
     def track(self, element: str, orientation: int) -> Track:
         """The track of `element` travelled in `orientation` (+1 its own, -1 reversed)."""
@@ -98,8 +101,15 @@ class OrientedTracks:
         return self.network.length_m(element)
 
     def piece_ends(self, pieces) -> np.ndarray:
-        """``s`` of the end of each piece along the chained track, m."""
-        return np.cumsum([self.length_m(e) - start for e, _, start in pieces])
+        """``s`` of the end of each piece along the chained track, m (read-only; computed
+        once per chained track: a hypothesis asks every cycle, `leaving`)."""
+        key = tuple(pieces)
+        ends = self._ends.get(key)
+        if ends is None:
+            ends = np.cumsum([self.length_m(e) - start for e, _, start in key])
+            ends.flags.writeable = False
+            self._ends[key] = ends
+        return ends
 
     def locate(self, pieces, s_m: float) -> tuple[str, int, float]:
         """The piece a point ``s_m`` of the chained track is on: its element, orientation
@@ -136,7 +146,14 @@ class OrientedTracks:
     def joints(self, pieces) -> list[tuple[float, float]]:
         """``(s_m, kink_rad)`` of the joints along a chained track: its start (a whole
         first piece), between its pieces, and its end; the largest kink of the navigable
-        connections at each (`_end_kink`)."""
+        connections at each (`_end_kink`); computed once per chained track."""
+        key = tuple(pieces)
+        if key not in self._joints:
+            self._joints[key] = tuple(self._joints_of(key))
+        return list(self._joints[key])
+
+    def _joints_of(self, pieces) -> list[tuple[float, float]]:
+        """`joints` computed."""
         out = []
         ends = self.piece_ends(pieces)
         e0, o0, start0 = pieces[0]

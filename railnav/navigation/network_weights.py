@@ -142,12 +142,11 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
         return out
     d = np.linalg.norm(r_e[:, None, :] - r_e[None, :, :], axis=2)
     same_way = (tangent_e @ tangent_e.T > 0.0) | _signed_speed(hyps[0].filt)
-    on = [h.where()[:2] for h in hyps]
-    for i in range(K):
-        for j in range(K):
-            if i != j and d[i, j] <= radius_m and same_way[i, j] and on[i] != on[j]:
-                out[i].append(j)
-    return out
+    codes: dict[tuple, int] = {}
+    on = np.array([codes.setdefault(h.where()[:2], len(codes)) for h in hyps])
+    # i != j follows from another element or orientation
+    linked = (d <= radius_m) & same_way & (on[:, None] != on[None, :])
+    return [np.flatnonzero(row).tolist() for row in linked]
 
 
 def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
@@ -307,11 +306,9 @@ def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> 
                for k in guessed]
         points = first_points(guessed, s_g) if first_points is not None and wave is waves[0] \
             else points_on([targets[k].track for k in guessed], s_g)
-        newton = {k: (p, g) for k, p, g in zip(guessed, points, s_g)}
+        newton = dict(zip(guessed, _newton_many(points, [p_src[k] for k in guessed], s_g)))
         for k in wave:
-            found = None
-            if k in newton:
-                found = _newton(newton[k][0], p_src[k], newton[k][1])
+            found = newton.get(k)
             if found is None:
                 found = _projected(targets[k], p_src[k])
             _OFFSETS[keys[k]] = found - s_src[k]
@@ -325,6 +322,23 @@ def _newton(p_g, p_src, s_g: float) -> float | None:
     tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
     step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
     return s_g + step if abs(step) <= NEWTON_MAX_STEP_M else None
+
+
+def _newton_many(p_g: list, p_src: list, s_g: list) -> list[float | None]:
+    """`_newton` of each ``(p_g[k], p_src[k], s_g[k])``, the rotations and products of all
+    at once (`trackmodel.earth.C_n_e` elementwise; NumPy's stacked ``matmul`` makes each
+    point's BLAS products as `_newton`'s: the same numbers)."""
+    if not p_g:
+        return []
+    lat = np.array([float(p.lat) for p in p_g])
+    lon = np.array([float(p.lon) for p in p_g])
+    u_n = np.array([np.asarray(p.u_n, dtype=float) for p in p_g])
+    d = np.array([np.asarray(a.r_e) for a in p_g]) - \
+        np.array([np.asarray(b.r_e) for b in p_src])
+    tangent = (np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3) @ u_n[..., None])
+    step = -(d[:, None, :] @ tangent)[:, 0, 0]
+    return [g + float(st) if abs(float(st)) <= NEWTON_MAX_STEP_M else None
+            for g, st in zip(s_g, step)]
 
 
 def _projected(target, p_src) -> float:

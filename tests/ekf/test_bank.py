@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pytest
 
-from ekf.bank import Hypothesis, ModelBank, merge_gaussians
+from ekf.bank import Hypothesis, ModelBank, merge_gaussians, merge_gaussians_many
 from ekf.errors import ModelError
 from ekf.linear import LinearModel
 
@@ -229,3 +229,24 @@ def test_logsumexp_equals_scipy(rng):
         np.testing.assert_allclose(logsumexp(a, axis=axis), reference(a, axis=axis),
                                    rtol=1e-14)
     assert logsumexp(np.full(3, -np.inf)) == -np.inf
+
+
+def test_mixtures_merged_together_equal_each_merged_alone(rng):
+    """`merge_gaussians_many` of T mixtures (stacked matmul and einsum) against each
+    mixture's moments written for it alone (``w @ x``, ``Σ w P + Σ w d dᵀ`` by 2-D
+    einsum): the same numbers to the bit, what the bank's conversions rely on
+    (`railnav.navigation.network_weights.mix_states`), over state sizes and mixture
+    lengths."""
+    for n, J, T in [(1, 2, 3), (2, 1, 1), (7, 3, 5), (10, 4, 2), (16, 9, 4)]:
+        w = rng.random((T, J))
+        w /= w.sum(axis=1, keepdims=True)
+        means = rng.normal(size=(T, J, n)) * np.logspace(0, 5, n)   # states of many scales
+        A = rng.normal(size=(T, J, n, n))
+        covs = A @ np.swapaxes(A, -1, -2)
+        mean, cov = merge_gaussians_many(w, means, covs)
+        for t in range(T):
+            m = w[t] @ means[t]
+            d = means[t] - m
+            c = np.einsum("j,jab->ab", w[t], covs[t]) + np.einsum("j,ja,jb->ab", w[t], d, d)
+            np.testing.assert_array_equal(mean[t], m)
+            np.testing.assert_array_equal(cov[t], 0.5 * (c + c.T))

@@ -64,3 +64,16 @@ def test_bad_priors_fail_as_the_engine_does(engine):
         propagate_members(engine, [(np.zeros(3), np.eye(3))], series[:1])
     with pytest.raises(FilterDivergedError, match="initial covariance"):
         propagate_members(engine, [(np.zeros(2), -np.eye(2))], series[:1])
+
+
+def test_one_bad_prior_among_members_fails_as_the_engine_does(engine):
+    """The members' priors are checked together (`ekf.stacked._checked_priors`); one that
+    is not positive definite among good ones raises what `CdFilter.reset` raises."""
+    priors, series = _members(np.random.default_rng(5), 3)
+    priors[1] = (priors[1][0], -priors[1][1])
+    engine.reset(*priors[0])                            # the good ones are fine alone
+    with pytest.raises(FilterDivergedError, match="initial covariance") as alone:
+        engine.reset(*priors[1])
+    with pytest.raises(FilterDivergedError, match="initial covariance") as together:
+        propagate_members(engine, priors, series)
+    assert str(together.value) == str(alone.value)

@@ -13,6 +13,7 @@ from railnav.navigation import network_weights as nw
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from trackmodel.io import read_track
+from trackmodel.network_points import points_on
 from trackmodel.offset import offset_track
 
 
@@ -60,3 +61,23 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
             assert all(np.array_equal(getattr(p, f), getattr(q, f)) for f in p.FIELDS)
     finally:
         nw.forget_offsets()
+
+
+def test_newton_steps_together_equal_each_pairs_own():
+    """`_newton_many` (the waves' Newton steps in one stacked evaluation) against `_newton`
+    pair by pair (scalar rotation and products): the same ``s`` to the bit, and None
+    where the step is longer than `NEWTON_MAX_STEP_M`."""
+    base = read_track(TRACKS_DIR / "double_a.csv")
+    left, right = offset_track(base, -4.5), offset_track(base, 4.5)
+    s_src = np.array([500.0, 1500.0, 2500.0, 3001.0, 4000.0])
+    targets = [left, right, left, right, left]
+    sources = points_on([base] * 5, s_src.tolist())
+    # the nearest points by projection, then guesses off them (the fourth: too far)
+    nearest = np.array([t.project(p.lat, p.lon, p.h).s[0] for t, p in zip(targets, sources)])
+    s_g = nearest + np.array([0.3, -0.7, 0.05, 2.5, -0.2])
+    guesses = points_on(targets, s_g.tolist())
+    together = nw._newton_many(guesses, sources, s_g.tolist())
+    alone = [nw._newton(g, p, s) for g, p, s in zip(guesses, sources, s_g.tolist())]
+    assert together == alone
+    assert together[3] is None and all(v is not None for k, v in enumerate(together)
+                                       if k != 3)
