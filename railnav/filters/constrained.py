@@ -133,7 +133,8 @@ class ConstrainedFilter:
         self._grid = TrackParameterGrid(track)
         #: The latest chunk's samples straddling a curvature step, to be linearized over
         #: each one's own prior (`railnav.filters.step_blend`; the drivers call it).
-        self.step_blend = StepBlend(self._grid, self._i["s"])
+        self.step_blend = StepBlend(self._grid, self._i["s"], self._i["v"],
+                                     self.model.noise_names)
         #: What the chunk's predicted path adds to `q_c` (`railnav.filters.path_noise`).
         self.path_noise = PathNoise(track, self._grid, self.q_c, self.model.noise_names,
                                     config=config, scale_elements=self.scale_elements,

@@ -58,6 +58,7 @@ from ekf.series import InputSeries
 from railnav.filters.geometry_noise import (across_a_step, blend_parameters,
                                             remainder_correlation_s)
 from railnav.filters.held_remainder import held_density
+from railnav.filters.one_sided_rows import OneSidedRows
 
 __all__ = ["StepBlend", "relinearized"]
 
@@ -74,13 +75,18 @@ class StepBlend:
     Parameters
     ----------
     grid : railnav.filters.track_grid.TrackParameterGrid
-    i_s : int
-        Index of ``s`` in the state.
+    i_s, i_v : int
+        Indices of ``s`` and ``v`` in the state.
+    noise_names : sequence of str
+        The process noise names (the accelerometer's ``w_fy``, ``w_fz``).
     """
 
-    def __init__(self, grid, i_s: int) -> None:
+    def __init__(self, grid, i_s: int, i_v: int, noise_names) -> None:
         self.grid, self.i_s = grid, int(i_s)
         self._chunk: dict | None = None
+        #: The bound on the one-sided rows' information (`railnav.filters.one_sided_rows`).
+        self.one_sided = OneSidedRows(grid.curvature_steps, i_s, i_v,
+                                      [list(noise_names).index(n) for n in ("w_fy", "w_fz")])
 
     def record(self, t: Array, s_pred: Array, params: Array, geometry_r_c: Array, *,
                sigma_s_m: float, speed_mps: float, step_s: float, held_s: float) -> None:
@@ -91,6 +97,8 @@ class StepBlend:
         the chunk's length (s)."""
         rows = across_a_step(self.grid, s_pred, sigma_s_m=sigma_s_m,
                              interval_m=speed_mps * step_s)
+        if not rows.any():
+            self.one_sided.end()
         self._chunk = None if not rows.any() else {
             "t": np.asarray(t, dtype=float), "rows": rows, "params": params,
             "r_c": np.array(geometry_r_c, dtype=float), "speed": float(speed_mps),
@@ -160,13 +168,18 @@ def relinearized(filt, series: InputSeries, trial, prior: tuple[Array, Array]
         return series
     i_s = blend.i_s
     p, r_c = series.p.copy(), series.r_c.copy()
+    q_c = np.atleast_2d(series.q_c)
     (x, P), start = prior, 0
     for k, sample in steps:
         if k > start:                                   # step on to sample k's prior
             out = trial(x, P, replace(series.slice(start, k + 1), p=p[start:k + 1],
                                       r_c=r_c[start:k + 1]))
             x, P, start = out.x_next[-1], out.P_next[-1], k
-        sigma = float(np.sqrt(max(unpack_sym(P)[i_s, i_s], 0.0)))
+        cov = unpack_sym(P)
+        sigma = float(np.sqrt(max(cov[i_s, i_s], 0.0)))
         p[k], delta = blend.line(sample, s_m=float(x[i_s]), sigma_s_m=sigma)
-        r_c[k] = series.r_c[k] + delta
+        t_k = float(series.t[k])
+        r_c[k] = blend.one_sided.bound(x, cov, p[k], series.r_c[k] + delta,
+                                       q_c[min(k, q_c.shape[0] - 1)], t_s=t_k,
+                                       step_s=float(series.t[k + 1]) - t_k)
     return replace(series, p=p, r_c=r_c)
