@@ -193,18 +193,6 @@ class CdFilter:
                       None)
         return self._last_outputs
 
-    def steps_of(self, samples: InputSeries) -> InputSeries:
-        """The samples :meth:`propagate` would step through for new `samples`: shaped,
-        after the last sample seen (if any), whose step comes first."""
-        chunk = self._shape(samples)
-        return chunk if self._last is None else _concat(self._last, chunk)
-
-    def steps_from(self, x0: Array, P0_packed: Array, samples: InputSeries) -> StepOutputs:
-        """The outputs of the steps of `samples` (``M >= 2``, shaped: :meth:`steps_of`)
-        from the prior ``(x0, P0_packed)`` at their first sample; the filter's own state
-        is left as it is (a trial run)."""
-        return self.propagator.run(x0, P0_packed, step_data(self.propagator, samples))
-
     def run(self, samples: InputSeries, epochs: Iterable[Epoch], *, x0: npt.ArrayLike,
             P0: npt.ArrayLike, progress: Progress | None = None) -> FilterResult:
         """Filter a whole series.

@@ -46,7 +46,6 @@ from railnav.filters.path_noise import PathNoise, bias_together
 from railnav.filters.scale_noise import step_nodes
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.start_attitude import track_attitude, with_track_attitude_covariance
-from railnav.filters.step_blend import StepBlend
 from railnav.filters.track_grid import TrackParameterGrid
 from strapdown.gravity import g_n
 from trackmodel.track import Track
@@ -131,10 +130,6 @@ class ConstrainedFilter:
         self._gravity: dict[int, float] = {}
         self._chunk_end = None   # the track at the last sample of the latest chunk
         self._grid = TrackParameterGrid(track)
-        #: The latest chunk's samples straddling a curvature step, to be linearized over
-        #: each one's own prior (`railnav.filters.step_blend`; the drivers call it).
-        self.step_blend = StepBlend(self._grid, self._i["s"], self._i["v"],
-                                     self.model.noise_names)
         #: What the chunk's predicted path adds to `q_c` (`railnav.filters.path_noise`).
         self.path_noise = PathNoise(track, self._grid, self.q_c, self.model.noise_names,
                                     config=config, scale_elements=self.scale_elements,
@@ -243,8 +238,6 @@ class ConstrainedFilter:
                            correlation_s=remainder_correlation_s(
                                sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
                            held_s=float(t[-1]) - t_prev)
-        self.step_blend.record(t, s_pred, params, r_c, sigma_s_m=sigma_s, speed_mps=speed,
-                          step_s=step, held_s=float(t[-1]) - t_prev)
         if self.config.grade_sigma_rad > 0.0:           # a grade the track does not know
             r_c[:, 1] += unknown_grade_density(accel, speed, self.config.grade_sigma_rad)
         return {"u": u, "params": params, "r_c": r_c,

@@ -65,9 +65,7 @@ linearization over the prior (their mean and regression slope on the prior's exa
 offsets: the grid's nodes are coarser than σ_s there), so a straddling sample is
 predicted as a blend and tells ``s`` where the step is (circle, seeds 11–100 with the
 joint on a sample: beyond 3σ_s 0.49 → 0.08 %). Grade-rate steps are left as point values
-(the grid has no nodes beside them, `railnav.filters.track_grid`). Fitted over the
-chunk's prior, those lines go wrong once the chunk's first rows have moved ``s``; the
-drivers fit them again at each such sample's own prior (`railnav.filters.step_blend`).
+(the grid has no nodes beside them, `railnav.filters.track_grid`).
 
 Limit: this is still one Gaussian. When σ_s is tens of metres at the onset of a curve's
 centripetal acceleration (a long outage with a MEMS IMU), the filter can explain the
@@ -81,7 +79,7 @@ import numpy.typing as npt
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
 __all__ = ["statistical_parameters", "remainder_correlation_s", "angle_statistics",
-           "across_a_step", "blend_parameters", "MAX_CORRELATION_S",
+           "MAX_CORRELATION_S",
            "QUADRATURE_NODES", "INTERVAL_NODES",
            "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
 
@@ -169,7 +167,8 @@ def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: 
         slope = np.einsum("mki,mk,k->mi", du, centred, _W) / var_delta[:, None]
         params[:, _DU] = np.einsum("mki,k->mi", du, _W) - slope * mean_delta[:, None]
         params[:, _D2U] = slope
-    near = across_a_step(grid, centre, sigma_s_m=sigma_s_m, interval_m=interval_m)
+    near = _near_a_step(grid, centre + offsets[0] - half, centre + offsets[-1] + half) \
+        if interval_m > 0.0 else np.zeros(m, dtype=bool)
     if not near.any():
         return params, _remainder_variance(params, du, delta, speed_mps)
     box = du.copy()
@@ -178,61 +177,11 @@ def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: 
     return params, _remainder_variance(params, box, delta, speed_mps)
 
 
-def across_a_step(grid, s_m: Array, *, sigma_s_m: float, interval_m: float) -> Array:
-    """Which samples' windows, ``s_m`` ± `QUADRATURE_HALF_WIDTH` σ_s ± ``interval_m``/2
-    (m, shape (M,)), hold a horizontal curvature step of the grid's track
-    (`TrackParameterGrid.curvature_steps`): the samples whose parameters
-    `statistical_parameters` takes for an interval's blend, shape (M,) bool (none with
-    ``interval_m`` = 0)."""
-    s_m = np.asarray(s_m, dtype=float)
-    if interval_m <= 0.0:
-        return np.zeros(s_m.shape, dtype=bool)
-    reach = min(QUADRATURE_HALF_WIDTH * sigma_s_m, MAX_OFFSET_M) + 0.5 * interval_m
+def _near_a_step(grid, lo: Array, hi: Array) -> Array:
+    """Which samples' windows ``[lo, hi]`` (m, shape (M,)) hold a horizontal curvature step
+    of the grid's track (`TrackParameterGrid.curvature_steps`), shape (M,)."""
     steps = grid.curvature_steps
-    return np.any((steps[None, :] > s_m[:, None] - reach)
-                  & (steps[None, :] < s_m[:, None] + reach), axis=1)
-
-
-def blend_parameters(grid, params: Array, rows: Array, *, s_m: Array, sigma_s_m: Array,
-                     speed_mps: float, interval_m: float) -> tuple[Array, Array]:
-    """The blend's linearization of `rows` over each one's own ``N(s_m, sigma_s_m²)``
-    (`railnav.filters.step_blend`: the filter's prior at that sample).
-
-    Parameters
-    ----------
-    grid : railnav.filters.track_grid.TrackParameterGrid
-    params : ndarray, shape (M, 16)
-        The samples' track parameters (their ``s_ref`` in column 0 is kept).
-    rows : ndarray, shape (M,) bool
-        The samples to linearize afresh (`across_a_step` of the chunk's prior).
-    s_m, sigma_s_m : ndarray, shape (M,)
-        Mean and standard deviation of ``s`` at each sample, m (read at `rows` only).
-    speed_mps : float
-        Speed, m/s.
-    interval_m : float
-        ``|v| dt``, m.
-
-    Returns
-    -------
-    params : ndarray, shape (M, 16)
-        A copy, `rows` replaced by the interval means' regression over their ``N(s_m,
-        sigma_s_m²)``.
-    variance : ndarray, shape (M, 2)
-        The remainder's variance about that line over the same at `rows` (0 elsewhere),
-        (m/s²)².
-    """
-    params = params.copy()
-    variance = np.zeros((params.shape[0], 2))
-    for k in np.flatnonzero(rows):
-        one, centre = params[k:k + 1], np.asarray(s_m, dtype=float)[k:k + 1]
-        offsets = np.minimum(np.maximum(float(sigma_s_m[k]) * _XI, -MAX_OFFSET_M),
-                             MAX_OFFSET_M)
-        box = _interval_means(grid, one, offsets, interval_m, centre)
-        one, delta = _across_a_step(one, box, np.zeros((1, offsets.size)), centre, offsets,
-                                    np.ones(1, dtype=bool))
-        params[k] = one[0]
-        variance[k] = _remainder_variance(one, box, delta, speed_mps)[0]
-    return params, variance
+    return np.any((steps[None, :] > lo[:, None]) & (steps[None, :] < hi[:, None]), axis=1)
 
 
 def _across_a_step(params: Array, box: Array, delta: Array, centre: Array, offsets: Array,

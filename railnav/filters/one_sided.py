@@ -97,7 +97,6 @@ from railnav.filters.geometry_noise import STATISTICAL_MIN_SIGMA_M
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
 __all__ = ["OneSidedLimit", "onsets", "truncated_variance", "floor_variance",
-           "rows_information", "propagated", "factor_for", "posterior_s_variance",
            "WINDOW_SIGMAS", "MAX_INFLATION"]
 
 Array = npt.NDArray[np.float64]
@@ -211,20 +210,20 @@ class OneSidedLimit:
             return r_c
         block = P_prev[np.ix_([self._i_s, self._i_v], [self._i_s, self._i_v])]
         t_end, mean = float(t[-1]), float(s_pred[-1])
-        prior = propagated(block, t_end - float(t_prev))
+        prior = _propagated(block, t_end - float(t_prev))
         episode = self._follow(block, prior, mean, float(t_prev), t_end)
         if episode is None:
             return r_c
         floor = self._floor(episode, prior[0, 0], mean, t_end)
         accel = np.atleast_2d(q_c)[:, self._w_f]                   # (1 or M, 2)
         density = r_c + accel
-        info = rows_information(t, s_pred, params, float(x_prev[self._i_v]), density,
-                                t_prev)
+        info = self._information(t, s_pred, params, float(x_prev[self._i_v]), density,
+                                 t_prev)
         try:
             prior_info = np.linalg.inv(prior)
         except np.linalg.LinAlgError:                               # v known exactly
             return r_c
-        factor = factor_for(prior_info, info, floor)
+        factor = _factor_for(prior_info, info, floor)
         if factor <= 1.0:
             return r_c
         self.last_factor, self.chunks_scaled = factor, self.chunks_scaled + 1
@@ -238,7 +237,7 @@ class OneSidedLimit:
         ep = self._episode
         if ep is not None:
             ep["used"] += 1.0 / block[0, 0] - 1.0 / ep["predicted"]
-            sigma = math.sqrt(propagated(ep["block"], t_end - ep["t0"])[0, 0])
+            sigma = math.sqrt(_propagated(ep["block"], t_end - ep["t0"])[0, 0])
             if (block[0, 0] <= STATISTICAL_MIN_SIGMA_M ** 2
                     or abs(ep["onset"] - mean) > WINDOW_SIGMAS * sigma):
                 ep = None
@@ -257,75 +256,52 @@ class OneSidedLimit:
         """The variance of ``s`` the chunk's end must keep, m²: the prior's precision plus
         what is left of the truncation's (of the episode's prior, propagated to `t_end`,
         at the current mean), less what the episode's chunks used."""
-        var = propagated(ep["block"], t_end - ep["t0"])[0, 0]
+        var = _propagated(ep["block"], t_end - ep["t0"])[0, 0]
         sigma = math.sqrt(var)
         allowed = 1.0 / floor_variance(mean_m=mean, sigma_m=sigma, onset_m=ep["onset"]) \
             - 1.0 / var
         return 1.0 / (1.0 / prior_var + max(allowed - ep["used"], 0.0))
 
-
-def rows_information(t: Array, s_pred: Array, params: Array, speed: float, density: Array,
-                     t_prev: float) -> Array:
-    """The rows' information on ``(s, v)`` at the last sample's time, 2×2 (module
-    docstring, "How the rows' information is counted").
-
-    Parameters
-    ----------
-    t : ndarray, shape (M,)
-        Sample times, s (each row's step ends there: ``Δt_k = t_k − t_(k−1)``).
-    s_pred : ndarray, shape (M,)
-        ``s`` at the rows, m.
-    params : ndarray, shape (M, 16)
-        The track parameters the rows use.
-    speed : float
-        m/s.
-    density : ndarray, shape (M, 2)
-        The rows' noise densities ``S_c``, (m/s²)²·s.
-    t_prev : float
-        The time before the first row, s.
-
-    Returns
-    -------
-    ndarray, shape (2, 2)
-        ``Σ_k Hᵀ S_c⁻¹ H Δt_k`` over ``(s, v)`` at ``t[-1]``, (1/m², 1/(m·m/s), 1/(m/s)²).
-    """
-    lateral, normal = cross_track_basis(params[:, _U])
-    du = params[:, _DU] + params[:, _D2U] * (s_pred - params[:, 0])[:, None]
-    slope = params[:, _D2U]
-    h_s = -speed ** 2 * np.stack([np.einsum("mi,mi->m", lateral, slope),
-                                  np.einsum("mi,mi->m", normal, slope)], axis=-1)
-    h_v = -2.0 * speed * np.stack([np.einsum("mi,mi->m", lateral, du),
-                                   np.einsum("mi,mi->m", normal, du)], axis=-1)
-    lag = (t[-1] - t)[:, None]
-    h_v_end = h_v - lag * h_s                                       # δs_k = δs_end − lag δv
-    dt = np.diff(np.concatenate([[t_prev], t]))[:, None]
-    w = dt / density
-    return np.array([[np.sum(w * h_s * h_s), np.sum(w * h_s * h_v_end)],
-                     [np.sum(w * h_s * h_v_end), np.sum(w * h_v_end * h_v_end)]])
+    def _information(self, t: Array, s_pred: Array, params: Array, speed: float,
+                     density: Array, t_prev: float) -> Array:
+        """The rows' information on ``(s, v)`` at the chunk's end, 2×2 (module docstring)."""
+        lateral, normal = cross_track_basis(params[:, _U])
+        du = params[:, _DU] + params[:, _D2U] * (s_pred - params[:, 0])[:, None]
+        slope = params[:, _D2U]
+        h_s = -speed ** 2 * np.stack([np.einsum("mi,mi->m", lateral, slope),
+                                      np.einsum("mi,mi->m", normal, slope)], axis=-1)
+        h_v = -2.0 * speed * np.stack([np.einsum("mi,mi->m", lateral, du),
+                                       np.einsum("mi,mi->m", normal, du)], axis=-1)
+        lag = (t[-1] - t)[:, None]
+        h_v_end = h_v - lag * h_s                                   # δs_k = δs_end − lag δv
+        dt = np.diff(np.concatenate([[t_prev], t]))[:, None]
+        w = dt / density
+        return np.array([[np.sum(w * h_s * h_s), np.sum(w * h_s * h_v_end)],
+                         [np.sum(w * h_s * h_v_end), np.sum(w * h_v_end * h_v_end)]])
 
 
-def propagated(block: Array, span_s: float) -> Array:
+def _propagated(block: Array, span_s: float) -> Array:
     """``Φ P Φᵀ`` of an ``(s, v)`` covariance over `span_s` at constant speed."""
     phi = np.array([[1.0, span_s], [0.0, 1.0]])
     return phi @ block @ phi.T
 
 
-def posterior_s_variance(prior_info: Array, info: Array, factor: float) -> float:
+def _posterior_s_variance(prior_info: Array, info: Array, factor: float) -> float:
     """``[(P⁻¹ + J/λ_R)⁻¹]_ss`` of the 2×2 information forms."""
     m = prior_info + info / factor
     det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
     return float(m[1, 1] / det) if det > 0.0 else math.inf
 
 
-def factor_for(prior_info: Array, info: Array, floor: float) -> float:
+def _factor_for(prior_info: Array, info: Array, floor: float) -> float:
     """The smallest ``λ_R ≥ 1`` with a posterior variance of ``s`` at least `floor` (the
     variance grows monotonically with ``λ_R``), by bisection on ``log λ_R``."""
-    if posterior_s_variance(prior_info, info, 1.0) >= floor:
+    if _posterior_s_variance(prior_info, info, 1.0) >= floor:
         return 1.0
     lo, hi = 0.0, math.log(MAX_INFLATION)
     for _ in range(_BISECTION_STEPS):
         mid = 0.5 * (lo + hi)
-        if posterior_s_variance(prior_info, info, math.exp(mid)) >= floor:
+        if _posterior_s_variance(prior_info, info, math.exp(mid)) >= floor:
             hi = mid
         else:
             lo = mid

@@ -53,12 +53,11 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from ekf.packing import pack_sym, unpack_sym
+from ekf.packing import unpack_sym
 from ekf.series import InputSeries, prior_and_rows
 from ekf.stacked import propagate_members, update_members
 from ekf.step import window_median_at
 from railnav.filters.epochs_together import observations_together
-from railnav.filters.step_blend import relinearized
 from railnav.navigation.loop import filter_engine
 from trackmodel.network_lines import EXACT_KINK_RAD, TRANSITION_MAX_M
 
@@ -163,19 +162,6 @@ def joint_allowance(h, tracks, t: Array) -> Array | None:
     return (speed ** 2 * near / w) ** 2 * w / speed
 
 
-def _relinearized(engine, h, series: InputSeries) -> InputSeries:
-    """Hypothesis `h`'s `series` with its samples across a curvature step linearized over
-    their own priors (`railnav.filters.step_blend.relinearized`: trial steps through
-    the engine's propagator from `h`'s prior, the engine's own state left alone);
-    `series` itself when it has none."""
-    blend = getattr(h.filt, "step_blend", None)
-    if series.r_c is None or blend is None or not blend.pending:
-        return series
-    m = engine.model
-    return relinearized(h.filt, series.shaped(m.n_u, m.n_p, m.n_c, m.n_w),
-                        engine.steps_from, (h.x, pack_sym(h.P)))
-
-
 class EngineStepper:
     """Steps hypotheses cycle by cycle over a trip's samples (module docstring).
 
@@ -256,11 +242,8 @@ class EngineStepper:
         states: list = [None] * len(hyps)
         has = [False] * len(hyps)
         for members in groups.values():
-            engine = engines[members[0]]
-            series = [_relinearized(engine, hyps[k], one)
-                      for k, one in zip(members, self._group_series(
-                          [hyps[k] for k in members], t, u,
-                          self._linearization(engine, a, b)))]
+            series = self._group_series([hyps[k] for k in members], t, u,
+                                        self._linearization(engines[members[0]], a, b))
             for k, one in zip(members, series):
                 has[k] = one.r_c is not None
             done = propagate_members(engines[members[0]], [(hyps[k].x, hyps[k].P)
@@ -335,7 +318,7 @@ class EngineStepper:
     def _propagate(self, h, engine, t: Array, u: Array, u_lin: Array | None = None):
         """The hypothesis's inputs (with any joint allowance) propagated; the step outputs
         and whether the filter has a continuous measurement."""
-        series = _relinearized(engine, h, self._series(h, t, u, u_lin=u_lin))
+        series = self._series(h, t, u, u_lin=u_lin)
         return engine.propagate(series), series.r_c is not None
 
     @staticmethod

@@ -24,11 +24,9 @@ import numpy.typing as npt
 
 from ekf.cd_filter import CdFilter, FilterConfig
 from ekf.gating import Gate
-from ekf.packing import pack_sym
 from ekf.series import Epoch, InputSeries
 from ekf.step import WINDOW_TOL_S, StepOptions, window_median_at
 from railnav.filters.common import JACOBIAN_WINDOW_S
-from railnav.filters.step_blend import relinearized
 from railnav.navigation.initialization import InitialState
 
 __all__ = ["ChunkLoop", "TrackEndWatch", "beyond_track", "filter_engine", "EPOCH_TIME_TOL_S",
@@ -131,23 +129,10 @@ class ChunkLoop:
                                         t_prev)
             if u_lin is not None and stop == t.size:
                 self._keep_recent(t, u, window)
-            yield self._relinearized(InputSeries(t=t[start:stop], u=u_c, p=p_c,
-                                                 q_c=getattr(filt, "step_q_c", filt.q_c),
-                                                 r_c=r_c, u_lin=u_lin))
+            yield InputSeries(t=t[start:stop], u=u_c, p=p_c,
+                              q_c=getattr(filt, "step_q_c", filt.q_c), r_c=r_c,
+                              u_lin=u_lin)
             start = stop
-
-    def _relinearized(self, chunk: InputSeries) -> InputSeries:
-        """`chunk` with its samples across a curvature step linearized over their
-        own priors (`railnav.filters.step_blend.relinearized`, trial steps from the
-        engine's state); `chunk` itself when it has none."""
-        blend = getattr(self.filt, "step_blend", None)
-        if blend is None or not blend.pending:
-            return chunk
-        engine = self.engine
-        steps = engine.steps_of(chunk)
-        run = relinearized(self.filt, steps, engine.steps_from,
-                           (engine.x, pack_sym(engine.P)))
-        return chunk if run is steps else run.slice(len(steps) - len(chunk), len(steps))
 
     def _linearization(self, t: Array, u: Array, start: int, stop: int, following,
                        window: float) -> Array:

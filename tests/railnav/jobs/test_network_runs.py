@@ -119,24 +119,3 @@ def test_a_small_kink_before_a_reverse_clothoid_does_not_pull_the_estimate_along
     late = res.time_s > res.time_s[-1] - 10.0
     assert min(p.get(e, 0.0) for p, e, k in zip(res.element_probability, truth, late)
                if k) > 0.99
-
-
-def test_reverse_curves_leave_the_estimate_honest():
-    """`benchmarks/bench_network_switches.py`'s seed 9 (ten loops, the route its seed
-    draws): reverse curves joined without transition, met at 20 m/s with σ_s of a few
-    centimetres, the curvature steps' straddling samples each linearized at their own
-    prior (`railnav.filters.step_blend`). Reference: the truth and the filter's own σ_s;
-    over the trip's 449 epochs a Gaussian error exceeds 4.5σ with probability < 0.3 %.
-    With the lines fitted once per cycle over the cycle's prior the estimate left the
-    step at 385.47 s 4σ off and was 5.8σ off at 388 s."""
-    spec = SwitchNetworkSpec(loops=10)
-    net = switch_network(spec)
-    rng = np.random.default_rng(1000 + 9)
-    legs = loop_route(spec, [bool(v) for v in rng.integers(0, 2, spec.loops)])
-    length = sum(net.length_m(e) for e, _ in legs)
-    scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
-                       duration_s=(length - 150.0) / SPEED_MPS, outages=(), start_s=50.0)
-    run = run_simulated_network(net, legs, scenario, line=route_track(net, legs), seed=9)
-    z = run.outcome.errors.along_track_m / \
-        run.network_result.estimates["sigma_s_m"].to_numpy()
-    assert np.nanmax(np.abs(z)) < 4.5
