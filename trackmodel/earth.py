@@ -143,7 +143,11 @@ def radii(lat: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> tuple[Array, Array
         Meridian radius ``a(1-e²)/(1-e² sin²φ)^{3/2}`` and prime-vertical radius
         ``a/(1-e² sin²φ)^{1/2}``, m.
     """
-    s = np.sin(np.asarray(lat, dtype=float))
+    lat = np.asarray(lat, dtype=float)
+    if earth.f == 0.0:      # a sphere: both are a (NaN where φ is not finite), as below
+        N = earth.a_m + 0.0 * lat
+        return N.copy(), N
+    s = np.sin(lat)
     w2 = 1.0 - earth.e2 * s * s
     N = earth.a_m / np.sqrt(w2)
     M = N * (1.0 - earth.e2) / w2

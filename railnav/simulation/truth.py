@@ -271,6 +271,24 @@ def _dC_b_n_function() -> ca.Function:
     return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1], J[:, 2])])
 
 
+def _attitude_matrices(truth: Truth) -> tuple[Array, Array]:
+    """``C_b_n`` (N, 3, 3) and `_dC_b_n_function` (N, 27) at the truth's Euler angles,
+    evaluated once per run of bit-equal consecutive rows (a straight section's attitude is
+    constant) and repeated: the same values as evaluating every row."""
+    angles = np.column_stack([truth.yaw, truth.pitch, truth.roll])
+    bits = angles.view(np.int64)
+    new = np.ones(angles.shape[0], dtype=bool)
+    new[1:] = np.any(bits[1:] != bits[:-1], axis=1)
+    if new.all():
+        return C_b_n(truth.yaw, truth.pitch, truth.roll), batch_call(_dC_b_n_function(),
+                                                                     angles)[0]
+    first = angles[new]
+    row = np.cumsum(new) - 1
+    C_bn = C_b_n(first[:, 0], first[:, 1], first[:, 2])
+    (dC,) = batch_call(_dC_b_n_function(), first)
+    return C_bn[row], dC[row]
+
+
 def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
               point: TrackPoint | None = None) -> Imu:
     """Error-free specific force and inertial angular rate in body axes (module docstring).
@@ -310,8 +328,7 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
     omega_e = np.array([0.0, 0.0, earth.omega_radps])
     f_e = r_ddot + 2.0 * np.cross(omega_e, r_dot) - mv(C_ne, g_n(lat, h, earth=earth))
 
-    C_bn = C_b_n(truth.yaw, truth.pitch, truth.roll)
-    (dC,) = batch_call(_dC_b_n_function(), np.column_stack([truth.yaw, truth.pitch, truth.roll]))
+    C_bn, dC = _attitude_matrices(truth)
     dC_dyaw = dC[:, :9].reshape(-1, 3, 3).transpose(0, 2, 1)
     dC_dpitch = dC[:, 9:18].reshape(-1, 3, 3).transpose(0, 2, 1)
     C_be = C_ne @ C_bn
