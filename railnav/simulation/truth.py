@@ -251,14 +251,23 @@ def _truth_and_point(track, profile: SpeedProfile, time_s: Array, *, start_s: fl
 def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:
     """Partial derivatives of `trackmodel.earth.C_n_e` w.r.t. latitude and longitude, (N,3,3)."""
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-    z = np.zeros_like(lat)
-    d_lat = np.stack([np.stack([z, z, z], -1),                      # east
-                      np.stack([-cl * co, -cl * so, -sl], -1),      # north
-                      np.stack([-sl * co, -sl * so, cl], -1)], -1)  # up
-    d_lon = np.stack([np.stack([-co, -so, z], -1),
-                      np.stack([sl * so, -sl * co, z], -1),
-                      np.stack([-cl * so, cl * co, z], -1)], -1)
+    d_lat = _from_columns(lat.shape, ((0.0, 0.0, 0.0),                 # east
+                                      (-cl * co, -cl * so, -sl),       # north
+                                      (-sl * co, -sl * so, cl)))       # up
+    d_lon = _from_columns(lat.shape, ((-co, -so, 0.0),
+                                      (sl * so, -sl * co, 0.0),
+                                      (-cl * so, cl * co, 0.0)))
     return d_lat, d_lon
+
+
+def _from_columns(shape: tuple[int, ...], columns) -> Array:
+    """Matrices (``shape`` + (3, 3)) with the given three columns of three entries
+    (arrays of `shape` or scalars), written in place (no stacked copies)."""
+    out = np.empty(shape + (3, 3))
+    for j, column in enumerate(columns):
+        for i, value in enumerate(column):
+            out[..., i, j] = value
+    return out
 
 
 @functools.lru_cache(maxsize=1)
