@@ -280,22 +280,27 @@ def _dC_b_n_function() -> ca.Function:
     return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1], J[:, 2])])
 
 
-def _attitude_matrices(truth: Truth) -> tuple[Array, Array]:
-    """``C_b_n`` (N, 3, 3) and `_dC_b_n_function` (N, 27) at the truth's Euler angles,
-    evaluated once per run of bit-equal consecutive rows (a straight section's attitude is
-    constant) and repeated: the same values as evaluating every row."""
-    angles = np.column_stack([truth.yaw, truth.pitch, truth.roll])
-    bits = angles.view(np.int64)
-    new = np.ones(angles.shape[0], dtype=bool)
+def _attitude_matrices(truth: Truth, rates: Array) -> tuple[Array, Array]:
+    """``C_b_n`` at the truth's Euler angles and its derivative ``Σ_i ∂C_b_n/∂α_i ρ_i``
+    for the angle rates ``ρ`` (N, k; k = 2: yaw and pitch, or 3), both (N, 3, 3).
+
+    Evaluated once per run of bit-equal consecutive rows of angles and rates (a straight
+    section's attitude is constant) and repeated: the same values as row by row.
+    """
+    key = np.column_stack([truth.yaw, truth.pitch, truth.roll, rates])
+    bits = key.view(np.int64)
+    new = np.ones(key.shape[0], dtype=bool)
     new[1:] = np.any(bits[1:] != bits[:-1], axis=1)
-    if new.all():
-        return C_b_n(truth.yaw, truth.pitch, truth.roll), batch_call(_dC_b_n_function(),
-                                                                     angles)[0]
-    first = angles[new]
-    row = np.cumsum(new) - 1
+    first = key if new.all() else key[new]
     C_bn = C_b_n(first[:, 0], first[:, 1], first[:, 2])
-    (dC,) = batch_call(_dC_b_n_function(), first)
-    return C_bn[row], dC[row]
+    (dC,) = batch_call(_dC_b_n_function(), first[:, :3])
+    terms = [dC[:, 9 * i:9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)
+             * first[:, 3 + i, None, None] for i in range(rates.shape[1])]
+    dC_bn = sum(terms[1:], terms[0])
+    if first is key:
+        return C_bn, dC_bn
+    row = np.cumsum(new) - 1
+    return C_bn[row], dC_bn[row]
 
 
 def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
@@ -337,20 +342,14 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
     omega_e = np.array([0.0, 0.0, earth.omega_radps])
     f_e = r_ddot + 2.0 * np.cross(omega_e, r_dot) - mv(C_ne, g_n(lat, h, earth=earth))
 
-    C_bn, dC = _attitude_matrices(truth)
-    dC_dyaw = dC[:, :9].reshape(-1, 3, 3).transpose(0, 2, 1)
-    dC_dpitch = dC[:, 9:18].reshape(-1, 3, 3).transpose(0, 2, 1)
-    C_be = C_ne @ C_bn
-    if attitude_rates is None:
-        dC_bn_ds = (dC_dyaw * pt.curvature_1pm[:, None, None]
-                    + dC_dpitch * pt.elevation_rate[:, None, None])
+    if attitude_rates is None:              # the track's: dA/ds, dϑ/ds (per metre)
+        C_bn, dC_bn_ds = _attitude_matrices(
+            truth, np.column_stack([pt.curvature_1pm, pt.elevation_rate]))
         dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn + C_ne @ dC_bn_ds)
     else:
-        rates = np.asarray(attitude_rates, dtype=float)
-        dC_droll = dC[:, 18:].reshape(-1, 3, 3).transpose(0, 2, 1)
-        dC_bn_dt = (dC_dyaw * rates[:, 0, None, None] + dC_dpitch * rates[:, 1, None, None]
-                    + dC_droll * rates[:, 2, None, None])
+        C_bn, dC_bn_dt = _attitude_matrices(truth, np.asarray(attitude_rates, dtype=float))
         dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn) + C_ne @ dC_bn_dt
+    C_be = C_ne @ C_bn
     W = np.swapaxes(C_be, -1, -2) @ dC_be_dt
     omega_eb_b = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
                                  W[:, 1, 0] - W[:, 0, 1]], axis=-1)
