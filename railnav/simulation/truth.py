@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import casadi as ca
 import numpy as np
@@ -92,6 +92,11 @@ class Truth:
     def v_e(self) -> Array:
         """Velocity relative to the Earth in ECEF, m/s, (N, 3)."""
         return np.einsum("...ij,...j->...i", C_n_e(self.lat, self.lon), self.v_n)
+
+    def rows(self, index: npt.ArrayLike | slice) -> "Truth":
+        """The samples `index` (integers, booleans or a slice) of every `Truth` field (a
+        subclass's own fields are left out)."""
+        return Truth(**{f.name: getattr(self, f.name)[index] for f in fields(Truth)})
 
     def full_state(self) -> Array:
         """True states of the 9-state model (`strapdown.mechanization.FULL_STATE_NAMES`), (N, 9)."""
