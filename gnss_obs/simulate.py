@@ -315,13 +315,24 @@ def _geometry(sel: pd.DataFrame, t: Array, epoch: np.ndarray, r_e: Array, v_e: A
 
 
 def _signals(sv: np.ndarray, sel: pd.DataFrame):
-    system = np.array([s[0] for s in sv])
-    signal = np.array([SIM_SIGNALS[s][0] for s in system], dtype=object)
-    band = np.array([SIM_SIGNALS[s][1] for s in system], dtype=np.int64)
+    """System letter, RINEX signal, band, carrier frequency (Hz) and PRN of each row,
+    looked up once per satellite (and GLONASS channel) rather than row by row."""
+    names, row = np.unique(sv.astype(str), return_inverse=True)
+    system = np.array([s[0] for s in names], dtype="U1")[row]
+    prn = np.array([int(s[1:]) for s in names], dtype=np.int64)[row]
+    signal = np.array([SIM_SIGNALS[s[0]][0] for s in names], dtype=object)[row]
+    band = np.array([SIM_SIGNALS[s[0]][1] for s in names], dtype=np.int64)[row]
     channel = sel["freq_channel"].to_numpy() if "freq_channel" in sel else np.full(sv.size, np.nan)
-    freq = np.array([carrier_frequency_hz(s, int(b), None if s != "R" else int(k))
-                     for s, b, k in zip(system, band, channel)])
-    return system, signal, band, freq
+    freq = np.empty(sv.size)
+    for letter in np.unique(system):
+        rows = system == letter
+        b = int(SIM_SIGNALS[letter][1])
+        if letter == "R":                   # FDMA: the frequency of each channel
+            ks, k_row = np.unique(channel[rows], return_inverse=True)
+            freq[rows] = np.array([carrier_frequency_hz("R", b, int(k)) for k in ks])[k_row]
+        else:
+            freq[rows] = carrier_frequency_hz(letter, b, None)
+    return system, signal, band, freq, prn
 
 
 def _atmosphere(t_row: Array, r_rx: Array, geo: dict, freq: Array, cfg: GnssSimConfig,
@@ -341,7 +352,7 @@ def _atmosphere(t_row: Array, r_rx: Array, geo: dict, freq: Array, cfg: GnssSimC
 
 def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
                   nav: RinexNav, rng: np.random.Generator) -> GnssSimulation:
-    system, signal, band, freq = _signals(sv, sel)
+    system, signal, band, freq, prn = _signals(sv, sel)
     t_row = t[epoch]
     iono, tropo = _atmosphere(t_row, r_e[epoch], geo, freq, cfg, nav)
     clock_m = SPEED_OF_LIGHT_MPS * (geo["sat_clock_s"] - group_delay_s(sel, band))
@@ -360,7 +371,7 @@ def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
     n = sv.size
     table = pd.DataFrame({
         "gps_time_s": t_row, "sv": sv.astype(object), "system": system.astype(object),
-        "prn": np.array([int(s[1:]) for s in sv], dtype=np.int64), "signal": signal,
+        "prn": prn, "signal": signal,
         "band": band, "pseudorange_m": np.round(pr, _RINEX_DECIMALS),
         "carrier_cycles": np.full(n, np.nan),
         "doppler_hz": np.round(-rr * freq / SPEED_OF_LIGHT_MPS, _RINEX_DECIMALS),
@@ -376,7 +387,7 @@ def _measurements(t, epoch, sv, sel, geo, r_e, bias, drift, cfg: GnssSimConfig,
     table = table.iloc[order].reset_index(drop=True)
     truth = truth.iloc[order].reset_index(drop=True)
     clock = pd.DataFrame({"gps_time_s": t, "clock_bias_m": bias, "clock_drift_mps": drift})
-    glo = np.array([s[0] == "R" for s in sv])
+    glo = system == "R"
     slots = {str(s): int(k) for s, k in zip(sv[glo], sel.loc[glo, "freq_channel"])} \
         if glo.any() else {}
     header = simulation_header(table, signals={s: v[0] for s, v in SIM_SIGNALS.items()},

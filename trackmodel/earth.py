@@ -143,7 +143,11 @@ def radii(lat: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> tuple[Array, Array
         Meridian radius ``a(1-e²)/(1-e² sin²φ)^{3/2}`` and prime-vertical radius
         ``a/(1-e² sin²φ)^{1/2}``, m.
     """
-    s = np.sin(np.asarray(lat, dtype=float))
+    lat = np.asarray(lat, dtype=float)
+    if earth.f == 0.0:      # a sphere: both are a (NaN where φ is not finite), as below
+        N = earth.a_m + 0.0 * lat
+        return N.copy(), N
+    s = np.sin(lat)
     w2 = 1.0 - earth.e2 * s * s
     N = earth.a_m / np.sqrt(w2)
     M = N * (1.0 - earth.e2) / w2
@@ -239,11 +243,16 @@ def C_n_e(lat: npt.ArrayLike, lon: npt.ArrayLike) -> Array:
     lat, lon = np.broadcast_arrays(lat, lon)
     sl, cl = np.sin(lat), np.cos(lat)
     so, co = np.sin(lon), np.cos(lon)
-    zero = np.zeros_like(lat)
-    east = np.stack([-so, co, zero], axis=-1)
-    north = np.stack([-sl * co, -sl * so, cl], axis=-1)
-    up = np.stack([cl * co, cl * so, sl], axis=-1)
-    return np.stack([east, north, up], axis=-1)
+    out = np.empty(lat.shape + (3, 3))     # filled column by column: no stacked copies
+    np.negative(so, out=out[..., 0, 0])
+    out[..., 1, 0], out[..., 2, 0] = co, 0.0
+    np.multiply(-sl, co, out=out[..., 0, 1])
+    np.multiply(-sl, so, out=out[..., 1, 1])
+    out[..., 2, 1] = cl
+    np.multiply(cl, co, out=out[..., 0, 2])
+    np.multiply(cl, so, out=out[..., 1, 2])
+    out[..., 2, 2] = sl
+    return out
 
 
 def ecef_to_enu(r_e: npt.ArrayLike, *, lat0: float, lon0: float, h0: float,

@@ -102,8 +102,15 @@ def _divided_isometric(lat0: Array, lat1: Array, earth: Ellipsoid) -> Array:
 
 def _mean_meridian_radius(lat0: Array, dlat: Array, earth: Ellipsoid) -> Array:
     """``M̄ = (1/Δφ) ∫ M dφ`` over ``[φ0, φ0 + Δφ]`` (Gauss–Legendre), m."""
-    M, _ = radii(lat0[..., None] + dlat[..., None] * _GL_X, earth=earth)
-    return M @ _GL_W
+    return _node_radii(lat0, dlat, earth)[1] @ _GL_W
+
+
+def _node_radii(lat0: Array, dlat: Array, earth: Ellipsoid) -> tuple[Array, Array, Array]:
+    """The Gauss–Legendre nodes of ``[φ0, φ0 + Δφ]`` (rad, shape (..., 4)) and the
+    meridian and prime-vertical radii there (m, `radii`)."""
+    lat = lat0[..., None] + dlat[..., None] * _GL_X
+    M, N = radii(lat, earth=earth)
+    return lat, M, N
 
 
 def _meridian_radius_slope(lat: Array, earth: Ellipsoid, M: Array) -> Array:
@@ -150,23 +157,24 @@ def loxodrome_position(lat0: npt.ArrayLike, lon0: npt.ArrayLike, h0: npt.ArrayLi
         Mbar = _mean_meridian_radius(lat0, dlat, earth)
         M1, _ = radii(lat0 + dlat, earth=earth)
         dlat = dlat - (dlat * Mbar - dm) / M1
-    Mbar = _mean_meridian_radius(lat0, dlat, earth)
+    nodes = _node_radii(lat0, dlat, earth)    # M̄'s, and the height correction's
+    Mbar = nodes[1] @ _GL_W
     lat = lat0 + dlat
     dlon = (t - I) / Mbar * _divided_isometric(lat0, lat, earth)
     if earth.e2 > 0.0:
-        dlon = dlon + _height_correction(lat0, dlat, h0, b, t, earth)
+        dlon = dlon + _height_correction(nodes, h0, b, t)
     return lat, lon0 + q * dlon, h
 
 
-def _height_correction(lat0: Array, dlat: Array, h0: Array, b: Array, t: Array,
-                       earth: Ellipsoid) -> Array:
-    """``C(t) = ∫₀ᵗ h (N − M)/(N (N + h)(M + h) cosφ) dt'`` (Gauss–Legendre), rad·m/m.
+def _height_correction(nodes: tuple[Array, Array, Array], h0: Array, b: Array,
+                       t: Array) -> Array:
+    """``C(t) = ∫₀ᵗ h (N − M)/(N (N + h)(M + h) cosφ) dt'`` (Gauss–Legendre), rad·m/m
+    (`nodes`: `_node_radii` of the section's ``[φ0, φ]``).
 
     ``φ`` at the nodes is interpolated linearly in ``t`` (its error, of relative size
     ``h/R``, changes this already small term by a relative ~1e-4).
     """
-    lat = lat0[..., None] + dlat[..., None] * _GL_X
+    lat, M, N = nodes
     h = h0[..., None] + (b * t)[..., None] * _GL_X
-    M, N = radii(lat, earth=earth)
     f = h * (N - M) / (N * (N + h) * (M + h) * np.cos(lat))
     return t * (f @ _GL_W)

@@ -221,11 +221,10 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
         raise ConfigError(f"the GNSS rate ({scenario.gnss_rate_hz} Hz) must divide the IMU "
                           f"rate ({scenario.imu_rate_hz} Hz)")
     nav = nav if nav is not None else read_rinex_nav(default_nav_path())
-    truth = sim.truth
-    k = np.arange(0, truth.time_s.size, step)
+    epochs = sim.truth.rows(slice(0, None, step))     # the receiver's epochs only
     rng = np.random.default_rng(sim.rng_streams[RNG_STREAMS["gnss"]])
-    r_e, v_e = antenna_track(sim.track, truth, scenario.antenna_m)
-    obs = simulate_gnss(scenario.start_gps_time_s + truth.time_s[k], r_e[k], v_e[k],
+    r_e, v_e = antenna_track(sim.track, epochs, scenario.antenna_m)
+    obs = simulate_gnss(scenario.start_gps_time_s + epochs.time_s, r_e, v_e,
                         nav, gnss_sim_config_for(scenario, systems=systems, faults=faults),
                         rng=rng)
     return SimulatedTrip(scenario, sim, obs, nav, systems)

@@ -156,10 +156,6 @@ def concat_truth(a: Truth, b: Truth) -> Truth:
                     for f in fields(Truth)})
 
 
-def _tail(truth: Truth) -> Truth:
-    return Truth(**{f.name: getattr(truth, f.name)[-1:] for f in fields(Truth)})
-
-
 def epoch_step(scenario: Scenario) -> int:
     """IMU samples per GNSS epoch.
 
@@ -224,7 +220,7 @@ def trip_segments(scenario: Scenario, track, *, seed: int, config: NavigatorConf
         if nav is not None:
             gnss, obs, clock, head = _segment_gnss(scenario, truth, step, nav, config,
                                                    systems, head, gnss_rng)
-        window = truth if previous is None else concat_truth(_tail(previous), truth)
+        window = truth if previous is None else concat_truth(previous.rows(slice(-1, None)), truth)
         yield TripSegment(index, truth, window, imu, gnss, obs, clock)
         previous = truth
 

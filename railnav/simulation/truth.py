@@ -27,7 +27,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import casadi as ca
 import numpy as np
@@ -92,6 +92,11 @@ class Truth:
     def v_e(self) -> Array:
         """Velocity relative to the Earth in ECEF, m/s, (N, 3)."""
         return np.einsum("...ij,...j->...i", C_n_e(self.lat, self.lon), self.v_n)
+
+    def rows(self, index: npt.ArrayLike | slice) -> "Truth":
+        """The samples `index` (integers, booleans or a slice) of every `Truth` field (a
+        subclass's own fields are left out)."""
+        return Truth(**{f.name: getattr(self, f.name)[index] for f in fields(Truth)})
 
     def full_state(self) -> Array:
         """True states of the 9-state model (`strapdown.mechanization.FULL_STATE_NAMES`), (N, 9)."""
@@ -251,14 +256,23 @@ def _truth_and_point(track, profile: SpeedProfile, time_s: Array, *, start_s: fl
 def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:
     """Partial derivatives of `trackmodel.earth.C_n_e` w.r.t. latitude and longitude, (N,3,3)."""
     sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-    z = np.zeros_like(lat)
-    d_lat = np.stack([np.stack([z, z, z], -1),                      # east
-                      np.stack([-cl * co, -cl * so, -sl], -1),      # north
-                      np.stack([-sl * co, -sl * so, cl], -1)], -1)  # up
-    d_lon = np.stack([np.stack([-co, -so, z], -1),
-                      np.stack([sl * so, -sl * co, z], -1),
-                      np.stack([-cl * so, cl * co, z], -1)], -1)
+    d_lat = _from_columns(lat.shape, ((0.0, 0.0, 0.0),                 # east
+                                      (-cl * co, -cl * so, -sl),       # north
+                                      (-sl * co, -sl * so, cl)))       # up
+    d_lon = _from_columns(lat.shape, ((-co, -so, 0.0),
+                                      (sl * so, -sl * co, 0.0),
+                                      (-cl * so, cl * co, 0.0)))
     return d_lat, d_lon
+
+
+def _from_columns(shape: tuple[int, ...], columns) -> Array:
+    """Matrices (``shape`` + (3, 3)) with the given three columns of three entries
+    (arrays of `shape` or scalars), written in place (no stacked copies)."""
+    out = np.empty(shape + (3, 3))
+    for j, column in enumerate(columns):
+        for i, value in enumerate(column):
+            out[..., i, j] = value
+    return out
 
 
 @functools.lru_cache(maxsize=1)
@@ -269,6 +283,29 @@ def _dC_b_n_function() -> ca.Function:
     C = ca.reshape(C_b_n(ang[0], ang[1], ang[2]), 9, 1)
     J = ca.jacobian(C, ang)
     return ca.Function("dC_b_n", [ang], [ca.vertcat(J[:, 0], J[:, 1], J[:, 2])])
+
+
+def _attitude_matrices(truth: Truth, rates: Array) -> tuple[Array, Array]:
+    """``C_b_n`` at the truth's Euler angles and its derivative ``Σ_i ∂C_b_n/∂α_i ρ_i``
+    for the angle rates ``ρ`` (N, k; k = 2: yaw and pitch, or 3), both (N, 3, 3).
+
+    Evaluated once per run of bit-equal consecutive rows of angles and rates (a straight
+    section's attitude is constant) and repeated: the same values as row by row.
+    """
+    key = np.column_stack([truth.yaw, truth.pitch, truth.roll, rates])
+    bits = key.view(np.int64)
+    new = np.ones(key.shape[0], dtype=bool)
+    new[1:] = np.any(bits[1:] != bits[:-1], axis=1)
+    first = key if new.all() else key[new]
+    C_bn = C_b_n(first[:, 0], first[:, 1], first[:, 2])
+    (dC,) = batch_call(_dC_b_n_function(), first[:, :3])
+    terms = [dC[:, 9 * i:9 * i + 9].reshape(-1, 3, 3).transpose(0, 2, 1)
+             * first[:, 3 + i, None, None] for i in range(rates.shape[1])]
+    dC_bn = sum(terms[1:], terms[0])
+    if first is key:
+        return C_bn, dC_bn
+    row = np.cumsum(new) - 1
+    return C_bn[row], dC_bn[row]
 
 
 def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
@@ -310,21 +347,14 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
     omega_e = np.array([0.0, 0.0, earth.omega_radps])
     f_e = r_ddot + 2.0 * np.cross(omega_e, r_dot) - mv(C_ne, g_n(lat, h, earth=earth))
 
-    C_bn = C_b_n(truth.yaw, truth.pitch, truth.roll)
-    (dC,) = batch_call(_dC_b_n_function(), np.column_stack([truth.yaw, truth.pitch, truth.roll]))
-    dC_dyaw = dC[:, :9].reshape(-1, 3, 3).transpose(0, 2, 1)
-    dC_dpitch = dC[:, 9:18].reshape(-1, 3, 3).transpose(0, 2, 1)
-    C_be = C_ne @ C_bn
-    if attitude_rates is None:
-        dC_bn_ds = (dC_dyaw * pt.curvature_1pm[:, None, None]
-                    + dC_dpitch * pt.elevation_rate[:, None, None])
+    if attitude_rates is None:              # the track's: dA/ds, dϑ/ds (per metre)
+        C_bn, dC_bn_ds = _attitude_matrices(
+            truth, np.column_stack([pt.curvature_1pm, pt.elevation_rate]))
         dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn + C_ne @ dC_bn_ds)
     else:
-        rates = np.asarray(attitude_rates, dtype=float)
-        dC_droll = dC[:, 18:].reshape(-1, 3, 3).transpose(0, 2, 1)
-        dC_bn_dt = (dC_dyaw * rates[:, 0, None, None] + dC_dpitch * rates[:, 1, None, None]
-                    + dC_droll * rates[:, 2, None, None])
+        C_bn, dC_bn_dt = _attitude_matrices(truth, np.asarray(attitude_rates, dtype=float))
         dC_be_dt = v[:, :, None] * (dC_ne_ds @ C_bn) + C_ne @ dC_bn_dt
+    C_be = C_ne @ C_bn
     W = np.swapaxes(C_be, -1, -2) @ dC_be_dt
     omega_eb_b = 0.5 * np.stack([W[:, 2, 1] - W[:, 1, 2], W[:, 0, 2] - W[:, 2, 0],
                                  W[:, 1, 0] - W[:, 0, 1]], axis=-1)
