@@ -138,9 +138,11 @@ class Recorder:
     full_covariance: bool = False
     smoothing: bool = False
     _parts: dict[str, list[Array]] = field(default_factory=dict)
+    #: Per discrete update: ``(t, nis, log_likelihood, m, accepted count)``, Python
+    #: scalars (one array per field is made by `result`, not five per update).
+    _updates: list[tuple] = field(default_factory=list)
     nis_c_sum: float = 0.0
     nis_c_count: int = 0
-    epochs: int = 0
     n_steps: int = 0
 
     def _add(self, key: str, value: Array) -> None:
@@ -184,17 +186,18 @@ class Recorder:
 
     def update(self, t: float, record: UpdateRecord) -> None:
         """Record one discrete update at time ``t``."""
-        m = record.innov.size
-        self._add("t_d", np.array([t]))
-        self._add("nis_d", np.array([record.nis]))
-        self._add("log_lik_d", np.array([record.log_likelihood]))
-        self._add("m_d", np.array([m]))
-        self._add("accepted_d", np.array([np.count_nonzero(record.accepted)]))
-        self._add("epoch_of", np.full(m, self.epochs))
+        self._updates.append((t, record.nis, record.log_likelihood, record.innov.size,
+                              np.count_nonzero(record.accepted)))
         self._add("innov_d", record.innov)
         self._add("s_d", record.S.diagonal().copy())
         self._add("accepted", record.accepted)
-        self.epochs += 1
+
+    def _update_arrays(self) -> tuple[Array, Array, Array, Array, Array]:
+        """``t_d, nis_d, log_lik_d`` (float) and ``m_d, accepted_d`` (int) of the updates."""
+        columns = tuple(zip(*self._updates)) or ((),) * 5
+        return (np.array(columns[0], dtype=float), np.array(columns[1], dtype=float),
+                np.array(columns[2], dtype=float), np.array(columns[3], dtype=int),
+                np.array(columns[4], dtype=int))
 
     def result(self, x_final: Array, P_final: Array) -> FilterResult:
         """The recorded history as a :class:`FilterResult`."""
@@ -208,16 +211,16 @@ class Recorder:
                                     P_next=self._get("s_P_next", (n_p,)),
                                     Phi=self._get("s_Phi", (n * n,)))
         n_c = self._parts["innov_c"][0].shape[1] if self._parts.get("innov_c") else 0
+        t_d, nis_d, log_lik_d, m_d, accepted_d = self._update_arrays()
         return FilterResult(
             layout=self.layout, t=self._get("t", ()), x=self._get("x", (n,)),
             P_diag=self._get("P_diag", (n,)),
             P=self._get("P", (n_p,)) if self.full_covariance else None,
             t_c=self._get("t", ()), innov_c=self._get("innov_c", (n_c,)),
             nis_c=self._get("nis_c", ()), nis_c_sum=self.nis_c_sum,
-            nis_c_count=self.nis_c_count, t_d=self._get("t_d", ()),
-            nis_d=self._get("nis_d", ()), log_lik_d=self._get("log_lik_d", ()),
-            m_d=self._get("m_d", (), int), accepted_d=self._get("accepted_d", (), int),
-            epoch_of=self._get("epoch_of", (), int), innov_d=self._get("innov_d", ()),
+            nis_c_count=self.nis_c_count, t_d=t_d, nis_d=nis_d, log_lik_d=log_lik_d,
+            m_d=m_d, accepted_d=accepted_d,
+            epoch_of=np.repeat(np.arange(m_d.size), m_d), innov_d=self._get("innov_d", ()),
             s_d=self._get("s_d", ()), accepted=self._get("accepted", (), bool),
             smoother=smoother, x_final=np.array(x_final), P_final=np.array(P_final),
             n_steps=self.n_steps)

@@ -72,9 +72,11 @@ class Projection:
                                    "distance_m"]]
 
 
-def _e(lat: Array, lon: Array, v_n: Array) -> Array:
-    """ENU vectors (N, 3) at (lat, lon) to ECEF."""
-    return np.einsum("...ij,...j->...i", C_n_e(lat, lon), v_n)
+def _e(lat: Array, lon: Array, *v_n: Array) -> tuple[Array, ...]:
+    """ENU vectors, each (N, 3), at (lat, lon) to ECEF (the rotation computed once for
+    all: a projection's Newton step turns its tangent and its derivative)."""
+    C = C_n_e(lat, lon)
+    return tuple(np.einsum("...ij,...j->...i", C, v) for v in v_n)
 
 
 class Projector:
@@ -98,8 +100,7 @@ class Projector:
         self.s = np.concatenate(s)
         pt = track.at(self.s)
         self.r_e = pt.r_e
-        self.u_e = _e(pt.lat, pt.lon, pt.u_n)
-        self.k_e = _e(pt.lat, pt.lon, pt.du_ds_n)
+        self.u_e, self.k_e = _e(pt.lat, pt.lon, pt.u_n, pt.du_ds_n)
         self.tree = cKDTree(self.r_e)
 
     def _seed(self, p_e: Array) -> Array:
@@ -146,7 +147,7 @@ class Projector:
             p_e = geodetic_to_ecef(lat, lon, pt.h if h is None else h_given,
                                    earth=self.track.earth)
             d = p_e - pt.r_e
-            u_e, k_e = _e(pt.lat, pt.lon, pt.u_n), _e(pt.lat, pt.lon, pt.du_ds_n)
+            u_e, k_e = _e(pt.lat, pt.lon, pt.u_n, pt.du_ds_n)
             slope = np.maximum(1.0 - np.einsum("ij,ij->i", k_e, d), MIN_NEWTON_SLOPE)
             ds = np.einsum("ij,ij->i", u_e, d) / slope
             s_new = np.clip(s + ds, 0.0, L)
