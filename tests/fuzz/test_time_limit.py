@@ -20,7 +20,10 @@ def test_a_spinning_case_fails_after_its_cpu_budget():
     with pytest.raises(FuzzTimeout, match="of CPU"):
         with time_limit(0.2):
             _spin(5.0)
-    assert 0.2 <= time.process_time() - start < 1.0
+    # the kernel charges ITIMER_PROF by scheduler ticks, process_time() exactly: the timer
+    # was seen to fire after 0.178-0.198 s of process_time() under load; the point is that
+    # the 5-s spin is cut near its 0.2-s budget, not at it to the millisecond
+    assert 0.1 <= time.process_time() - start < 1.0
 
 
 def test_waiting_is_not_counted_and_the_timer_is_cleared():
