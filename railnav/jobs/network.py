@@ -54,7 +54,7 @@ from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
 from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_start
 from railnav.navigation.hypotheses import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
-from railnav.navigation.network_weights import converted
+from railnav.navigation.state_conversion import converted
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, without_heights
 from trackmodel.errors import TrackError
 from trackmodel.files import atomic_write_csv, atomic_write_text
@@ -277,7 +277,7 @@ def true_netelements(network: Network, legs, s_m) -> np.ndarray:
 def candidate_starts(trip, config, route_filter):
     """`navigate_network`'s ``initial`` for a simulated `trip` on `route_filter`'s track:
     each start candidate's initial state: the truth on the route line brought onto the
-    candidate's track (`railnav.navigation.network_weights.converted`) plus one common
+    candidate's track (`railnav.navigation.state_conversion.converted`) plus one common
     error draw (`truth_start`); none for a candidate an inertial filter would face the
     wrong way on."""
     x_route = route_filter.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0]

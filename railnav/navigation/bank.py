@@ -17,7 +17,7 @@ brought from one track to another. The network navigator
    projected onto track j gives ``s_j``; attitude kept relative to the track, speed and
    the other states as they are; the covariance is kept (the mapping's Jacobian is the
    identity to ``O(κ d)``, 0.75 % in a 600-m curve at 4.5 m). The IMM restarts of
-   hypotheses abreast use it (`railnav.navigation.network_weights.converted`, with a
+   hypotheses abreast use it (`railnav.navigation.state_conversion.converted`, with a
    Newton shortcut).
 
 **The crossing prior's default.** The track of hypotheses abreast is a Markov chain that

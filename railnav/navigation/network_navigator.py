@@ -68,12 +68,12 @@ from railnav.navigation.spawning import Spawner
 from railnav.navigation.spp_epochs import correlation_s as spp_correlation_s
 from railnav.navigation.spp_epochs import EpochSppFixes
 from railnav.navigation.stacked_fixes import StackedFixStepper, stackable
+from railnav.navigation.state_conversion import forget_offsets
 from railnav.navigation.network_weights import (
     abreast,
     crossing_matrix,
     cycle_evidence,
     cycle_points,
-    forget_offsets,
     hypothesis_points,
     mix_states,
     reweight,

@@ -26,7 +26,7 @@ from railnav.filters.epochs_together import observations_together
 from railnav.filters.protocol import make_filter
 from railnav.filters.row_sets import influence_gains, innovation_covariances
 from railnav.navigation.navigator import trip_samples
-from railnav.navigation.network_weights import converted
+from railnav.navigation.state_conversion import converted
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from trackmodel.io import read_track

@@ -32,7 +32,8 @@ from railnav.jobs.tracks import (
 from railnav.navigation.bank import convert_state
 from railnav.navigation.monitor import MonitorConfig
 from railnav.navigation.navigator import navigate
-from railnav.navigation.network_weights import converted, crossing_matrix
+from railnav.navigation.network_weights import crossing_matrix
+from railnav.navigation.state_conversion import converted
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from trackmodel.earth import C_n_e

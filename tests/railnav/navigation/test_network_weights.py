@@ -1,7 +1,8 @@
 """The first Newton points of the mixing's conversions evaluated with the hypotheses'
 track points (`railnav.navigation.network_weights.cycle_points`) against the conversions
-evaluating them themselves (`converted_pairs` without them): the same states and
-covariances to the bit, the same offsets remembered for the next cycle."""
+evaluating them themselves (`railnav.navigation.state_conversion.converted_pairs` without
+them): the same states and covariances to the bit, the same offsets remembered for the
+next cycle."""
 from __future__ import annotations
 
 from types import SimpleNamespace
@@ -10,6 +11,7 @@ import numpy as np
 
 from railnav.filters.constrained import ConstrainedFilter
 from railnav.navigation import network_weights as nw
+from railnav.navigation import state_conversion as sc
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from trackmodel.io import read_track
@@ -28,7 +30,7 @@ def _hyps(filters, s_values):
 
 
 def _convert(hyps, pairs, points, guesses):
-    return nw.converted_pairs([hyps[i].filt for i, _ in pairs],
+    return sc.converted_pairs([hyps[i].filt for i, _ in pairs],
                               [hyps[j].filt for _, j in pairs],
                               [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
                               source_points=[points[i] for i, _ in pairs],
@@ -41,26 +43,26 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
     tracks = [offset_track(base, -4.5), base, offset_track(base, 4.5), base]
     filters = [ConstrainedFilter(t, config, None) for t in tracks]
     pairs = [(i, j) for j in range(4) for i in range(4) if i != j]
-    nw.forget_offsets()
+    sc.forget_offsets()
     try:
         first = _hyps(filters, [1000.0, 1001.0, 999.0, 1003.0])
         _convert(first, pairs, nw.track_points_of(first), None)   # offsets by projection
         hyps = _hyps(filters, [1020.0, 1021.5, 1018.0, 1024.0])
-        table = dict(nw._OFFSETS)
+        table = dict(sc._OFFSETS)
         ref = _convert(hyps, pairs, nw.track_points_of(hyps), None)
-        ref_table = dict(nw._OFFSETS)
-        nw._OFFSETS.clear()
-        nw._OFFSETS.update(table)
+        ref_table = dict(sc._OFFSETS)
+        sc._OFFSETS.clear()
+        sc._OFFSETS.update(table)
         points, newton = nw.cycle_points(hyps)
         assert set(newton) == set(pairs)       # every pair of tracks has an offset by now
         got = _convert(hyps, pairs, points, [newton.get(p) for p in pairs])
-        assert nw._OFFSETS == ref_table
+        assert sc._OFFSETS == ref_table
         for (x_a, P_a), (x_b, P_b) in zip(got, ref):
             assert np.array_equal(x_a, x_b) and np.array_equal(P_a, P_b)
         for p, q in zip(points, nw.track_points_of(hyps)):
             assert all(np.array_equal(getattr(p, f), getattr(q, f)) for f in p.FIELDS)
     finally:
-        nw.forget_offsets()
+        sc.forget_offsets()
 
 
 def test_newton_steps_together_equal_each_pairs_own():
@@ -76,8 +78,8 @@ def test_newton_steps_together_equal_each_pairs_own():
     nearest = np.array([t.project(p.lat, p.lon, p.h).s[0] for t, p in zip(targets, sources)])
     s_g = nearest + np.array([0.3, -0.7, 0.05, 2.5, -0.2])
     guesses = points_on(targets, s_g.tolist())
-    together = nw._newton_many(guesses, sources, s_g.tolist())
-    alone = [nw._newton(g, p, s) for g, p, s in zip(guesses, sources, s_g.tolist())]
+    together = sc._newton_many(guesses, sources, s_g.tolist())
+    alone = [sc._newton(g, p, s) for g, p, s in zip(guesses, sources, s_g.tolist())]
     assert together == alone
     assert together[3] is None and all(v is not None for k, v in enumerate(together)
                                        if k != 3)
