@@ -27,14 +27,10 @@ from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters.along_force_noise import AlongForceNoise, forces_together
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
-from railnav.filters.common import (
-    GnssRowBuilder,
-    start_on_track,
-    states_from_values,
-    track_estimates,
-)
+from railnav.filters.common import GnssRowBuilder, start_on_track, states_from_values
 from railnav.filters.constrained_model import (build_constrained_model, isb_state_name,
                                                scale_elements_for)
+from railnav.filters.estimate_columns import track_estimates
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
@@ -377,7 +373,8 @@ class ConstrainedFilter:
 
     # -- outputs ---------------------------------------------------------------------------
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
-        """Estimate columns (`railnav.filters.common.estimate_columns`) of stored states."""
+        """Estimate columns (`railnav.filters.estimate_columns.track_estimates`) of stored
+        states."""
         P = unpack_sym(P_packed)
         var = np.diagonal(P, axis1=1, axis2=2)
         return track_estimates(self.track, self.layout, x, var)

@@ -55,7 +55,8 @@ from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters import code_bias as cb
-from railnav.filters.common import GnssRowBuilder, start_on_track, track_estimates
+from railnav.filters.common import GnssRowBuilder, start_on_track
+from railnav.filters.estimate_columns import track_estimates
 from railnav.filters.constrained_model import isb_state_name
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows

@@ -59,8 +59,9 @@ class Filter(Protocol):
         at the prior ``(x, P)``."""
 
     def estimates(self, x: Array, P_packed: Array) -> dict[str, Array]:
-        """Output columns (`railnav.filters.common.ESTIMATE_COLUMNS` first, `estimate_columns`) of stored
-        states and packed covariances."""
+        """Output columns (`railnav.filters.estimate_columns.ESTIMATE_COLUMNS` first,
+        `railnav.filters.estimate_columns.estimate_columns`) of stored states and packed
+        covariances."""
 
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
         """The initial covariance, given the σ of ``s`` (m) and ``v`` (m/s)."""

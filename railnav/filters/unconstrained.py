@@ -35,9 +35,9 @@ from railnav.filters.common import (
     MIN_FIX_SIGMA_S_M,
     MIN_FIX_SIGMA_V_MPS,
     clock_from_fix,
-    estimate_columns,
     states_from_values,
 )
+from railnav.filters.estimate_columns import estimate_columns
 from railnav.filters.geodetic_rows import GeodeticRowBuilder
 from railnav.filters.ins_clock_model import (
     initial_variances,

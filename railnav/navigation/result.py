@@ -2,9 +2,9 @@
 
 `NavigationResult.estimates` is the ``estimates.csv`` table (`estimates_frame`, the one
 place that builds it): ``time_s`` (from the trip start), ``gps_time_s`` and the filter's
-columns (`railnav.filters.common.ESTIMATE_COLUMNS`: ``s_m, lat_deg, lon_deg, h_m,
+columns (`railnav.filters.estimate_columns.ESTIMATE_COLUMNS`: ``s_m, lat_deg, lon_deg, h_m,
 speed_mps, v_east_mps, ...``, then ``yaw_deg, ...``, clock, biases, and ``sigma_*`` of
-each; `railnav.filters.common.estimate_columns`); with the divergence monitor
+each; `railnav.filters.estimate_columns.estimate_columns`); with the divergence monitor
 (`railnav.navigation.monitor`, track-based filters), then ``status`` (``ok``, ``degraded``,
 ``lost``), ``s_min_m``, ``s_max_m``, ``protection_level_m`` (integrity risk 1e-5 per
 epoch) and ``protection_level_risk_0p001_m`` (`railnav.navigation.protection`).
