@@ -55,7 +55,7 @@ from railnav.evaluation.netelement_truth import (  # noqa: E402
     route_passes,
 )
 from railnav.jobs.network import load_network, run_files_network  # noqa: E402
-from railnav.navigation.hypotheses import NetworkNavConfig  # noqa: E402
+from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.simulation.fix_degrade import SPP_BIAS_M, SPP_TAU_S, degrade_log  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 

@@ -53,7 +53,7 @@ sys.path.insert(0, str(REPO))
 
 from railnav.jobs.network import run_simulated_network  # noqa: E402
 from railnav.jobs.run import run_simulated  # noqa: E402
-from railnav.navigation.hypotheses import NetworkNavConfig  # noqa: E402
+from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.simulation.scenarios import get_scenario  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402

@@ -43,7 +43,7 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from railnav.jobs.network import run_simulated_network, write_network_run  # noqa: E402
-from railnav.navigation.hypotheses import NetworkNavConfig  # noqa: E402
+from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402

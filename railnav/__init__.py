@@ -83,7 +83,7 @@ _EXPORTS = {
     "route_candidates": "jobs.network", "run_simulated_network": "jobs.network",
     "run_files_network": "jobs.network", "write_network_run": "jobs.network",
     "navigate_network": "navigation.network_navigator",
-    "NetworkNavConfig": "navigation.hypotheses", "NetworkStart": "navigation.network_start",
+    "NetworkNavConfig": "navigation.network_config", "NetworkStart": "navigation.network_start",
     "FixModelConfig": "filters.fix_epochs", "trip_fixes": "simulation.fixes",
     "simulate_fixes": "simulation.fixes", "FixSimConfig": "simulation.fixes",
     "score_run": "jobs.scoring", "read_reference": "evaluation.reference",

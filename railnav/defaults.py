@@ -2,7 +2,7 @@
 
 `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
 `railnav.config.NavigatorConfig`, which re-exports them) and `DEFAULT_CROSSING_RATE_PER_S`
-(of `railnav.navigation.hypotheses.NetworkNavConfig`; `railnav.navigation.bank` explains
+(of `railnav.navigation.network_config.NetworkNavConfig`; `railnav.navigation.bank` explains
 it). They live in a module
 that imports nothing, so that the ``railnav`` parser (help texts, choices, defaults) is
 built without importing the engine, CasADi, SciPy or pandas: ``railnav --help`` and an

@@ -20,9 +20,9 @@ log = logging.getLogger(__name__)
 
 
 def nav_config(args: argparse.Namespace):
-    """The `railnav.navigation.hypotheses.NetworkNavConfig` of the flags."""
+    """The `railnav.navigation.network_config.NetworkNavConfig` of the flags."""
     from railnav.jobs.network import with_nav
-    from railnav.navigation.hypotheses import NetworkNavConfig
+    from railnav.navigation.network_config import NetworkNavConfig
     return with_nav(NetworkNavConfig(), max_hypotheses=getattr(args, "max_hypotheses", None),
                     crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None),
                     spawn=False if getattr(args, "no_spawn", False) else None,

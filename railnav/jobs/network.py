@@ -52,7 +52,7 @@ from railnav.evaluation.netelement_truth import (
 )
 from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
 from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_start
-from railnav.navigation.hypotheses import NetworkNavConfig
+from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
 from railnav.navigation.state_conversion import converted
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, without_heights

@@ -56,7 +56,7 @@ from railnav.jobs.network import (
     write_network_run,
 )
 from railnav.jobs.run import RunOutcome
-from railnav.navigation.hypotheses import NetworkNavConfig
+from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT
 from railnav.simulation.scenarios import Scenario
 from trackmodel.files import atomic_write_csv

@@ -110,7 +110,7 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     trip : railnav.navigation.navigator.TripSamples
     data : railnav.SensorData
     config : railnav.NavigatorConfig
-    nav : railnav.navigation.hypotheses.NetworkNavConfig
+    nav : railnav.navigation.network_config.NetworkNavConfig
     start : NetworkStart, optional
     initial : callable(filter object, element, orientation) -> InitialState or None, optional
         A start of its own for each candidate (simulations: the truth brought onto it);

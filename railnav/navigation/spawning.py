@@ -187,7 +187,7 @@ class Spawner:
 
     Parameters
     ----------
-    nav : railnav.navigation.hypotheses.NetworkNavConfig
+    nav : railnav.navigation.network_config.NetworkNavConfig
     trip : railnav.navigation.navigator.TripSamples
     cross_sigma_m : float
         `FixModelConfig.track_cross_sigma_m` of the run.

@@ -72,7 +72,7 @@ def test_fix_error_model_flags_are_the_api_config(tmp_path, capsys):
     fix_bias_sigma_m=2)``, column for column, and not those of the default (independent
     fixes, no bias): the flags reach the navigator and change its weights."""
     from railnav.jobs.network import load_network, run_files_network, write_network_run
-    from railnav.navigation.hypotheses import NetworkNavConfig
+    from railnav.navigation.network_config import NetworkNavConfig
     from railnav.simulation.fix_degrade import degrade_log
     fixes = tmp_path / "spp.csv"
     degrade_log(EXCERPT, fixes, seed=1)

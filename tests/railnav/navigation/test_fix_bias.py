@@ -13,7 +13,7 @@ from scipy.stats import multivariate_normal
 
 from railnav.errors import ConfigError
 from railnav.navigation.fix_bias import FixBias, cross_row_evidence, merged
-from railnav.navigation.hypotheses import NetworkNavConfig
+from railnav.navigation.network_config import NetworkNavConfig
 
 REPO = Path(__file__).resolve().parents[3]
 LOG = REPO / "data" / "fixes" / "brussels" / "log_28554_L36-A_to_L36C-A.csv"

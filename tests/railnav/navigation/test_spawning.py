@@ -19,7 +19,8 @@ from railnav.evaluation.netelement_truth import (
     route_passes,
 )
 from railnav.filters.gnss_only import GnssOnlyFilter
-from railnav.navigation.hypotheses import NetworkNavConfig, hypothesis
+from railnav.navigation.hypotheses import hypothesis
+from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.net_tracks import OrientedTracks, bare
 from railnav.navigation.network_weights import ecef_points, track_points_of
 from railnav.navigation.spawning import fix_disagreement

@@ -19,7 +19,8 @@ import pytest
 from railnav.config import NavigatorConfig
 from railnav.errors import ConfigError
 from railnav.filters.gnss_only import GnssOnlyFilter
-from railnav.navigation.hypotheses import NetworkNavConfig, hypothesis
+from railnav.navigation.hypotheses import hypothesis
+from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.net_tracks import OrientedTracks, bare
 from railnav.navigation.spawning import Spawner
 from railnav.navigation.spp_epochs import correlation_s, epoch_spp_fixes

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from railnav.jobs.run import read_sensor_files
-from railnav.navigation.hypotheses import NetworkNavConfig
+from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
 from trackmodel.network_io import read_network
 
