@@ -76,7 +76,7 @@ _EXPORTS = {
     "stream_simulated": "navigation.streaming",
     "run_simulated_tracks": "jobs.tracks", "run_files_tracks": "jobs.tracks",
     "track_nav": "jobs.tracks", "write_track_run": "jobs.tracks",
-    "FaultDetectionConfig": "filters.fault_detection",
+    "FaultDetectionConfig": "filters.fault_config",
     "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
     "baro_track_check": "evaluation.baro",

@@ -28,7 +28,7 @@ from railnav.defaults import DEFAULT_FILTER, DEFAULT_IMU_GRADE, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.balise_epochs import BaliseModelConfig
 from railnav.filters.code_bias import CodeBiasConfig
-from railnav.filters.fault_detection import FaultDetectionConfig
+from railnav.filters.fault_config import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.odometer_epochs import OdometerConfig
@@ -184,7 +184,7 @@ class NavigatorConfig:
         GNSS-only filter: the slow part of the code errors, an along-track bias state shared
         by each epoch's position rows (`railnav.filters.code_bias`); with
         ``pseudorange_correlation_s`` > 0 only (white errors have no slow part).
-    fault_detection : railnav.filters.fault_detection.FaultDetectionConfig or None
+    fault_detection : railnav.filters.fault_config.FaultDetectionConfig or None
         Constrained filter: satellite fault detection and exclusion at each GNSS epoch's
         prior (per-row fault hypothesis, channel exclusion and re-admission, receiver
         clock jumps; `railnav.filters.fault_detection`); None: every row goes to the update (and

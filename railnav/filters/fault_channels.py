@@ -43,7 +43,7 @@ class Channel:
 
     Parameters
     ----------
-    config : railnav.filters.fault_detection.FaultDetectionConfig
+    config : railnav.filters.fault_config.FaultDetectionConfig
     n_states : int
         Size of the filter's state (for the influence).
     """

@@ -19,7 +19,7 @@ hypothesis at each epoch (``innovations.csv``, `NetworkResult.innovations`), ove
 rows, a channel kept out after its rejections, are not counted again) against the
 binomial law of a fault-free epoch's rejection: each of its ``m`` rows is rejected with
 probability at most ``p_row = P(χ²₁ > fault screen's threshold) + (1 − gate_probability)``
-(the fault screen's row test, `railnav.filters.fault_detection.FaultDetectionConfig.
+(the fault screen's row test, `railnav.filters.fault_config.FaultDetectionConfig.
 nis_threshold`, 1.9e-4 at the defaults, and the navigator's χ² gate, 1e-4; a union
 bound), so the epoch with probability at most ``q = 1 − (1 − p_row)^m`` (``m`` the
 window's largest row count). Epochs, not rows, are counted: the rows of one fix are

@@ -21,7 +21,8 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.sim_events import SatelliteFault
 from railnav.errors import ConfigError
-from railnav.filters.fault_detection import FaultDetectionConfig, RowScreen
+from railnav.filters.fault_config import FaultDetectionConfig
+from railnav.filters.fault_detection import RowScreen
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
 from railnav.studies.faults import clock_jump_faults, fault_case

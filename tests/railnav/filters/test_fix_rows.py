@@ -9,7 +9,8 @@ import pytest
 
 from gnss_obs.fixes.table import FIX_COLUMNS
 from railnav.config import NavigatorConfig
-from railnav.filters.fault_detection import FaultDetectionConfig, RowScreen
+from railnav.filters.fault_config import FaultDetectionConfig
+from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_epochs import EpochSchedule, FixEpochs, FixModelConfig
 from railnav.filters.fix_rows import (
     FixRowBuilder,

@@ -15,7 +15,8 @@ from railnav.config import NavigatorConfig
 from railnav.errors import ConfigError
 from railnav.filters.balise_epochs import BaliseEpochs, BaliseModelConfig
 from railnav.filters.balise_rows import BaliseRowBuilder, build_balise_rows
-from railnav.filters.fault_detection import FaultDetectionConfig, RowScreen
+from railnav.filters.fault_config import FaultDetectionConfig
+from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import stack_epoch_rows
 from railnav.filters.gnss_only_model import build_gnss_only_model
 from railnav.filters.gnss_rows import (
