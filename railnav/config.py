@@ -34,7 +34,7 @@ from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.filters.track_frame import LeverArms
-from railnav.navigation.monitor import MonitorConfig
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.filters.standstill import StandstillConfig
 from strapdown.errors import StrapdownError
 from strapdown.imu import Imu
@@ -201,7 +201,7 @@ class NavigatorConfig:
     lever_arms : railnav.filters.track_frame.LeverArms
         Antenna, IMU and balise-reader offsets from the reference point (default none;
         the constrained and GNSS-only filters).
-    monitor : railnav.navigation.monitor.MonitorConfig
+    monitor : railnav.navigation.monitor_config.MonitorConfig
         The divergence monitor of track-based filters (status per epoch, recovery when
         lost; default on).
     track_attitude : railnav.filters.attitude_config.TrackAttitudeConfig or None

@@ -91,7 +91,7 @@ def attitude_config(args: argparse.Namespace) -> dict:
     if args.suspension_noise:       # absent otherwise: a simulated car body sets it
         out["suspension_noise"] = True
     if getattr(args, "no_recover", False):
-        from railnav.navigation.monitor import MonitorConfig
+        from railnav.navigation.monitor_config import MonitorConfig
         out["monitor"] = MonitorConfig(recover=False)
     return out
 

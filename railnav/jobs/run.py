@@ -249,7 +249,7 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
     suspension_noise : bool, optional
         `NavigatorConfig.suspension_noise` applied to whichever configuration (default
         None: the configuration's own; True for files simulated with a car body).
-    monitor : railnav.navigation.monitor.MonitorConfig, optional
+    monitor : railnav.navigation.monitor_config.MonitorConfig, optional
         The divergence monitor applied to whichever configuration (default None: the
         configuration's own, on with recovery; ``MonitorConfig(recover=False)`` is
         ``railnav run --no-recover``).

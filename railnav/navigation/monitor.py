@@ -78,7 +78,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -88,57 +87,16 @@ from railnav.filters.code_bias import apparent_variance
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
 
-__all__ = ["MonitorConfig", "FilterMonitor", "STATUSES", "status_at"]
+__all__ = ["FilterMonitor", "STATUSES", "status_at"]
 
 Array = npt.NDArray[np.float64]
 
 #: The statuses, from best to worst.
 STATUSES = ("ok", "degraded", "lost")
-
-
-@dataclass(frozen=True)
-class MonitorConfig:
-    """Windows and thresholds of `FilterMonitor` (module docstring).
-
-    Parameters
-    ----------
-    enabled : bool
-    window_epochs : int
-        Epochs in each test's window.
-    small_window_epochs : int
-        Epochs of the lower-tail fix test (``p_fix_small``: disagreements too small).
-    min_epochs : int
-        Epochs after a start or recovery before the status may be ``ok``.
-    p_degraded, p_lost : float
-        Tail probabilities below which a test flags ``degraded`` / ``lost``.
-    recover : bool
-        Re-initialise (or widen) when ``lost``; on by default (``railnav run
-        --no-recover``: off). No ``lost`` epoch in `benchmarks/bench_consistency.py`'s ten
-        simulated cases (``consistency.json``) nor on the urban drive
-        (``real_pieces.json``); a filter that does get lost (a MEMS IMU told it is
-        navigation grade) is restarted instead of ending 1 km off
-        (`tests/railnav/commands/test_cli_attitude.py`). (It was off while fixes projected
-        on the wrong pass of a ring said ``lost`` on 160 of 280 consistent epochs.)
-    lost_rejected_share : float
-        The rejected-row test says ``lost`` only when at least this share of the window's
-        rows was rejected (fewer: the rows, not the prior, are bad: multipath).
-    min_fix_sigma_m, min_fix_sigma_mps : float
-        Floors of a fix's along-track σ of position and speed.
-    """
-
-    enabled: bool = True
-    window_epochs: int = 10
-    small_window_epochs: int = 30
-    min_epochs: int = 3
-    p_degraded: float = 1e-3
-    p_lost: float = 1e-6
-    recover: bool = True
-    lost_rejected_share: float = 0.5
-    min_fix_sigma_m: float = 1.0
-    min_fix_sigma_mps: float = 0.05
 
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
@@ -167,7 +125,7 @@ class FilterMonitor:
     fixes : TrackFixes or None
         The run's position fixes on the track: the fix test's fix where the epoch's own
         rows cannot give one (`snapshot_fix`, `_screened_out`), and a restart's.
-    config : MonitorConfig
+    config : railnav.navigation.monitor_config.MonitorConfig
     gate_probability : float or None
         The run's χ² row gate (None: the rejected-row test is off).
     fix_at : callable(time_s) -> TrackFixes or None, optional

@@ -37,7 +37,7 @@ from scipy.stats import chi2
 
 from railnav.config import DEFAULT_SYSTEMS
 from railnav.jobs.run import run_simulated
-from railnav.navigation.monitor import MonitorConfig
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.reproduce.common import PaperFigure, Quantity, ReproductionResult
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for

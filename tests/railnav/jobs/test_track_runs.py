@@ -30,7 +30,7 @@ from railnav.jobs.tracks import (
     track_network,
 )
 from railnav.navigation.bank import convert_state
-from railnav.navigation.monitor import MonitorConfig
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.navigator import navigate
 from railnav.navigation.network_weights import crossing_matrix
 from railnav.navigation.state_conversion import converted

@@ -17,7 +17,8 @@ from scipy import stats
 from ekf.layout import StateLayout
 from railnav.commands.run_report import report
 from railnav.jobs.run import run_simulated
-from railnav.navigation.monitor import FilterMonitor, MonitorConfig, status_at
+from railnav.navigation.monitor import FilterMonitor, status_at
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.track_fixes import TrackFixes
 from railnav.navigation.protection import along_track_protection
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario

@@ -15,7 +15,7 @@ from scipy.stats import chi2
 
 from railnav.config import NavigatorConfig
 from railnav.jobs.network import run_files_network
-from railnav.navigation.monitor import MonitorConfig
+from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.network_status import (
     combined_status_records,
     pseudo_nis,
