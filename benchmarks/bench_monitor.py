@@ -8,7 +8,7 @@ filter-alone speed) on the 2017 paper's 1000-s trip, measured side by side in on
   (`FilterMonitor.prior`, `FilterMonitor.epoch`) timed: wall and CPU per run and per
   tested epoch, with the share spent in the epochs whose fix is solved from all the
   epoch's data (`railnav.navigation.track_fixes.spp_fix_at`: the fault screen kept rows
-  out) and in the snapshot fixes (`railnav.navigation.track_fixes.snapshot_fix`).
+  out) and in the snapshot fixes (`railnav.navigation.snapshot.snapshot_fix`).
 
 The load average is recorded before and after: on a shared machine the wall figures move
 with it, the CPU figures less. Writes ``benchmarks/results/monitor.json``. Run from the

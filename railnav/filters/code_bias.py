@@ -87,7 +87,7 @@ _N_TRACK = len(TRACK_ROW_NAMES)
 #: snapshot fix takes every ``*_pseudorange`` model, `railnav.navigation.track_fixes`).
 CODE_BIAS_ROWS_NAME = "track_code_bias"
 #: The fix position rows' model name (`railnav.filters.fix_rows.build_fix_rows`'s, kept:
-#: `railnav.navigation.track_fixes.SNAPSHOT_FIX_MODEL`).
+#: `railnav.navigation.snapshot.SNAPSHOT_FIX_MODEL`).
 FIX_POSITION_MODEL = "fix_position"
 #: The position rows that carry the state: their models' names.
 _POSITION_MODELS = (f"{CODE_BIAS_ROWS_NAME}_pseudorange", FIX_POSITION_MODEL)
@@ -221,7 +221,7 @@ def code_bias_fix_position(layout: StateLayout) -> MeasurementModel:
 
     Row parameters: those of the plain rows (the track part, the axis in ECEF), then σ_e (m).
     The model's name is the plain rows' (``fix_position``: the monitor's snapshot fix takes
-    the epoch's rows by it, `railnav.navigation.track_fixes.SNAPSHOT_FIX_MODEL`).
+    the epoch's rows by it, `railnav.navigation.snapshot.SNAPSHOT_FIX_MODEL`).
     """
     x = ca.SX.sym("x", layout.size)
     s, b = x[layout.index("s")], x[layout.index(CODE_BIAS_STATE)]

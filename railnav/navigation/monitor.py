@@ -15,7 +15,7 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
   measurements); ``Σ d²`` against χ²ₙ and the signed mean, ``(Σ d)²/n`` against χ²₁ (a
   filter off by a steady offset), the smaller tail doubled (Bonferroni). The fix is the
   epoch's own position rows (pseudoranges, or a fix's position rows) solved alone on the
-  track, linearised at the prior (`railnav.navigation.track_fixes.snapshot_fix`; a fix
+  track, linearised at the prior (`railnav.navigation.snapshot.snapshot_fix`; a fix
   projected on the whole track, on the wrong pass of a ring, said ``lost`` on 160 of 280
   consistent epochs). Where the filter's fault screen kept some of those rows out
   of the update (a choice made at the prior, so the rows left are not independent of it),
@@ -89,7 +89,8 @@ from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
-from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes, snapshot_fix
+from railnav.navigation.snapshot import snapshot_fix
+from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
 

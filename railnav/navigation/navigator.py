@@ -129,7 +129,7 @@ def run_monitor(filt, data: SensorData | None, config: NavigatorConfig, fixes=No
                 start_s: float = 0.0) -> FilterMonitor | None:
     """The divergence monitor of a run (`railnav.navigation.monitor`): for a track-based
     filter with ``config.monitor.enabled``; None otherwise. Its fix test solves each
-    epoch's own rows on the track (`railnav.navigation.track_fixes.snapshot_fix`); a recovery
+    epoch's own rows on the track (`railnav.navigation.snapshot.snapshot_fix`); a recovery
     restarts from the run's position fix of the epoch or, without fixes, from the
     single-point fix of its GNSS observations, solved then (`spp_fix_at`; `data` None, a
     streamed run: the restart widens the covariance only). `start_s` is
