@@ -6,8 +6,9 @@ object (`railnav.navigation.hypothesis_step.EngineStepper`) the Python around it
 ~1 ms per hypothesis and epoch, most of it looking up the track. `StackedFixStepper`
 does the same arithmetic for the K hypotheses as arrays:
 
-* **Track.** Each oriented element is sampled once on nodes every `GRID_STEP_M`
-  (`FixGrid`, all elements in one table); a hypothesis's point is its nearest node
+* **Track.** Each oriented element is sampled once on nodes every
+  `railnav.navigation.fix_grid.GRID_STEP_M` (`railnav.navigation.fix_grid.FixGrid`, all
+  elements in one table); a hypothesis's point is its nearest node
   expanded to second order in ``δ = s − s_node`` (position ``r + C(u δ + ½ u' δ²)``,
   tangent ``u + u' δ``, azimuth and elevation to first order): |δ| ≤ 0.25 m leaves
   ~``κ' δ³`` (sub-µm), what `railnav.filters.track_grid` argues for the inertial filters.
@@ -30,8 +31,6 @@ Equal to the per-filter path to rounding and the grid's expansion
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import numpy.typing as npt
 
@@ -40,19 +39,15 @@ from ekf.outliers import fault_probability
 from ekf.update import LOG_2PI
 from railnav.filters.fault_detection import EpochScreen
 from railnav.filters.fix_rows import FIX_SV_PREFIX
+from railnav.filters.track_frame import track_axes_many_n
 from railnav.navigation.fix_bias import with_fix_bias
+from railnav.navigation.fix_grid import MAX_KEY_SETS, FixGrid
 from railnav.navigation.hypothesis_step import CycleOutcome
-from trackmodel.earth import C_n_e, geodetic_to_ecef
-from trackmodel.network_points import expanded_points
+from trackmodel.earth import geodetic_to_ecef
 
-__all__ = ["StackedFixStepper", "FixGrid", "GRID_STEP_M", "stackable"]
+__all__ = ["StackedFixStepper", "stackable"]
 
 Array = npt.NDArray[np.float64]
-
-#: Node spacing of the track tables, m.
-GRID_STEP_M = 0.5
-#: Sets of hypotheses' elements whose table positions are kept (then forgotten together).
-MAX_KEY_SETS = 256
 
 
 def stackable(config, trip) -> bool:
@@ -60,120 +55,10 @@ def stackable(config, trip) -> bool:
     return config.filter == "gnss-only" and trip.gnss is None and trip.fixes is not None
 
 
-class FixGrid:
-    """Every oriented element's track on nodes every `GRID_STEP_M`, in one table."""
-
-    def __init__(self, tracks) -> None:
-        self.tracks = tracks
-        self._offset: dict[tuple[str, int], int] = {}
-        self._length: dict[tuple[str, int], float] = {}
-        names = ("r", "C", "u", "du", "A", "E", "dA", "dE", "h")
-        self._parts: dict[str, list] = {n: [] for n in names}
-        self._table: dict[str, Array] | None = None
-        self._size = 0
-        self._keyed: dict[tuple, tuple[Array, Array]] = {}   # keys -> lengths, offsets
-
-    def _add(self, key: tuple[str, int]) -> None:
-        track = self.tracks.track(*key)
-        n = int(math.ceil(track.length_m / GRID_STEP_M)) + 1
-        p = track.at(np.minimum(np.arange(n) * GRID_STEP_M, track.length_m))
-        values = {"r": np.asarray(p.r_e), "C": C_n_e(p.lat, p.lon), "u": np.asarray(p.u_n),
-                  "du": np.asarray(p.du_ds_n), "A": np.asarray(p.azimuth),
-                  "E": np.asarray(p.elevation), "dA": np.asarray(p.curvature_1pm),
-                  "dE": np.broadcast_to(p.elevation_rate, (n,)), "h": np.asarray(p.h)}
-        for name, value in values.items():
-            self._parts[name].append(np.asarray(value, dtype=float))
-        self._offset[key], self._length[key] = self._size, float(track.length_m)
-        self._size += n
-        self._table = None
-
-    #: Columns of each quantity in the one table of nodes (`_columns`).
-    _WIDTH = {"r": 3, "C": 9, "u": 3, "du": 3, "A": 1, "E": 1, "dA": 1, "dE": 1, "h": 1}
-
-    def _nodes(self, keys, s: Array) -> tuple[Array, Array]:
-        """The table rows of the nodes nearest ``s`` on `keys` (K, 22) and ``δ = s −
-        s_node`` (beyond an element's end, from its end node)."""
-        for key in keys:
-            if key not in self._offset:
-                self._add(key)
-        if self._table is None:        # one table: one gather per call, not nine
-            self._table = np.column_stack([np.concatenate(v).reshape(self._size, -1)
-                                           for v in self._parts.values()])
-        cached = self._keyed.get(tuple(keys))
-        if cached is None:
-            cached = (np.array([self._length[k] for k in keys]),
-                      np.array([self._offset[k] for k in keys]))
-            if len(self._keyed) >= MAX_KEY_SETS:
-                self._keyed.clear()
-            self._keyed[tuple(keys)] = cached
-        length, offset = cached
-        node = np.rint(np.minimum(np.maximum(s, 0.0), length) / GRID_STEP_M)  # np.clip
-        d = s - np.minimum(node * GRID_STEP_M, length)     # beyond an end: extrapolated
-        return self._table[offset + node.astype(int)], d
-
-    @staticmethod
-    def _columns(row: Array) -> dict[str, Array]:
-        """The quantities of gathered table rows, by name (contiguous copies: the same
-        products as from separate tables)."""
-        out, start = {}, 0
-        for name, width in FixGrid._WIDTH.items():
-            part = row[:, start:start + width]
-            if name in _REDUCED:
-                out[name] = np.ascontiguousarray(part.reshape(-1, 3, 3) if name == "C"
-                                                 else part)
-            else:                           # elementwise use only: any layout, same bits
-                out[name] = part if width > 1 else part[:, 0]
-            start += width
-        return out
-
-    def points(self, keys, s: Array) -> dict[str, Array]:
-        """The track quantities at ``s`` of hypotheses on oriented elements `keys`
-        (module docstring; beyond an element's end, expanded from its end node as the
-        fix rows expand the track from the clamped ``s``)."""
-        row, d = self._nodes(keys, s)
-        tab = self._columns(row)
-        r, u_at = _expanded(tab, d)
-        u = tab["u"]
-        return {"r": r, "C": tab["C"], "u": u_at, "du": tab["du"],
-                "A": tab["A"] + tab["dA"] * d, "E": tab["E"] + tab["dE"] * d,
-                "h": tab["h"] + u[:, 2] * d}
-
-    def track_points(self, keys, s: Array) -> tuple[Array, Array]:
-        """ECEF position and unit tangent at ``s`` (those of `points`: ``r`` and ``C u``),
-        shapes (K, 3)."""
-        row, d = self._nodes(keys, s)
-        tab = self._columns(row)
-        r, u_at = _expanded(tab, d)
-        return r, np.einsum("kij,kj->ki", tab["C"], u_at)
-
-
-def _expanded(tab: dict[str, Array], d: Array) -> tuple[Array, Array]:
-    """ECEF position and ENU tangent ``δ = d`` past the nodes of `tab` (`FixGrid._columns`;
-    `trackmodel.network_points.expanded_points`)."""
-    return expanded_points(tab["r"], tab["C"], tab["u"], tab["du"], d)
-
-
-#: The table's quantities that enter reductions (einsum, matrix products): taken as
-#: contiguous copies, as from separate tables (a reduction's summation may depend on the
-#: layout); the others enter elementwise arithmetic only.
-_REDUCED = ("C", "u", "du")
-
-
 def _axes(pt: dict, up: bool = True) -> dict[str, Array]:
-    """ENU unit vectors of the track frame at the points (`railnav.filters.fix_rows`);
-    without ``"up"`` unless `up`."""
-    A = pt["A"]
-    sa, ca = np.sin(A), np.cos(A)
-    along_h, cross = np.zeros((A.size, 3)), np.zeros((A.size, 3))
-    along_h[:, 0], along_h[:, 1] = sa, ca
-    cross[:, 0], cross[:, 1] = ca, -sa
-    out = {"along": pt["u"], "along_h": along_h, "cross": cross}
-    if up:
-        E = pt["E"]
-        se = np.sin(E)
-        out["up"] = np.zeros((A.size, 3))
-        out["up"][:, 0], out["up"][:, 1], out["up"][:, 2] = -se * sa, -se * ca, np.cos(E)
-    return out
+    """ENU unit vectors of the track frame at the points (`railnav.filters.fix_rows`;
+    `railnav.filters.track_frame.track_axes_many_n`); without ``"up"`` unless `up`."""
+    return {"along": pt["u"], **track_axes_many_n(pt["A"], pt["E"] if up else None)}
 
 
 def _dot(a: Array, b: Array) -> Array:
