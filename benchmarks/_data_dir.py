@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-__all__ = ["add_data_argument", "checked_data_dir", "DATASET"]
+__all__ = ["add_data_argument", "checked_data_dir", "read_drive", "DATASET"]
 
 #: Where the files come from (data/gnss/README.md).
 DATASET = ("the dataset mosaicx5_multi_dynamic of the PyPI package gnss-benchmark 2.3.0 "
@@ -30,3 +30,14 @@ def checked_data_dir(parser: argparse.ArgumentParser, data: Path,
         parser.error(f"--data {data}: missing {', '.join(missing)} (expected the files of "
                      f"{DATASET})")
     return data
+
+
+def read_drive(data: Path):
+    """The drive's rover observations (``rover_obs.rnx``), broadcast navigation
+    (``broadcast_nav.rnx``) and reference trajectory (``reference_trajectory.csv``) in the
+    folder `data`: ``(obs, nav, reference)``."""
+    from gnss_obs.rinex_nav import read_rinex_nav
+    from gnss_obs.rinex_obs import read_rinex_obs
+    from railnav.evaluation.spp_accuracy import read_reference_trajectory
+    return (read_rinex_obs(data / "rover_obs.rnx"), read_rinex_nav(data / "broadcast_nav.rnx"),
+            read_reference_trajectory(data / "reference_trajectory.csv"))

@@ -75,13 +75,10 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _carrier_phase import carrier_rates, tdcp  # noqa: E402
-from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
+from _data_dir import add_data_argument, checked_data_dir, read_drive  # noqa: E402
 
 from gnss_obs.measurements import MeasurementConfig  # noqa: E402
-from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
-from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
-from railnav.evaluation.spp_accuracy import read_reference_trajectory  # noqa: E402
 from trackmodel.earth import C_n_e, geodetic_to_ecef  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 
@@ -284,9 +281,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     data = checked_data_dir(parser, args.data, DATA_FILES)
     started = time.perf_counter()
-    obs = read_rinex_obs(data / "rover_obs.rnx")
-    nav = read_rinex_nav(data / "broadcast_nav.rnx")
-    reference = read_reference_trajectory(data / "reference_trajectory.csv")
+    obs, nav, reference = read_drive(data)
     carrier, sigma, v = drive_velocities(obs, nav, reference)
     al = along_track(v)
     out = {"data": "gnss_urban_drive", "tdcp_seconds": int(len(carrier)),

@@ -39,15 +39,13 @@ import pandas as pd
 from scipy.optimize import nnls
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
+from _data_dir import add_data_argument, checked_data_dir, read_drive  # noqa: E402
 
 from gnss_obs.dgps import base_position_e  # noqa: E402
 from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
 from gnss_obs.residuals import known_position_residuals  # noqa: E402
-from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
 from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
-from railnav.evaluation.spp_accuracy import (_reference_velocity,  # noqa: E402
-                                             read_reference_trajectory)
+from railnav.evaluation.spp_accuracy import _reference_velocity  # noqa: E402
 from trackmodel.earth import geodetic_to_ecef  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 
@@ -153,13 +151,12 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     data = checked_data_dir(parser, args.data, DATA_FILES)
     started = time.perf_counter()
-    nav = read_rinex_nav(data / "broadcast_nav.rnx")
-    ref = read_reference_trajectory(data / "reference_trajectory.csv")
+    rover_obs, nav, ref = read_drive(data)
     t = ref["gps_time_s"].to_numpy()
     r_e = np.asarray(geodetic_to_ecef(np.deg2rad(ref["lat_deg"].to_numpy()),
                                       np.deg2rad(ref["lon_deg"].to_numpy()), ref["h_m"].to_numpy()))
     old = MeasurementConfig(systems=SYSTEMS)
-    rover = known_position_residuals(read_rinex_obs(data / "rover_obs.rnx"), nav, old,
+    rover = known_position_residuals(rover_obs, nav, old,
                                      times_s=t, r_e=r_e, v_e=_reference_velocity(t, r_e))
     base_obs = read_rinex_obs(data / "base_obs.rnx")
     base = known_position_residuals(base_obs, nav, old,

@@ -134,17 +134,15 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
+from _data_dir import add_data_argument, checked_data_dir, read_drive  # noqa: E402
 
 from ekf.packing import diagonal_indices  # noqa: E402
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
 from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
-from gnss_obs.rinex_nav import read_rinex_nav  # noqa: E402
-from gnss_obs.rinex_obs import read_rinex_obs  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
 from railnav.config import NavigatorConfig, SensorData  # noqa: E402
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE  # noqa: E402
-from railnav.evaluation.spp_accuracy import read_reference_trajectory, spp_errors  # noqa: E402
+from railnav.evaluation.spp_accuracy import spp_errors  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.fit import fit_track  # noqa: E402
@@ -297,9 +295,7 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
 def load_drive(data: Path):
     """The drive's rover observations, navigation, reference and GPS L1 SPP fixes (the
     epochs with a position) from the folder `data`."""
-    obs = read_rinex_obs(data / "rover_obs.rnx")
-    nav = read_rinex_nav(data / "broadcast_nav.rnx")
-    reference = read_reference_trajectory(data / "reference_trajectory.csv")
+    obs, nav, reference = read_drive(data)
     spp = solve_spp(obs, nav, SppConfig(measurement=MeasurementConfig(systems="G"))).to_frame()
     return obs, nav, reference, spp[np.isfinite(spp["lat_deg"])]
 
