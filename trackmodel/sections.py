@@ -188,6 +188,13 @@ class SectionArrays:
         return ((self.curvature0 == 0.0) & (self.curvature1 == 0.0)
                 & (self.elevation0 == self.elevation1))
 
+    def section_of(self, s: npt.ArrayLike) -> npt.NDArray[np.intp]:
+        """Section index of each ``s`` (m): the last section starting at or before it, a
+        joint belonging to the next section; clipped to the table (before the start: the
+        first, NaN and beyond the end: the last)."""
+        k = np.searchsorted(self.s_start, s, side="right") - 1
+        return np.clip(k, 0, self.s_start.size - 1)
+
     def angles(self, k: npt.NDArray[np.intp], t: Array) -> dict[str, Array]:
         """Azimuth, elevation and their first and second derivatives along s.
 
@@ -296,8 +303,7 @@ def joint_steps(table: SectionArrays) -> JointSteps:
     kappa = []
     for side in (-JOINT_SIDE_M, JOINT_SIDE_M):       # as `trackmodel.Track.at` finds them
         at = np.clip(s + side, 0.0, end)
-        k = np.clip(np.searchsorted(table.s_start, at, side="right") - 1, 0,
-                    table.s_start.size - 1)
+        k = table.section_of(at)
         kappa.append(table.angles(k, at - table.s_start[k])["dA"])
     return JointSteps(s, table.curvature0[1:] - table.curvature1[:-1],
                       grade_rate[1:] - grade_rate[:-1], kappa[1] - kappa[0])

@@ -210,9 +210,9 @@ class Track:
         return np.clip(s, 0.0, L)
 
     def section_of(self, s: Array) -> npt.NDArray[np.intp]:
-        """Section index of each (valid) ``s``; a joint belongs to the next section."""
-        k = np.searchsorted(self.table.s_start, s, side="right") - 1
-        return np.clip(k, 0, len(self.sections) - 1)
+        """Section index of each (valid) ``s``; a joint belongs to the next section
+        (`trackmodel.sections.SectionArrays.section_of`)."""
+        return self.table.section_of(s)
 
     def section_at(self, s: float) -> int:
         """`section_of` one ``s`` (m, a float), in Python floats: the same section (the
