@@ -78,7 +78,7 @@ from railnav.filters.fault_config import FaultDetectionConfig
 from railnav.filters.row_sets import ROW_STATUSES, group_status, subset_rows
 from railnav.filters.screens_together import screen_together
 
-__all__ = ["RowScreen", "EpochScreen", "ROW_STATUSES",
+__all__ = ["RowScreen", "EpochScreen", "key_kind", "ROW_STATUSES",
            "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
 
 log = logging.getLogger(__name__)
@@ -96,6 +96,11 @@ JUMP_ROW_KIND = "pseudorange"
 #: A common offset is tested only on at least this many pseudoranges (with fewer, one
 #: faulty satellite and a clock jump cannot be told apart).
 MIN_JUMP_ROWS = 4
+
+
+def key_kind(key: str) -> str:
+    """The kind of a row from its key ``"<sv>/<kind>"`` (`EpochScreen.keys`)."""
+    return key.rsplit("/", 1)[-1]
 
 
 @dataclass(frozen=True, eq=False)

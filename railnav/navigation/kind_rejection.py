@@ -23,6 +23,7 @@ import numpy as np
 
 from ekf.outliers import common_offset
 from railnav.filters.common import ROW_KINDS
+from railnav.filters.fault_detection import key_kind
 from railnav.navigation.tail_probabilities import chi2_sf
 
 __all__ = ["KINDS", "MIN_KIND_ROWS", "kind_rejected_tail"]
@@ -52,7 +53,7 @@ def kind_rejected_tail(epoch, nis_threshold: float) -> float:
     failing = nu * nu > nis_threshold * np.diagonal(S)
     if np.count_nonzero(failing) < MIN_KIND_ROWS:     # most epochs: stop here
         return 1.0
-    kinds = np.array([str(key).rsplit("/", 1)[-1] for key in epoch.keys], dtype=object)
+    kinds = np.array([key_kind(str(key)) for key in epoch.keys], dtype=object)
     tail = 1.0
     for kind in KINDS:
         rows = kinds == kind

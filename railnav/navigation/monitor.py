@@ -84,12 +84,13 @@ import numpy.typing as npt
 import pandas as pd
 
 from railnav.filters.code_bias import apparent_variance
+from railnav.filters.fault_detection import key_kind
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
-from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.snapshot import snapshot_fix
+from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
@@ -203,7 +204,7 @@ class FilterMonitor:
         is_position = self._position_key
         for key in last.keys:                  # "<sv>/<kind>": the kind of each key, once
             if key not in is_position:
-                is_position[key] = key.rsplit("/", 1)[-1] in POSITION_ROW_KINDS
+                is_position[key] = key_kind(key) in POSITION_ROW_KINDS
         position = np.fromiter(map(is_position.__getitem__, last.keys), dtype=bool,
                                count=len(last.keys))
         out = int(np.count_nonzero(position & out_rows))
