@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.linalg import lapack
 
 from ekf.cd_filter import CdFilter, _check_covariance, checked_prior, step_data
 from ekf.errors import FilterDivergedError, ModelError
@@ -99,8 +98,8 @@ def propagate_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]],
     if len(priors) != len(samples):
         raise ModelError(f"{len(priors)} priors for {len(samples)} sample series")
     model, propagator = engine.model, engine.propagator
-    x_all, P_all = _checked_priors(model.n, priors)
-    out = [MemberState(x0, P0, None) for x0, P0 in zip(x_all, P_all)]
+    starts = [checked_prior(model.n, x_prior, P_prior) for x_prior, P_prior in priors]
+    out = [MemberState(x0, P0, None) for x0, P0 in starts]
     lengths: dict[int, list[int]] = {}
     for k, series in enumerate(samples):
         if len(series) < 2:                 # checked all the same
@@ -113,44 +112,15 @@ def propagate_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]],
         if d is None:
             d = np.array([step_data(propagator, series.shaped(
                 model.n_u, model.n_p, model.n_c, model.n_w)) for series in group])
-        x, P_packed, outputs = propagator.run_members(x_all[members], pack_sym(P_all[members]),
-                                                      d, keep)
-        P_next = unpack_sym(P_packed)
-        if not _all_positive_definite(P_next):      # which one, and its message
-            for j, k in enumerate(members):
-                _check_covariance(P_next[j], lambda k=k: f"at t="
-                                  f"{float(np.asarray(samples[k].t)[-1]):.6f} s")
+        x, P_packed, outputs = propagator.run_members(
+            np.array([starts[k][0] for k in members]),
+            pack_sym(np.array([starts[k][1] for k in members])), d, keep)
+        P_all = unpack_sym(P_packed)
         for j, k in enumerate(members):
-            out[k] = MemberState(x[j].copy(), P_next[j], outputs[j])
+            _check_covariance(P_all[j], lambda k=k: f"at t="       # formatted if it fails
+                              f"{float(np.asarray(samples[k].t)[-1]):.6f} s")
+            out[k] = MemberState(x[j].copy(), P_all[j], outputs[j])
     return out
-
-
-def _checked_priors(n: int, priors: Sequence[tuple[Array, Array]]) -> tuple[Array, Array]:
-    """`ekf.cd_filter.checked_prior` of every member at once: the states ``(K, n)`` and
-    the symmetrized covariances ``(K, n, n)`` (new arrays), the same numbers and checks
-    (a member that fails: its own `checked_prior` raises its error)."""
-    try:
-        x = np.array([x0 for x0, _ in priors], dtype=float)
-        P = np.array([P0 for _, P0 in priors], dtype=float)
-    except ValueError:                       # ragged: say which one is wrong
-        x = P = None
-    K = len(priors)
-    if x is None or x.shape != (K, n) or P.shape != (K, n, n) or \
-            not _all_positive_definite(P):
-        pairs = [checked_prior(n, x0, P0) for x0, P0 in priors]
-        return np.array([a for a, _ in pairs]).reshape(K, n), \
-            np.array([b for _, b in pairs]).reshape(K, n, n)
-    return x, 0.5 * (P + np.swapaxes(P, -1, -2))
-
-
-def _all_positive_definite(P: Array) -> bool:
-    """Whether every matrix of the stack ``(K, n, n)`` is finite and positive definite
-    (`ekf.cd_filter._check_covariance`'s test: finiteness of all at once, then each one's
-    LAPACK Cholesky, the same calls)."""
-    if np.count_nonzero(np.isfinite(P)) != P.size:
-        return False
-    return all(lapack.dpotrf(one, lower=True, clean=False, overwrite_a=False)[1] == 0
-               for one in P)
 
 
 def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | None:

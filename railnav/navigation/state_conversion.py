@@ -90,18 +90,12 @@ def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> 
     return out
 
 
-def _newton(p_g, p_src, s_g: float) -> float | None:
-    """``s`` one Newton step from ``s_g`` (its point `p_g`) towards the point nearest
-    `p_src`; None when the step is longer than `NEWTON_MAX_STEP_M`."""
-    tangent = C_n_e(float(p_g.lat), float(p_g.lon)) @ np.asarray(p_g.u_n, dtype=float)
-    step = -float((np.asarray(p_g.r_e) - np.asarray(p_src.r_e)) @ tangent)
-    return s_g + step if abs(step) <= NEWTON_MAX_STEP_M else None
-
-
 def _newton_many(p_g: list, p_src: list, s_g: list) -> list[float | None]:
-    """`_newton` of each ``(p_g[k], p_src[k], s_g[k])``, the rotations and products of all
-    at once (`trackmodel.earth.C_n_e` elementwise; NumPy's stacked ``matmul`` makes each
-    point's BLAS products as `_newton`'s: the same numbers)."""
+    """For each ``k``: ``s`` one Newton step from ``s_g[k]`` (its point ``p_g[k]``) along
+    the target's tangent towards the point nearest ``p_src[k]``; None when the step is
+    longer than `NEWTON_MAX_STEP_M`. The rotations and products of all at once
+    (`trackmodel.earth.C_n_e` elementwise; NumPy's stacked ``matmul`` makes each point's
+    BLAS products as a point's own would: the same numbers)."""
     if not p_g:
         return []
     lat = np.array([float(p.lat) for p in p_g])
@@ -125,7 +119,7 @@ def _one_target_s(source, target, p_src, s_src: float, key) -> float:
     guess = _OFFSETS.get(key)
     if guess is not None:
         s_g = min(max(s_src + guess, 0.0), target.track.length_m)
-        found = _newton(target.track.at(s_g), p_src, s_g)
+        found = _newton_many([target.track.at(s_g)], [p_src], [s_g])[0]
         if found is not None:
             _OFFSETS[key] = found - s_src
             return found

@@ -14,6 +14,7 @@ from railnav.navigation import network_weights as nw
 from railnav.navigation import state_conversion as sc
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for
+from trackmodel.earth import C_n_e
 from trackmodel.io import read_track
 from trackmodel.network_points import points_on
 from trackmodel.offset import offset_track
@@ -66,9 +67,9 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
 
 
 def test_newton_steps_together_equal_each_pairs_own():
-    """`_newton_many` (the waves' Newton steps in one stacked evaluation) against `_newton`
-    pair by pair (scalar rotation and products): the same ``s`` to the bit, and None
-    where the step is longer than `NEWTON_MAX_STEP_M`."""
+    """`_newton_many` (the waves' Newton steps in one stacked evaluation) against the step
+    written out pair by pair (scalar rotation and products, ``s_g − (r_g − r_src)·C u``):
+    the same ``s`` to the bit, and None where the step is longer than `NEWTON_MAX_STEP_M`."""
     base = read_track(TRACKS_DIR / "double_a.csv")
     left, right = offset_track(base, -4.5), offset_track(base, 4.5)
     s_src = np.array([500.0, 1500.0, 2500.0, 3001.0, 4000.0])
@@ -79,7 +80,11 @@ def test_newton_steps_together_equal_each_pairs_own():
     s_g = nearest + np.array([0.3, -0.7, 0.05, 2.5, -0.2])
     guesses = points_on(targets, s_g.tolist())
     together = sc._newton_many(guesses, sources, s_g.tolist())
-    alone = [sc._newton(g, p, s) for g, p, s in zip(guesses, sources, s_g.tolist())]
+    alone = []
+    for g, p, s in zip(guesses, sources, s_g.tolist()):
+        tangent = C_n_e(float(g.lat), float(g.lon)) @ np.asarray(g.u_n, dtype=float)
+        step = -float((np.asarray(g.r_e) - np.asarray(p.r_e)) @ tangent)
+        alone.append(s + step if abs(step) <= sc.NEWTON_MAX_STEP_M else None)
     assert together == alone
     assert together[3] is None and all(v is not None for k, v in enumerate(together)
                                        if k != 3)
