@@ -10,6 +10,12 @@ track where it has one, else the difference of ``s`` to the next fix that agrees
 `MAX_SPEED_BASELINE_S`, else 0 with σ `UNKNOWN_SPEED_SIGMA_MPS`. The filter turns it into
 its state (`railnav.filters.common.start_on_track`).
 
+`initial_at_fix` starts at a given fix whether or not it agrees with the track (a network
+run's candidates near the fix, a spawn); the difference of ``s`` is then a speed only when
+that fix agrees too: the projection of a fix off the track may be anywhere along it (a
+receiver jump 100 m across and 60 m ahead made the speed −140 m/s), so a start fix that
+does not agree has the fix's own velocity or none (0, σ `UNKNOWN_SPEED_SIGMA_MPS`).
+
 Heights: with ``config.fix_model.use_height``, a start fix whose ellipsoidal height is
 outside the gate from the track's height is an error (the track has no heights, or
 another height datum): better said at the start than seen as every fix rejected.
@@ -100,7 +106,8 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
 def initial_at_fix(filt_obj, fixes, k: int, config) -> InitialState:
     """The filter's `InitialState` at fix `k` projected on its track, whether or not the
     fix agrees with the track (a network run's candidates: every netelement near the fix);
-    the speed as `initial_from_fixes` takes it, from fixes that do agree.
+    the speed as `initial_from_fixes` takes it, from fixes that do agree, fix `k` included
+    (module docstring).
 
     Parameters
     ----------
@@ -115,7 +122,6 @@ def initial_at_fix(filt_obj, fixes, k: int, config) -> InitialState:
     s, cross, along, sigma_along, points = _offsets(filt_obj.track, fixes, n,
                                                     config.fix_model, first=k)
     ok = (cross <= gate) & (along <= gate)
-    ok[0] = True
     return _start(filt_obj, _Shifted(fixes, k), 0, s, ok, sigma_along, points)
 
 
@@ -155,11 +161,14 @@ def _check_height(fixes, k: int, track_h_m: float, gate: float, cfg) -> None:
 
 def _start_speed(fixes, k: int, s: Array, ok, sigma_along: Array, axes: dict
                  ) -> tuple[float, float]:
-    """Signed speed along the track at fix `k` and its σ (module docstring)."""
+    """Signed speed along the track at fix `k` and its σ (module docstring; `ok`: which
+    fixes agree with the track)."""
     v = fixes.v_n_mps[k]
     if np.all(np.isfinite(v[:2])):
         a = axes["along"] if np.isfinite(v[2]) else axes["along_h"]
         return float(a @ np.nan_to_num(v)), float(fixes.sigma_speed_mps[k])
+    if not ok[k]:
+        return 0.0, UNKNOWN_SPEED_SIGMA_MPS
     later = np.flatnonzero(ok[k + 1:]) + k + 1
     if later.size:
         j = int(later[0])
