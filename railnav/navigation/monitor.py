@@ -38,10 +38,11 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
   correlated with it: slow multipath the filter has followed, its σ built as if the
   errors were independent and too small. On the urban drive this is what flags the
   fix-based filter's steady 2-5 m along-track errors at σ_s 0.6 m (leg 1: 134 of 157 such
-  epochs unflagged without it, 7 with it); it cannot tell fixes better than their σ that
-  the filter averaged (it fails on them too), but neither a prior better than its σ nor
-  fixes each of which resets the filter fail it (stop 36: the Brussels logs' carrier-fixed
-  runs were ``degraded`` on 2478 of 2480 epochs, now 12).
+  epochs unflagged without it, 7 with it). It cannot tell fixes better than their σ that
+  the filter averaged (they fail it too), but neither a prior better than its σ nor fixes
+  each of which resets the filter fail it (stop 36: the three carrier-fixed Brussels logs
+  were ``degraded`` on 2478 of 2480 epochs by it, now on 92, all in log_28554's tunnel,
+  where the receiver's propagated positions at σ 10 m are averaged);
   It is off for a filter that inflates its rows for correlated errors
   (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real data, its pseudoranges, and
   its code fixes with ``FixModelConfig.correlated_code_errors``: `fix_inflation`): there

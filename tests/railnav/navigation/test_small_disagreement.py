@@ -62,8 +62,9 @@ def _run(fix_error_m, sigma_fix_m: float, accel_psd: float):
 def test_a_filter_that_follows_a_slow_fix_error_is_flagged(rng):
     """Fixes whose error is slow (Gauss-Markov, σ 3 m, τ 300 s) plus 0.3 m white, taken
     as white at σ 3 m: the filter (σ_s 1.4 m) follows the slow error and is beyond 3σ_s
-    on far more than a consistent filter's 0.27 % of its epochs (against the truth). The lower-tail test must flag those:
-    ``degraded`` on at least 95 % of them after the first window, by ``p_fix_small``."""
+    on far more than a consistent filter's 0.27 % of its epochs (against the truth). The
+    lower-tail test must flag those: ``degraded`` on at least 95 % of them after the
+    first minute, by ``p_fix_small``."""
     n, tau_s, sigma_b = 1500, 300.0, 3.0
     phi = np.exp(-DT_S / tau_s)
     b = np.empty(n)
@@ -111,9 +112,10 @@ def test_fixes_that_reset_the_filter_do_not_fail_it_when_better_than_their_sigma
 
 @pytest.mark.parametrize("var_prior, var_fix", [(1.0, 9.0), (0.04, 0.0009)])
 def test_prior_share_of_a_common_error_closed_form(var_prior, var_fix):
-    """With a constant prior σ and fix σ, ``S`` after n fixes is
-    ``σ_fix (1 − (1 − K)ⁿ)``, ``K = σ²_prior/(σ²_prior + σ²_fix)``; a term is tested (not
-    NaN) once the previous ``S`` exceeds σ_prior, and is ``δs²/σ²_fix`` then."""
+    """With a constant prior σ and fix σ, ``S`` after n fixes is ``σ_fix (1 − (1 − K)ⁿ)``,
+    ``K = σ²_prior/(σ²_prior + σ²_fix)``; a term is tested (not NaN) once the previous
+    ``S`` exceeds σ_prior, and is ``δs²/σ²_fix`` then; the tail is scipy's χ² cdf of the
+    window's 30 terms (none where the prior is the more precise: 1)."""
     test = SmallDisagreement(30)
     gain = var_prior / (var_prior + var_fix)
     for n in range(1, 40):
