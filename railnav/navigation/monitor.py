@@ -42,7 +42,7 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
   the filter averaged (they fail it too), but neither a prior better than its σ nor fixes
   each of which resets the filter fail it (stop 36: the three carrier-fixed Brussels logs
   were ``degraded`` on 2478 of 2480 epochs by it, now on 92, all in log_28554's tunnel,
-  where the receiver's propagated positions at σ 10 m are averaged);
+  where the receiver's propagated positions at σ 10 m are averaged).
   It is off for a filter that inflates its rows for correlated errors
   (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real data, its pseudoranges, and
   its code fixes with ``FixModelConfig.correlated_code_errors``: `fix_inflation`): there
@@ -97,7 +97,7 @@ from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
-from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
+from railnav.navigation.tail_probabilities import binom_sf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
