@@ -30,13 +30,19 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
   or pseudoranges, fail the fault screen's row gate at the prior, their NIS less one
   common offset (a receiver clock step) against χ²_{m−1} (`railnav.navigation.kind_rejection`:
   six range rates rejected at 56σ had left the rejected-row test at p = 1);
-* **fix disagreement too small** (``p_fix_small``, ``degraded`` only): the lower χ² tail of
-  ``Σ d²`` over the last `MonitorConfig.small_window_epochs` epochs, with the fixes' own σ
-  (not floored). Fixes that agree with the filter far better than both their σ say are
-  correlated with it: slow multipath the filter has followed, its σ built as if the errors
-  were independent and too small. On the urban drive this is what flags the fix-based
-  filter's steady 2-5 m along-track errors at σ_s 0.6 m (leg 1: 134 of 157 such epochs
-  unflagged without it, 7 with it); on the consistent simulations it adds no alarm.
+* **fix disagreement too small** (``p_fix_small``, ``degraded`` only,
+  `railnav.navigation.small_disagreement`): the lower χ² tail of ``Σ δs²/σ²_fix`` over the
+  last `MonitorConfig.small_window_epochs` epochs, with the fixes' own σ (not floored),
+  over the epochs where fixes sharing one error could take the prior beyond its own σ.
+  Fixes that agree with the filter far better than their σ say are better than it or
+  correlated with it: slow multipath the filter has followed, its σ built as if the
+  errors were independent and too small. On the urban drive this is what flags the
+  fix-based filter's steady 2-5 m along-track errors at σ_s 0.6 m (leg 1: 134 of 157 such
+  epochs unflagged without it, 7 with it). It cannot tell fixes better than their σ that
+  the filter averaged (they fail it too), but neither a prior better than its σ nor fixes
+  each of which resets the filter fail it (stop 36: the three carrier-fixed Brussels logs
+  were ``degraded`` on 2478 of 2480 epochs by it, now on 92, all in log_28554's tunnel,
+  where the receiver's propagated positions at σ 10 m are averaged).
   It is off for a filter that inflates its rows for correlated errors
   (``pseudorange_inflation`` ≠ 1: the gnss-only filter on real data, its pseudoranges, and
   its code fixes with ``FixModelConfig.correlated_code_errors``: `fix_inflation`): there
@@ -89,8 +95,9 @@ from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
+from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
-from railnav.navigation.tail_probabilities import binom_sf, chi2_cdf, chi2_isf, chi2_sf, sigma_gate
+from railnav.navigation.tail_probabilities import binom_sf, chi2_isf, chi2_sf, sigma_gate
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
@@ -158,10 +165,10 @@ class FilterMonitor:
         self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
             else None
         self._position_key: dict[str, bool] = {}
-        # the last epochs, oldest first, in the last `_n_window` / `_n_small` columns
+        # the last epochs, oldest first, in the last `_n_window` columns
         self._window = np.full((_D + 1, config.window_epochs), np.nan)
-        self._small = np.full(config.small_window_epochs, np.nan)
-        self._n_window = self._n_small = 0
+        self._n_window = 0
+        self.small = SmallDisagreement(config.small_window_epochs)     # ``p_fix_small``
         self._seen = 0
         self.records: list[dict] = []
 
@@ -228,10 +235,10 @@ class FilterMonitor:
         j = None if self.fixes is None else self.fixes.at(time_s)
         snapshot, self._snapshot = self._snapshot, None
         kind_tail, self._kind_tail = self._kind_tail, 1.0
-        d_raw = np.nan
+        small = np.nan                                 # `SmallDisagreement.term`, if any
         if snapshot is not None:                       # this epoch's own rows, on the track
             ds, var_fix, white = snapshot
-            d_raw = ds / np.sqrt(var_fix + var_prior) if white else np.nan
+            small = self.small.term(ds, var_fix, var_prior) if white else np.nan
             var_fix = max(var_fix, self.config.min_fix_sigma_m ** 2)
             d = ds / np.sqrt(var_fix + var_prior)
         else:                                          # a fix from all the epoch's data
@@ -243,8 +250,8 @@ class FilterMonitor:
             if j is not None:
                 s_fix, sigma_fix = fixes.near(j, s_prior)
                 # a filter that inflates its rows for correlated errors (its code fixes
-                # too) is correlated with this fix: no lower tail (`_small_tail`)
-                d_raw = (s_fix - s_prior) / np.sqrt(sigma_fix ** 2 + var_prior) \
+                # too) is correlated with this fix: no lower tail (`SmallDisagreement`)
+                small = self.small.term(s_fix - s_prior, sigma_fix ** 2, var_prior) \
                     if self.pseudorange_inflation == 1.0 else np.nan
                 var_fix = max(sigma_fix, self.config.min_fix_sigma_m) ** 2
                 d = (s_fix - s_prior) / np.sqrt(var_fix + var_prior)
@@ -253,7 +260,7 @@ class FilterMonitor:
         self._push(float(np.add.reduce(nis[acc])), n_acc, acc.size - n_acc, d * d,
                    float(chunk.nis_c_sum),
                    int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
-                   if chunk.innov_c.ndim == 2 else 0, d, small=d_raw * d_raw)
+                   if chunk.innov_c.ndim == 2 else 0, d, small=small)
         self._seen += 1
         status, tails = self._status(kind_tail)
         record = {"time_s": time_s, "status": status, **tails,
@@ -269,7 +276,8 @@ class FilterMonitor:
         far = far and j is not None
         recovered = self._recover(fixes, j if far else None, x, P)
         record["action"] = "reinit" if far else "widen"
-        self._n_window = self._n_small = 0             # the windows restart
+        self._n_window = 0                             # the windows restart
+        self.small.restart()
         self._seen = 0
         return recovered
 
@@ -284,24 +292,13 @@ class FilterMonitor:
         return None
 
     def _push(self, *row: float, small: float) -> None:
-        """Append one epoch's quantities (`_NIS` ... `_D`) and its unfloored ``d²`` to the
-        windows, the oldest dropped."""
-        w, s = self._window, self._small
+        """Append one epoch's quantities (`_NIS` ... `_D`) and its lower-tail term
+        (`SmallDisagreement.term`) to the windows, the oldest dropped."""
+        w = self._window
         w[:, :-1] = w[:, 1:]
         w[:, -1] = row
-        s[:-1] = s[1:]
-        s[-1] = small
         self._n_window = min(self._n_window + 1, w.shape[1])
-        self._n_small = min(self._n_small + 1, s.size)
-
-    def _small_tail(self) -> float:
-        """Lower χ² tail of the last `MonitorConfig.small_window_epochs` unfloored fix
-        disagreements ``Σ d²``: fixes that agree with the filter far better than their σ
-        and the filter's say are correlated with it (slow multipath the filter has
-        followed), and the filter's σ, built as if they were independent, too small."""
-        d2 = self._small[self._small.size - self._n_small:]
-        d2 = d2[np.isfinite(d2)]
-        return chi2_cdf(float(np.add.reduce(d2)), int(d2.size))
+        self.small.push(small)
 
     def _status(self, kind_tail: float) -> tuple[str, dict]:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
@@ -323,7 +320,7 @@ class FilterMonitor:
                  "p_rejected": p_rejected,
                  "p_fix": p_fix,
                  "p_pseudo_nis": chi2_sf(nisc, nisc_dof),
-                 "p_fix_small": self._small_tail(),
+                 "p_fix_small": self.small.tail(),
                  "p_kind_rejected": kind_tail,
                  "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
                  "variance_factor": d2_sum / n_have if n_have else np.nan}

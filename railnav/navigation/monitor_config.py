@@ -18,7 +18,8 @@ class MonitorConfig:
     window_epochs : int
         Epochs in each test's window.
     small_window_epochs : int
-        Epochs of the lower-tail fix test (``p_fix_small``: disagreements too small).
+        Epochs of the lower-tail fix test (``p_fix_small``: disagreements too small,
+        `railnav.navigation.small_disagreement`).
     min_epochs : int
         Epochs after a start or recovery before the status may be ``ok``.
     p_degraded, p_lost : float

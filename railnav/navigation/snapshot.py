@@ -51,9 +51,9 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     long averages; it inflates its code fixes' position rows alike) gives
     `pseudorange_inflation`; the snapshot keeps the inflated
     variances, and ``white`` is False: its error is then correlated with the prior's, and
-    the lower tail (`FilterMonitor._small_tail`) does not hold (on the urban drive it fired
-    on every epoch). Solving with ``R / inflation`` instead (one epoch's own σ) was tried:
-    on the urban drive it said ``lost`` on 28 of 58 epochs of leg 2, where the gnss-only
+    the lower tail (`railnav.navigation.small_disagreement`) does not hold (on the urban
+    drive it fired on every epoch). Solving with ``R / inflation`` instead (one epoch's own
+    σ) was tried: on the urban drive it said ``lost`` on 28 of 58 epochs of leg 2, where the gnss-only
     filter is right to 0.93 m RMS (single-epoch urban errors exceed that σ), and its
     restarts made the leg worse (1.21 m).
     None: fewer rows than unknowns, or a singular geometry.

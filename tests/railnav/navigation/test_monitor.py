@@ -411,18 +411,24 @@ def _reference_statuses(inputs):
     windows as lists, scipy.stats tails; the windows restart after a recovery."""
     cfg, p_reject = inputs[0]["config"], inputs[0]["p_reject"]
     window, small, seen, out = [], [], 0, []
+    shared = 0.0       # the prior's share of an error common to the fixes (small_disagreement)
     for e in inputs:
         time_s, _, var_prior = e["prior"]
         d = d_raw = np.nan
+        var_fix = None
         if e["snapshot"] is not None:
             ds, var_fix, white = e["snapshot"]
-            d_raw = ds / np.sqrt(var_fix + var_prior) if white else np.nan
             d = ds / np.sqrt(max(var_fix, cfg.min_fix_sigma_m ** 2) + var_prior)
+            var_fix = var_fix if white else None
         elif e["near"] is not None:
             s_fix, sigma_fix = e["near"]
             ds = s_fix - e["prior"][1]
-            d_raw = ds / np.sqrt(sigma_fix ** 2 + var_prior)
+            var_fix = sigma_fix ** 2
             d = ds / np.sqrt(max(sigma_fix, cfg.min_fix_sigma_m) ** 2 + var_prior)
+        if var_fix is not None:
+            d_raw = ds / np.sqrt(var_fix) if shared > np.sqrt(var_prior) else np.nan
+            gain = var_prior / (var_prior + var_fix)
+            shared = (1.0 - gain) * shared + gain * np.sqrt(var_fix)
         acc = e["accepted"]
         nis = [nu * nu / s for nu, s, a in zip(e["innov"], e["S"], acc) if a]
         window = (window + [dict(nis=sum(nis), n_acc=len(nis), n_rej=int(len(acc) - len(nis)),
@@ -463,7 +469,7 @@ def _reference_statuses(inputs):
             status = "ok"
         out.append((time_s, status, tails))
         if status == "lost" and cfg.recover:
-            window, small, seen = [], [], 0
+            window, small, seen, shared = [], [], 0, 0.0
     return out
 
 
