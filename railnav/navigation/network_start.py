@@ -1,8 +1,8 @@
 """Where a network run starts: its first hypotheses.
 
 * **Known netelement** (`NetworkStart`, ``railnav run --network N --start E[:OFFSET_M]``):
-  hypotheses on that element only; at the given offset from its first coordinate, else
-  where the start fix projects on it.
+  hypotheses on that element, at the given offset from its first coordinate, else where
+  the start fix projects on it; and on the netelements abreast of it (`with_abreast`).
 * **Unknown** (no start): every netelement within `NetworkNavConfig.start_radius_m` of the
   start fix (`trackmodel.network.Network.project`). The start fix is the first position
   fix with a netelement that near (a fix far off every track, a wrong flag or a jump, is
@@ -15,10 +15,27 @@ speed is signed, so one hypothesis per element covers both ways (its direction o
 is the sign of ``v``). Each hypothesis starts from the fix projected on its own track
 (`Filter.initial_from_fix`; from fixes, `railnav.navigation.fix_start.initial_at_fix`,
 whose speed comes from the next fix that agrees with that track), with equal weights.
+
+**Abreast of a known netelement** (`with_abreast`). Told "on B" of a double line, a
+navigator with hypotheses on B alone has no other track for the evidence to prefer: it
+stays on B with P = 1 whatever the data say (GNSS runs have no fix to spawn from that
+tells tracks 4.5 m apart in one window, `railnav.navigation.spawning`). So the
+netelements abreast of the known one (`railnav.navigation.network_weights.abreast`:
+within `NetworkNavConfig.crossing_radius_m`, travelling the same way; those the crossing
+prior links) get hypotheses too, each from a told hypothesis's state brought onto its
+track (`railnav.navigation.state_conversion.converted`), together carrying the prior
+`NetworkNavConfig.start_abreast_probability` p (shared evenly; the told ones share
+1 − p). The weights' evidence decides. Its effect, with ``K`` nats of evidence an epoch
+between the tracks (d = 4.5 m, σ_pr = 3 m, 7 GPS satellites: K ≈ 1.1,
+`benchmarks/bench_network_spawn_gnss.py`): a wrong told track is left after about
+``ln((1 − p)/p) / K`` epochs (p = 0.01: ~4 s); a right one is ever given up for a track
+abreast (its probability above ½) in at most a share ``p/(1 − p)`` of runs (Ville's
+inequality on the likelihood ratio, a martingale under the right track).
 """
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -28,10 +45,12 @@ from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
 from railnav.navigation.hypotheses import Hypothesis, hypothesis
 from railnav.navigation.net_tracks import bare
 from railnav.navigation.initialization import InitialState, first_fix
+from railnav.navigation.network_weights import abreast, ecef_points, track_points_of
 from railnav.navigation.route_path import PathEntry
+from railnav.navigation.state_conversion import converted
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["NetworkStart", "start_hypotheses", "orientations_of"]
+__all__ = ["NetworkStart", "start_hypotheses", "orientations_of", "with_abreast"]
 
 log = logging.getLogger(__name__)
 
@@ -150,9 +169,49 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                                                          float(init.time_s)),)))
     if not hyps:
         raise RailnavError("no start hypothesis")
+    if start is not None and start.element is not None:
+        hyps = with_abreast(hyps, network, tracks, factory, nav)
     log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),
              ", ".join(sorted({h.element for h in hyps})))
     return float(time_s), hyps
+
+
+def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav
+                 ) -> list[Hypothesis]:
+    """The hypotheses of a start on a known netelement (`hyps`) and those on the
+    netelements abreast of them, with their prior weights (module docstring); `hyps`
+    alone when none is abreast or ``nav.start_abreast_probability`` is 0."""
+    p = nav.start_abreast_probability
+    if p == 0.0:
+        return hyps
+    points = track_points_of(hyps)
+    near = network.project(np.array([float(q.lat) for q in points]),
+                           np.array([float(q.lon) for q in points]),
+                           radius_m=nav.crossing_radius_m)
+    told = {h.element for h in hyps}
+    found: dict[tuple[str, int], Hypothesis] = {}
+    for element in dict.fromkeys(e for e in near["element"] if e not in told):
+        probe = factory(bare(element, 1))
+        for orientation in orientations_of(probe, None):
+            filt = probe if orientation == 1 else factory(bare(element, orientation))
+            for h in hyps:
+                try:
+                    x, P = converted(h.filt, filt, h.x, h.P)
+                except RailnavError:        # the tracks run opposite ways (inertial)
+                    continue
+                found.setdefault((element, orientation), hypothesis(
+                    tracks, bare(element, orientation), x, P, 0.0, filt,
+                    (PathEntry(element, orientation, h.path[0].entry_time_s),)))
+    both = hyps + list(found.values())
+    links = abreast(both, *ecef_points(track_points_of(both)), nav.crossing_radius_m)
+    extra = [h for k, h in enumerate(both) if k >= len(hyps)
+             and any(j < len(hyps) for j in links[k])]
+    if not extra:
+        return hyps
+    for group, share in ((hyps, 1.0 - p), (extra, p)):
+        for h in group:
+            h.log_weight = math.log(share / len(group))
+    return hyps + extra
 
 
 def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
