@@ -180,7 +180,9 @@ def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav
                  ) -> list[Hypothesis]:
     """The hypotheses of a start on a known netelement (`hyps`) and those on the
     netelements abreast of them, with their prior weights (module docstring); `hyps`
-    alone when none is abreast or ``nav.start_abreast_probability`` is 0."""
+    alone when none is abreast or ``nav.start_abreast_probability`` is 0. A netelement a
+    train passes to from the known one, or from which it comes there (its continuation
+    at a joint, the ways of its switch), is not abreast of it: branching covers it."""
     p = nav.start_abreast_probability
     if p == 0.0:
         return hyps
@@ -189,8 +191,9 @@ def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav
                            np.array([float(q.lon) for q in points]),
                            radius_m=nav.crossing_radius_m)
     told = {h.element for h in hyps}
+    joined = told | {e for t in told for way in (1, -1) for e, _ in network.successors(t, way)}
     found: dict[tuple[str, int], Hypothesis] = {}
-    for element in dict.fromkeys(e for e in near["element"] if e not in told):
+    for element in dict.fromkeys(e for e in near["element"] if e not in joined):
         probe = factory(bare(element, 1))
         for orientation in orientations_of(probe, None):
             filt = probe if orientation == 1 else factory(bare(element, orientation))
