@@ -39,14 +39,19 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.special import chdtrc
 
 from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
 from railnav.navigation.hypotheses import Hypothesis, hypothesis
 from railnav.navigation.net_tracks import bare
 from railnav.navigation.initialization import InitialState, first_fix
+from railnav.navigation.loop import EPOCH_TIME_TOL_S
 from railnav.navigation.network_weights import abreast, ecef_points, track_points_of
 from railnav.navigation.route_path import PathEntry
+from railnav.navigation.spawning import fix_disagreement
+from railnav.navigation.spp_epochs import EpochSppFixes
+from trackmodel.network_points import points_on
 from railnav.navigation.state_conversion import converted
 from trackmodel.earth import ecef_to_geodetic
 
@@ -170,30 +175,25 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     if not hyps:
         raise RailnavError("no start hypothesis")
     if start is not None and start.element is not None:
-        hyps = with_abreast(hyps, network, tracks, factory, nav)
+        hyps = with_abreast(hyps, network, tracks, factory, nav,
+                            fix=_fix_at(trip, data, config, float(time_s)),
+                            cross_sigma_m=config.fix_model.track_cross_sigma_m)
     log.info("network start at t=%.3f s: %d hypotheses on %s", time_s, len(hyps),
              ", ".join(sorted({h.element for h in hyps})))
     return float(time_s), hyps
 
 
-def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav
-                 ) -> list[Hypothesis]:
+def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav, *, fix=None,
+                 cross_sigma_m: float = 0.0) -> list[Hypothesis]:
     """The hypotheses of a start on a known netelement (`hyps`) and those on the
-    netelements abreast of them, with their prior weights (module docstring); `hyps`
-    alone when none is abreast or ``nav.start_abreast_probability`` is 0. A netelement a
-    train passes to from the known one, or from which it comes there (its continuation
-    at a joint, the ways of its switch), is not abreast of it: branching covers it."""
+    netelements abreast of them (`_abreast_elements`), with their prior weights (module
+    docstring); `hyps` alone when none is abreast or ``nav.start_abreast_probability`` is
+    0 (and then every number of the run is the one without abreast hypotheses)."""
     p = nav.start_abreast_probability
     if p == 0.0:
         return hyps
-    points = track_points_of(hyps)
-    near = network.project(np.array([float(q.lat) for q in points]),
-                           np.array([float(q.lon) for q in points]),
-                           radius_m=nav.crossing_radius_m)
-    told = {h.element for h in hyps}
-    joined = told | {e for t in told for way in (1, -1) for e, _ in network.successors(t, way)}
     found: dict[tuple[str, int], Hypothesis] = {}
-    for element in dict.fromkeys(e for e in near["element"] if e not in joined):
+    for element in _abreast_elements(hyps, network, nav, fix, cross_sigma_m):
         probe = factory(bare(element, 1))
         for orientation in orientations_of(probe, None):
             filt = probe if orientation == 1 else factory(bare(element, orientation))
@@ -215,6 +215,52 @@ def with_abreast(hyps: list[Hypothesis], network, tracks, factory, nav
         for h in group:
             h.log_weight = math.log(share / len(group))
     return hyps + extra
+
+
+def _abreast_elements(hyps: list[Hypothesis], network, nav, fix, cross_sigma_m: float
+                      ) -> list[str]:
+    """The netelements within ``nav.crossing_radius_m`` of the known start's hypotheses
+    but those a train passes to from the known one or comes from there (its continuation
+    at a joint, the ways of its switch: branching covers them) and, given the start's
+    `fix` (``(fixes, k)``, `_fix_at`), those whose point nearest the start disagrees with
+    it (the spawn test's statistic, `railnav.navigation.spawning.fix_disagreement`, with
+    the known start's σ_s and `cross_sigma_m`; beyond ``nav.spawn_p_value``: a start that
+    the fix puts far along the track is lost, and its copies abreast would be too)."""
+    points = track_points_of(hyps)
+    near = network.project(np.array([float(q.lat) for q in points]),
+                           np.array([float(q.lon) for q in points]),
+                           radius_m=nav.crossing_radius_m)
+    told = {h.element for h in hyps}
+    joined = told | {e for t in told for way in (1, -1) for e, _ in network.successors(t, way)}
+    near = near[~near["element"].isin(joined)].drop_duplicates("element")
+    if fix is None or near.empty:
+        return near["element"].tolist()
+    i_s = hyps[0].index("s")
+    d2 = fix_disagreement(*ecef_points(points_on([network.elements[e] for e in near["element"]],
+                                                 near["s_m"].tolist())),
+                          np.full(len(near), math.sqrt(max(hyps[0].P[i_s, i_s], 0.0))),
+                          *fix, cross_sigma_m)
+    return [e for e, d in zip(near["element"], d2) if chdtrc(2.0, float(d)) >= nav.spawn_p_value]
+
+
+def _fix_at(trip, data, config, time_s: float):
+    """The fix of the epoch at `time_s` (s from the trip start): the position fix, else
+    that GNSS epoch's own single-point fix (`railnav.navigation.spp_epochs`), as
+    ``(fixes, k)``; None without one."""
+    spp = None
+    if trip.fixes is not None and len(trip.fixes):
+        fixes = trip.fixes
+    else:
+        spp = EpochSppFixes.of(trip.gnss, data, config)
+        if spp is None:
+            return None
+        fixes = spp.fixes
+    k = int(np.argmin(np.abs(np.asarray(fixes.time_s, dtype=float) - time_s)))
+    if abs(float(fixes.time_s[k]) - time_s) > EPOCH_TIME_TOL_S:
+        return None
+    if spp is not None:
+        spp.solve(k)
+    return (fixes, k) if np.isfinite(fixes.lat[k]) else None
 
 
 def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
