@@ -130,3 +130,28 @@ def test_a_gnss_run_told_the_wrong_parallel_track_ends_on_the_right_one():
     p_b_max = (1.0 - p) / p * math.exp(-worst_llr)
     assert res.element_probability[-1].get("B", 0.0) <= p_b_max
     assert res.cycles["netelement"].iloc[-1] == "A0"
+
+
+def _fix_at_point(track, s: float, sigma_m: float):
+    """A fix (`railnav.navigation.spawning.fix_disagreement`'s fields) on `track` at `s`,
+    σ per horizontal axis."""
+    from types import SimpleNamespace
+    p = track.at(s)
+    return SimpleNamespace(lat=np.array([float(p.lat)]), lon=np.array([float(p.lon)]),
+                           cov_n_m2=np.array([np.diag([sigma_m ** 2] * 3)])), 0
+
+
+def test_no_track_abreast_where_the_start_fix_says_the_start_is_lost():
+    """Told B at 100 m, σ_s 1 m (the hypothesis's P), a fix of σ 3 m per axis: on A0
+    abreast of it, A0's hypothesis starts (d² = 0 at A0's point); at A0's 190 m (A0 is
+    200 m long), 90 m along, d² = 90²/(3² + 1²) = 810 ≫ the χ²₂ quantile of the spawn
+    p-value (27.6): A0 is not started, nor is B's hypothesis touched."""
+    net = switch_network(SwitchNetworkSpec(loops=1))
+    tracks, factory, told = _told(net, "B", 100.0)
+    nav = NetworkNavConfig()
+    a0 = net.elements["A0"]
+    near = with_abreast([told], net, tracks, factory, nav, fix=_fix_at_point(a0, 100.0, 3.0))
+    assert [h.element for h in near] == ["B", "A0"]
+    _, _, told = _told(net, "B", 100.0)
+    far = with_abreast([told], net, tracks, factory, nav, fix=_fix_at_point(a0, 190.0, 3.0))
+    assert far == [told] and told.log_weight == 0.0
