@@ -13,7 +13,9 @@ candidate_starts`):
 
 * ``along``: on A0, `ALONG_ERRORS_M` ahead of the truth with the scenario's σ_s: beyond
   the fault screen's gate, so that later GNSS rows are rejected and it dead-reckons;
-* ``parallel``: on B, the wrong one of the two parallel tracks;
+* ``parallel``: on B, the wrong one of the two parallel tracks (the start takes the
+  netelements abreast of a known one too, with their prior,
+  `railnav.navigation.network_start.with_abreast`: at 4.5 m A0, at 15 m none);
 * ``right``: on A0, where the train is (what the told start's abreast hypotheses cost when
   it is right).
 

@@ -22,15 +22,29 @@ stays on B with P = 1 whatever the data say (GNSS runs have no fix to spawn from
 tells tracks 4.5 m apart in one window, `railnav.navigation.spawning`). So the
 netelements abreast of the known one (`railnav.navigation.network_weights.abreast`:
 within `NetworkNavConfig.crossing_radius_m`, travelling the same way; those the crossing
-prior links) get hypotheses too, each from a told hypothesis's state brought onto its
-track (`railnav.navigation.state_conversion.converted`), together carrying the prior
+prior links; not those a train passes to or from it, which branching covers) get
+hypotheses too, each from a told hypothesis's state brought onto its track
+(`railnav.navigation.state_conversion.converted`), together carrying the prior
 `NetworkNavConfig.start_abreast_probability` p (shared evenly; the told ones share
 1 − p). The weights' evidence decides. Its effect, with ``K`` nats of evidence an epoch
-between the tracks (d = 4.5 m, σ_pr = 3 m, 7 GPS satellites: K ≈ 1.1,
-`benchmarks/bench_network_spawn_gnss.py`): a wrong told track is left after about
-``ln((1 − p)/p) / K`` epochs (p = 0.01: ~4 s); a right one is ever given up for a track
-abreast (its probability above ½) in at most a share ``p/(1 − p)`` of runs (Ville's
-inequality on the likelihood ratio, a martingale under the right track).
+between the tracks (d = 4.5 m, σ_pr = 3 m, 7 GPS satellites: K ≈ 1.1 in closed form for
+the epoch alone, 0.86-1.45 measured over 97 s, `benchmarks/bench_parallel_evidence.py`):
+a wrong told track is left after about ``ln((1 − p)/p) / K`` epochs (p = 0.01: ~4 s;
+measured 3-18 s, `benchmarks/bench_network_spawn_gnss.py` ``parallel``); a right one is
+ever given up for a track abreast (its probability above ½) in at most a share
+``p/(1 − p)`` of runs (Ville's inequality on the likelihood ratio, a martingale under
+the right track; ``right``: one seed of five, for 2 cycles in its first 5 s, where the
+ratio of that trip reached e^5.3 against the right track).
+
+Not abreast where the start's fix disagrees: a track abreast whose point nearest the
+start the start epoch's fix (the position fix, or the epoch's own single-point fix)
+rejects, by the spawn test's statistic and p-value (`railnav.navigation.spawning`, as for
+a spawn's candidates), gets no hypothesis. Such a start is far along the track from the
+train: its copies abreast would be as lost as it is, and the weights between hypotheses
+that the data all reject follow the correlation of along- and cross-track errors in the
+geometry, not the track (``along`` 150 m without spawning, with the copy: B won, and no
+seed of 5 came back within 10 m of the train; without it all 5 do by 24-32 s, the curves
+between the loops pulling the lone hypothesis in). The spawn test finds such a train.
 """
 from __future__ import annotations
 
