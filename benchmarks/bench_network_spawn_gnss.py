@@ -95,14 +95,29 @@ def _initial(along_m: float, base):
     return initial
 
 
-def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int) -> dict:
+def simulated(net, legs, seed: int, filter: str = "constrained"):
+    """The trip of `seed` along `legs` (module docstring), its navigator settings and
+    the candidates' truth starts (`candidate_starts`)."""
     scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
                        duration_s=TRIP_S, outages=(), start_s=START_S_M,
                        sigma_pseudorange_m=SIGMA_PR_M)
     line = route_track(net, legs)
-    config = navigator_config_for(scenario, filter=FILTERS[kind], systems="G")
+    config = navigator_config_for(scenario, filter=filter, systems="G")
     trip = simulate_trip(scenario, track=line, seed=seed, systems="G")
-    base = candidate_starts(trip, config, make_filter(line, config, None))
+    return trip, config, candidate_starts(trip, config, make_filter(line, config, None))
+
+
+def write(path: Path, scenario: dict, runs: list, load_before) -> None:
+    """The results file: the scenario, the runs, the machine and its load."""
+    out = {"scenario": scenario, "runs": runs,
+           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                       "load_average_before": load_before,
+                       "load_average_after": os.getloadavg()}}
+    atomic_write_text(path, json.dumps(out, indent=2) + "\n")
+
+
+def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int) -> dict:
+    trip, config, base = simulated(net, legs, seed, FILTERS[kind])
     started, wall = time.process_time(), time.perf_counter()
     res = navigate_network(net, trip.sensor_data(), config,
                            nav=NetworkNavConfig(spawn=spawn),
@@ -161,13 +176,9 @@ def main(argv=None) -> int:
               f"{r['recovered_s']} s, final along error {r['final_along_error_m']}, "
               f"P(true) at the end {r['final_true_probability']:.6f}, "
               f"spawns {len(r['spawns'])}, {r['navigator_cpu_s']:.1f} s CPU")
-    out = {"scenario": {"speed_mps": SPEED_MPS, "sigma_pr_m": SIGMA_PR_M, "trip_s": TRIP_S,
-                        "along_errors_m": list(ALONG_ERRORS_M), "recovered_m": RECOVERED_M},
-           "runs": runs,
-           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                       "load_average_before": load_before,
-                       "load_average_after": os.getloadavg()}}
-    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    write(args.out, {"speed_mps": SPEED_MPS, "sigma_pr_m": SIGMA_PR_M, "trip_s": TRIP_S,
+                     "along_errors_m": list(ALONG_ERRORS_M), "recovered_m": RECOVERED_M},
+          runs, load_before)
     return 0
 
 

@@ -22,12 +22,9 @@ Writes ``benchmarks/results/parallel_evidence.json`` (or ``--out``).
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import os
-import platform
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -37,21 +34,15 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_network_spawn_gnss as trips  # noqa: E402
-from railnav.filters.protocol import make_filter  # noqa: E402
-from railnav.jobs.network import candidate_starts, true_netelements  # noqa: E402
+from railnav.jobs.network import true_netelements  # noqa: E402
 from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.navigation.network_navigator import navigate_network  # noqa: E402
 from railnav.navigation.network_start import NetworkStart  # noqa: E402
-from railnav.simulation.profiles import constant_speed  # noqa: E402
-from railnav.simulation.scenarios import get_scenario  # noqa: E402
 from railnav.simulation.switch_network import (  # noqa: E402
     SwitchNetworkSpec,
     loop_route,
-    route_track,
     switch_network,
 )
-from railnav.simulation.trip import navigator_config_for, simulate_trip  # noqa: E402
-from trackmodel.files import atomic_write_text  # noqa: E402
 
 RESULTS = REPO / "benchmarks" / "results" / "parallel_evidence.json"
 SPACING_M = 4.5
@@ -80,16 +71,10 @@ def snapshot_divergence(trip, spacing_m: float, sigma_m: float) -> np.ndarray:
 
 
 def _run(net, legs, seed: int) -> dict:
-    scenario = replace(get_scenario("curvy"), profile=constant_speed(trips.SPEED_MPS),
-                       duration_s=trips.TRIP_S, outages=(), start_s=trips.START_S_M,
-                       sigma_pseudorange_m=trips.SIGMA_PR_M)
-    line = route_track(net, legs)
-    config = navigator_config_for(scenario, filter="constrained", systems="G")
-    trip = simulate_trip(scenario, track=line, seed=seed, systems="G")
+    trip, config, initial = trips.simulated(net, legs, seed)
     nav = NetworkNavConfig(spawn=False, crossing_rate_per_s=0.0, prune_probability=0.0)
     res = navigate_network(net, trip.sensor_data(), config, nav=nav,
-                           start=NetworkStart(None, direction=1),
-                           initial=candidate_starts(trip, config, make_filter(line, config, None)),
+                           start=NetworkStart(None, direction=1), initial=initial,
                            near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])))
     truth = true_netelements(net, legs, np.interp(res.time_s, trip.truth.time_s, trip.truth.s))
     step = [ll[e] - ll["B"] if e in ll and "B" in ll else 0.0
@@ -126,13 +111,8 @@ def main(argv=None) -> int:
               f"({r['llr_per_epoch']:.2f}/epoch), lowest {r['llr_min']:+.1f} at "
               f"{r['llr_min_at_s']:.0f} s; snapshot K {r['snapshot_divergence_total']:.1f} "
               f"± {r['llr_sigma_expected']:.1f}")
-    out = {"scenario": {"speed_mps": trips.SPEED_MPS, "sigma_pr_m": trips.SIGMA_PR_M,
-                        "trip_s": trips.TRIP_S, "spacing_m": SPACING_M},
-           "runs": runs,
-           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                       "load_average_before": load_before,
-                       "load_average_after": os.getloadavg()}}
-    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    trips.write(args.out, {"speed_mps": trips.SPEED_MPS, "sigma_pr_m": trips.SIGMA_PR_M,
+                           "trip_s": trips.TRIP_S, "spacing_m": SPACING_M}, runs, load_before)
     return 0
 
 
