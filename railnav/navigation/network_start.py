@@ -188,7 +188,7 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                                                          float(init.time_s)),)))
     if not hyps:
         raise RailnavError("no start hypothesis")
-    if start is not None and start.element is not None:
+    if start is not None and start.element is not None and nav.start_abreast_probability:
         hyps = with_abreast(hyps, network, tracks, factory, nav,
                             fix=_fix_at(trip, data, config, float(time_s)),
                             cross_sigma_m=config.fix_model.track_cross_sigma_m)
