@@ -34,7 +34,10 @@ measured 3-18 s, `benchmarks/bench_network_spawn_gnss.py` ``parallel``); a right
 ever given up for a track abreast (its probability above ½) in at most a share
 ``p/(1 − p)`` of runs (Ville's inequality on the likelihood ratio, a martingale under
 the right track; ``right``: one seed of five, for 2 cycles in its first 5 s, where the
-ratio of that trip reached e^5.3 against the right track).
+ratio of that trip reached e^5.3 against the right track). Cost: the hypothesis abreast
+of the right track is never pruned (the crossing prior holds it at ~ε Δt/(1 − e^{−K}),
+1.5e-5, above `NetworkNavConfig.prune_probability`), as in a run with no start given:
+the navigator's CPU 1.6-2.0× that of the told track alone (0.3-0.4 s more for 97 s).
 
 Not abreast where the start's fix disagrees: a track abreast whose point nearest the
 start the start epoch's fix (the position fix, or the epoch's own single-point fix)
@@ -65,9 +68,9 @@ from railnav.navigation.network_weights import abreast, ecef_points, track_point
 from railnav.navigation.route_path import PathEntry
 from railnav.navigation.spawning import fix_disagreement
 from railnav.navigation.spp_epochs import EpochSppFixes
-from trackmodel.network_points import points_on
 from railnav.navigation.state_conversion import converted
 from trackmodel.earth import ecef_to_geodetic
+from trackmodel.network_points import points_on
 
 __all__ = ["NetworkStart", "start_hypotheses", "orientations_of", "with_abreast"]
 
