@@ -3,7 +3,7 @@ wrong, on simulated pseudoranges without position fixes, with and without spawni
 
 Usage::
 
-    python benchmarks/bench_network_spawn_gnss.py [--seeds 3] [--out FILE]
+    python benchmarks/bench_network_spawn_gnss.py [--seeds 3] [--cases along ...] [--out FILE]
 
 The network is `railnav.simulation.switch_network`'s double line (A and B 4.5 m apart),
 the route straight along A (no loop taken), 20 m/s, curvy's sensors with σ_pr 3 m (GPS),
@@ -13,12 +13,17 @@ candidate_starts`):
 
 * ``along``: on A0, `ALONG_ERRORS_M` ahead of the truth with the scenario's σ_s: beyond
   the fault screen's gate, so that later GNSS rows are rejected and it dead-reckons;
-* ``parallel``: on B, the wrong one of the two parallel tracks.
+* ``parallel``: on B, the wrong one of the two parallel tracks (the start takes the
+  netelements abreast of a known one too, with their prior,
+  `railnav.navigation.network_start.with_abreast`: at 4.5 m A0, at 15 m none);
+* ``right``: on A0, where the train is (what the told start's abreast hypotheses cost when
+  it is right).
 
 Each case runs with the tactical IMU (constrained INS/GNSS; the GNSS-only filter needs
 fixes in a network run), with spawning
 off (``NetworkNavConfig(spawn=False)``, today's behaviour for GNSS runs) and on. Figures
-per run: the share of cycles whose most probable netelement is the true one, the time
+per run: the share of cycles whose most probable netelement is the true one, the true
+netelement's probability at the last cycle (``final_true_probability``), the time
 from which the most probable netelement stays on the route with its along-track error
 (along the route) below `RECOVERED_M` (``recovered_s``, None: never), the spawns and the
 final along-track error.
@@ -73,6 +78,8 @@ WIDE_SPACING_M = 15.0
 #: The filters run (the GNSS-only filter does not screen its rows: a network run without
 #: fixes refuses it, `railnav.navigation.network_navigator`).
 FILTERS = {"tactical": "constrained"}
+#: The cases (module docstring).
+CASES = ("along", "parallel", "right")
 
 
 def _initial(along_m: float, base):
@@ -88,21 +95,36 @@ def _initial(along_m: float, base):
     return initial
 
 
-def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int) -> dict:
+def simulated(net, legs, seed: int, filter: str = "constrained"):
+    """The trip of `seed` along `legs` (module docstring), its navigator settings and
+    the candidates' truth starts (`candidate_starts`)."""
     scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
                        duration_s=TRIP_S, outages=(), start_s=START_S_M,
                        sigma_pseudorange_m=SIGMA_PR_M)
     line = route_track(net, legs)
-    config = navigator_config_for(scenario, filter=FILTERS[kind], systems="G")
+    config = navigator_config_for(scenario, filter=filter, systems="G")
     trip = simulate_trip(scenario, track=line, seed=seed, systems="G")
-    base = candidate_starts(trip, config, make_filter(line, config, None))
-    started = time.process_time()
+    return trip, config, candidate_starts(trip, config, make_filter(line, config, None))
+
+
+def write(path: Path, scenario: dict, runs: list, load_before) -> None:
+    """The results file: the scenario, the runs, the machine and its load."""
+    out = {"scenario": scenario, "runs": runs,
+           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                       "load_average_before": load_before,
+                       "load_average_after": os.getloadavg()}}
+    atomic_write_text(path, json.dumps(out, indent=2) + "\n")
+
+
+def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int) -> dict:
+    trip, config, base = simulated(net, legs, seed, FILTERS[kind])
+    started, wall = time.process_time(), time.perf_counter()
     res = navigate_network(net, trip.sensor_data(), config,
                            nav=NetworkNavConfig(spawn=spawn),
-                           start=NetworkStart("A0" if case == "along" else "B", direction=1),
+                           start=NetworkStart("B" if case == "parallel" else "A0", direction=1),
                            initial=_initial(along_m, base),
                            near=(float(trip.truth.lat[0]), float(trip.truth.lon[0])))
-    cpu = time.process_time() - started
+    cpu, wall = time.process_time() - started, time.perf_counter() - wall
     cyc = res.cycles
     truth_s = np.interp(res.time_s, trip.truth.time_s, trip.truth.s)
     truth = true_netelements(net, legs, truth_s)
@@ -122,19 +144,23 @@ def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int
             "share_netelement_right": float(right.mean()), "recovered_s": recovered,
             "final_along_error_m": None if not np.isfinite(along[-1]) else float(along[-1]),
             "final_netelement": str(est[-1]),
-            "spawns": [list(sp) for sp in res.spawns], "navigator_cpu_s": cpu}
+            "final_true_probability": float(res.element_probability[-1].get(truth[-1], 0.0)),
+            "spawns": [list(sp) for sp in res.spawns], "navigator_cpu_s": cpu,
+            "navigator_wall_s": wall}
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--cases", nargs="+", choices=CASES, default=list(CASES))
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
     load_before = os.getloadavg()
     runs = []
     cases = [("along", 4.5, a) for a in ALONG_ERRORS_M] + \
-        [("parallel", 4.5, 0.0), ("parallel", WIDE_SPACING_M, 0.0)]
+        [("parallel", 4.5, 0.0), ("parallel", WIDE_SPACING_M, 0.0), ("right", 4.5, 0.0)]
+    cases = [c for c in cases if c[0] in args.cases]
     for case, spacing, along_m in cases:
         spec = SwitchNetworkSpec(loops=2, spacing_m=spacing)
         net = switch_network(spec)
@@ -148,14 +174,11 @@ def main(argv=None) -> int:
               f"seed {r['seed']}: "
               f"netelement right {r['share_netelement_right']:.3f}, recovered at "
               f"{r['recovered_s']} s, final along error {r['final_along_error_m']}, "
+              f"P(true) at the end {r['final_true_probability']:.6f}, "
               f"spawns {len(r['spawns'])}, {r['navigator_cpu_s']:.1f} s CPU")
-    out = {"scenario": {"speed_mps": SPEED_MPS, "sigma_pr_m": SIGMA_PR_M, "trip_s": TRIP_S,
-                        "along_errors_m": list(ALONG_ERRORS_M), "recovered_m": RECOVERED_M},
-           "runs": runs,
-           "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
-                       "load_average_before": load_before,
-                       "load_average_after": os.getloadavg()}}
-    atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")
+    write(args.out, {"speed_mps": SPEED_MPS, "sigma_pr_m": SIGMA_PR_M, "trip_s": TRIP_S,
+                     "along_errors_m": list(ALONG_ERRORS_M), "recovered_m": RECOVERED_M},
+          runs, load_before)
     return 0
 
 

@@ -38,6 +38,12 @@ class NetworkNavConfig:
     start_radius_m : float
         A start without a known netelement takes every netelement within this of the
         first fix, m > 0.
+    start_abreast_probability : float
+        A start on a known netelement is also one on the netelements abreast of it (as
+        `crossing_radius_m` and `railnav.navigation.network_weights.abreast` define them),
+        whose hypotheses together carry this prior probability, in [0, 1); 0: the known
+        netelement only, as a told start was taken before
+        (`railnav.navigation.network_start`, which gives its effect).
     continuous_evidence : bool
         Count the accelerometer pseudo-observation's likelihood in the weights (the
         curvature a switch's branch or a wrong ``s`` puts on it is the evidence inertial
@@ -98,6 +104,7 @@ class NetworkNavConfig:
     crossing_radius_m: float = 10.0
     min_mixing_weight: float = 1e-6
     start_radius_m: float = 30.0
+    start_abreast_probability: float = 0.01
     continuous_evidence: bool = True
     hypotheses_every_s: float = 1.0
     split_sigma_m: float = 5.0
@@ -123,6 +130,7 @@ class NetworkNavConfig:
                   "crossing_radius_m": lambda v: v > 0.0,
                   "min_mixing_weight": lambda v: 0.0 <= v < 1.0,
                   "start_radius_m": lambda v: v > 0.0,
+                  "start_abreast_probability": lambda v: 0.0 <= v < 1.0,
                   "hypotheses_every_s": lambda v: v > 0.0,
                   "split_sigma_m": lambda v: v > 0.0,
                   "split_accel_mps2": lambda v: v >= 0.0,

@@ -160,20 +160,30 @@ def test_network_run_start_not_in_the_network(tmp_path, capsys):
 
 def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):
     """Spawning is the default (`NetworkNavConfig.spawn`), ``--no-spawn`` turns it off:
-    told to start on 88_L_2016, 5.6 m abreast of the train's 88_L_3842, the run without it
-    is wrong on the epochs the log's own carrier-fixed rows put on 3842 (issue 13's
-    netelement truth); by default, one spawn and the share right rises above the run
-    without; ``--spawn`` (accepted, the default) gives the default's numbers. ``--spawn``
-    needs fixes or GNSS observations, and with ``--no-spawn`` is an error."""
+    told to start at 120 m on 88_L_2016, 5.6 m abreast of the train's 88_L_3842 and 111 m
+    behind it (where the first fix projects on 2016: 231 m; so far along that the fix
+    rejects the abreast tracks there too, `railnav.navigation.network_start.with_abreast`),
+    the run without it is wrong on the epochs the log's own carrier-fixed rows put on 3842
+    (issue 13's netelement truth); by default, one spawn and the share right rises above
+    the run without; ``--spawn`` (accepted, the default) gives the default's numbers.
+    ``--spawn`` needs fixes or GNSS observations, and with ``--no-spawn`` is an error.
+    Told 88_L_2016 alone (the start fix projected on it, abreast of the train), the track
+    abreast starts too and the run is right at every epoch with a truth, without a spawn."""
     share, spawns = {}, {}
     for flag in (["--no-spawn"], [], ["--spawn"]):
         out = tmp_path / ("_".join(flag) or "default")
         assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--truth",
-                     str(EXCERPT), "--start", "88_L_2016", *flag, "--no-plots",
+                     str(EXCERPT), "--start", "88_L_2016:120", *flag, "--no-plots",
                      "--out", str(out)]) == 0
         route = json.loads((out / "summary.json").read_text())["route"]
         share[tuple(flag)] = route["truth"]["share_right"]
         spawns[tuple(flag)] = len(route["spawns"])
+    out = tmp_path / "abreast"
+    assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--truth",
+                 str(EXCERPT), "--start", "88_L_2016", "--no-spawn", "--no-plots",
+                 "--out", str(out)]) == 0
+    route = json.loads((out / "summary.json").read_text())["route"]
+    assert route["truth"]["share_right"] == 1.0 and route["spawns"] == []
     assert spawns[("--no-spawn",)] == 0 and spawns[()] >= 1
     assert share[()] > share[("--no-spawn",)]
     assert share[("--spawn",)] == share[()] and spawns[("--spawn",)] == spawns[()]

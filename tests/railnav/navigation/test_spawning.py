@@ -5,6 +5,7 @@ excerpt (carrier-fixed fixes), recover; consistent runs spawn nothing (and the r
 dirty fixes keeps its netelements)."""
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -87,22 +88,25 @@ def _scores(run, truth, t, after_s: float):
 
 
 def test_a_start_on_the_wrong_parallel_track_recovers(brussels):
-    """Told to start on 88_L_2016, 5.6 m abreast of the train's 88_L_3842: without spawns
-    the fix-only filter stays on it with P = 1 until 2016 joins 5900 at 22 s (its
-    cross-track row is widened by the map's 1.5 m; the fixes' 3 cm never move it off its
-    element): wrong at every unambiguous epoch on 3842 after 3 s. With spawns, one spawn
-    within the first window (5 fixes, 2 s) and the netelement is right at every unambiguous
-    epoch after 3 s, as the run with no start given is."""
+    """Told to start on 88_L_2016, 5.6 m abreast of the train's 88_L_3842, with no
+    hypothesis abreast of it (``start_abreast_probability=0``): without spawns the fix-only
+    filter stays on it with P = 1 until 2016 joins 5900 at 22 s (its cross-track row is
+    widened by the map's 1.5 m; the fixes' 3 cm never move it off its element): wrong at
+    every unambiguous epoch on 3842 after 3 s. With spawns, one spawn within the first
+    window (5 fixes, 2 s) and the netelement is right at every unambiguous epoch after 3 s,
+    as the run with no start given is."""
     from railnav.navigation.network_navigator import navigate_network
     from railnav.navigation.network_start import NetworkStart
     network, data, config, truth, t = brussels
     start = NetworkStart("88_L_2016")
-    stuck = navigate_network(network, data, config, start=start, nav=NO_SPAWN)
+    alone = {"start_abreast_probability": 0.0}
+    stuck = navigate_network(network, data, config, start=start,
+                             nav=replace(NO_SPAWN, **alone))
     assert stuck.spawns == ()
     on_3842 = np.array([e == "88_L_3842" for e in truth])
     bad = _scores(stuck, np.where(on_3842, truth, None), t, 3.0)
     assert bad["epochs"] >= 5 and bad["share_right"] == 0.0
-    run = navigate_network(network, data, config, start=start, nav=SPAWN)
+    run = navigate_network(network, data, config, start=start, nav=replace(SPAWN, **alone))
     assert len(run.spawns) == 1 and run.spawns[0][0] <= 2.0
     sc = _scores(run, truth, t, 3.0)
     assert sc["epochs"] >= 90 and sc["share_right"] == 1.0
@@ -115,6 +119,27 @@ def test_a_start_on_the_wrong_parallel_track_recovers(brussels):
     assert route["netelement"].iloc[0] == "88_L_2016"     # where it said it was, then
     assert route_passes(network, list(zip(route["netelement"][1:], route["orientation"][1:])),
                         collapse(truth))["passes_truth"]
+
+
+def test_a_wrong_parallel_start_keeps_the_track_abreast(brussels):
+    """The same wrong start with its abreast netelements (the default
+    `NetworkNavConfig.start_abreast_probability`, `railnav.navigation.network_start.
+    with_abreast`) and no spawns: 88_L_3842 gets a hypothesis at the start, the fixes'
+    evidence decides, and the netelement is right at every unambiguous epoch (the RTK
+    truth), from the first, with nothing spawned; the route is the one of the run with no
+    start given (second method)."""
+    from railnav.navigation.network_navigator import navigate_network
+    from railnav.navigation.network_start import NetworkStart
+    network, data, config, truth, t = brussels
+    run = navigate_network(network, data, config, start=NetworkStart("88_L_2016"),
+                           nav=NO_SPAWN)
+    assert run.spawns == ()
+    assert set(run.element_probability[0]) >= {"88_L_2016", "88_L_3842"}
+    sc = _scores(run, truth, t, 0.0)
+    assert sc["epochs"] >= 100 and sc["share_right"] == 1.0
+    untold = navigate_network(network, data, config, nav=NO_SPAWN)
+    assert run.route_frame()["netelement"].tolist() == \
+        untold.route_frame()["netelement"].tolist()
 
 
 def test_a_start_far_along_the_track_recovers(brussels):
