@@ -7,6 +7,7 @@ whole trip projected on the track are `railnav.navigation.track_fixes`'s.
 """
 from __future__ import annotations
 
+import math
 from functools import cache
 
 import numpy as np
@@ -100,8 +101,8 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
             step = wls_step(A, nu, sigma)
     except np.linalg.LinAlgError:
         return None
-    var = float(step.cov[0, 0])
-    if not (np.isfinite(step.dx[0]) and np.isfinite(var) and var > 0.0):
+    ds, var = float(step.dx[0]), float(step.cov[0, 0])
+    if not (math.isfinite(ds) and math.isfinite(var) and var > 0.0):
         return None
-    return float(step.dx[0]), var, pseudorange_inflation == 1.0
+    return ds, var, pseudorange_inflation == 1.0
 
