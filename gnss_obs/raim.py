@@ -31,8 +31,8 @@ approach", ION GPS 1995; W. Baarda, "A testing procedure for use in geodetic net
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import lru_cache
+from dataclasses import dataclass, field
+from functools import cached_property, lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -61,26 +61,39 @@ class WlsStep:
         Covariance ``(Hᵀ W H)⁻¹`` with ``W = diag(1/σ²)``.
     residual : ndarray, shape (n,)
         Post-fit residuals ``z - H dx``, units of z.
-    standardized : ndarray, shape (n,)
-        ``r_i / (σ_i sqrt(1 - h_ii))``; NaN where the measurement has no redundancy.
     test_statistic : float
         ``Σ (r_i/σ_i)²``.
     dof : int
         Degrees of freedom n - k.
-    leverage : ndarray, shape (n,)
-        Diagonal of the whitened hat matrix ``A (AᵀA)⁻¹ Aᵀ``.
     gain : ndarray, shape (k, n)
         ``dx = gain @ (z / σ)``: the whitened estimation matrix (for slopes).
+    standardized : ndarray, shape (n,)
+        ``r_i / (σ_i sqrt(1 - h_ii))``; NaN where the measurement has no redundancy
+        (computed when first read: most solutions pass their test without it).
+    leverage : ndarray, shape (n,)
+        Diagonal of the whitened hat matrix ``A (AᵀA)⁻¹ Aᵀ`` (computed when first read).
     """
 
     dx: Array
     cov: Array
     residual: Array
-    standardized: Array
     test_statistic: float
     dof: int
-    leverage: Array
     gain: Array
+    #: ``(A, gain, whitened residuals)`` of the solution as solved (`leverage`,
+    #: `standardized`; a `dataclasses.replace` of `gain` leaves them as they were).
+    parts: tuple[Array, Array, Array] = field(repr=False, compare=False, kw_only=True)
+
+    @cached_property
+    def leverage(self) -> Array:
+        A, gain, _ = self.parts
+        return np.einsum("ij,ji->i", A, gain)
+
+    @cached_property
+    def standardized(self) -> Array:
+        leverage = self.leverage
+        redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
+        return self.parts[2] / np.sqrt(redundancy)
 
 
 def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsStep:
@@ -116,12 +129,9 @@ def _step(sigma: Array, core: Core) -> WlsStep:
     `sigma`."""
     A, cov, gain, dx, whitened = core
     n, k = A.shape
-    leverage = np.einsum("ij,ji->i", A, gain)
-    redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
-    standardized = whitened / np.sqrt(redundancy)
-    return WlsStep(dx=dx, cov=cov, residual=whitened * sigma, standardized=standardized,
-                   test_statistic=float(whitened @ whitened), dof=n - k, leverage=leverage,
-                   gain=gain)
+    return WlsStep(dx=dx, cov=cov, residual=whitened * sigma,
+                   test_statistic=float(whitened @ whitened), dof=n - k, gain=gain,
+                   parts=(A, gain, whitened))
 
 
 def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber_k: float,
