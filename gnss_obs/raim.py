@@ -3,11 +3,12 @@
 The linear core of the SPP (`gnss_obs.spp`), for position and velocity alike. With the
 measurements whitened by their standard deviations (``A = H/σ``, ``y = z/σ``):
 
-* `wls_step` solves ``min |A dx - y|²`` (QR via `numpy.linalg.lstsq`, no explicit inverse
-  of the normal matrix except for the covariance, through a Cholesky solve), and gives the
-  post-fit residuals, the test statistic ``T = Σ (r_i/σ_i)²`` (χ² with n - k degrees of
-  freedom when the σ are right and no fault is present) and the standardized residuals
-  ``w_i = r_i / (σ_i sqrt(1 - h_ii))`` (Baarda's w-test) with the leverages h_ii;
+* `wls_step` solves ``min |A dx - y|²`` through the normal matrix's inverse, the
+  covariance (`gnss_obs.wls_solvers`: by Cholesky, or in closed form for ≤ 3 unknowns,
+  the divergence monitor's fix on the track), and gives the post-fit residuals, the test
+  statistic ``T = Σ (r_i/σ_i)²`` (χ² with n - k degrees of freedom when the σ are right
+  and no fault is present) and the standardized residuals ``w_i = r_i / (σ_i sqrt(1 -
+  h_ii))`` (Baarda's w-test) with the leverages h_ii;
 * `chi2_threshold` is the detection threshold for a false-alarm probability;
 * `protection_levels` turns the slopes of a single-fault bias (Walter & Enge 1995, weighted
   RAIM) into horizontal and vertical protection-level-style figures:
@@ -30,13 +31,14 @@ approach", ION GPS 1995; W. Baarda, "A testing procedure for use in geodetic net
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import lru_cache
+from dataclasses import dataclass, field
+from functools import cached_property, lru_cache
 
 import numpy as np
 import numpy.typing as npt
-from scipy import linalg
 from scipy.special import ndtri
+
+from gnss_obs.wls_solvers import Core, wls_problem
 
 __all__ = ["WlsStep", "wls_step", "huber_wls", "FdeResult", "fault_detection_exclusion",
            "chi2_threshold", "detection_noncentrality", "protection_levels"]
@@ -59,30 +61,44 @@ class WlsStep:
         Covariance ``(Hᵀ W H)⁻¹`` with ``W = diag(1/σ²)``.
     residual : ndarray, shape (n,)
         Post-fit residuals ``z - H dx``, units of z.
-    standardized : ndarray, shape (n,)
-        ``r_i / (σ_i sqrt(1 - h_ii))``; NaN where the measurement has no redundancy.
     test_statistic : float
         ``Σ (r_i/σ_i)²``.
     dof : int
         Degrees of freedom n - k.
-    leverage : ndarray, shape (n,)
-        Diagonal of the whitened hat matrix ``A (AᵀA)⁻¹ Aᵀ``.
     gain : ndarray, shape (k, n)
         ``dx = gain @ (z / σ)``: the whitened estimation matrix (for slopes).
+    standardized : ndarray, shape (n,)
+        ``r_i / (σ_i sqrt(1 - h_ii))``; NaN where the measurement has no redundancy
+        (computed when first read: most solutions pass their test without it).
+    leverage : ndarray, shape (n,)
+        Diagonal of the whitened hat matrix ``A (AᵀA)⁻¹ Aᵀ`` (computed when first read).
     """
 
     dx: Array
     cov: Array
     residual: Array
-    standardized: Array
     test_statistic: float
     dof: int
-    leverage: Array
     gain: Array
+    #: ``(A, gain, whitened residuals)`` of the solution as solved (`leverage`,
+    #: `standardized`; a `dataclasses.replace` of `gain` leaves them as they were).
+    parts: tuple[Array, Array, Array] = field(repr=False, compare=False, kw_only=True)
+
+    @cached_property
+    def leverage(self) -> Array:
+        A, gain, _ = self.parts
+        return np.einsum("ij,ji->i", A, gain)
+
+    @cached_property
+    def standardized(self) -> Array:
+        leverage = self.leverage
+        redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
+        return self.parts[2] / np.sqrt(redundancy)
 
 
 def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsStep:
-    """Weighted least squares ``z ≈ H dx`` with independent errors of std `sigma`.
+    """Weighted least squares ``z ≈ H dx`` with independent errors of std `sigma`
+    (`gnss_obs.wls_solvers.wls_problem`: in closed form for ≤ 3 unknowns, else by Cholesky).
 
     Parameters
     ----------
@@ -105,74 +121,17 @@ def wls_step(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike) -> WlsSte
     H = np.asarray(H, dtype=float)
     z = np.asarray(z, dtype=float)
     sigma = np.asarray(sigma, dtype=float)
-    return _step(sigma, _wls_core(H, z, sigma))
+    return _step(*wls_problem(H, z, sigma).solution(None))
 
 
-def _step(sigma: Array, core: tuple[Array, Array, Array, Array, Array]) -> WlsStep:
-    """The `WlsStep` of `_wls_core`'s outputs at the standard deviations `sigma`."""
+def _step(sigma: Array, core: Core) -> WlsStep:
+    """The `WlsStep` of a solution (`gnss_obs.wls_solvers.Core`) at the standard deviations
+    `sigma`."""
     A, cov, gain, dx, whitened = core
     n, k = A.shape
-    leverage = np.einsum("ij,ji->i", A, gain)
-    redundancy = np.where(leverage < _MAX_LEVERAGE, 1.0 - leverage, np.nan)
-    standardized = whitened / np.sqrt(redundancy)
-    return WlsStep(dx=dx, cov=cov, residual=whitened * sigma, standardized=standardized,
-                   test_statistic=float(whitened @ whitened), dof=n - k, leverage=leverage,
-                   gain=gain)
-
-
-def _wls_core(H: Array, z: Array, sigma: Array) -> tuple[Array, Array, Array, Array, Array]:
-    """``A = H/σ``, the covariance, the gain, ``dx`` and the whitened post-fit residuals of
-    `wls_step` (float arrays in); the residuals alone are what `huber_wls` reweights by."""
-    A = H / sigma[:, None]
-    y = z / sigma
-    normal = A.T @ A
-    cov = _cholesky_inverse(normal)  # raises LinAlgError when singular
-    gain = cov @ A.T
-    dx = gain @ y
-    return A, cov, gain, dx, y - A @ dx
-
-
-#: LAPACK's Cholesky factorization and solve of float64 matrices, the routines
-#: `scipy.linalg.cho_factor` and `scipy.linalg.cho_solve` call.
-_POTRF, _POTRS = linalg.get_lapack_funcs(("potrf", "potrs"), (np.empty((1, 1)),))
-
-
-def _cholesky_inverse(normal: Array) -> Array:
-    """``normal⁻¹`` of a symmetric positive-definite (k, k) matrix by Cholesky.
-
-    The LAPACK calls of ``cho_solve(cho_factor(normal), eye(k))`` made directly, with the
-    same arguments (upper factor, inputs not overwritten), so the same bits; without
-    SciPy's batch and argument handling, ~20x its cost on the 2x2 to 5x5 matrices of a
-    single-epoch solution (per-epoch in the divergence monitor).
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        If `normal` is not positive definite (a singular geometry).
-    ValueError
-        If it has a NaN or infinity (as `scipy.linalg.cho_factor`).
-    """
-    if np.count_nonzero(np.isfinite(normal)) != normal.size:   # .all(), cheaper
-        raise ValueError("array must not contain infs or NaNs")
-    chol, info = _POTRF(normal, lower=False, overwrite_a=False, clean=False)
-    if info > 0:
-        raise linalg.LinAlgError(f"{info}-th leading minor of the array is not positive "
-                                 "definite")
-    if info < 0:
-        raise ValueError(f"LAPACK reported an illegal value in {-info}-th argument on entry "
-                         "to POTRF")
-    cov, info = _POTRS(chol, _identity(normal.shape[0]), lower=False, overwrite_b=False)
-    if info != 0:
-        raise ValueError(f"illegal value in {-info}th argument of internal potrs")
-    return cov
-
-
-@lru_cache(maxsize=16)
-def _identity(k: int) -> Array:
-    """The (k, k) identity, read only (`_cholesky_inverse` solves against it)."""
-    eye = np.eye(k)
-    eye.flags.writeable = False
-    return eye
+    return WlsStep(dx=dx, cov=cov, residual=whitened * sigma,
+                   test_statistic=float(whitened @ whitened), dof=n - k, gain=gain,
+                   parts=(A, gain, whitened))
 
 
 def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber_k: float,
@@ -203,14 +162,12 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
         The inflated standard deviations.
     """
     H, z, sigma = (np.asarray(a, dtype=float) for a in (H, z, sigma))
+    problem = wls_problem(H, z, sigma)
     weight = np.ones(z.size)
-    core = None
     change = np.nan
     for k in range(max_iter):        # the weights' solutions: their residuals alone
-        # σ / sqrt(1) is σ to the bit: the first iteration's σ as it is
-        sigma_w = sigma if k == 0 else sigma / np.sqrt(weight)
-        core = _wls_core(H, z, sigma_w)
-        u = np.abs(core[4] * sigma_w / sigma)
+        # (the first iteration's σ as it is: σ / sqrt(1) is σ to the bit)
+        u = problem.residuals(None if k == 0 else weight)
         # 1 where u <= huber_k (k / k is 1 to the bit), else k / u
         new = huber_k / np.maximum(u, huber_k)
         # ndarray.max(initial=0.0)'s reduction, without its Python wrapper
@@ -218,12 +175,10 @@ def huber_wls(H: npt.ArrayLike, z: npt.ArrayLike, sigma: npt.ArrayLike, *, huber
         weight = new
         if change < tol:
             break
-    sigma_w = sigma / np.sqrt(weight)
     # weights that did not change (change 0: each the same number, so the same σ to the
     # bit): the last solution is the final one, not solved again
-    if core is not None and change == 0.0:
-        return _step(sigma_w, core), sigma_w
-    return wls_step(H, z, sigma_w), sigma_w
+    sigma_w, core = problem.solution(weight, again=change != 0.0)
+    return _step(sigma_w, core), sigma_w
 
 
 @dataclass(frozen=True)

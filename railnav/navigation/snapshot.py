@@ -7,6 +7,7 @@ whole trip projected on the track are `railnav.navigation.track_fixes`'s.
 """
 from __future__ import annotations
 
+import math
 from functools import cache
 
 import numpy as np
@@ -65,7 +66,7 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
         return None
     evaluated = getattr(observations, "innov", None) is not None \
         and observations.evaluated_at(x)
-    nus, Hs, Rs, gnss = [], [], [], False
+    rows, gnss = [], False
     start = 0
     for obs in observations:
         m = obs.z.size
@@ -78,19 +79,18 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
             else:
                 z_pred, H = obs.model.evaluate(x, obs.p)
                 nu = obs.z.reshape(-1) - z_pred
-            nus.append(nu)
-            Hs.append(H)
-            Rs.append(np.asarray(obs.R, dtype=float))
+            rows.append((nu, H, obs.R))
             gnss |= name.endswith(SNAPSHOT_SUFFIX)
         start += m
-    if not nus:
+    if not rows:
         return None
-    nu, H, R = np.concatenate(nus), np.concatenate(Hs), np.concatenate(Rs)   # Hs 2-D
+    # one model's rows (an epoch's pseudoranges): their arrays as they are, else stacked
+    nu, H, R = rows[0] if len(rows) == 1 else (np.concatenate(a) for a in zip(*rows))
     cols = [i_s] + [c for c in clock_columns if np.count_nonzero(H[:, c])]   # any != 0
     A = H[:, cols]
     if nu.size < len(cols) or not np.count_nonzero(A[:, 0]):
         return None
-    sigma = np.sqrt(R)
+    sigma = np.sqrt(np.asarray(R, dtype=float))
     try:
         if gnss and nu.size > len(cols):
             spp = _spp_defaults()           # the receiver's own SPP exclusion and weights
@@ -101,8 +101,8 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
             step = wls_step(A, nu, sigma)
     except np.linalg.LinAlgError:
         return None
-    var = float(step.cov[0, 0])
-    if not (np.isfinite(step.dx[0]) and np.isfinite(var) and var > 0.0):
+    ds, var = float(step.dx[0]), float(step.cov[0, 0])
+    if not (math.isfinite(ds) and math.isfinite(var) and var > 0.0):
         return None
-    return float(step.dx[0]), var, pseudorange_inflation == 1.0
+    return ds, var, pseudorange_inflation == 1.0
 
