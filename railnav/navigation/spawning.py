@@ -74,12 +74,12 @@ look). A spawn starts its hypotheses as the run's start does
 single-point fix), so their receiver clock bias and drift are the fix's, not the lost
 hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m,
 5 seeds): a start 400 m along the track, never recovered without spawning, is within
-10 m from 5-8 s on (one spawn, when the first window has filled); 150 m, which the
-curves between the loops correct by 24-32 s, from 5-8 s (one seed 19 s: the two
+10 m from 5-7 s on (one spawn, when the first window has filled); 150 m, which the
+curves between the loops correct by 24-32 s, from 5-7 s (one seed 19 s: the two
 parallel tracks undecided after the spawn). A start on the wrong one of two tracks
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
-5-8 s). A known start therefore starts on the tracks abreast of it too
+5-6 s). A known start therefore starts on the tracks abreast of it too
 (`railnav.navigation.network_start.with_abreast`), and the weights' evidence tells the
 4.5-m tracks apart (~1.1 nats an epoch: right from 3-18 s on, 5 seeds).
 Cost: one single-point solve per GNSS epoch (one least-squares step from a hypothesis's
