@@ -21,6 +21,7 @@ from trackmodel.earth import WGS84, Ellipsoid, geodetic_to_ecef
 from trackmodel.errors import TrackError
 from trackmodel.integrated import ChebyshevSections, integrate_section
 from trackmodel.loxodrome import loxodrome_position
+from trackmodel.one_point import point_at
 from trackmodel.origin import Origin
 from trackmodel.plausibility import (
     MAX_TRACK_LAT_DEG,
@@ -271,7 +272,7 @@ class Track:
         if isinstance(s, float):
             point = self._recent.get(s)
             if point is None:
-                point = self._point(s)
+                point = point_at(self, self._check_one(s))
                 for value in vars(point).values():
                     value.flags.writeable = False
                 if len(self._recent) >= RECENT_POINTS:
@@ -280,7 +281,43 @@ class Track:
             return point
         return self._point(s)
 
+    def _check_one(self, s: float) -> float:
+        """`check_s` of one float: the same error, the same clamp."""
+        s = float(s)
+        L = self.length_m
+        if not math.isfinite(s):
+            raise TrackError("s must be finite (NaN or inf given)")
+        if s < -S_TOLERANCE_M or s > L + S_TOLERANCE_M:
+            raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
+                             f"got values in [{s!r}, {s!r}]")
+        return min(max(s, 0.0), L)
+
     def _point(self, s: npt.ArrayLike) -> TrackPoint:
+        shape = np.shape(s)
+        if math.prod(shape) == 1:          # one point: in floats (`trackmodel.one_point`)
+            one = point_at(self, self._check_one(np.asarray(s, dtype=float).reshape(())))
+            vec = shape + (3,)
+            return TrackPoint(**{name: value.reshape(vec if value.ndim else shape)
+                                 for name, value in vars(one).items()})
+        return self._points(s)
+
+    @cached_property
+    def table_lists(self) -> list[tuple]:
+        """Each section's ``(s_start, length, azimuth0, elevation0, elevation1,
+        curvature0, curvature1, is_loxodrome)`` in Python values (`trackmodel.one_point`)."""
+        tab = self.table
+        return list(zip(tab.s_start.tolist(), tab.length.tolist(), tab.azimuth0.tolist(),
+                        tab.elevation0.tolist(), tab.elevation1.tolist(),
+                        tab.curvature0.tolist(), tab.curvature1.tolist(),
+                        tab.is_loxodrome.tolist()))
+
+    @cached_property
+    def start_lists(self) -> list[list[float]]:
+        """The section start points (`starts`) as Python floats."""
+        return self.starts.tolist()
+
+    def _points(self, s: npt.ArrayLike) -> TrackPoint:
+        """`at` of any array of ``s``, vectorised."""
         shape = np.shape(s)
         flat = self.check_s(s).ravel()
         k = self.section_of(flat)
