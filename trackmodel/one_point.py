@@ -14,7 +14,8 @@ functions, kept only because it gives the same bits:
 * NumPy's ``log1p``, ``arctanh`` and ``power`` have SIMD loops of their own (AVX-512:
   ~8 % of ``log1p`` results differ from `math.log1p` in the last bit), so they are called
   here through NumPy on the float (the same loop as an array of one);
-* the Gauss–Legendre sums ``(1, 4) @ (4,)`` are the same NumPy product on the same shapes;
+* the Gauss–Legendre sums ``(1, 4) @ (4,)`` are NumPy's dot product of the same four
+  values (what NumPy makes of a product of one row);
 * every branch of a ``np.where`` is the one the array path selects.
 
 ``tests/trackmodel/test_one_point.py`` checks every field against the array path on random
@@ -51,8 +52,9 @@ def _radii(lat: float, a: float, e2: float, f: float) -> tuple[float, float]:
 
 
 def _gl_sum(values: list[float]) -> float:
-    """``values @ _GL_W`` as the array path forms it (one row of four)."""
-    return float((np.array([values]) @ _GL_W)[0])
+    """``values @ _GL_W`` as the array path forms it: NumPy's product of one row of four
+    is its dot product of two vectors (the same BLAS ``ddot``)."""
+    return float(_GL_W.dot(values))
 
 
 def _log1p_over_x(x: float) -> float:
