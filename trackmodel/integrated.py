@@ -17,6 +17,8 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import cached_property
+from types import SimpleNamespace
 
 import numpy as np
 import numpy.polynomial.chebyshev as cheb
@@ -66,6 +68,14 @@ class ChebyshevSections:
         """Assemble chunks from `integrate_section` (in increasing ``s``)."""
         s0, length, coef, start = zip(*chunks)
         return cls(np.array(s0), np.array(length), np.stack(coef, axis=1), np.array(start))
+
+    @cached_property
+    def lists(self) -> SimpleNamespace:
+        """The chunks as Python lists (`trackmodel.one_point`): ``s0_list``,
+        ``length_list``, ``coef_lists[j]`` (CHEB_DEGREE + 1 rows of 3) and ``start_lists[j]``."""
+        return SimpleNamespace(s0_list=self.s0.tolist(), length_list=self.length.tolist(),
+                               coef_lists=self.coef.transpose(1, 0, 2).tolist(),
+                               start_lists=self.start.tolist())
 
     def position(self, s: Array) -> tuple[Array, Array, Array]:
         """Geodetic position at global ``s`` (m, shape (N,)) inside integrated sections."""

@@ -16,7 +16,7 @@ along-track offset.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 import numpy.typing as npt
@@ -56,6 +56,9 @@ class Projection:
         Residual along the tangent, m (zero except beyond the track ends).
     distance_m : ndarray
         Distance from the point to the track point, m.
+    point : trackmodel.TrackPoint, optional
+        The track at ``s`` (`Track.at`, computed for the offsets: a caller needing the
+        track there reads it instead of asking again).
     """
 
     s: Array
@@ -63,10 +66,11 @@ class Projection:
     vertical_m: Array
     along_m: Array
     distance_m: Array
+    point: object = field(default=None, repr=False, compare=False)
 
     def to_frame(self) -> pd.DataFrame:
         """The fields as columns ``s_m, cross_track_m, vertical_m, along_m, distance_m``."""
-        cols = {f.name: getattr(self, f.name) for f in fields(self)}
+        cols = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "point"}
         cols["s_m"] = cols.pop("s")
         return pd.DataFrame(cols)[["s_m", "cross_track_m", "vertical_m", "along_m",
                                    "distance_m"]]
@@ -169,4 +173,4 @@ class Projector:
                           cross_track_m=np.einsum("ij,ij->i", d_n, right_n),
                           vertical_m=np.einsum("ij,ij->i", d_n, normal_n),
                           along_m=np.einsum("ij,ij->i", d_n, pt.u_n),
-                          distance_m=np.linalg.norm(d_n, axis=-1))
+                          distance_m=np.linalg.norm(d_n, axis=-1), point=pt)

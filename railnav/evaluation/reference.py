@@ -98,7 +98,7 @@ def _point_truth(time_s: Array, lat: Array, lon: Array, h: Array, track) -> Trut
     differences, attitude unknown; a point without height takes the track's."""
     proj = track.project(lat, lon)
     s = proj.s
-    points = track.at(s)
+    points = proj.point
     h = np.where(np.isfinite(h), h, points.h)
     v = np.full(s.size, np.nan)
     if s.size >= 3:

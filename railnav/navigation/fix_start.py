@@ -57,7 +57,7 @@ def _offsets(track, fixes, n: int, cfg, first: int = 0):
     fix `first` on."""
     part = slice(first, first + n)
     proj = track.project(fixes.lat[part], fixes.lon[part])
-    points = track.at(proj.s)
+    points = proj.point
     axes = track_axes_many_n(points.azimuth)
     along_h, cross = axes["along_h"], axes["cross"]
     cov = fixes.cov_n_m2[part]

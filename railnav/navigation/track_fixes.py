@@ -78,7 +78,7 @@ class TrackFixes:
         """Project fixes (radians; ENU covariances (N, 3, 3)) on `track`."""
         time_s = np.asarray(time_s, dtype=float)
         proj = track.project(np.asarray(lat, dtype=float), np.asarray(lon, dtype=float))
-        points = track.at(proj.s)
+        points = proj.point
         u = np.asarray(points.u_n, dtype=float).reshape(-1, 3)
         var_s = np.einsum("ki,kij,kj->k", u, cov_enu_m2, u)
         cross = track_axes_many_n(np.asarray(points.azimuth, dtype=float).reshape(-1))["cross"]
@@ -117,7 +117,8 @@ class TrackFixes:
         ``s_m[j]``."""
         if self.track is None or self.lat is None:
             return float(self.s_m[j]), float(self.sigma_s_m[j])
-        s_loc, dist_loc = project_near(self.track, self.lat[j], self.lon[j], s_guess)
+        loc = _projection_near(self.track, self.lat[j], self.lon[j], s_guess)
+        s_loc, dist_loc = float(loc.s[0]), float(loc.distance_m[0])
         # the whole-track projection's distance (`on_track`: not projected again; Newton
         # from s_m[j] moves it by < its tolerance, 1e-7 m, and its distance by ~1e-14 m)
         dist_glob = float(self.distance_m[j]) if self.distance_m is not None else \
@@ -125,7 +126,7 @@ class TrackFixes:
         sigma_h = float(np.sqrt(np.linalg.eigvalsh(self.cov_enu_m2[j][:2, :2]).max()))
         if not dist_loc <= dist_glob + max(NEAR_TOL_M, NEAR_TOL_SIGMA * sigma_h):
             return float(self.s_m[j]), float(self.sigma_s_m[j])
-        u = np.asarray(self.track.at(s_loc).u_n, dtype=float).reshape(3)
+        u = np.asarray(loc.point.u_n[0], dtype=float)          # the track at s_loc
         return s_loc, float(np.sqrt(u @ self.cov_enu_m2[j] @ u))
 
     def with_start(self, start: Callable[[int], tuple[Array, Array]]) -> "TrackFixes":
@@ -152,8 +153,13 @@ def project_near(track, lat: float, lon: float, s_guess: float) -> tuple[float, 
     """The track point nearest to a point (rad, horizontal) on the pass of the track
     through `s_guess` (`trackmodel.project.Projector.project` from that guess):
     ``(s, distance)``."""
-    proj = track.projector.project(lat, lon, s_guess=s_guess)
+    proj = _projection_near(track, lat, lon, s_guess)
     return float(proj.s[0]), float(proj.distance_m[0])
+
+
+def _projection_near(track, lat: float, lon: float, s_guess: float):
+    """`project_near`'s `trackmodel.project.Projection` (with the track point there)."""
+    return track.projector.project(lat, lon, s_guess=s_guess)
 
 
 def spp_track_fixes(track, data, config, *, start_s: float = 0.0, end_s: float = np.inf,
