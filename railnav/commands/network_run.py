@@ -26,6 +26,8 @@ def nav_config(args: argparse.Namespace):
     return with_nav(NetworkNavConfig(), max_hypotheses=getattr(args, "max_hypotheses", None),
                     crossing_rate_per_s=getattr(args, "crossing_rate_per_s", None),
                     spawn=False if getattr(args, "no_spawn", False) else None,
+                    start_abreast_probability=getattr(args, "start_abreast_probability",
+                                                      None),
                     evidence_correlation_s=getattr(args, "fix_correlation_s", None),
                     fix_bias_sigma_m=getattr(args, "fix_bias_sigma_m", None))
 

@@ -34,6 +34,12 @@ def add_network_arguments(p) -> None:
                    help="--network: the netelement the train starts on, optionally the "
                         "offset from its first coordinate (m) and the direction (+ towards "
                         "its last coordinate); default: every netelement near the first fix")
+    p.add_argument("--start-abreast-probability", type=nonnegative_float, default=None,
+                   metavar="P",
+                   help="--network, with --start: the prior probability, together, of the "
+                        "netelements within 10 m abreast of the told one, which start too "
+                        "(NetworkNavConfig.start_abreast_probability, in [0, 1); default "
+                        "0.01; 0: the told netelement only)")
     p.add_argument("--max-hypotheses", type=positive_int, default=None, metavar="N",
                    help="--network: most live hypotheses (default 16)")
     p.add_argument("--spawn", action="store_true",
@@ -64,6 +70,8 @@ def _check_network_flags(args: argparse.Namespace) -> None:
     """The network flags against the others (part of `check_flags`)."""
     if args.network is None:
         mine = [flag for flag, value in (("--start", args.start),
+                                         ("--start-abreast-probability",
+                                          args.start_abreast_probability),
                                          ("--max-hypotheses", args.max_hypotheses),
                                          ("--spawn", args.spawn or None),
                                          ("--no-spawn", args.no_spawn or None),
@@ -99,6 +107,13 @@ def _check_network_flags(args: argparse.Namespace) -> None:
         raise ConfigError("--spawn: needs --fixes or --obs/--nav (new hypotheses start from "
                           "the fixes or the epochs' single-point fixes)")
     parse_start(args.start)
+    p = args.start_abreast_probability
+    if p is not None and args.start is None:
+        raise ConfigError("--start-abreast-probability: the prior of the tracks abreast of "
+                          "--start (give it)")
+    if p is not None and not p < 1.0:
+        raise ConfigError(f"--start-abreast-probability {p:g}: must be in [0, 1) (the told "
+                          "netelement keeps 1 - P)")
 
 
 def parse_start(text: str | None) -> tuple[str, float | None, int | None] | None:

@@ -92,6 +92,48 @@ def test_fix_error_model_flags_are_the_api_config(tmp_path, capsys):
         out["default"]["netelement_probability"])
 
 
+def test_start_abreast_probability_flag_is_the_api_config(tmp_path, capsys):
+    """``--start 88_L_2016 --no-spawn --start-abreast-probability 0`` (the train is on
+    88_L_3842, 5.6 m abreast) writes the estimates of `run_files_network` with
+    ``NetworkNavConfig(spawn=False, start_abreast_probability=0)``, column for column: the
+    told netelement alone, which stays wrong on some of the epochs the log's carrier-fixed
+    rows put on 3842 (issue 13's netelement truth); by default (P = 0.01) the track abreast
+    starts too and every such epoch is right."""
+    from railnav.jobs.network import load_network, run_files_network, write_network_run
+    from railnav.navigation.network_config import NetworkNavConfig
+    from railnav.navigation.network_start import NetworkStart
+    share = {}
+    for name, flags in (("zero", ["--start-abreast-probability", "0"]), ("default", [])):
+        assert main(["-q", "run", "--network", BRUSSELS, "--fixes", str(EXCERPT), "--truth",
+                     str(EXCERPT), "--start", "88_L_2016", "--no-spawn", *flags,
+                     "--no-plots", "--out", str(tmp_path / name)]) == 0
+        route = json.loads((tmp_path / name / "summary.json").read_text())["route"]
+        share[name] = route["truth"]["share_right"]
+    api = run_files_network(load_network(BRUSSELS), fixes_path=EXCERPT,
+                            start=NetworkStart("88_L_2016"),
+                            nav=NetworkNavConfig(spawn=False, start_abreast_probability=0.0))
+    write_network_run(api, tmp_path / "api", plots=False)
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "zero" / "estimates.csv"),
+                                  pd.read_csv(tmp_path / "api" / "estimates.csv"))
+    assert share["zero"] < 1.0 and share["default"] == 1.0
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--network", BRUSSELS, "--fixes", str(EXCERPT), "--start", "88_L_2016",
+      "--start-abreast-probability", "1"], "--start-abreast-probability 1: must be in [0, 1)"),
+    (["--network", BRUSSELS, "--fixes", str(EXCERPT), "--start-abreast-probability", "0.1"],
+     "--start-abreast-probability: the prior of the tracks abreast of --start (give it)"),
+    (["data/tracks/curvy.csv", "--start-abreast-probability", "0.1"],
+     "--start-abreast-probability: only with --network"),
+])
+def test_start_abreast_probability_bad_input(tmp_path, capsys, argv, message):
+    out = tmp_path / "run"
+    assert main(["-q", "run", *argv, "--no-plots", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error: ") and message in err and "\n" not in err, err
+    assert not out.exists()
+
+
 def test_fix_error_model_flags_need_fixes(capsys):
     assert main(["-q", "run", "--network", BRUSSELS, "--imu", "x.csv",
                  "--fix-correlation-s", "60", "--out", "never"]) == 2
