@@ -338,6 +338,15 @@ def _batch_gain(P: Array, H: Array, R: Array) -> Array:
     return _cho_solve(_cho_factor(H @ PHt + R), PHt.T).T
 
 
+def _diagonal(R: Array) -> bool:
+    """``R - diag(diag(R))`` is all zeros: a covariance (2-D) without off-diagonal terms,
+    variances (1-D) all finite (a NaN or infinite variance leaves NaN on the diagonal of
+    that difference, as it did when 1-D variances were made matrices first)."""
+    if R.ndim == 1:
+        return bool(np.isfinite(R).all())
+    return np.count_nonzero(R - np.diag(np.diag(R))) == 0
+
+
 def discrete_update(x: Array, P: Array, observations: Sequence[Observation], *,
                     gate: Gate | None = None, sequential: bool = False
                     ) -> tuple[Array, Array, UpdateRecord]:
@@ -368,14 +377,15 @@ def discrete_update(x: Array, P: Array, observations: Sequence[Observation], *,
         z_pred, H = obs.model.evaluate(x, obs.p)
         innovs.append(obs.z.reshape(-1) - z_pred)
         Hs.append(H)
-        Rs.append(np.diag(obs.R) if obs.R.ndim == 1 else obs.R)
+        Rs.append(obs.R)                    # variances (1-D) or a covariance (2-D)
         groups.append(row0 + np.repeat(np.arange(obs.rows), obs.model.k))
         row0 += obs.rows
     if not innovs:
         return kalman_update(x, P, np.zeros(0), np.zeros((0, x.size)), np.zeros(0))
-    if all(np.count_nonzero(r - np.diag(np.diag(r))) == 0 for r in Rs):
-        R = np.concatenate([np.diag(r) for r in Rs])     # diagonal: kept as variances
+    if all(_diagonal(r) for r in Rs):
+        # diagonal: kept as variances (a 1-D R's own numbers: np.diag(np.diag(r)) is r)
+        R = np.concatenate([r if r.ndim == 1 else np.diag(r) for r in Rs])
     else:
-        R = sla.block_diag(*Rs)
+        R = sla.block_diag(*(np.diag(r) if r.ndim == 1 else r for r in Rs))
     return kalman_update(x, P, np.concatenate(innovs), np.vstack(Hs), R, gate=gate,
                          groups=np.concatenate(groups), sequential=sequential)

@@ -171,7 +171,13 @@ def geodetic_to_ecef(lat: npt.ArrayLike, lon: npt.ArrayLike, h: npt.ArrayLike, *
     r_e : ndarray, shape (..., 3)
         Position in ECEF, m.
     """
-    lat, lon, h = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (lat, lon, h)))
+    lat, lon, h = (np.asarray(x, dtype=float) for x in (lat, lon, h))
+    if lat.ndim == 0 and lon.ndim == 0 and h.ndim == 0:     # one point (every fix epoch):
+        _, N = radii(lat, earth=earth)                      # the same operations, without
+        cl = np.cos(lat)                                    # broadcasting and stacking
+        return np.array([(N + h) * cl * np.cos(lon), (N + h) * cl * np.sin(lon),
+                         (N * (1.0 - earth.e2) + h) * np.sin(lat)])
+    lat, lon, h = np.broadcast_arrays(lat, lon, h)
     _, N = radii(lat, earth=earth)
     cl = np.cos(lat)
     return np.stack([(N + h) * cl * np.cos(lon),

@@ -127,10 +127,10 @@ class FixRowBuilder:
         """
         s = min(max(float(x[self.i_s]), 0.0), self.track.length_m)
         point = self.track.at(s)
-        part = track_rows(point, earth=self.track.earth)
+        C = C_n_e(point.lat, point.lon)
+        part = track_rows(point, earth=self.track.earth, C=C)
         if any(self.antenna_m):
             part = antenna_track_part(self.track, part, self.antenna_m)
-        C = C_n_e(point.lat, point.lon)
         f, cfg = self.fixes, self.config
         has_h = cfg.use_height and bool(np.isfinite(f.h_m[index]))
         h = f.h_m[index] if has_h else float(point.h) + self.antenna_m[2]
@@ -143,13 +143,15 @@ class FixRowBuilder:
         names = {"fix_along": "along" if has_h else "along_h", "fix_cross": "cross",
                  "fix_up": "up"}
         kinds = [k for k in ("fix_along", "fix_cross", "fix_up") if k != "fix_up" or has_h]
-        z, R, p = [], [], []
-        for kind in kinds:
+        z, R = np.empty((len(kinds), 1)), np.empty(len(kinds))
+        p = np.empty((len(kinds), part.size + 3))       # each row [part, C a], filled in place
+        p[:, :part.size] = part
+        for i, kind in enumerate(kinds):
             a = axes[names[kind]]
-            z.append(a @ d_n)
-            R.append(a @ cov @ a + extra[kind])
-            p.append(np.concatenate([part, C @ a]))
-        obs = [Observation(self.rows.position, np.array(z)[:, None], np.array(R), np.array(p))]
+            z[i, 0] = a @ d_n
+            R[i] = a @ cov @ a + extra[kind]
+            p[i, part.size:] = C @ a
+        obs = [Observation(self.rows.position, z, R, p)]
         speed = self._speed_row(index, part, C, axes)
         if speed is not None:
             obs.append(speed)

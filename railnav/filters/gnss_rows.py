@@ -150,7 +150,7 @@ def track_position(p: ca.SX, s: ca.SX) -> tuple[ca.SX, ca.SX]:
             t_ref + delta * (k_ref + 0.5 * delta * j_ref))
 
 
-def track_rows(point, *, earth) -> Array:
+def track_rows(point, *, earth, C: Array | None = None) -> Array:
     """The track part of the rows at one reference point.
 
     Parameters
@@ -159,13 +159,16 @@ def track_rows(point, *, earth) -> Array:
         The track at a scalar ``s_ref``.
     earth : Ellipsoid
         The track's Earth model.
+    C : ndarray, shape (3, 3), optional
+        ``C_n_e(point.lat, point.lon)`` if the caller has it already.
 
     Returns
     -------
     ndarray, shape (13,)
         ``[s_ref, r_ref_e, t_ref_e, k_ref_e, j_ref_e]`` (m, m, 1, 1/m, 1/m²), ECEF.
     """
-    C = C_n_e(point.lat, point.lon)
+    if C is None:
+        C = C_n_e(point.lat, point.lon)
     u_n = np.asarray(point.u_n, dtype=float)
     rate_per_m = omega_en_n(u_n, float(point.lat), float(point.h), earth=earth)
     out = np.empty(13)                  # (np.concatenate of the parts, without the lists)

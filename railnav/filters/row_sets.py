@@ -27,9 +27,13 @@ ROW_STATUSES = ("used", "rejected", "excluded")
 def group_status(status: np.ndarray, groups: np.ndarray) -> np.ndarray:
     """Rows of a group with a row not used are rejected (`RowScreen.screen`)."""
     out = status.copy()
-    if not np.count_nonzero(groups >= 0):      # no group (GNSS rows only): nothing to tie
+    grouped = groups >= 0
+    if not np.count_nonzero(grouped):          # no group (GNSS rows only): nothing to tie
         return out
-    bad = np.unique(groups[(groups >= 0) & (status != ROW_STATUSES[0])])
+    not_used = grouped & (status != ROW_STATUSES[0])
+    if not np.count_nonzero(not_used):         # every grouped row used: nothing to reject
+        return out
+    bad = np.unique(groups[not_used])
     out[np.isin(groups, bad) & (status == ROW_STATUSES[0])] = ROW_STATUSES[1]
     return out
 

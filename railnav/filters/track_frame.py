@@ -54,10 +54,11 @@ def track_axes_n(point) -> dict[str, Array]:
         ``along``, ``along_h``, ``cross``, ``left`` and ``up``.
     """
     A, E = float(point.azimuth), float(point.elevation)
-    cross = np.array([np.cos(A), -np.sin(A), 0.0])
+    sin_a, cos_a, sin_e = np.sin(A), np.cos(A), np.sin(E)      # each evaluated once
+    cross = np.array([cos_a, -sin_a, 0.0])
     return {"along": np.asarray(point.u_n, dtype=float),
-            "along_h": np.array([np.sin(A), np.cos(A), 0.0]), "cross": cross, "left": -cross,
-            "up": np.array([-np.sin(E) * np.sin(A), -np.sin(E) * np.cos(A), np.cos(E)])}
+            "along_h": np.array([sin_a, cos_a, 0.0]), "cross": cross, "left": -cross,
+            "up": np.array([-sin_e * sin_a, -sin_e * cos_a, np.cos(E)])}
 
 
 def track_axes_many_n(azimuth_rad, elevation_rad=None) -> dict[str, Array]:

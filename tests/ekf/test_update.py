@@ -101,6 +101,38 @@ def test_discrete_update_stacks_observations_and_validates(rng):
         kalman_update(x0, -np.eye(2), np.ones(2), np.eye(2), np.zeros(2))
 
 
+def test_variances_and_their_diagonal_matrix_update_alike_to_the_bit(rng):
+    """Rows given variances (1-D R) or the diagonal matrix of them update alike, to the
+    bit; with one full covariance among them the update is `kalman_update` with the
+    block-diagonal R built here (scipy's block_diag)."""
+    from scipy.linalg import block_diag
+    x, p = ca.SX.sym("x", 3), ca.SX.sym("p", 3)
+    model = MeasurementModel.from_expression(x, p, ca.norm_2(x - p), "range")
+    sats, x0 = rng.normal(0, 100, (6, 3)), rng.normal(size=3)
+    A = rng.normal(size=(3, 3))
+    P0 = A @ A.T + np.eye(3)
+    z = np.linalg.norm(x0 - sats, axis=1) + rng.normal(0, 0.5, 6)
+    var = rng.uniform(0.2, 3.0, 6)
+    B = rng.normal(size=(2, 2))
+    full = B @ B.T + np.eye(2)                          # correlated: not diagonal
+
+    def rows(R0, R1, R2):
+        return [Observation(model, z=z[:3], R=R0, p=sats[:3]),
+                Observation(model, z=z[3:4], R=R1, p=sats[3:4]),
+                Observation(model, z=z[4:], R=R2, p=sats[4:])]
+    a = discrete_update(x0, P0, rows(var[:3], var[3:4], var[4:]))
+    b = discrete_update(x0, P0, rows(np.diag(var[:3]), np.diag(var[3:4]), np.diag(var[4:])))
+    assert all(np.array_equal(u, v) for u, v in zip(a[:2], b[:2]))
+    assert np.array_equal(a[2].innov, b[2].innov) and a[2].nis == b[2].nis
+    c = discrete_update(x0, P0, rows(var[:3], np.diag(var[3:4]), full))
+    H = np.vstack([model.evaluate(x0, sats[k:k + 1])[1] for k in range(6)])
+    nu = z - np.array([model.evaluate(x0, sats[k:k + 1])[0][0] for k in range(6)])
+    d = kalman_update(x0, P0, nu, H, block_diag(np.diag(var[:3]), np.diag(var[3:4]), full),
+                      groups=np.arange(6))
+    np.testing.assert_allclose(c[0], d[0], rtol=1e-12)
+    np.testing.assert_allclose(c[1], d[1], rtol=1e-12, atol=1e-14)
+
+
 def test_evaluated_observations_are_used_at_their_state_only(rng, monkeypatch):
     """Rows stacked at the prior give the update of the observations themselves, to the
     bit (same innovation, Jacobian, variances and row ids); at another state the

@@ -47,6 +47,19 @@ def test_geodetic_to_ecef_matches_pyproj(rng):
     np.testing.assert_allclose(r, np.stack([x, y, z], -1), rtol=0, atol=1e-5)  # PROJ: ~µm
 
 
+def test_geodetic_to_ecef_of_one_point_is_that_of_many_to_the_bit(rng):
+    # the one-point path (a fix at each epoch) and the broadcast path of many points
+    # are the same operations on each point: the same bits, on both Earth models
+    lat, lon = rng.uniform(-1.55, 1.55, 500), rng.uniform(-np.pi, np.pi, 500)
+    h = rng.uniform(-1000.0, 3.0e7, 500)
+    for earth in (WGS84, sphere(6371000.0)):
+        many = geodetic_to_ecef(lat, lon, h, earth=earth)
+        one = np.array([geodetic_to_ecef(a, b, c, earth=earth) for a, b, c
+                        in zip(lat.tolist(), lon.tolist(), h.tolist())])
+        assert one.shape == many.shape and np.array_equal(one, many)
+        assert geodetic_to_ecef(lat[0], lon[0], h[0], earth=earth).shape == (3,)
+
+
 @settings(max_examples=300, deadline=None)
 @given(lat_deg, lon_deg, h_m)
 def test_ecef_geodetic_round_trip(lat, lon, h):
