@@ -47,6 +47,15 @@ S_TOLERANCE_M = 1e-6
 RECENT_POINTS = 32
 
 
+def _s_error(length_m: float, lo: float | None = None, hi: float | None = None) -> TrackError:
+    """`Track.check_s`'s error: ``s`` not finite (no `lo`), or values in [lo, hi] beyond
+    the track's ends (more than `S_TOLERANCE_M`)."""
+    if lo is None:
+        return TrackError("s must be finite (NaN or inf given)")
+    return TrackError(f"s must satisfy 0 <= s <= {length_m!r} m (the track length), "
+                      f"got values in [{lo!r}, {hi!r}]")
+
+
 @dataclass(frozen=True)
 class TrackPoint:
     """The track at along-track distances ``s``: arrays shaped like the query.
@@ -205,11 +214,10 @@ class Track:
         """
         s = np.array(s, dtype=float)
         if not np.all(np.isfinite(s)):
-            raise TrackError("s must be finite (NaN or inf given)")
+            raise _s_error(self.length_m)
         L = self.length_m
         if s.size and (s.min() < -S_TOLERANCE_M or s.max() > L + S_TOLERANCE_M):
-            raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
-                             f"got values in [{float(s.min())!r}, {float(s.max())!r}]")
+            raise _s_error(L, float(s.min()), float(s.max()))
         return np.clip(s, 0.0, L)
 
     def section_of(self, s: Array) -> npt.NDArray[np.intp]:
@@ -293,10 +301,9 @@ class Track:
         s = float(s)
         L = self.length_m
         if not math.isfinite(s):
-            raise TrackError("s must be finite (NaN or inf given)")
+            raise _s_error(L)
         if s < -S_TOLERANCE_M or s > L + S_TOLERANCE_M:
-            raise TrackError(f"s must satisfy 0 <= s <= {L!r} m (the track length), "
-                             f"got values in [{s!r}, {s!r}]")
+            raise _s_error(L, s, s)
         return min(max(s, 0.0), L)
 
     def _point(self, s: npt.ArrayLike) -> TrackPoint:
