@@ -172,17 +172,14 @@ def geodetic_to_ecef(lat: npt.ArrayLike, lon: npt.ArrayLike, h: npt.ArrayLike, *
         Position in ECEF, m.
     """
     lat, lon, h = (np.asarray(x, dtype=float) for x in (lat, lon, h))
-    if lat.ndim == 0 and lon.ndim == 0 and h.ndim == 0:     # one point (every fix epoch):
-        _, N = radii(lat, earth=earth)                      # the same operations, without
-        cl = np.cos(lat)                                    # broadcasting and stacking
-        return np.array([(N + h) * cl * np.cos(lon), (N + h) * cl * np.sin(lon),
-                         (N * (1.0 - earth.e2) + h) * np.sin(lat)])
-    lat, lon, h = np.broadcast_arrays(lat, lon, h)
+    one = lat.ndim == 0 and lon.ndim == 0 and h.ndim == 0   # one point (every fix epoch):
+    if not one:                                             # no broadcasting nor stacking
+        lat, lon, h = np.broadcast_arrays(lat, lon, h)
     _, N = radii(lat, earth=earth)
     cl = np.cos(lat)
-    return np.stack([(N + h) * cl * np.cos(lon),
-                     (N + h) * cl * np.sin(lon),
-                     (N * (1.0 - earth.e2) + h) * np.sin(lat)], axis=-1)
+    xyz = ((N + h) * cl * np.cos(lon), (N + h) * cl * np.sin(lon),
+           (N * (1.0 - earth.e2) + h) * np.sin(lat))
+    return np.array(xyz) if one else np.stack(xyz, axis=-1)
 
 
 def ecef_to_geodetic(r_e: npt.ArrayLike, *, earth: Ellipsoid = WGS84) -> tuple[Array, Array, Array]:

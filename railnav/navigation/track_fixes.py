@@ -110,14 +110,14 @@ class TrackFixes:
 
     def near(self, j: int, s_guess: float) -> tuple[float, float]:
         """``s`` and σ_s of fix `j` projected on the track near `s_guess` (Newton from it,
-        `project_near`), where that point is about as near the fix as the whole-track
+        as `project_near`), where that point is about as near the fix as the whole-track
         projection's (`s_m`; `NEAR_TOL_M`): a track that passes the same place twice (a
         loop, a circle driven round more than once) projects a fix on either pass, and the
         one near the filter is the one to compare with it. Without the fix's coordinates:
         ``s_m[j]``."""
         if self.track is None or self.lat is None:
             return float(self.s_m[j]), float(self.sigma_s_m[j])
-        loc = _projection_near(self.track, self.lat[j], self.lon[j], s_guess)
+        loc = self.track.projector.project(self.lat[j], self.lon[j], s_guess=s_guess)
         s_loc, dist_loc = float(loc.s[0]), float(loc.distance_m[0])
         # the whole-track projection's distance (`on_track`: not projected again; Newton
         # from s_m[j] moves it by < its tolerance, 1e-7 m, and its distance by ~1e-14 m)
@@ -153,13 +153,8 @@ def project_near(track, lat: float, lon: float, s_guess: float) -> tuple[float, 
     """The track point nearest to a point (rad, horizontal) on the pass of the track
     through `s_guess` (`trackmodel.project.Projector.project` from that guess):
     ``(s, distance)``."""
-    proj = _projection_near(track, lat, lon, s_guess)
+    proj = track.projector.project(lat, lon, s_guess=s_guess)
     return float(proj.s[0]), float(proj.distance_m[0])
-
-
-def _projection_near(track, lat: float, lon: float, s_guess: float):
-    """`project_near`'s `trackmodel.project.Projection` (with the track point there)."""
-    return track.projector.project(lat, lon, s_guess=s_guess)
 
 
 def spp_track_fixes(track, data, config, *, start_s: float = 0.0, end_s: float = np.inf,
