@@ -96,6 +96,10 @@ class Scenario:
         The IMU on a car body: chord between bogies, suspension motion, mounting
         (`railnav.simulation.car_body_motion`; the ``car_body`` random stream). None
         (default): the IMU's attitude is the track's.
+    multipath_sigma_m, multipath_tau_s : float
+        Code multipath: the steady-state σ (m, >= 0; 0: none) and correlation time (s, > 0)
+        of a first-order Gauss–Markov bias per satellite, scaled by ``1/sin(elevation)``
+        (`gnss_obs.simulate.GnssSimConfig`); on top of the white σ_pr.
     """
 
     name: str
@@ -116,6 +120,8 @@ class Scenario:
     clock: str = "tcxo"
     antenna_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     car_body: CarBodyMotion | None = None
+    multipath_sigma_m: float = 0.0
+    multipath_tau_s: float = 60.0
 
     def __post_init__(self) -> None:
         positive = ("duration_s", "imu_rate_hz", "gnss_rate_hz", "sigma_pseudorange_m",
@@ -124,8 +130,11 @@ class Scenario:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"{name} must be finite and > 0, got {value!r}")
+        if not (math.isfinite(self.multipath_tau_s) and self.multipath_tau_s > 0):
+            raise ConfigError(f"multipath_tau_s must be finite and > 0, got "
+                              f"{self.multipath_tau_s!r}")
         for name in ("start_s", "initial_attitude_sigma_rad", "initial_s_sigma_m",
-                     "initial_v_sigma_mps"):
+                     "initial_v_sigma_mps", "multipath_sigma_m"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ConfigError(f"{name} must be finite and >= 0, got {value!r}")
@@ -188,6 +197,9 @@ def scenario_to_dict(scenario: Scenario) -> dict[str, Any]:
     data["outages"] = [list(o) for o in scenario.outages]
     if scenario.car_body is None:
         data.pop("car_body")
+    if scenario.multipath_sigma_m == 0.0:           # none simulated: no entries
+        data.pop("multipath_sigma_m")
+        data.pop("multipath_tau_s")
     return data
 
 

@@ -100,9 +100,11 @@ class SimulatedTrip:
 
 def gnss_sim_config_for(scenario: Scenario, *, systems: str = DEFAULT_SYSTEMS,
                         faults: tuple[SatelliteFault, ...] = ()) -> GnssSimConfig:
-    """The GNSS simulator settings of a scenario (its σ, clock and outages)."""
+    """The GNSS simulator settings of a scenario (its σ, multipath, clock and outages)."""
     return GnssSimConfig(systems=systems, sigma_pr_m=scenario.sigma_pseudorange_m,
                          sigma_rr_mps=scenario.sigma_range_rate_mps, oscillator=scenario.clock,
+                         multipath_sigma_m=scenario.multipath_sigma_m,
+                         multipath_tau_s=scenario.multipath_tau_s,
                          outages=scenario.outages, faults=tuple(faults),
                          time_origin_gps_time_s=scenario.start_gps_time_s)
 
