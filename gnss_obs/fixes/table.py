@@ -134,7 +134,7 @@ def fix_frame(columns: dict, *, path: str | os.PathLike) -> tuple[pd.DataFrame, 
     for name, limit in (("lat_deg", 90.0), ("lon_deg", 180.0)):
         bad = np.flatnonzero(~(np.abs(frame[name].to_numpy(dtype=float)) <= limit))
         if bad.size:
-            raise GnssInputError(f"{frame[name].iloc[bad[0]]!r} is not in [-{limit:g}, "
+            raise GnssInputError(f"{float(frame[name].iloc[bad[0]])!r} is not in [-{limit:g}, "
                                  f"{limit:g}]", path=path, column=name)
     unknown = sorted(set(frame["quality"]) - set(FIX_QUALITIES))
     if unknown:

@@ -326,6 +326,13 @@ def test_a_csv_cut_inside_its_last_timestamp_is_refused(tmp_path):
         read_fixes(path)
 
 
+def test_a_latitude_out_of_range_is_named_as_written(tmp_path):
+    path = tmp_path / "lat.csv"
+    path.write_text("gps_time_s,lat_deg,lon_deg\n1e9,50.5,4.5\n1000000001,95.3,4.5\n")
+    with pytest.raises(GnssInputError, match=r"lat.csv: lat_deg: 95.3 is not in \[-90, 90\]"):
+        read_fixes(path)
+
+
 def test_nmea_epochs_out_of_order_are_an_error(tmp_path):
     bodies = [BURST[5], BURST[6], BURST[0], BURST[2]]      # 09:32:55.40 before 09:32:54.40
     with pytest.raises(GnssInputError, match=r"time goes back: 2022-02-25T09:32:54.400Z "
