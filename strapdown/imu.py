@@ -126,6 +126,6 @@ def read_imu_columns(path: str | os.PathLike, columns, *, layout: str) -> dict:
     bad = np.flatnonzero(~(np.diff(t) > 0.0))
     if bad.size:
         k = int(bad[0])
-        raise ImuInputError(f"time does not increase ({t[k + 1]!r} after {t[k]!r})",
+        raise ImuInputError(f"time does not increase ({float(t[k + 1])!r} after {float(t[k])!r})",
                             path=path, row=k + 2, column=columns[0])
     return values

@@ -70,7 +70,7 @@ class FixLog:
     Attributes
     ----------
     table : pandas.DataFrame
-        `FIX_COLUMNS`, sorted by ``gps_time_s``, one row per epoch.
+        `FIX_COLUMNS`, in time order (``gps_time_s``), one row per epoch.
     format : str
         ``csv``, ``nmea``, ``ubx`` or ``gpx``.
     path : str
@@ -96,8 +96,10 @@ class FixLog:
 
 
 def fix_frame(columns: dict, *, path: str | os.PathLike) -> tuple[pd.DataFrame, int]:
-    """The fix table from reader columns: missing columns filled, rows sorted by time,
-    repeated times dropped (the first kept).
+    """The fix table from reader columns: missing columns filled, repeated times dropped
+    (the first kept). The rows must be in time order: a time that goes back is an error (a
+    wrong or cut time label; sorted, it had moved a fix minutes away and the run's start
+    with it).
 
     Parameters
     ----------
@@ -117,7 +119,8 @@ def fix_frame(columns: dict, *, path: str | os.PathLike) -> tuple[pd.DataFrame, 
     Raises
     ------
     GnssInputError
-        No row, a latitude or longitude out of range, or a quality not in `FIX_QUALITIES`.
+        No row, a latitude or longitude out of range, a quality not in `FIX_QUALITIES`, or
+        a time that goes back (named by the file's own time labels).
     """
     import pandas as pd  # here, not at import: the CLI parser reads this module
 
@@ -131,12 +134,23 @@ def fix_frame(columns: dict, *, path: str | os.PathLike) -> tuple[pd.DataFrame, 
     for name, limit in (("lat_deg", 90.0), ("lon_deg", 180.0)):
         bad = np.flatnonzero(~(np.abs(frame[name].to_numpy(dtype=float)) <= limit))
         if bad.size:
-            raise GnssInputError(f"{frame[name].iloc[bad[0]]!r} is not in [-{limit:g}, "
+            raise GnssInputError(f"{float(frame[name].iloc[bad[0]])!r} is not in [-{limit:g}, "
                                  f"{limit:g}]", path=path, column=name)
     unknown = sorted(set(frame["quality"]) - set(FIX_QUALITIES))
     if unknown:
         raise GnssInputError(f"unknown fix quality {unknown[0]!r} (known: "
                              f"{', '.join(FIX_QUALITIES)})", path=path, column="quality")
-    frame = frame.sort_values("gps_time_s", kind="stable")
+    times = frame["gps_time_s"].to_numpy(dtype=float)
+    back = np.flatnonzero(np.diff(times) < 0.0)
+    if back.size:
+        later, earlier = (_time_label(frame, i) for i in (back[0] + 1, back[0]))
+        raise GnssInputError(f"time goes back: {later} after {earlier} (fixes must be in "
+                             f"time order)", path=path)
     dup = frame["gps_time_s"].duplicated(keep="first").to_numpy()
     return frame[~dup].reset_index(drop=True), int(dup.sum())
+
+
+def _time_label(frame, i: int) -> str:
+    """Row `i`'s time as the file writes it (its ``timestamp``), else its GPS seconds."""
+    label = frame["timestamp"].iloc[i]
+    return str(label) if label else f"{frame['gps_time_s'].iloc[i]:.3f} s GPS"

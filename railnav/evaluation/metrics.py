@@ -212,14 +212,16 @@ def _stats(x: Array) -> dict[str, float | None]:
 
 
 def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | None = None,
-                     track_end: bool = False) -> None:
+                     early_end: str = "") -> None:
     """Outages and the summary window must fall inside the trip ``[0, end_s]``.
 
     An outage or window that starts at or after the trip's end would change nothing and
     report nothing (issue 18: it was silently ignored): an error. One that starts inside
-    and ends after the end is cut there by the run: a warning says so. When the trip
-    ended early at the track's end (`track_end`: the scenario's duration was not reached),
-    an outage after it is the scenario's, not a mistake: a warning.
+    and ends after the end is cut there by the run: a warning says so. When the outages are
+    a scenario's and its data end before them (`early_end` says where: the trip reached the
+    track's end before the scenario's duration, or the simulated files end there, as fixes
+    do before an outage that lasts to the end), an outage after the end is the scenario's,
+    not a mistake: a warning.
 
     Parameters
     ----------
@@ -227,8 +229,9 @@ def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | 
         The trip's last time, s from its start.
     outages : sequence of (start_s, duration_s)
     window : (start_s, end_s), optional
-    track_end : bool
-        The trip ended at the track's end before its scenario's duration.
+    early_end : str
+        Where the data of a scenario's outages end early (e.g. ``"at the track's end"``);
+        empty: the outages are the caller's own.
 
     Raises
     ------
@@ -240,9 +243,9 @@ def check_trip_times(end_s: float, *, outages=(), window: tuple[float, float] | 
         spans.append(("window", float(window[0]), float(window[1])))
     for name, start, stop in spans:
         label = f"{name} {start:g}-{stop:g} s"
-        if start >= end_s and name == "outage" and track_end:
-            log.warning("%s starts after the trip ends at the track's end (%g s): no effect",
-                        label, end_s)
+        if start >= end_s and name == "outage" and early_end:
+            log.warning("%s starts after the trip ends (%g s, %s): no effect", label,
+                        end_s, early_end)
         elif start >= end_s:
             raise ConfigError(f"{label} starts after the trip ends at {end_s:g} s")
         elif stop > end_s:

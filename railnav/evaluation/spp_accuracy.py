@@ -48,15 +48,26 @@ def _week_layout(path) -> pd.DataFrame:
     value a finite number (located by row, 1-based among the data rows, and column)."""
     df = read_csv_table(path, error=ConfigError, comment="#", header=None, dtype=str,
                         skipinitialspace=True)
-    if df.shape[1] < len(_WEEK_COLUMNS):
-        raise ConfigError("expected columns GPS week, seconds of week, latitude (deg), "
-                          "longitude (deg), height (m)", path=path)
+    first = str(df.iat[0, 0]).strip() if df.size else ""
+    if df.shape[1] < len(_WEEK_COLUMNS) or (first and not _is_number(first)):
+        # too few columns, or a header line where a GPS week should be: another layout
+        raise ConfigError(f"expected columns {', '.join(_PROJECT_COLUMNS)}, or headerless "
+                          "rows of GPS week, seconds of week, latitude (deg), longitude "
+                          "(deg), height (m)", path=path)
     df = df.iloc[:, :len(_WEEK_COLUMNS)].set_axis(list(_WEEK_COLUMNS), axis=1)
     values = {c: finite_column(df, c, path=path, error=ConfigError) for c in _WEEK_COLUMNS}
     out = pd.DataFrame({"gps_time_s": values["week"] * float(WEEK_S) + values["sow"]})
     for c in _PROJECT_COLUMNS[1:]:
         out[c] = values[c]
     return out
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def read_reference_trajectory(path: str | os.PathLike) -> pd.DataFrame:

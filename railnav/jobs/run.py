@@ -276,9 +276,11 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
                           smoothing=smoothing, sp3_paths=sp3_paths,
                           max_correction_age_s=max_correction_age_s)
     found = simulation_meta(imu_path, obs_path, fixes_path)
-    if outages is None:
+    own = outages is not None
+    if not own:
         outages = scenario_outages(found[0] if found else None)
-    check_trip_times(data.end_s, outages=outages, window=window)
+    check_trip_times(data.end_s, outages=outages, window=window,
+                     early_end="" if own else "where the simulated files end")
     result = with_timestamps(navigate(track, data, config, outages=outages,
                                       progress=progress), data.fixes)
     return _file_outcome(result, track, data, truth_path or find_truth(

@@ -56,7 +56,8 @@ def read_timed_csv(path: str | os.PathLike, what: str) -> tuple[pd.DataFrame, st
     back = np.flatnonzero(np.diff(times) <= 0)
     if back.size:
         k = int(back[0])
-        raise ConfigError(f"time does not increase ({times[k + 1]!r} after {times[k]!r})",
+        raise ConfigError(f"time does not increase ({float(times[k + 1])!r} after "
+                          f"{float(times[k])!r})",
                           path=path, row=k + 2, column=column)
     return frame, column, times
 

@@ -213,8 +213,9 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
     """
     sim = simulate_scenario(scenario, track=track, seed=seed, progress=progress)
     end_s = float(sim.truth.time_s[-1])
+    early = end_s < scenario.duration_s - 1.0 / scenario.imu_rate_hz
     check_trip_times(end_s, outages=scenario.outages,
-                     track_end=end_s < scenario.duration_s - 1.0 / scenario.imu_rate_hz)
+                     early_end="at the track's end" if early else "")
     if not gnss:
         return SimulatedTrip(scenario, sim, None, None, systems)
     ratio = scenario.imu_rate_hz / scenario.gnss_rate_hz

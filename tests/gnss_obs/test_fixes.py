@@ -297,6 +297,49 @@ def test_csv_errors_are_located(tmp_path):
         read_fixes(path)
 
 
+def test_a_time_that_goes_back_is_an_error_naming_both_labels(tmp_path):
+    """One row of the Belgian excerpt dated minutes earlier (a wrong or cut label): it was
+    sorted to the front (on the whole log_28876, one row at 09:30: the run started 174 s
+    early and the fault screen rejected 370 of its 1132 fixes); now the file is refused
+    with the two labels as written."""
+    raw = EXCERPT.read_text().splitlines()
+    cells = raw[60].split(",")
+    stamp_at = raw[0].split(",").index("timestamp")
+    later, earlier = "2022-02-25T09:30:00.000", raw[59].split(",")[stamp_at]
+    cells[stamp_at] = later
+    path = tmp_path / "back.csv"
+    path.write_text("\n".join(raw[:60] + [",".join(cells)] + raw[61:]) + "\n")
+    with pytest.raises(GnssInputError, match=rf"back.csv: time goes back: {later} after "
+                                             rf"{earlier} \(fixes must be in time order\)"):
+        read_fixes(path)
+
+
+def test_a_csv_cut_inside_its_last_timestamp_is_refused(tmp_path):
+    """The excerpt cut inside its last row's timestamp: ``2022-02`` is a valid ISO 8601
+    month, read as 2022-02-01, 24 days before the log (the whole log_28876 cut so ran 21
+    million steps, 243 s); now the time going back refuses the file."""
+    text = EXCERPT.read_text().rstrip("\n")
+    cut = text[:text.rindex(",2022-02-25T") + len(",2022-02")]
+    path = tmp_path / "cut.csv"
+    path.write_text(cut)
+    with pytest.raises(GnssInputError, match=r"cut.csv: time goes back: 2022-02 after"):
+        read_fixes(path)
+
+
+def test_a_latitude_out_of_range_is_named_as_written(tmp_path):
+    path = tmp_path / "lat.csv"
+    path.write_text("gps_time_s,lat_deg,lon_deg\n1e9,50.5,4.5\n1000000001,95.3,4.5\n")
+    with pytest.raises(GnssInputError, match=r"lat.csv: lat_deg: 95.3 is not in \[-90, 90\]"):
+        read_fixes(path)
+
+
+def test_nmea_epochs_out_of_order_are_an_error(tmp_path):
+    bodies = [BURST[5], BURST[6], BURST[0], BURST[2]]      # 09:32:55.40 before 09:32:54.40
+    with pytest.raises(GnssInputError, match=r"time goes back: 2022-02-25T09:32:54.400Z "
+                                             r"after 2022-02-25T09:32:55.400Z"):
+        read_fixes(write_lines(tmp_path / "swapped.nmea", bodies))
+
+
 @pytest.mark.parametrize("name, content, expected", [
     ("a.csv", BURST, "nmea"), ("a.nmea", None, "csv"), ("a.txt", GPX, "gpx"),
 ])

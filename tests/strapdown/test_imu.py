@@ -26,7 +26,7 @@ def test_round_trip_is_exact(tmp_path, rng):
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n0.01,1,x,3,4,5,6\n", "row 2, ay_mps2"),
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n0.01,1,2,3,4,5,nan\n", "row 2, wz_radps"),
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n0.01,1,2,3,4,5,6\n0.005,1,2,3,4,5,6\n",
-     "row 3, time_s: time does not increase"),
+     r"row 3, time_s: time does not increase \(0.005 after 0.01\)"),
     (",".join(IMU_COLUMNS) + "\n0,1,2,3,4,5,6\n", "at least 2"),
     ("", "empty file"),
 ])

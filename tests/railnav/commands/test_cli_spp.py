@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from railnav.cli import main
+from railnav.errors import ConfigError
 from railnav.evaluation.spp_accuracy import (
     accuracy_summary,
     read_reference_trajectory,
@@ -49,6 +50,18 @@ def test_reference_in_project_columns(tmp_path):
     back = read_reference_trajectory(path)
     np.testing.assert_allclose(back.to_numpy(), ref.to_numpy())
     assert list(back.columns) == ["gps_time_s", "lat_deg", "lon_deg", "h_m"]
+
+
+def test_a_fix_log_as_reference_names_both_layouts():
+    """The shipped Belgian fix log (a header with latitude, longitude, timestamp) is in
+    neither reference layout: the error says which columns are expected, not "row 1, week:
+    'id' is not a finite number" (its header line read as the headerless layout's row)."""
+    log = DATA.parent / "fixes" / "brussels" / "log_28876_L36-B_excerpt.csv"
+    with pytest.raises(ConfigError) as info:
+        read_reference_trajectory(log)
+    assert str(info.value) == (f"{log}: expected columns gps_time_s, lat_deg, lon_deg, h_m, "
+                               "or headerless rows of GPS week, seconds of week, latitude "
+                               "(deg), longitude (deg), height (m)")
 
 
 @pytest.mark.parametrize("case", ["missing_obs", "bad_systems", "bad_ref", "empty_ref"])

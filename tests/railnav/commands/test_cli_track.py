@@ -60,6 +60,11 @@ def test_fit_writes_a_track_within_tolerance(tmp_path):
 @pytest.mark.parametrize("text,message", [
     ("lat_deg,lon_deg\n41.6,abc\n", "row 1, lon_deg: 'abc' is not a finite number"),
     ("lat_deg\n41.6\n", "lon_deg: required column missing"),
+    # a fix log's header (the Belgian logs' latitude/longitude): neither layout, not "row 1,
+    # week: 'id' is not a finite number" from the headerless reference layout
+    ("id,solution_status,position_type,latitude,longitude,timestamp\n"
+     "1,SOL_COMPUTED,NARROW_INT3,50.89,4.54,2022-02-25T09:32:54.400\n",
+     "lat_deg: required column missing"),
     ("", "empty file"),
 ])
 def test_fit_bad_polyline_exit_2(tmp_path, capsys, text, message):

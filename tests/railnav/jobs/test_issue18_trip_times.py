@@ -9,6 +9,7 @@ import logging
 import pandas as pd
 import pytest
 
+from gnss_obs.fixes.read import read_fixes
 from railnav.cli import main
 from railnav.errors import ConfigError, RailnavError
 from railnav.jobs.run import run_files, run_simulated
@@ -84,3 +85,27 @@ def test_issue18_a_shorter_trip_drops_the_scenarios_later_outages():
     assert paper.with_overrides(duration_s=20.0).outages == ()
     given = paper.with_overrides(duration_s=20.0, outages=[(30.0, 5.0)])
     assert [tuple(o) for o in given.outages] == [(30.0, 5.0)]     # given: kept, refused later
+
+
+def test_a_simulated_fix_run_whose_outage_lasts_to_the_end_runs(tmp_path, capsys):
+    """README's `simulate paper2017 --duration-s 120 --fixes-format nmea` then `run --fixes`:
+    the scenario's outage 100-150 s covers the trip's end, so no fix is written after 99 s.
+    The outage is the scenario's (scenario.json), not a mistake: the run goes on with a
+    warning (it was refused: "outage 100-150 s starts after the trip ends at 99 s")."""
+    sim = tmp_path / "simf"
+    assert main(["-q", "simulate", PAPER, "--duration-s", "105", "--fixes-format", "nmea",
+                 "--out", str(sim)]) == 0
+    last_fix_s = (read_fixes(sim / "fixes.nmea").table["gps_time_s"].max()
+                  - _start(sim))
+    assert last_fix_s == pytest.approx(99.0)      # the file itself: none in the outage
+    capsys.readouterr()
+    code = main(["run", PAPER, "--fixes", str(sim / "fixes.nmea"), "--no-plots",
+                 "--out", str(tmp_path / "run")])
+    assert code == 0
+    assert ("outage 100-150 s starts after the trip ends (99 s, where the simulated files "
+            "end): no effect") in capsys.readouterr().err
+    summary = json.loads((tmp_path / "run" / "summary.json").read_text())
+    assert summary["outages"] == [[100.0, 50.0]] and summary["errors"]["outages"] == []
+    # the same outage given by the user is still a mistake
+    with pytest.raises(ConfigError, match="outage 100-150 s starts after the trip ends at 99 s"):
+        run_files(read_track(PAPER), fixes_path=sim / "fixes.nmea", outages=[(100.0, 50.0)])

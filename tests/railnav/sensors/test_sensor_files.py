@@ -38,7 +38,8 @@ def test_pulse_counts_become_interval_speeds(tmp_path):
 
 
 @pytest.mark.parametrize("text, kw, match", [
-    ("time_s,speed_mps\n0,1\n0,2\n", {}, "row 2, time_s: time does not increase"),
+    ("time_s,speed_mps\n0,1\n0,2\n", {},
+     r"row 2, time_s: time does not increase \(0.0 after 0.0\)"),
     ("time_s,speed_mps\n0,1\n1,-2\n", {}, "row 2, speed_mps: speed_mps must be >= 0"),
     ("time_s,speed_mps,pulses\n0,1,1\n", {}, "not both"),
     ("time_s,rpm\n0,1\n", {}, "needs one of the columns speed_mps or pulses"),
@@ -82,7 +83,7 @@ def test_balise_file_forms(tmp_path):
     ("time_s,lat_deg,lon_deg\n1,95,3\n", "row 1, lat_deg: latitude beyond"),
     ("time_s,s_m\n1,-4\n", "row 1, s_m: a track distance is >= 0"),
     ("time_s,s_m,sigma_m\n1,4,0\n", "row 1, sigma_m: sigma_m must be > 0"),
-    ("time_s,s_m\n1,4\n0.5,5\n", "row 2, time_s: time does not increase"),
+    ("time_s,s_m\n1,4\n0.5,5\n", r"row 2, time_s: time does not increase \(0.5 after 1.0\)"),
 ])
 def test_bad_balise_files(tmp_path, text, match):
     path = tmp_path / "bal.csv"
