@@ -270,7 +270,9 @@ def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Arr
             raise RailnavError(f"{', '.join(name for name, _ in sources)}: fewer than two "
                                "GNSS epochs or fixes after the trip start")
         grid = np.arange(t_obs[0], t_obs[-1], 1.0 / config.output_rate_hz)
-        t = np.union1d(grid, t_obs)
+        # a grid time within the tolerance of an epoch is that epoch (2.5-Hz fixes at
+        # fractional GPS seconds fell 1e-7 s beside 10-Hz grid times: two rows each)
+        t = np.union1d(grid[~_near(t_obs, grid)], t_obs)
         return t, np.zeros((t.size, 0))
     if data.imu is None:
         raise RailnavError(f"the {config.filter} filter needs IMU data")
@@ -280,13 +282,17 @@ def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Arr
     return t, imu_at_reference(data.imu, config).u
 
 
+def _near(t: Array, x: Array) -> Array:
+    """Which of `x` lie within ``EPOCH_TIME_TOL_S`` of a time of `t` (sorted, >= 2)."""
+    j = np.clip(np.searchsorted(t, x), 1, t.size - 1)
+    return np.minimum(np.abs(t[j] - x), np.abs(t[j - 1] - x)) <= EPOCH_TIME_TOL_S
+
+
 def _insert_samples(t: Array, u: Array, epoch_times: Array) -> tuple[Array, Array]:
     """Add samples at epoch times that fall between samples (inputs interpolated)."""
     inside = (epoch_times >= t[0] - EPOCH_TIME_TOL_S) & (epoch_times <= t[-1] + EPOCH_TIME_TOL_S)
     e = epoch_times[inside]
-    j = np.clip(np.searchsorted(t, e), 1, t.size - 1)
-    near = np.minimum(np.abs(t[j] - e), np.abs(t[j - 1] - e)) <= EPOCH_TIME_TOL_S
-    new = e[~near]
+    new = e[~_near(t, e)]
     if new.size == 0:
         return t, u
     t_all = np.union1d(t, new)
