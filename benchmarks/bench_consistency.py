@@ -5,6 +5,8 @@ Usage::
     nice -n 10 python benchmarks/bench_consistency.py [--quick] [--cases a,b] [--seeds N]
                                                       [--first-seed K] [--jobs J]
                                                       [--update] [--out FILE]
+                                                      [--multipath-sigma M]
+                                                      [--multipath-tau T] [--told WHAT]
 
 Cases (simulated truth; the filter assumes the IMU grade that is simulated, scale factors
 and misalignments included in the simulation but not in the filter's model):
@@ -35,10 +37,22 @@ seeds per case (the JSON's ``runs`` says how many). ``--first-seed K``: seeds fr
 keep the cases of an existing ``--out`` that are not run again (each case records its own
 load average).
 
+``--multipath-sigma M`` (m, default 0: none) adds code multipath to the simulated cases'
+pseudoranges (`Scenario.multipath_sigma_m`, ``--multipath-tau`` T s, default 60: a
+first-order Gauss–Markov bias per satellite, σ/sin(el), on top of the white σ_pr), and
+``--told`` says what the filter is told of it (`with_multipath`): ``nothing`` (default: the
+white σ_pr of the scenario), ``variance`` (each row's variance σ_pr² + M²/sin²el,
+`bench_network_spawn_gnss.declared_measurement`), ``correlation`` (that, and
+``NavigatorConfig.pseudorange_correlation_s`` = T with ``pseudorange_correlation_m`` = 0:
+the simulated errors are correlated in time, not in distance travelled). Not for the
+streamed ``trip_10h``.
+
 Per case, `railnav.evaluation.consistency.summarize_consistency` over the seeds: NEES mean
 with its 99 % χ² interval, the share of epochs with ``|error_s| > 3 σ_s``, the share with
 the truth outside ``[s_min_m, s_max_m]`` and the ``status`` counts where ``estimates.csv``
-has those columns (else null), each with its number of epochs. Writes
+has those columns (else null), each with its number of epochs, and the RMS of the
+along-track error (``rms_error_s_m``) and of σ_s (``rms_sigma_s_m``) over the seeds' epochs.
+Writes
 ``benchmarks/results/consistency.json`` (each case as it finishes: a long run that is
 stopped keeps the cases done).
 
@@ -218,6 +232,25 @@ def _cases(quick: bool) -> dict:
     }
 
 
+#: What ``--told`` tells the filter of the simulated multipath (`with_multipath`).
+TOLD = ("nothing", "variance", "correlation")
+
+
+def with_multipath(scenario, sigma_m: float, tau_s: float, told: str):
+    """`scenario` (a Scenario, or `_with`'s pair) with code multipath of σ `sigma_m` (m) and
+    correlation time `tau_s` (s) simulated, and the filter told `told` of it (`TOLD`; the
+    module docstring): ``(Scenario, NavigatorConfig)``."""
+    from bench_network_spawn_gnss import declared_measurement
+    scenario, config = scenario if isinstance(scenario, tuple) else (scenario, None)
+    scenario = replace(scenario, multipath_sigma_m=sigma_m, multipath_tau_s=tau_s)
+    config = navigator_config_for(scenario) if config is None else config
+    if told != "nothing":
+        config = replace(config, measurement=declared_measurement(config.measurement, sigma_m))
+    if told == "correlation":
+        config = replace(config, pseudorange_correlation_s=tau_s, pseudorange_correlation_m=0.0)
+    return scenario, config
+
+
 def _simulated_runs(track, scenario, seeds: int, first_seed: int = 1):
     """`scenario`: a Scenario, or ``(Scenario, NavigatorConfig)`` (`_with`); seeds
     ``first_seed .. first_seed + seeds − 1``."""
@@ -274,6 +307,15 @@ def _streamed_seed(hours: float, seed: int):
                       f"{np.nanmean(z_yaw ** 2):.3g}")
 
 
+def _accuracy(runs) -> dict:
+    """The RMS of the along-track error and of σ_s over the seeds' epochs (what ``--told``
+    costs or buys in accuracy)."""
+    error = np.concatenate([r.error_s_m for r in runs])
+    sigma = np.concatenate([r.sigma_s_m for r in runs])
+    return {"rms_error_s_m": float(np.sqrt(np.nanmean(error ** 2))),
+            "rms_sigma_s_m": float(np.sqrt(np.nanmean(sigma ** 2)))}
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="3 seeds, a 1-h trip")
@@ -287,6 +329,12 @@ def main(argv=None) -> int:
     parser.add_argument("--update", action="store_true",
                         help="keep the other cases of an existing --out")
     parser.add_argument("--out", type=Path, default=RESULTS)
+    parser.add_argument("--multipath-sigma", type=float, default=0.0,
+                        help="simulated code multipath σ, m (default 0: none)")
+    parser.add_argument("--multipath-tau", type=float, default=60.0,
+                        help="its correlation time, s (default 60)")
+    parser.add_argument("--told", choices=TOLD, default=TOLD[0],
+                        help="what the filter is told of the multipath (default nothing)")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
     if args.seeds is not None and args.seeds < 1:
@@ -304,6 +352,19 @@ def main(argv=None) -> int:
     if unknown:
         print(f"error: unknown case(s) {unknown}; cases: {', '.join(table)}", file=sys.stderr)
         return 2
+    if not (math.isfinite(args.multipath_sigma) and args.multipath_sigma >= 0.0) or \
+            not (math.isfinite(args.multipath_tau) and args.multipath_tau > 0.0):
+        print(f"error: --multipath-sigma must be >= 0 and --multipath-tau > 0, got "
+              f"{args.multipath_sigma} and {args.multipath_tau}", file=sys.stderr)
+        return 2
+    if args.multipath_sigma > 0.0:
+        if any(table[n][0] == "stream" for n in names):
+            print("error: --multipath-sigma is for the simulated cases, not trip_10h",
+                  file=sys.stderr)
+            return 2
+        table = {n: (track, with_multipath(sc, args.multipath_sigma, args.multipath_tau,
+                                           args.told), seeds)
+                 for n, (track, sc, seeds) in ((n, table[n]) for n in names)}
     doc = {"quick": args.quick, "first_seed": args.first_seed, "cases": {},
            "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
                        "load_average_before": os.getloadavg()}}
@@ -322,6 +383,10 @@ def main(argv=None) -> int:
         else:
             runs, dof = _simulated_runs(*spec, args.first_seed)
         figures = summarize_consistency(runs, dof=dof).to_dict()
+        figures.update(_accuracy(runs))
+        if args.multipath_sigma > 0.0:
+            figures.update(multipath_sigma_m=args.multipath_sigma,
+                           multipath_tau_s=args.multipath_tau, told=args.told)
         figures["wall_s"] = time.perf_counter() - started
         figures["load_average_after"] = os.getloadavg()
         doc["cases"][name] = figures
@@ -333,7 +398,8 @@ def main(argv=None) -> int:
               f"{figures['share_beyond_3sigma']:.2%} of {figures['sigma_epochs']}, "
               f"outside [s_min, s_max] {figures['share_outside_protection']} of "
               f"{figures['protection_epochs']}, status {figures['status_counts']}, "
-              f"{figures['wall_s']:.0f} s", flush=True)
+              f"RMS err_s {figures['rms_error_s_m']:.3f} m σ_s "
+              f"{figures['rms_sigma_s_m']:.3f} m, {figures['wall_s']:.0f} s", flush=True)
     return 0
 
 

@@ -25,7 +25,12 @@ multipath_sigma_m`, ``--multipath-tau``: a Gauss–Markov bias per satellite, σ
 top of the white σ_pr), the navigator told what it is told for white errors (issues 13/14:
 is it ever confidently wrong?); with ``--declared`` it is told the multipath
 (`declared_measurement`: each row's variance σ_pr² + σ_mp²/sin²el; and
-``NetworkNavConfig.evidence_correlation_s`` = τ). ``summary`` in the JSON gathers each
+``NetworkNavConfig.evidence_correlation_s`` = τ); with ``--filter-correlation`` the filters
+are told τ instead (the rows' variance declared, ``NavigatorConfig.
+pseudorange_correlation_s`` = τ: their pseudorange variances inflated,
+`railnav.filters.gnss_only_noise.pseudorange_inflation`, which discounts each epoch's
+evidence by the same ``(1 − ρ)/(1 + ρ)``; with ``--declared`` too, twice). ``summary`` in
+the JSON gathers each
 series' seeds. The ``unknown`` case runs only when asked (``--cases``).
 
 Each case runs with the tactical IMU (constrained INS/GNSS; the GNSS-only filter needs
@@ -115,20 +120,26 @@ def _initial(along_m: float, base):
 
 
 def simulated(net, legs, seed: int, filter: str = "constrained", *,
-              multipath: tuple[float, float] = (0.0, 60.0), declared: bool = False):
+              multipath: tuple[float, float] = (0.0, 60.0), declared: bool = False,
+              filter_correlation: bool = False):
     """The trip of `seed` along `legs` (module docstring), its navigator settings and
     the candidates' truth starts (`candidate_starts`); `multipath`: the simulated code
     multipath's (σ m, τ s), the navigator told nothing of it unless `declared`
-    (`declared_measurement`)."""
+    (`declared_measurement`) or `filter_correlation` (that, and the filters told τ:
+    ``NavigatorConfig.pseudorange_correlation_s`` = τ, ``_m`` = 0, the simulated errors
+    correlated in time only)."""
     scenario = replace(get_scenario("curvy"), profile=constant_speed(SPEED_MPS),
                        duration_s=TRIP_S, outages=(), start_s=START_S_M,
                        sigma_pseudorange_m=SIGMA_PR_M, multipath_sigma_m=multipath[0],
                        multipath_tau_s=multipath[1])
     line = route_track(net, legs)
     config = navigator_config_for(scenario, filter=filter, systems="G")
-    if declared:
+    if declared or filter_correlation:
         config = replace(config, measurement=declared_measurement(config.measurement,
                                                                   multipath[0]))
+    if filter_correlation:
+        config = replace(config, pseudorange_correlation_s=multipath[1],
+                         pseudorange_correlation_m=0.0)
     trip = simulate_trip(scenario, track=line, seed=seed, systems="G")
     return trip, config, candidate_starts(trip, config, make_filter(line, config, None))
 
@@ -152,9 +163,10 @@ def write(path: Path, scenario: dict, runs: list, load_before, **more) -> None:
 
 
 def _run(net, legs, case: str, along_m: float, kind: str, spawn: bool, seed: int, *,
-         multipath: tuple[float, float] = (0.0, 60.0), declared: bool = False) -> dict:
+         multipath: tuple[float, float] = (0.0, 60.0), declared: bool = False,
+         filter_correlation: bool = False) -> dict:
     trip, config, base = simulated(net, legs, seed, FILTERS[kind], multipath=multipath,
-                                   declared=declared)
+                                   declared=declared, filter_correlation=filter_correlation)
     nav = {"evidence_correlation_s": multipath[1]} if declared else {}
     started, wall = time.process_time(), time.perf_counter()
     res = navigate_network(net, trip.sensor_data(), config,
@@ -240,6 +252,8 @@ def main(argv=None) -> int:
     parser.add_argument("--declared", action="store_true",
                         help="tell the navigator the multipath (`declared_measurement`, "
                         "NetworkNavConfig.evidence_correlation_s = τ)")
+    parser.add_argument("--filter-correlation", action="store_true",
+                        help="tell the filters τ and the rows' variance (module docstring)")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
@@ -257,8 +271,11 @@ def main(argv=None) -> int:
             legs = loop_route(spec, [False] * spec.loops)
             runs += [{"spacing_m": spacing, "multipath_sigma_m": sigma_m,
                       "multipath_tau_s": args.multipath_tau, "declared": args.declared,
+                      **({"filter_correlation": True} if args.filter_correlation
+                         and sigma_m > 0.0 else {}),
                       **_run(net, legs, case, along_m, kind, spawn, seed,
-                             multipath=multipath, declared=args.declared)}
+                             multipath=multipath, declared=args.declared,
+                             filter_correlation=args.filter_correlation and sigma_m > 0.0)}
                      for kind in FILTERS for spawn in (False, True)
                      for seed in range(1, args.seeds + 1)]
     for r in runs:

@@ -29,7 +29,13 @@ variances. With
 declared_measurement``: each row's variance σ_pr² + σ_mp²/sin²el, and
 ``NetworkNavConfig.evidence_correlation_s`` = τ): each epoch's evidence then counts
 ``c = (1 − ρ)/(1 + ρ)`` (`railnav.navigation.hypotheses.evidence_share`), and the LLR's
-expectation and σ are ``c K`` and ``c σ`` (``llr_expected_declared``).
+expectation and σ are ``c K`` and ``c σ`` (``llr_expected_declared``). With
+``--filter-correlation`` the filters are told τ (``NavigatorConfig.
+pseudorange_correlation_s`` = τ, the row variances declared as with ``--declared``): their
+pseudorange variances are inflated by ``1/c`` (`railnav.filters.gnss_only_noise.
+pseudorange_inflation`), which scales the LLR by ``c`` already; with ``--declared`` as
+well the evidence counts ``c`` on top (``c²`` in all: the same discount twice).
+``--first-seed`` runs seeds from K.
 
 Writes ``benchmarks/results/parallel_evidence.json`` (or ``--out``).
 """
@@ -39,6 +45,7 @@ import argparse
 import logging
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -117,9 +124,10 @@ def llr_moments(trip, spacing_m: float, sigma_m: float, multipath: tuple[float, 
 
 
 def _run(net, legs, seed: int, multipath: tuple[float, float] = (0.0, 60.0),
-         declared: bool = False) -> dict:
+         declared: bool = False, filter_correlation: bool = False) -> dict:
     trip, config, initial = trips.simulated(net, legs, seed, multipath=multipath,
-                                            declared=declared)
+                                            declared=declared,
+                                            filter_correlation=filter_correlation)
     nav = NetworkNavConfig(spawn=False, crossing_rate_per_s=0.0, prune_probability=0.0,
                            evidence_correlation_s=multipath[1] if declared else 0.0)
     res = navigate_network(net, trip.sensor_data(), config, nav=nav,
@@ -135,11 +143,15 @@ def _run(net, legs, seed: int, multipath: tuple[float, float] = (0.0, 60.0),
     epochs = int(res.cycles["evidence_rows"].gt(0).sum())
     extra = {}
     if multipath[0] > 0.0:
+        told = declared or filter_correlation
         mean, sigma = llr_moments(trip, SPACING_M, trips.SIGMA_PR_M, multipath,
-                                  multipath[0] if declared else 0.0)
-        c = evidence_share(nav, 1.0 / trip.scenario.gnss_rate_hz) if declared else 1.0
+                                  multipath[0] if told else 0.0)
+        share = evidence_share(replace(nav, evidence_correlation_s=multipath[1]),
+                               1.0 / trip.scenario.gnss_rate_hz)
+        c = (share if declared else 1.0) * (share if filter_correlation else 1.0)
         extra = {"multipath_sigma_m": multipath[0], "multipath_tau_s": multipath[1],
-                 "declared": declared, "llr_expected": c * mean,
+                 "declared": declared, "filter_correlation": filter_correlation,
+                 "llr_expected": c * mean,
                  "llr_sigma_expected_multipath": c * sigma}
     return {"seed": seed, **extra, "epochs": epochs, "end_s": float(res.time_s[-1]),
             "llr_at_s": at, "llr_end": float(llr[-1]), "llr_min": float(llr.min()),
@@ -159,6 +171,9 @@ def main(argv=None) -> int:
                         help="its correlation time, s")
     parser.add_argument("--declared", action="store_true",
                         help="tell the navigator the multipath (module docstring)")
+    parser.add_argument("--filter-correlation", action="store_true",
+                        help="tell the filters τ and the rows' variance (module docstring)")
+    parser.add_argument("--first-seed", type=int, default=1, help="the first seed")
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)
@@ -166,12 +181,14 @@ def main(argv=None) -> int:
     spec = SwitchNetworkSpec(loops=2, spacing_m=SPACING_M)
     net = switch_network(spec)
     legs = loop_route(spec, [False] * spec.loops)
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
     runs = [_run(net, legs, seed, (sigma_m, args.multipath_tau),
-                 args.declared and sigma_m > 0.0)
-            for sigma_m in args.multipath_sigma for seed in range(1, args.seeds + 1)]
+                 args.declared and sigma_m > 0.0, args.filter_correlation and sigma_m > 0.0)
+            for sigma_m in args.multipath_sigma for seed in seeds]
     for r in runs:
         if "multipath_sigma_m" in r:
-            print(f"multipath {r['multipath_sigma_m']:g} m (declared {r['declared']}): "
+            print(f"multipath {r['multipath_sigma_m']:g} m (declared {r['declared']}, "
+                  f"filters told τ {r['filter_correlation']}): "
                   f"expected LLR {r['llr_expected']:+.1f} ± "
                   f"{r['llr_sigma_expected_multipath']:.1f}")
         print(f"seed {r['seed']}: LLR(A−B) " +

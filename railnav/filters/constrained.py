@@ -7,7 +7,9 @@ inputs with the track linearized along the predicted path (the per-step paramete
 (`railnav.filters.gnss_rows`), and a GNSS position fix into fix rows
 (`railnav.filters.fix_rows`), at the prior's position on the track, screened at the prior for
 faulty satellites and receiver clock jumps (`railnav.filters.fault_detection`,
-``config.fault_detection``).
+``config.fault_detection``); pseudoranges correlated from epoch to epoch
+(``config.pseudorange_correlation_s`` > 0) with their variances inflated as the gnss-only
+filter's (`railnav.filters.gnss_only_noise.pseudorange_inflation`).
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
 distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
@@ -16,6 +18,8 @@ grid (`railnav.filters.track_grid`) and the model corrects them to first/second 
 ``s − s_ref`` (`strapdown.reduced`), so the Jacobians with respect to ``s`` are the track's.
 """
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -34,6 +38,8 @@ from railnav.filters.estimate_columns import track_estimates
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.geometry_noise import remainder_correlation_s, statistical_parameters
+from railnav.filters.gnss_only_noise import (correlation_inflation, epoch_interval_s,
+                                             pseudorange_inflation)
 from railnav.filters.grade_noise import unknown_grade_density
 from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
@@ -92,6 +98,15 @@ class ConstrainedFilter:
     body : dict, optional
         The attitude and standstill streams (`railnav.filters.body_rows.body_stream_epochs`;
         with ``config.track_attitude`` the state carries the IMU's mounting).
+
+    Attributes
+    ----------
+    gnss_interval_s : float
+        The GNSS epochs' median interval, s (`railnav.filters.gnss_only_noise.epoch_interval_s`).
+    pseudorange_inflation : float
+        Factor on the pseudorange variances standing (1: white errors, or no GNSS), for the
+        monitor; each epoch's is `railnav.filters.gnss_only_noise.pseudorange_inflation` at
+        its prior's speed.
     """
 
 
@@ -116,6 +131,9 @@ class ConstrainedFilter:
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
         self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
+        self.gnss_interval_s = epoch_interval_s(gnss)
+        self.pseudorange_inflation = 1.0 if gnss is None else correlation_inflation(
+            config.pseudorange_correlation_s, self.gnss_interval_s)
         self.fix_rows = None if fixes is None else FixRowBuilder(
             track, self.layout, fixes, config.fix_model, antenna_m=config.lever_arms.antenna_m)
         self.sensors = SensorRows(self.layout, config, odometer=odometer, balises=balises)
@@ -318,11 +336,22 @@ class ConstrainedFilter:
         `railnav.filters.epochs_together` for a bank."""
         if self._along is not None:
             self._along.epoch = True
+        if gnss is not None and self.pseudorange_inflation != 1.0:
+            gnss = (self._inflated(gnss[0], x), *gnss[1:])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:
             extra = [*extra, *self.body.parts(self.schedule, index, x, P)]
         return stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
+
+    def _inflated(self, rows: list[Observation], x: Array) -> list[Observation]:
+        """The GNSS rows `rows` with the pseudoranges' variances times
+        `railnav.filters.gnss_only_noise.pseudorange_inflation` at the prior's speed (the
+        fault screen then tests them with those variances, as the update uses them)."""
+        factor = pseudorange_inflation(self.config, float(x[self._i["v"]]),
+                                       self.gnss_interval_s)
+        model = self.rows.rows.pseudorange
+        return [replace(o, R=o.R * factor) if o.model is model else o for o in rows]
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

@@ -63,10 +63,11 @@ from railnav.filters.fix_rows import FixRowBuilder, stack_epoch_rows
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE, build_gnss_only_model
 from railnav.filters.gnss_only_noise import (
     correlation_inflation,
-    correlation_time_s,
+    epoch_interval_s,
     heading_covariance_mps2,
     heading_inflation,
     heading_sigma_rad,
+    pseudorange_inflation,
     robust_heading_sigma_rad,
 )
 from railnav.filters.ins_clock_model import clock_offset_columns
@@ -159,8 +160,7 @@ class GnssOnlyFilter:
         self.sensors = SensorRows(self.layout, config, odometer=odometer, balises=balises)
         self.screen = None if fixes is None and not self.sensors else \
             RowScreen(config.fault_detection, None)
-        interval = float(np.median(np.diff(gnss.time_s))) if gnss is not None and \
-            len(gnss) > 1 else 1.0
+        interval = epoch_interval_s(gnss)
         self.gnss_interval_s = interval
         self.pseudorange_inflation = correlation_inflation(config.pseudorange_correlation_s,
                                                            interval)
@@ -228,12 +228,9 @@ class GnssOnlyFilter:
         return obs, sv, kind
 
     def inflation_at(self, speed_mps: float) -> float:
-        """The pseudorange variance factor at the prior's speed: `correlation_inflation`
-        of `correlation_time_s` (``config.pseudorange_correlation_s`` and ``_m``)."""
-        cfg = self.config
-        return correlation_inflation(
-            correlation_time_s(cfg.pseudorange_correlation_s, cfg.pseudorange_correlation_m,
-                               speed_mps), self.gnss_interval_s)
+        """The pseudorange variance factor at the prior's speed
+        (`railnav.filters.gnss_only_noise.pseudorange_inflation`)."""
+        return pseudorange_inflation(self.config, speed_mps, self.gnss_interval_s)
 
     def _gnss_rows(self, index: int, x: Array, P: Array) -> list[Observation]:
         speed = float(x[self.layout.index("v")])

@@ -10,7 +10,9 @@
   lasts over a distance (``track_heading_correlation_m``).
 
 The filter that uses them is `railnav.filters.gnss_only.GnssOnlyFilter`; the slow part of the
-code errors, which no inflation models, is `railnav.filters.code_bias`.
+code errors, which no inflation models, is `railnav.filters.code_bias`. The constrained
+(inertial) filter inflates its pseudoranges alike (`pseudorange_inflation` at its prior's
+speed, `railnav.filters.constrained.ConstrainedFilter`).
 """
 from __future__ import annotations
 
@@ -22,8 +24,9 @@ import numpy.typing as npt
 from railnav.filters.gnss_rows import TRACK_ROW_NAMES
 from trackmodel.earth import WGS84
 
-__all__ = ["correlation_time_s", "correlation_inflation", "heading_covariance_mps2",
-           "heading_inflation", "heading_sigma_rad", "robust_heading_sigma_rad"]
+__all__ = ["correlation_time_s", "correlation_inflation", "pseudorange_inflation",
+           "epoch_interval_s", "heading_covariance_mps2", "heading_inflation",
+           "heading_sigma_rad", "robust_heading_sigma_rad"]
 
 Array = npt.NDArray[np.float64]
 
@@ -83,6 +86,43 @@ def correlation_inflation(correlation_s: float, interval_s: float) -> float:
         return 1.0
     rho = float(np.exp(-interval_s / correlation_s))
     return (1.0 + rho) / (1.0 - rho)
+
+
+def pseudorange_inflation(config, speed_mps: float, interval_s: float) -> float:
+    """The pseudorange variance factor at a speed: `correlation_inflation` of
+    `correlation_time_s` (``config.pseudorange_correlation_s`` and ``_m``; 1 when the
+    former is 0: white errors, a simulated trip).
+
+    Parameters
+    ----------
+    config : railnav.NavigatorConfig
+    speed_mps : float
+        The prior's ``v`` (signed), m/s.
+    interval_s : float
+        Δt, the epoch interval (`epoch_interval_s`), s.
+
+    Returns
+    -------
+    float
+        >= 1.
+    """
+    return correlation_inflation(
+        correlation_time_s(config.pseudorange_correlation_s, config.pseudorange_correlation_m,
+                           speed_mps), interval_s)
+
+
+def epoch_interval_s(gnss) -> float:
+    """Δt of `correlation_inflation` for a GNSS data set, s: its nominal ``interval_s`` where
+    it has one (a streamed run's epochs, `railnav.navigation.streaming`), else the median
+    interval of its epochs' ``time_s`` (`railnav.filters.gnss_epochs.GnssEpochs`); 1 with
+    fewer than two epochs or none."""
+    nominal = getattr(gnss, "interval_s", None)
+    if nominal is not None:
+        return float(nominal)
+    times = getattr(gnss, "time_s", None)
+    if times is None or len(times) < 2:
+        return 1.0
+    return float(np.median(np.diff(times)))
 
 
 #: Columns of a range-rate row's parameters (`railnav.filters.gnss_rows.range_rate_parameters`

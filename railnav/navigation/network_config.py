@@ -77,6 +77,18 @@ class NetworkNavConfig:
         where every hypothesis's filter broke down (seed 3), at the cost of the tracks
         4.5 m apart being told in 33-80 s at 1 m and rarely within the 96 s at 2 m; a
         wrong told start then keeps its prior (1 − ``start_abreast_probability``).
+        Filters that inflate their pseudoranges for the same correlation
+        (``NavigatorConfig.pseudorange_correlation_s`` > 0: the inertial and gnss-only
+        filters, `railnav.filters.gnss_only_noise.pseudorange_inflation`) discount each
+        epoch's pseudorange evidence by that share already; this one counts it again.
+        Told τ that way instead (the same multipath at σ 1 m, 5 seeds,
+        ``bench_parallel_evidence.py --filter-correlation``), seed 3's filters no longer
+        break down (its LLR A−B stays within ±0.5 nat; −82.8 told here) and no run is
+        confident on B (``bench_network_spawn_gnss.py --cases unknown``, spawning off),
+        but the most probable netelement settles on the true track in 2 of the 5 96-s runs
+        (at 77 and 86 s; told here, 4 of 5, 33-80 s), P(true) at the end 0.11-0.79. The
+        LLRs at 96 s were +1.5, +2.0, 0.0, −0.1, +1.2 nat (told here: +2.8, +3.3, −82.8,
+        +3.9, +3.0), against the closed form's +0.4 ± 0.4.
     fix_bias_sigma_m : float
         σ_b >= 0 of a Gauss–Markov bias (τ = ``evidence_correlation_s``) per horizontal
         axis of the fixes, besides their declared white error: each hypothesis estimates

@@ -100,6 +100,8 @@ class _EpochRegistry:
 
     def __init__(self, gnss_rate_hz: float) -> None:
         self.rate = gnss_rate_hz
+        #: The nominal epoch interval, s (`railnav.filters.gnss_only_noise.epoch_interval_s`).
+        self.interval_s = 1.0 / gnss_rate_hz
         self.gnss = None
         self.local: dict[int, int] = {}
 
