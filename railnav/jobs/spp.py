@@ -159,7 +159,7 @@ def spp_files(obs: str | os.PathLike, nav: str | os.PathLike, *,
               base: str | os.PathLike | None = None,
               base_position: tuple[float, float, float] | None = None,
               max_age_s: float | None = None, smooth_window_s: float | None = None,
-              sp3: Sequence[str | os.PathLike] = (),
+              sp3: str | os.PathLike | Sequence[str | os.PathLike] = (),
               reference: str | os.PathLike | None = None,
               progress: Callable[[int, int], None] | None = None) -> SppRun:
     """Single-point (or code-differential) positions, velocities and clocks of every epoch
@@ -190,7 +190,7 @@ def spp_files(obs: str | os.PathLike, nav: str | os.PathLike, *,
     smooth_window_s : float, optional
         Carrier-smooth the code (rover and base) over up to this many seconds
         (`gnss_obs.SmoothingConfig`); None: raw code.
-    sp3 : sequence of path
+    sp3 : path or sequence of path
         Precise orbit/clock files instead of the broadcast ephemeris.
     reference : path, optional
         Reference trajectory (`read_reference_trajectory`: the project's columns or GPS
@@ -208,6 +208,7 @@ def spp_files(obs: str | os.PathLike, nav: str | os.PathLike, *,
     """
     config = spp_config(systems=systems, ionosphere=ionosphere,
                         elevation_mask_deg=elevation_mask_deg, raim=raim)
+    sp3 = (sp3,) if isinstance(sp3, (str, os.PathLike)) else tuple(sp3)
     rover = read_rinex_obs(obs)
     broadcast = read_rinex_nav(nav)
     ref = read_reference_trajectory(reference) if reference is not None else None
@@ -215,11 +216,11 @@ def spp_files(obs: str | os.PathLike, nav: str | os.PathLike, *,
                         base_lat_lon_h=base_position, max_age_s=max_age_s,
                         smoothing=(SmoothingConfig(window_s=smooth_window_s)
                                    if smooth_window_s is not None else None),
-                        sp3_paths=tuple(sp3))
+                        sp3_paths=sp3)
     result = solve_spp(aug.obs, broadcast, config, corrections=aug.corrections,
                        max_correction_age_s=aug.max_age_s, precise=aug.precise,
                        progress=progress)
     frame = result.to_frame()
     errors = spp_errors(frame, ref) if ref is not None else None
     return SppRun(frame, result, config, errors, ref, base=base,
-                  smooth_window_s=smooth_window_s, sp3=tuple(sp3))
+                  smooth_window_s=smooth_window_s, sp3=sp3)

@@ -18,6 +18,7 @@ OBS = DATA / "rover_obs_1240.rnx"
 NAV = DATA / "broadcast_nav.rnx"
 BASE = DATA / "base_obs_1240.rnx"
 REF = DATA / "reference_trajectory_1240.csv"
+SP3 = DATA / "COD21340_1100_1430.sp3"
 #: ``spp.csv`` floats are written to 12 significant digits (``%.12g``): read back, a value
 #: is within half a unit of the 12th digit, at most 5e-12 of it; one unit as the bound.
 CSV_RTOL = 1e-11
@@ -100,3 +101,13 @@ def test_write_without_plot(tmp_path):
     assert not (tmp_path / "o" / "spp.png").exists()
     back = _read_spp_csv(tmp_path / "o" / "spp.csv")
     assert back["n_sat_used"].tolist() == run.frame["n_sat_used"].tolist()
+
+
+def test_one_sp3_path_is_one_file_not_its_characters():
+    """``sp3="x.sp3"`` is the file (a string is a sequence of its characters): the same
+    solution as ``sp3=[path]``, and precise orbits move it from the broadcast one."""
+    one = railnav.spp_files(OBS, NAV, sp3=str(SP3))
+    pd.testing.assert_frame_equal(one.frame, railnav.spp_files(OBS, NAV, sp3=[SP3]).frame)
+    assert one.sp3 == (str(SP3),) and "precise orbits (SP3)" in one.lines()[0]
+    broadcast = railnav.spp_files(OBS, NAV).frame
+    assert not one.frame["lat_deg"].equals(broadcast["lat_deg"])
