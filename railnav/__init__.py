@@ -41,8 +41,12 @@ command                                function(s)
 ``railnav reproduce NAME``             `run_experiment` (`reproduce_paper2017`,
                                        `reproduce_anomaly2021`)
 ``railnav study CONFIG.toml``          `load_study_config`, `run_study`
-``railnav spp``                        `gnss_obs.solve_spp`, `spp_errors`,
-                                       `accuracy_summary`
+``railnav spp``                        `spp_files` -> `SppRun` (``.write``,
+                                       ``.lines``; `gnss_obs.augment`,
+                                       `gnss_obs.solve_spp`, `spp_errors`,
+                                       `accuracy_summary` underneath); systems
+                                       default G as every command (`gnss_obs`'s
+                                       own `SppConfig` default is GE)
 ``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
 ``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
                                        `check_network` (`read_osm`, GeoJSON readers)
@@ -77,6 +81,7 @@ _EXPORTS = {
     "run_simulated_tracks": "jobs.tracks", "run_files_tracks": "jobs.tracks",
     "track_nav": "jobs.tracks", "write_track_run": "jobs.tracks",
     "FaultDetectionConfig": "filters.fault_config",
+    "spp_files": "jobs.spp", "SppRun": "jobs.spp",
     "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
     "baro_track_check": "evaluation.baro",

@@ -1,7 +1,9 @@
 """The defaults of a run that the command line shows: each written once here.
 
 `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
-`railnav.config.NavigatorConfig`, which re-exports them) and `DEFAULT_CROSSING_RATE_PER_S`
+`railnav.config.NavigatorConfig`, which re-exports them; `DEFAULT_SYSTEMS` is also
+`railnav.spp_files`'s), `DEFAULT_IONOSPHERE` and `DEFAULT_ELEVATION_MASK_DEG` (of
+`railnav.spp_files`) and `DEFAULT_CROSSING_RATE_PER_S`
 (of `railnav.navigation.network_config.NetworkNavConfig`; `railnav.navigation.bank` explains
 it). They live in a module
 that imports nothing, so that the ``railnav`` parser (help texts, choices, defaults) is
@@ -13,15 +15,24 @@ from __future__ import annotations
 
 __all__ = ["DEFAULT_FILTER", "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS",
            "DEFAULT_CROSSING_RATE_PER_S", "DEFAULT_HORIZON_M", "DEFAULT_ODOMETER_SIGMA_MPS",
-           "DEFAULT_BALISE_SIGMA_M"]
+           "DEFAULT_BALISE_SIGMA_M", "DEFAULT_IONOSPHERE", "DEFAULT_ELEVATION_MASK_DEG"]
 
 #: The filter a run uses when none is named (`railnav.filters.protocol.FILTERS`).
 DEFAULT_FILTER = "constrained"
 #: The IMU grade a simulated trip has and a filter assumes when none is named
 #: (`strapdown.imu_errors.IMU_GRADES`).
 DEFAULT_IMU_GRADE = "tactical"
-#: GNSS systems simulated and used when none are named (the 2017 paper uses one system).
+#: GNSS systems simulated and used when none are named (the 2017 paper uses one system),
+#: by every command and public function of railnav, ``railnav spp`` and `spp_files`
+#: included. The library's own default, `gnss_obs.MeasurementConfig`'s (so
+#: ``gnss_obs.SppConfig()``'s), is ``"GE"``: `railnav.jobs.spp` says why they differ.
 DEFAULT_SYSTEMS = "G"
+#: ``railnav spp``: ionosphere handling when none is named
+#: (`gnss_obs.corrections.IONOSPHERE_MODELS`; `gnss_obs.MeasurementConfig`'s too).
+DEFAULT_IONOSPHERE = "klobuchar"
+#: ``railnav spp``: satellites below this elevation are not used, deg
+#: (`gnss_obs.SppConfig`'s too).
+DEFAULT_ELEVATION_MASK_DEG = 10.0
 #: Several tracks and networks: the rate of changing to a track abreast, 1/s
 #: (`railnav.navigation.bank`'s module docstring: one crossing per ~28 h of running).
 DEFAULT_CROSSING_RATE_PER_S = 1e-5

@@ -14,7 +14,7 @@ from railnav.errors import ConfigError
 
 __all__ = ["progress_bar", "positive_float", "nonnegative_float", "positive_int",
            "nonnegative_int", "outage_window", "lat_lon_h", "add_augmentation_arguments",
-           "augmentation_requested", "read_augmentation", "output_path", "same_file",
+           "augmentation_requested", "output_path", "same_file",
            "check_outputs", "add_output_arguments", "output_dir", "written_line",
            "imports_without_gc", "one_of_pair"]
 
@@ -180,26 +180,6 @@ def augmentation_requested(args: argparse.Namespace) -> bool:
     """True when any of ``--base``, ``--base-position``, ``--smooth-window-s``, ``--sp3``."""
     return bool(args.base or args.base_position is not None or args.smooth_window_s
                 or args.sp3)
-
-
-def read_augmentation(args: argparse.Namespace, obs, nav, measurement):
-    """`gnss_obs.dgps.augment` from the parsed ``--base ... --sp3`` arguments.
-
-    Raises
-    ------
-    railnav.errors.ConfigError
-        ``--base-position`` without ``--base``.
-    """
-    from gnss_obs.dgps import augment_files
-    from gnss_obs.smoothing import SmoothingConfig
-
-    if args.base_position is not None and not args.base:
-        raise ConfigError("--base-position needs --base")
-    return augment_files(
-        obs, nav, measurement, base_path=args.base or None,
-        base_lat_lon_h=args.base_position, max_age_s=args.max_age_s,
-        smoothing=(SmoothingConfig(window_s=args.smooth_window_s)
-                   if args.smooth_window_s else None), sp3_paths=args.sp3)
 
 
 def output_path(text: str) -> str:

@@ -65,7 +65,10 @@ def test_issue18_unwritable_out_is_found_before_any_work(tmp_path, capsys, monke
     for name in ("run_simulated", "run_files"):
         monkeypatch.setattr(railnav.jobs.run, name, _no_computation)
     monkeypatch.setattr("railnav.simulation.trip.simulate_trip", _no_computation)
-    monkeypatch.setattr("gnss_obs.spp.solve_spp", _no_computation)
+    # railnav spp's computation, reading included (patched where the command looks it up:
+    # patching gnss_obs.spp.solve_spp would bind the stub into railnav.jobs.spp for good
+    # when this test is the first to import it)
+    monkeypatch.setattr("railnav.jobs.spp.spp_files", _no_computation)
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
     out = blocker / "out"              # a folder under a file: no one can create it
