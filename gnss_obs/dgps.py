@@ -186,9 +186,15 @@ def apply_corrections(meas: pd.DataFrame, corrections: pd.DataFrame, *,
         The rows of `meas` that have a correction, ``pseudorange_m`` corrected, plus a
         column ``correction_age_s``.
     """
+    # the keys as plain objects on both sides: an iono-free table's combined signal names
+    # come out of pandas' string operations with its string dtype, which merge_asof will
+    # not match against object columns
+    keys = {"sv": lambda d: d["sv"].astype(object), "signal": lambda d: d["signal"].astype(object)}
     rover = meas.reset_index(drop=True).assign(_row=lambda d: np.arange(len(d)),
-                                               _t=lambda d: d["gps_time_s"] + TIME_MATCH_S)
-    base = corrections.rename(columns={"gps_time_s": "_tb"}).assign(_t=lambda d: d["_tb"])
+                                               _t=lambda d: d["gps_time_s"] + TIME_MATCH_S,
+                                               **keys)
+    base = corrections.rename(columns={"gps_time_s": "_tb"}).assign(_t=lambda d: d["_tb"],
+                                                                    **keys)
     merged = pd.merge_asof(rover.sort_values("_t"), base[["_t", "_tb", "sv", "signal",
                                                           "correction_m"]].sort_values("_t"),
                            on="_t", by=["sv", "signal"], direction="backward")
