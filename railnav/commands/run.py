@@ -28,7 +28,7 @@ from railnav.commands.run_flags import (
     seed,
     time_window,
 )
-from railnav.commands.run_report import fix_hint_lines, report
+from railnav.commands.run_report import fix_hint_lines, receiver_hint_lines, report
 from railnav.commands.support import (
     imports_without_gc,
     output_dir,
@@ -128,6 +128,8 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
     text = report(outcome, Path(args.out))
     if args.fixes is not None and not args.correlated_fix_errors:
         text = "\n".join([text, *fix_hint_lines(outcome.summary)])
+    if args.obs is not None and args.sigma_pr_m is None and args.sigma_rr_mps is None:
+        text = "\n".join([text, *receiver_hint_lines(outcome.summary)])
     return text, written + _exports(args, outcome, tmp)
 
 

@@ -18,7 +18,8 @@ __all__ = ["add_network_arguments", "parse_start", "NETWORK_EXCLUDES"]
 NETWORK_EXCLUDES = {"baro": "--baro", "true_track": "--true-track", "window": "--window",
                     "imu_spec": "--imu-spec", "odometer": "--odometer",
                     "balises": "--balises", "lever_arm": "--lever-arm",
-                    "imu_lever_arm": "--imu-lever-arm"}
+                    "imu_lever_arm": "--imu-lever-arm", "sigma_pr_m": "--sigma-pr-m",
+                    "sigma_rr_mps": "--sigma-rr-mps"}
 
 
 def add_network_arguments(p) -> None:

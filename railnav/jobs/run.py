@@ -177,7 +177,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               pulses_per_rev=None, odometer_model=None, balise_model=None,
               lever_arms=None, smooth: bool = False, track_attitude=None,
               standstill=None, suspension_noise: bool | None = None,
-              monitor=None) -> RunOutcome:
+              monitor=None, sigma_pr_m: float | None = None,
+              sigma_rr_mps: float | None = None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -253,6 +254,11 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         The divergence monitor applied to whichever configuration (default None: the
         configuration's own, on with recovery; ``MonitorConfig(recover=False)`` is
         ``railnav run --no-recover``).
+    sigma_pr_m, sigma_rr_mps : float, optional
+        The receiver's pseudorange (m) and range-rate (m/s) σ at zenith and high C/N0 in the
+        default configuration (`railnav.jobs.sensor_files`; default: the simulation's for
+        ``railnav simulate``'s files, else `gnss_obs.MeasurementConfig`'s, a real
+        receiver's).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -263,7 +269,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
                                      wheel_circumference_m=wheel_circumference_m,
                                      pulses_per_rev=pulses_per_rev,
                                      odometer_model=odometer_model, balise_model=balise_model,
-                                     lever_arms=lever_arms)
+                                     lever_arms=lever_arms, sigma_pr_m=sigma_pr_m,
+                                     sigma_rr_mps=sigma_rr_mps)
     config = replace(config, rts_smoothing=True) if smooth else config
     if track_attitude is not None or standstill is not None:
         config = replace(config, track_attitude=track_attitude, standstill=standstill)

@@ -10,6 +10,11 @@ navigation data, GNSS fixes, odometer readings and balise passages
   simulation's sensor models; otherwise `NavigatorConfig`'s defaults;
 * the IMU noise the filter assumes: the spec's ``[noise]``, else ``imu_grade``; a recorded
   IMU needs one of them (both: an error, the spec's is not silently overridden);
+* the receiver's GNSS noise, when given (``sigma_pr_m``, ``sigma_rr_mps``: the σ at zenith
+  and high C/N0 of `gnss_obs.MeasurementConfig`; ``--sigma-pr-m``/``--sigma-rr-mps``): the
+  defaults are a real receiver's, calibrated on the urban drive, and a noisier one (the
+  simulator's paper receiver, √15 m and √0.5 m/s) must be told, else the filter trusts
+  its rows too much (a simulated curvy trip run as plain files: NEES 23 for 5 states);
 * the odometer and balise models and the lever arms, when given.
 """
 from __future__ import annotations
@@ -17,6 +22,7 @@ from __future__ import annotations
 import logging
 from dataclasses import replace
 
+from gnss_obs.errors import GnssError
 from gnss_obs.fixes.read import read_fixes
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
@@ -47,12 +53,14 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
                       fix_sigmas=None, fix_model: FixModelConfig | None = None,
                       imu_spec=None, odometer_path=None, balises_path=None,
                       wheel_circumference_m: float | None = None,
-                      pulses_per_rev: float | None = None, **models
+                      pulses_per_rev: float | None = None, sigma_pr_m: float | None = None,
+                      sigma_rr_mps: float | None = None, **models
                       ) -> tuple[SensorData, NavigatorConfig]:
     """The sensor data of `railnav.jobs.run.run_files` and the navigator configuration it
     uses (see there for the parameters and the defaults; `models`: ``odometer_model``,
     ``balise_model``, ``lever_arms`` of `NavigatorConfig`, applied to the default
-    configuration).
+    configuration; `sigma_pr_m`, `sigma_rr_mps`: the receiver's GNSS σ in the default
+    configuration's `gnss_obs.MeasurementConfig`, default its own).
 
     Raises
     ------
@@ -68,6 +76,7 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
                                       _imu_assumption(imu_log, imu_grade, imu_path))
         extra = {k: v for k, v in models.items() if v is not None}
         config = replace(config, **({"fix_model": fix_model} if fix_model else {}), **extra)
+        config = _receiver_sigmas(config, sigma_pr_m, sigma_rr_mps)
     obs = read_rinex_obs(obs_path) if obs_path is not None else None
     nav = read_rinex_nav(nav_path) if nav_path is not None else None
     fixes = read_fixes(fixes_path, sigmas=fix_sigmas) if fixes_path is not None else None
@@ -106,6 +115,18 @@ def _imu_assumption(imu_log, imu_grade, imu_path):
         raise ConfigError(f"{imu_path}: the IMU spec ({imu_log.spec.name}) has a [noise] "
                           f"table and --imu-grade {imu_grade} was given: give one of them")
     return spec_errors if spec_errors is not None else imu_grade
+
+
+def _receiver_sigmas(config: NavigatorConfig, sigma_pr_m, sigma_rr_mps) -> NavigatorConfig:
+    """`config` with the receiver's pseudorange and range-rate σ that are given."""
+    given = {k: v for k, v in (("sigma_pr_m", sigma_pr_m), ("sigma_rr_mps", sigma_rr_mps))
+             if v is not None}
+    if not given:
+        return config
+    try:
+        return replace(config, measurement=replace(config.measurement, **given))
+    except GnssError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _railway_sensors(odometer_path, balises_path, circumference, per_rev):
