@@ -1,0 +1,88 @@
+"""``railnav run --sigma-pr-m --sigma-rr-mps``: the receiver's GNSS noise for a file run,
+and the hint when it was not given and the rows say the default σ are too small.
+
+The trip: a 150-s ``curvy`` simulation (the 2017 paper's receiver, noisier than the real
+receiver the defaults describe) copied without ``scenario.json``. Reference: the run's own
+innovations.csv (each row's ``accepted``), and the same files with ``scenario.json``.
+"""
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import pandas as pd
+import pytest
+
+from railnav.cli import main
+from railnav.commands.run_report import HINT_REJECTED_SHARE
+from railnav.simulation.scenarios import TRACKS_DIR
+
+CURVY = str(TRACKS_DIR / "curvy.csv")
+FILES = ("imu.csv", "gnss_obs.rnx", "gnss_nav.rnx", "truth.csv")
+
+
+@pytest.fixture(scope="module")
+def sim(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("sim")
+    assert main(["-q", "simulate", CURVY, "--duration-s", "150", "--seed", "0",
+                 "--out", str(folder)]) == 0
+    plain = tmp_path_factory.mktemp("plain")
+    for name in FILES:
+        shutil.copy(folder / name, plain / name)
+    return folder, plain
+
+
+def _run(folder, out, capsys, *extra) -> str:
+    capsys.readouterr()
+    assert main(["run", CURVY, "--imu", str(folder / "imu.csv"), "--obs",
+                 str(folder / "gnss_obs.rnx"), "--nav", str(folder / "gnss_nav.rnx"),
+                 "--truth", str(folder / "truth.csv"), *extra, "--no-plots",
+                 "--out", str(out)]) == 0
+    return capsys.readouterr().out
+
+
+def _hint(text: str) -> list[str]:
+    return [line for line in text.splitlines() if "--sigma-pr-m" in line]
+
+
+def test_plain_files_untold_get_the_hint_with_the_rejected_rows(sim, tmp_path, capsys):
+    text = _run(sim[1], tmp_path / "a", capsys, "--imu-grade", "tactical")
+    inn = pd.read_csv(tmp_path / "a" / "innovations.csv")
+    rejected = int((~inn["accepted"]).sum())
+    assert rejected > HINT_REJECTED_SHARE * len(inn)
+    assert len(_hint(text)) == 1
+    assert f"{rejected} of {len(inn)} GNSS rows" in _hint(text)[0]
+
+
+def test_plain_files_told_the_sigmas_run_as_with_the_scenario(sim, tmp_path, capsys):
+    scenario = json.loads((sim[0] / "scenario.json").read_text())["scenario"]
+    text = _run(sim[1], tmp_path / "b", capsys, "--imu-grade", "tactical", "--sigma-pr-m",
+                repr(scenario["sigma_pseudorange_m"]), "--sigma-rr-mps",
+                repr(scenario["sigma_range_rate_mps"]))
+    assert scenario["sigma_pseudorange_m"] == pytest.approx(math.sqrt(15.0))
+    assert not _hint(text)
+    told = json.loads((tmp_path / "b" / "summary.json").read_text())["statistics"]
+    assert told["monitor"]["recoveries"] == 0
+    # the scenario's files (σ from scenario.json) are below the hint's share too
+    assert not _hint(_run(sim[0], tmp_path / "c", capsys))
+    inn = pd.read_csv(tmp_path / "c" / "innovations.csv")
+    assert (~inn["accepted"]).sum() <= HINT_REJECTED_SHARE * len(inn)
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--fixes", "f.nmea", "--sigma-pr-m", "3"], "--sigma-pr-m: only with --obs"),
+    (["--imu", "i.csv", "--sigma-rr-mps", "0.5"], "--sigma-rr-mps: only with --obs"),
+])
+def test_receiver_sigmas_without_observations_are_one_line_exit_2(tmp_path, capsys, extra,
+                                                                  message):
+    code = main(["-q", "run", CURVY, *extra, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("error: ") and message in err and "\n" not in err, err
+
+
+def test_receiver_sigmas_are_not_taken_by_a_network_run(tmp_path, capsys):
+    code = main(["-q", "run", "--network", str(tmp_path / "net"), "--obs", "o", "--nav", "n",
+                 "--sigma-pr-m", "3", "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "--sigma-pr-m: not with --network" in err, err

@@ -1,0 +1,90 @@
+"""A simulated trip run as plain files (no ``scenario.json`` beside them: a recorded trip's
+defaults), with and without the receiver's σ (``sigma_pr_m``, ``sigma_rr_mps``).
+
+The simulator's receiver is the 2017 paper's (σ_pr √15 m, σ_rr √0.5 m/s, constant), noisier
+than the real receiver `gnss_obs.MeasurementConfig`'s defaults describe (1 m, 0.05 m/s at
+zenith): told nothing, the filter trusts its rows too much. Reference: the simulator's
+truth.csv and the χ² band of the mean of independent NEES values (one per run, at
+`NEES_TIME_S`; `ekf.consistency.chi2_band`) checked against SciPy's χ² quantiles.
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import chi2
+
+from ekf.consistency import chi2_band
+from railnav.cli import main
+from railnav.jobs.run import run_files
+from railnav.jobs.sensor_files import read_sensor_files
+from railnav.simulation.scenarios import TRACKS_DIR
+from trackmodel.io import read_track
+
+CURVY = TRACKS_DIR / "curvy.csv"
+SEEDS = range(10)            # chosen before the runs
+DURATION_S = 150.0
+#: One NEES per run, cruising at 25 m/s among curves.
+NEES_TIME_S = 140.0
+#: What ``railnav simulate`` simulates (`gnss_obs.sim_defaults`, the paper's values).
+SIM_SIGMA_PR_M, SIM_SIGMA_RR_MPS = math.sqrt(15.0), math.sqrt(0.5)
+
+
+@pytest.fixture(scope="module")
+def trips(tmp_path_factory):
+    """Plain files of seeded curvy trips: scenario.json removed after reading it."""
+    out = []
+    for seed in SEEDS:
+        folder = tmp_path_factory.mktemp(f"plain{seed}")
+        assert main(["-q", "simulate", str(CURVY), "--duration-s", f"{DURATION_S:g}",
+                     "--seed", str(seed), "--out", str(folder)]) == 0
+        meta = json.loads((folder / "scenario.json").read_text())
+        (folder / "scenario.json").unlink()
+        out.append((folder, meta))
+    return out
+
+
+def _files(folder) -> dict:
+    return {"imu_path": folder / "imu.csv", "obs_path": folder / "gnss_obs.rnx",
+            "nav_path": folder / "gnss_nav.rnx"}
+
+
+def _nees_at(folder, **sigmas) -> tuple[float, int]:
+    out = run_files(read_track(CURVY), **_files(folder), truth_path=folder / "truth.csv",
+                    imu_grade="tactical", **sigmas)
+    k = int(np.argmin(np.abs(out.errors.time_s - NEES_TIME_S)))
+    assert abs(out.errors.time_s[k] - NEES_TIME_S) < 0.051
+    return float(out.errors.nees[k]), out.errors.nees_dof
+
+
+def test_told_sigmas_reach_the_config_as_the_scenario_says(trips):
+    folder, meta = trips[0]
+    sc = meta["scenario"]
+    _, told = read_sensor_files(**_files(folder), imu_grade="tactical",
+                                sigma_pr_m=sc["sigma_pseudorange_m"],
+                                sigma_rr_mps=sc["sigma_range_rate_mps"])
+    _, plain = read_sensor_files(**_files(folder), imu_grade="tactical")
+    assert told.measurement.sigma_pr_m == pytest.approx(SIM_SIGMA_PR_M, rel=1e-12)
+    assert told.measurement.sigma_rr_mps == pytest.approx(SIM_SIGMA_RR_MPS, rel=1e-12)
+    # only the two σ change: the rest is the plain files' (a real receiver's) model
+    assert told.measurement.elevation_weighting == plain.measurement.elevation_weighting
+    assert told.pseudorange_correlation_s == plain.pseudorange_correlation_s
+
+
+def test_plain_files_told_the_receiver_sigmas_are_not_overconfident(trips):
+    """Told the simulated σ (the rest the real-data defaults: σ/sin(el), C/N0 penalty,
+    correlated pseudoranges, all of which only add variance to the simulator's constant
+    σ), the mean NEES is at most the 99 % band's top; told nothing it is above it."""
+    told = [_nees_at(folder, sigma_pr_m=SIM_SIGMA_PR_M, sigma_rr_mps=SIM_SIGMA_RR_MPS)
+            for folder, _ in trips]
+    untold = [_nees_at(folder) for folder, _ in trips]
+    dof = {d for _, d in told + untold}
+    assert dof == {5}
+    n = len(SEEDS)
+    low, high = chi2_band(5, n, 0.99)
+    assert high == pytest.approx(chi2.ppf(0.995, 5 * n) / n, rel=1e-9)
+    assert low == pytest.approx(chi2.ppf(0.005, 5 * n) / n, rel=1e-9)
+    assert np.mean([v for v, _ in told]) <= high, told
+    assert np.mean([v for v, _ in untold]) > high, untold
