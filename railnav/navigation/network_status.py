@@ -76,7 +76,7 @@ import pandas as pd
 
 from railnav.filters.row_sets import ROW_STATUSES
 from railnav.navigation.monitor import STATUSES
-from railnav.navigation.tail_probabilities import binom_sf, chi2_sf
+from railnav.navigation.tail_probabilities import binom_sf, chi2_sf, row_false_rejection_p
 
 __all__ = ["row_false_rejection", "row_records", "pseudo_nis", "pseudo_records",
            "combined_status_records"]
@@ -89,13 +89,10 @@ _REJECTED = ROW_STATUSES[1]
 def row_false_rejection(config) -> float | None:
     """``p_row`` of the module docstring for a `railnav.config.NavigatorConfig`: the
     probability that a fault-free row is rejected (None: nothing rejects rows, and the
-    rejected-row test is off)."""
-    from scipy.special import chdtrc
-    p = 0.0 if config.gate_probability is None else 1.0 - float(config.gate_probability)
+    rejected-row test is off; `tail_probabilities.row_false_rejection_p`)."""
     fd = config.fault_detection
-    if fd is not None:
-        p += float(chdtrc(1.0, float(fd.nis_threshold)))
-    return p if p > 0.0 else None
+    return row_false_rejection_p(config.gate_probability,
+                                 None if fd is None else fd.nis_threshold)
 
 
 def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
