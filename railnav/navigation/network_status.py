@@ -28,7 +28,11 @@ an epoch's rejection is ≤ ``q`` whatever the ties. The tail ``p_rejected = P(X
 ``X ~ Binomial(n, q)``, is ``lost`` below `MonitorConfig.p_lost` when at least
 `MonitorConfig.lost_rejected_share` of the window's rows were rejected (fewer: the rows,
 not the navigator, are bad), ``degraded`` below `MonitorConfig.p_degraded`: the single
-monitor's thresholds and rule.
+monitor's thresholds and rule. Epochs whose fix no position on the network explains
+(`railnav.navigation.spawning.Spawner`'s ``fix_off_network``) are rejected whatever the
+hypotheses: they count for ``degraded`` only, as the single monitor's fixes off the track
+(issue 14: log_28554's fixes drifting 20-37 m from every element in the airport tunnel
+ended the run ``lost``, 70 epochs; log_29083's receiver jumps, 341 of 874).
 
 **NIS.** The sum of the used rows' ``ν²/S`` against χ² with one degree of freedom per row
 (``p_nis``, its upper tail): ``degraded`` below `MonitorConfig.p_degraded`, as the single
@@ -95,7 +99,7 @@ def row_false_rejection(config) -> float | None:
                                  None if fd is None else fd.nis_threshold)
 
 
-def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
+def row_records(innovations: pd.DataFrame, config, off_network=None) -> pd.DataFrame:
     """The row tests at each epoch of `innovations` (module docstring).
 
     Parameters
@@ -104,6 +108,10 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
         ``innovations.csv`` of the run: ``time_s``, ``epoch``, ``nis``, ``status`` per row.
     config : railnav.config.NavigatorConfig
         Its ``monitor`` thresholds, gate and fault screen.
+    off_network : array of float, optional
+        Times of the epochs whose fix no position on the network explains
+        (`railnav.navigation.spawning.Spawner.frame`'s ``fix_off_network``): rejected
+        whatever the hypotheses, they count for ``degraded`` only.
 
     Returns
     -------
@@ -128,16 +136,22 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
     share = window["rejected"].sum().to_numpy(dtype=float) / rows
     p_row = row_false_rejection(config)
     if p_row is None:
-        p_rejected = np.ones(len(epochs))
+        p_rejected = p_rejected_on = np.ones(len(epochs))
     else:
         q = 1.0 - (1.0 - p_row) ** window["rows"].max().to_numpy(dtype=float)
-        k = (epochs["rejected"] > 0).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
-        p_rejected = binom_sf(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
+        rejected = epochs["rejected"] > 0
+        k = rejected.rolling(n, min_periods=1).sum().to_numpy(dtype=float)
+        seen = np.minimum(np.arange(1, len(epochs) + 1), n)
+        p_rejected = binom_sf(np.rint(k), seen, q)
+        off = np.isin(epochs["time_s"].to_numpy(dtype=float),
+                      np.asarray([] if off_network is None else off_network, dtype=float))
+        k_on = (rejected & ~off).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
+        p_rejected_on = binom_sf(np.rint(k_on), seen, q)
     p_nis = chi2_sf(window["nis"].sum().to_numpy(dtype=float),
                     window["used"].sum().to_numpy(dtype=float))
     cfg = config.monitor
     worst = np.minimum(p_rejected, p_nis)
-    out = np.where((p_rejected < cfg.p_lost) & (share >= cfg.lost_rejected_share),
+    out = np.where((p_rejected_on < cfg.p_lost) & (share >= cfg.lost_rejected_share),
                    STATUSES[2], np.where(worst < cfg.p_degraded, STATUSES[1], STATUSES[0]))
     return pd.DataFrame({"time_s": epochs["time_s"].to_numpy(dtype=float),
                          "status": out.astype(object), "p_rejected": p_rejected,
