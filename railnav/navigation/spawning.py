@@ -282,10 +282,12 @@ class Spawner:
         p = float(chdtrc(2.0 * n_eff, sum(self.window) * n_eff / n))
         status = "lost" if p < self.nav.spawn_p_value else \
             "degraded" if p < self.p_degraded else "ok"
-        if status == "lost" and self.network is not None and \
-                not self._on_network(self.fixes_in_window, self.shares):
-            status = "degraded"     # fixes no position on the network explains: not lost
-        out = self._spawn(hyps, time_s, f) if status == "lost" and self.nav.spawn else hyps
+        explained = status != "lost" or self.network is None or \
+            self._on_network(self.fixes_in_window, self.shares)
+        out = self._spawn(hyps, time_s, f, explained) if status == "lost" and self.nav.spawn \
+            else hyps
+        if not explained:           # fixes no position on the network explains: not lost
+            status = "degraded"
         self.records.append((time_s, status, p, self.window[-1] if self.window else
                              float(np.min(d2)), "spawn" if out is not hyps else "", off))
         return out
@@ -352,12 +354,11 @@ class Spawner:
         return pd.DataFrame.from_records(self.records, columns=[
             "time_s", "status", "p_fix", "d2_min", "action", "fix_off_network"])
 
-    def _spawn(self, hyps: list, time_s: float, f: int) -> list:
+    def _spawn(self, hyps: list, time_s: float, f: int, explained: bool = True) -> list:
         if self.fixes.quality[f] == DEAD_RECKONING:
             return hyps      # no start from an extrapolation: the window waits for a GNSS fix
-        window, shares = self.fixes_in_window, self.shares
         self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
-        if self.network is not None and not self._on_network(window, shares):
+        if not explained:                       # the network does not explain the window
             return hyps
         try:
             t_new, new = self.start(time_s - 1e-3)
