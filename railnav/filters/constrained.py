@@ -360,16 +360,17 @@ class ConstrainedFilter:
         var.update({"s": sigma_s_m ** 2, "v": sigma_v_mps ** 2})
         return np.diag([var[name] for name in self.layout.names])
 
-    def initial_from_fix(self, fix) -> tuple[Array, Array]:
+    def initial_from_fix(self, fix, *, restart: bool = False) -> tuple[Array, Array]:
         """State and covariance at a GNSS fix (`railnav.navigation.initialization.GnssFix`).
 
         The fix is projected on the track (`railnav.filters.common.start_on_track`); the
         attitude is the track's (yaw = azimuth, pitch = elevation, roll = 0), with its error
         from the projection's along-track error in the covariance
-        (`railnav.filters.start_attitude`).
+        (`railnav.filters.start_attitude`). `restart`: the fix's own σ (`start_on_track`).
         """
         values, sigma_s, sigma_v = start_on_track(
-            self.track, self.config, fix, tuple(isb_state_name(s) for s in self.isb_systems))
+            self.track, self.config, fix, tuple(isb_state_name(s) for s in self.isb_systems),
+            restart=restart)
         point = values.pop("point")
         values.update(track_attitude(point))
         x0 = np.array([values.get(name, 0.0) for name in self.layout.names])

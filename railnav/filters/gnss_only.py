@@ -300,13 +300,14 @@ class GnssOnlyFilter:
         return np.diag([var.get(name, cfg.initial_isb_sigma_m ** 2)
                         for name in self.layout.names])
 
-    def initial_from_fix(self, fix) -> tuple[Array, Array]:
+    def initial_from_fix(self, fix, *, restart: bool = False) -> tuple[Array, Array]:
         """State and covariance at a GNSS fix (`railnav.navigation.initialization.GnssFix`): the fix
         projected on the track, the speed its velocity along the tangent
         (`railnav.filters.common.start_on_track`); with the code-bias state, the fix's
-        along-track variance with its slow part (`railnav.filters.code_bias.start_variance_m2`)."""
+        along-track variance with its slow part (`railnav.filters.code_bias.start_variance_m2`);
+        `restart`: the fix's own σ (`start_on_track`)."""
         values, sigma_s, sigma_v = start_on_track(self.track, self.config, fix,
-                                                  self.isb_names)
+                                                  self.isb_names, restart=restart)
         x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
         if self.code_bias:
             sigma_s = math.sqrt(sigma_s ** 2 + cb.start_variance_m2(sigma_s,

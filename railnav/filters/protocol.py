@@ -66,8 +66,10 @@ class Filter(Protocol):
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:
         """The initial covariance, given the σ of ``s`` (m) and ``v`` (m/s)."""
 
-    def initial_from_fix(self, fix: Any) -> tuple[Array, Array]:
-        """``(x0, P0)`` from a GNSS fix (`railnav.navigation.initialization.GnssFix`)."""
+    def initial_from_fix(self, fix: Any, *, restart: bool = False) -> tuple[Array, Array]:
+        """``(x0, P0)`` from a GNSS fix (`railnav.navigation.initialization.GnssFix`);
+        `restart` (a divergence monitor's): with the fix's own σ, not the configured start's
+        (`railnav.filters.common.start_on_track`)."""
 
     def truth_states(self, truth: Any, clock_bias_m: Array,
                      clock_drift_mps: Array) -> tuple[Array, npt.NDArray[np.bool_]]:

@@ -143,13 +143,15 @@ class UnconstrainedFilter:
             (sigma_enu_m[0] / ((R_N + h) * np.cos(lat))) ** 2, sigma_enu_m[2] ** 2)))
         return np.diag([var[name] for name in self.layout.names])
 
-    def initial_from_fix(self, fix) -> tuple[Array, Array]:
+    def initial_from_fix(self, fix, *, restart: bool = False) -> tuple[Array, Array]:
         """State and covariance at a GNSS fix (`railnav.navigation.initialization.GnssFix`).
 
         Position and velocity are the fix's, with the config's σ when given, else the fix's
         own per axis (floored at `railnav.filters.common.MIN_FIX_SIGMA_S_M` /
         `MIN_FIX_SIGMA_V_MPS`); the attitude is the track's where the fix projects (module
         docstring); the clock is the fix's (`railnav.filters.common.clock_from_fix`).
+        `restart` (a divergence monitor's): the fix's own σ
+        (`railnav.filters.common.start_on_track`).
         """
         lat, lon, h = (float(c) for c in ecef_to_geodetic(fix.r_e, earth=self.track.earth))
         v_n = C_n_e(lat, lon).T @ np.asarray(fix.v_e, dtype=float)
@@ -159,10 +161,10 @@ class UnconstrainedFilter:
                   **clock_from_fix(self.config, fix, self.isb_names)}
         x0 = np.array([values.get(name, 0.0) for name in self.layout.names])
         sigma_pos = np.full(3, self.config.initial_s_sigma_m) \
-            if self.config.initial_s_sigma_m else \
+            if self.config.initial_s_sigma_m and not restart else \
             np.maximum(np.sqrt(np.diag(fix.cov_enu_m2)), MIN_FIX_SIGMA_S_M)
         sigma_vel = np.full(3, self.config.initial_v_sigma_mps) \
-            if self.config.initial_v_sigma_mps else \
+            if self.config.initial_v_sigma_mps and not restart else \
             np.maximum(np.sqrt(np.diag(fix.cov_v_enu_m2ps2)), MIN_FIX_SIGMA_V_MPS)
         return x0, self._covariance(sigma_pos, sigma_vel, lat, h)
 

@@ -103,7 +103,8 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
     return start
 
 
-def initial_at_fix(filt_obj, fixes, k: int, config) -> InitialState:
+def initial_at_fix(filt_obj, fixes, k: int, config, *, restart: bool = False
+                   ) -> InitialState:
     """The filter's `InitialState` at fix `k` projected on its track, whether or not the
     fix agrees with the track (a network run's candidates: every netelement near the fix);
     the speed as `initial_from_fixes` takes it, from fixes that do agree, fix `k` included
@@ -116,13 +117,16 @@ def initial_at_fix(filt_obj, fixes, k: int, config) -> InitialState:
     k : int
         Index of the start fix.
     config : railnav.config.NavigatorConfig
+    restart : bool
+        A divergence monitor's restart: the fix's own σ (`Filter.initial_from_fix`).
     """
     gate = math.sqrt(chi2_threshold(config.gate_probability or START_GATE_PROBABILITY, 1))
     n = min(len(fixes) - k, MAX_INITIAL_FIXES)
     s, cross, along, sigma_along, points = _offsets(filt_obj.track, fixes, n,
                                                     config.fix_model, first=k)
     ok = (cross <= gate) & (along <= gate)
-    return _start(filt_obj, _Shifted(fixes, k), 0, s, ok, sigma_along, points)
+    return _start(filt_obj, _Shifted(fixes, k), 0, s, ok, sigma_along, points,
+                  restart=restart)
 
 
 class _Shifted:
@@ -133,8 +137,8 @@ class _Shifted:
             setattr(self, name, getattr(fixes, name)[k:])
 
 
-def _start(filt_obj, fixes, k: int, s: Array, ok, sigma_along: Array, points
-           ) -> InitialState:
+def _start(filt_obj, fixes, k: int, s: Array, ok, sigma_along: Array, points, *,
+           restart: bool = False) -> InitialState:
     """The `InitialState` at fix `k` (s, agreement and along σ of the fixes from the
     first of `s` on)."""
     point = scalar_point(points, k)
@@ -143,7 +147,8 @@ def _start(filt_obj, fixes, k: int, s: Array, ok, sigma_along: Array, points
     fix = GnssFix(time_s=float(fixes.time_s[k]), r_e=np.asarray(point.r_e, dtype=float),
                   v_e=v0 * t_e, clock_bias_m={}, clock_drift_mps=0.0,
                   cov_enu_m2=fixes.cov_n_m2[k], cov_v_enu_m2ps2=sigma_v ** 2 * np.eye(3))
-    x0, P0 = filt_obj.initial_from_fix(fix)
+    x0, P0 = filt_obj.initial_from_fix(fix, restart=True) if restart else \
+        filt_obj.initial_from_fix(fix)
     return InitialState(fix.time_s, x0, P0)
 
 

@@ -8,8 +8,12 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
 
 * **GNSS NIS**: the sum of the accepted rows' ``ν_i²/S_ii`` against χ² with one degree of
   freedom per row;
-* **rejected rows**: the number of rows the χ² row gate rejected against the binomial
-  law of the gate's false-rejection rate ``1 − config.gate_probability``;
+* **rejected rows**: the epochs with a row rejected by the fault screen (before the
+  update: uncounted until issue 14, a filter rejecting every fix for 16 s said ``ok``) or
+  the χ² row gate, against the binomial law of epochs whose ``m`` rows are each rejected
+  with probability ``p_row`` (`tail_probabilities.row_false_rejection_p`, as the network
+  run's): ``q = 1 − (1 − p_row)^m``; epochs, as a fix's rows are rejected together. A fix
+  off the track (below) is rejected whatever the state: ``degraded``, never ``lost``;
 * **fix disagreement**: ``d = (s_fix − s_prior)/√(σ_fix² + σ_s,prior²)`` of an independent
   single-epoch fix on the track at the epoch's prior (not yet updated with that epoch's
   measurements); ``Σ d²`` against χ²ₙ and the signed mean, ``(Σ d)²/n`` against χ²₁ (a
@@ -50,17 +54,22 @@ probability of a χ² (or binomial) statistic that is exact when the filter's σ
   epoch (the fix-based filter ``degraded`` on 406 of 407 epochs of leg 1, fixes inflated).
 
 Thresholds: a test *fails at level p* when its tail probability is below ``p``. The status is
-``lost`` when the fix-disagreement or whole-kind test fails at `MonitorConfig.p_lost`
-(1e-6), or the rejected-row test does and at least `MonitorConfig.lost_rejected_share` of the
-window's rows were rejected, ``degraded`` when any test fails at `MonitorConfig.p_degraded`
-(1e-3), else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 7·p_degraded
+``lost`` when the fix-disagreement test fails at `MonitorConfig.p_lost` (1e-6) without the
+window's largest ``d²`` (one fix cannot tell its own fault from the filter's: on log_29083
+a fix 41 m, 13σ, ahead restarted the filter from it at speed 0 ± 50 m/s, 300 m off for
+16 s; never larger, that statistic keeps false ``lost`` below p_lost), or the whole-kind
+test fails at p_lost, or the rejected-row test does (fixes on the track) and at least
+`MonitorConfig.lost_rejected_share` of the window's rows were rejected; ``degraded`` when
+any test fails at `MonitorConfig.p_degraded` (1e-3; the fix test over the whole window),
+else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 7·p_degraded
 per epoch (two kinds), false ``lost`` ≤ 4·p_lost; the windows overlap: alarms come in runs.
 
-Recovery (`MonitorConfig.recover`): when ``lost`` and this epoch's fix alone disagrees
-beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at 1e-6), ``s`` (and ``v`` where
-the fix has a speed) are re-initialised from it: the whole state through the filter's own
-start-from-fix code where the run has it (`TrackFixes.start`: ``filter.initial_from_fix``,
-`railnav.filters.common.start_on_track`; `railnav.navigation.fix_start.initial_at_fix`),
+Recovery (`MonitorConfig.recover`): when ``lost`` (two fixes or more disagree) and this
+epoch's fix alone disagrees beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at
+1e-6), ``s`` (and ``v`` where the fix has a speed) are re-initialised from it: the whole
+state through the filter's own start-from-fix code where the run has it (`TrackFixes.start`:
+``filter.initial_from_fix``, `railnav.filters.common.start_on_track`;
+`railnav.navigation.fix_start.initial_at_fix`),
 so that attitude, IMU biases and clock start over too (the attitude from the track at the
 fix, its error from the fix's along-track error correlated with ``s`` in ``P``,
 `railnav.filters.start_attitude`); else ``s`` and ``v`` alone (σ floored
@@ -97,7 +106,15 @@ from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
-from railnav.navigation.tail_probabilities import binom_sf, chi2_isf, chi2_sf, sigma_gate
+from railnav.filters.row_sets import ROW_STATUSES
+from railnav.navigation.tail_probabilities import (
+    binom_sf,
+    chi2_isf,
+    chi2_sf,
+    fix_disagreement_tail,
+    row_false_rejection_p,
+    sigma_gate,
+)
 from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
@@ -116,8 +133,10 @@ POSITION_ROW_KINDS = ("pseudorange", "fix_along", "fix_cross", "fix_up")
 SCREENED_SHARE, SCREENED_MIN_ROWS = 0.25, 2
 #: The window's per-epoch quantities, rows of `FilterMonitor`'s window array: accepted
 #: GNSS rows' NIS sum and count, rejected rows, fix disagreement ``d²`` (floored σ; NaN
-#: without a fix), pseudo-observation NIS sum and dimension, and ``d``.
-_NIS, _N_ACC, _N_REJ, _D2, _NISC, _NISC_DOF, _D = range(7)
+#: without a fix), pseudo-observation NIS sum and dimension, ``d``, whether any row was
+#: rejected (by the fault screen or the gate), the same for a fix on the track (or rows
+#: with no fix to place), and the epoch's rows.
+_NIS, _N_ACC, _N_REJ, _D2, _NISC, _NISC_DOF, _D, _E_REJ, _E_REJ_ON, _ROWS = range(10)
 
 
 class FilterMonitor:
@@ -157,7 +176,8 @@ class FilterMonitor:
         self._gate = getattr(getattr(screen, "config", None), "nis_threshold", None)
         self._kind_tail = 1.0                  # this epoch's whole-kind test (`prior`)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
-        self.p_reject = None if gate_probability is None else 1.0 - gate_probability
+        self.p_reject = row_false_rejection_p(gate_probability, self._gate)
+        self._screen_rows = (0, 0)             # this epoch's screened rows, rejected
         self._prior: tuple[float, float, float] | None = None
         self._snapshot: tuple[float, float] | None = None
         self._epoch_fixes: TrackFixes | None = None
@@ -166,7 +186,7 @@ class FilterMonitor:
             else None
         self._position_key: dict[str, bool] = {}
         # the last epochs, oldest first, in the last `_n_window` columns
-        self._window = np.full((_D + 1, config.window_epochs), np.nan)
+        self._window = np.full((_ROWS + 1, config.window_epochs), np.nan)
         self._n_window = 0
         self.small = SmallDisagreement(config.small_window_epochs)     # ``p_fix_small``
         self._seen = 0
@@ -177,6 +197,8 @@ class FilterMonitor:
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         last = None if observations is None else self._new_screen_epoch()
+        self._screen_rows = (0, 0) if last is None else (
+            int(last.status.size), int(np.count_nonzero(last.status == ROW_STATUSES[1])))
         if last is not None and self._gate is not None:
             self._kind_tail = kind_rejected_tail(last, self._gate)
         self._snapshot = None if observations is None or self._screened_out(last) else \
@@ -233,6 +255,8 @@ class FilterMonitor:
         acc = np.asarray(chunk.accepted, dtype=bool)
         d = np.nan
         j = None if self.fixes is None else self.fixes.at(time_s)
+        # a fix off the track (a receiver's jump) is rejected whatever the state
+        on_track = j is None or self._on_track(self.fixes, j) is not None
         snapshot, self._snapshot = self._snapshot, None
         kind_tail, self._kind_tail = self._kind_tail, 1.0
         small = np.nan                                 # `SmallDisagreement.term`, if any
@@ -256,11 +280,7 @@ class FilterMonitor:
                 var_fix = max(sigma_fix, self.config.min_fix_sigma_m) ** 2
                 d = (s_fix - s_prior) / np.sqrt(var_fix + var_prior)
                 self._epoch_fixes = fixes
-        n_acc = int(np.count_nonzero(acc))
-        self._push(float(np.add.reduce(nis[acc])), n_acc, acc.size - n_acc, d * d,
-                   float(chunk.nis_c_sum),
-                   int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
-                   if chunk.innov_c.ndim == 2 else 0, d, small=small)
+        self._push_epoch(chunk, nis, acc, d, on_track, small)
         self._seen += 1
         status, tails = self._status(kind_tail)
         record = {"time_s": time_s, "status": status, **tails,
@@ -291,6 +311,21 @@ class FilterMonitor:
             return j
         return None
 
+    def _push_epoch(self, chunk, nis: Array, acc, d: float, on_track: bool, small: float
+                    ) -> None:
+        """Push the epoch's quantities: its rows' (`acc`: which the gate accepted) and the
+        fault screen's rejections (`prior`), the fix disagreement `d` (NaN: none), and
+        whether its fix is on the track."""
+        n_acc = int(np.count_nonzero(acc))
+        screened, n_screen_rej = self._screen_rows
+        self._screen_rows = (0, 0)
+        n_rej = acc.size - n_acc + n_screen_rej        # the gate's and the screen's
+        self._push(float(np.add.reduce(nis[acc])), n_acc, n_rej, d * d,
+                   float(chunk.nis_c_sum),
+                   int(chunk.nis_c_count) * max(chunk.innov_c.shape[-1], 1)
+                   if chunk.innov_c.ndim == 2 else 0, d, float(n_rej > 0),
+                   float(n_rej > 0 and on_track), float(max(screened, acc.size)), small=small)
+
     def _push(self, *row: float, small: float) -> None:
         """Append one epoch's quantities (`_NIS` ... `_D`) and its lower-tail term
         (`SmallDisagreement.term`) to the windows, the oldest dropped."""
@@ -304,18 +339,28 @@ class FilterMonitor:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
         # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers;
         # Python floats after, each the float64 it was)
-        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _ = np.add.reduce(w, axis=1).tolist()
+        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _, e_rej, e_rej_on, _ = \
+            np.add.reduce(w, axis=1).tolist()
         n_rows = n_acc + n_rej
         rejected_share = n_rej / n_rows if n_rows else 0.0
         have = np.isfinite(w[_D2])
         n_have = int(np.count_nonzero(have))
         # every epoch with a fix: the rows as they are (their sums are those of the copies)
         d2, d = (w[_D2], w[_D]) if n_have == have.size else (w[_D2][have], w[_D][have])
-        d2_sum = float(np.add.reduce(d2))
-        p_fix = min(1.0, 2.0 * min(chi2_sf(d2_sum, n_have), chi2_sf(
-            float(np.add.reduce(d)) ** 2 / max(n_have, 1), min(n_have, 1))))
-        p_rejected = 1.0 if self.p_reject is None else \
-            binom_sf(int(n_rej), int(n_rows), self.p_reject)
+        d2_sum, d_sum = float(np.add.reduce(d2)), float(np.add.reduce(d))
+        p_fix = fix_disagreement_tail(d2_sum, d_sum, n_have)
+        if n_have >= 2:                # `lost` only if the others fail without the worst
+            k = int(np.argmax(d2))
+            p_fix_lost = fix_disagreement_tail(d2_sum - float(d2[k]), d_sum - float(d[k]),
+                                               n_have - 1)
+        else:
+            p_fix_lost = 1.0
+        p_rejected = p_rejected_on = 1.0
+        if self.p_reject is not None:                  # epochs, not rows (docstring)
+            n_epochs = int(np.count_nonzero(w[_ROWS] > 0))
+            q = 1.0 - (1.0 - self.p_reject) ** float(np.max(w[_ROWS]))
+            p_rejected = binom_sf(int(e_rej), n_epochs, q)
+            p_rejected_on = binom_sf(int(e_rej_on), n_epochs, q)
         tails = {"p_gnss_nis": chi2_sf(nis_sum, n_acc),
                  "p_rejected": p_rejected,
                  "p_fix": p_fix,
@@ -325,8 +370,8 @@ class FilterMonitor:
                  "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
                  "variance_factor": d2_sum / n_have if n_have else np.nan}
         cfg = self.config
-        if min(p_fix, kind_tail) < cfg.p_lost or (
-                p_rejected < cfg.p_lost and rejected_share >= cfg.lost_rejected_share):
+        if min(p_fix_lost, kind_tail) < cfg.p_lost or (
+                p_rejected_on < cfg.p_lost and rejected_share >= cfg.lost_rejected_share):
             return "lost", tails
         if min(tails["p_gnss_nis"], p_rejected, p_fix, tails["p_pseudo_nis"], tails[
                 "p_fix_small"], kind_tail) < cfg.p_degraded or self._seen < cfg.min_epochs:

@@ -190,8 +190,16 @@ class NetworkRecorder:
             final=tuple(final), outages=tuple(tuple(o) for o in outages),
             restarts=tuple(self.restarts), n_steps=int(self.steps),
             spawns=tuple(self.spawns), status_records=combined_status_records(
-                self.status_records, row_records(innovations, config),
+                self.status_records, row_records(innovations, config, _off_network(
+                    self.status_records)),
                 pseudo_records(self.pseudo, config)))
+
+
+def _off_network(spawn: pd.DataFrame | None) -> Array:
+    """The times of the fix epochs whose fix is off the network (`Spawner.frame`)."""
+    if spawn is None or "fix_off_network" not in spawn:
+        return np.zeros(0)
+    return spawn.loc[spawn["fix_off_network"].astype(bool), "time_s"].to_numpy(dtype=float)
 
 
 def _most_on(shares, w: Array, element: str) -> tuple[int, tuple[str, int, float]]:

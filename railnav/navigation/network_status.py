@@ -28,7 +28,11 @@ an epoch's rejection is ≤ ``q`` whatever the ties. The tail ``p_rejected = P(X
 ``X ~ Binomial(n, q)``, is ``lost`` below `MonitorConfig.p_lost` when at least
 `MonitorConfig.lost_rejected_share` of the window's rows were rejected (fewer: the rows,
 not the navigator, are bad), ``degraded`` below `MonitorConfig.p_degraded`: the single
-monitor's thresholds and rule.
+monitor's thresholds and rule. Epochs whose fix no position on the network explains
+(`railnav.navigation.spawning.Spawner`'s ``fix_off_network``) are rejected whatever the
+hypotheses: they count for ``degraded`` only, as the single monitor's fixes off the track
+(issue 14: log_28554's fixes drifting 20-37 m from every element in the airport tunnel
+ended the run ``lost``, 70 epochs; log_29083's receiver jumps, 341 of 874).
 
 **NIS.** The sum of the used rows' ``ν²/S`` against χ² with one degree of freedom per row
 (``p_nis``, its upper tail): ``degraded`` below `MonitorConfig.p_degraded`, as the single
@@ -66,7 +70,10 @@ On the Brussels logs as given (fixes only), the status counts (``ok/degraded/los
 estimate rows) before → after these tests: log_28554
 495/72/47 → 485/59/70 (86 of 1210 rows rejected), log_28876 1130/4/0 → 1117/17/0 (the NIS
 test), log_29083 489/242/150 → 459/78/344 (590 of 1748 rows rejected: fixes 100-180 m
-off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0.
+off the track, "dirty" in the data's README), log_29304 unchanged 904/4/0. With fixes off
+the network counted for ``degraded`` only (issue 14; the estimates, rows and route
+unchanged): log_28554 485/127/2 (it no longer ends ``lost``), log_29083 459/422/0, the
+other two unchanged.
 """
 from __future__ import annotations
 
@@ -76,7 +83,7 @@ import pandas as pd
 
 from railnav.filters.row_sets import ROW_STATUSES
 from railnav.navigation.monitor import STATUSES
-from railnav.navigation.tail_probabilities import binom_sf, chi2_sf
+from railnav.navigation.tail_probabilities import binom_sf, chi2_sf, row_false_rejection_p
 
 __all__ = ["row_false_rejection", "row_records", "pseudo_nis", "pseudo_records",
            "combined_status_records"]
@@ -89,16 +96,13 @@ _REJECTED = ROW_STATUSES[1]
 def row_false_rejection(config) -> float | None:
     """``p_row`` of the module docstring for a `railnav.config.NavigatorConfig`: the
     probability that a fault-free row is rejected (None: nothing rejects rows, and the
-    rejected-row test is off)."""
-    from scipy.special import chdtrc
-    p = 0.0 if config.gate_probability is None else 1.0 - float(config.gate_probability)
+    rejected-row test is off; `tail_probabilities.row_false_rejection_p`)."""
     fd = config.fault_detection
-    if fd is not None:
-        p += float(chdtrc(1.0, float(fd.nis_threshold)))
-    return p if p > 0.0 else None
+    return row_false_rejection_p(config.gate_probability,
+                                 None if fd is None else fd.nis_threshold)
 
 
-def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
+def row_records(innovations: pd.DataFrame, config, off_network=None) -> pd.DataFrame:
     """The row tests at each epoch of `innovations` (module docstring).
 
     Parameters
@@ -107,6 +111,10 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
         ``innovations.csv`` of the run: ``time_s``, ``epoch``, ``nis``, ``status`` per row.
     config : railnav.config.NavigatorConfig
         Its ``monitor`` thresholds, gate and fault screen.
+    off_network : array of float, optional
+        Times of the epochs whose fix no position on the network explains
+        (`railnav.navigation.spawning.Spawner.frame`'s ``fix_off_network``): rejected
+        whatever the hypotheses, they count for ``degraded`` only.
 
     Returns
     -------
@@ -131,16 +139,22 @@ def row_records(innovations: pd.DataFrame, config) -> pd.DataFrame:
     share = window["rejected"].sum().to_numpy(dtype=float) / rows
     p_row = row_false_rejection(config)
     if p_row is None:
-        p_rejected = np.ones(len(epochs))
+        p_rejected = p_rejected_on = np.ones(len(epochs))
     else:
         q = 1.0 - (1.0 - p_row) ** window["rows"].max().to_numpy(dtype=float)
-        k = (epochs["rejected"] > 0).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
-        p_rejected = binom_sf(np.rint(k), np.minimum(np.arange(1, len(epochs) + 1), n), q)
+        rejected = epochs["rejected"] > 0
+        k = rejected.rolling(n, min_periods=1).sum().to_numpy(dtype=float)
+        seen = np.minimum(np.arange(1, len(epochs) + 1), n)
+        p_rejected = binom_sf(np.rint(k), seen, q)
+        off = np.isin(epochs["time_s"].to_numpy(dtype=float),
+                      np.asarray([] if off_network is None else off_network, dtype=float))
+        k_on = (rejected & ~off).rolling(n, min_periods=1).sum().to_numpy(dtype=float)
+        p_rejected_on = binom_sf(np.rint(k_on), seen, q)
     p_nis = chi2_sf(window["nis"].sum().to_numpy(dtype=float),
                     window["used"].sum().to_numpy(dtype=float))
     cfg = config.monitor
     worst = np.minimum(p_rejected, p_nis)
-    out = np.where((p_rejected < cfg.p_lost) & (share >= cfg.lost_rejected_share),
+    out = np.where((p_rejected_on < cfg.p_lost) & (share >= cfg.lost_rejected_share),
                    STATUSES[2], np.where(worst < cfg.p_degraded, STATUSES[1], STATUSES[0]))
     return pd.DataFrame({"time_s": epochs["time_s"].to_numpy(dtype=float),
                          "status": out.astype(object), "p_rejected": p_rejected,

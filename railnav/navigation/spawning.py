@@ -31,8 +31,11 @@ The evidence of the next epochs then decides between old and new (common basis,
 `railnav.navigation.network_weights`). The window restarts after a spawn, so at most one
 attempt per window (spawn or not: a fix whose candidates all disagree with it too gets
 none, nor a window that the network itself does not explain, `Spawner._on_network`: a
-train on a track the map lacks). The test's outcome per fix epoch is the ``status``
-column of the network run's ``estimates.csv`` (`Spawner.frame`, read by
+train on a track the map lacks). Such a window is not ``lost`` either, only ``degraded``:
+the fixes disagree with the network, not only with the hypotheses (issue 14: the real
+log_28554 ended ``lost`` in the airport tunnel on fixes drifting 20-37 m from every element,
+whose along-track parts agreed with the hypothesis). The test's outcome per fix epoch is
+the ``status`` column of the network run's ``estimates.csv`` (`Spawner.frame`, read by
 `railnav.navigation.monitor.status_at`: the
 divergence monitor's statuses and thresholds, on the navigator's own evidence; runs with
 neither fixes nor GNSS observations have no status column).
@@ -241,7 +244,8 @@ class Spawner:
         self.shares: list[float] = []
         self.fixes_in_window: list[int] = []
         self._last_s = -np.inf
-        #: One per fix epoch: ``time_s, status, p_fix, d2_min, action`` (`frame`).
+        #: One per fix epoch: ``time_s, status, p_fix, d2_min, action, fix_off_network``
+        #: (`frame`).
         self.records: list[tuple] = []
         #: ``(time_s, hypotheses spawned)`` of every spawn.
         self.spawns: list[tuple[float, int]] = []
@@ -266,8 +270,9 @@ class Spawner:
         self.shares.append(share)
         self.fixes_in_window.append(f)
         n = self.nav.spawn_window_epochs
+        off = self.window[-1] > chi2_isf(self.nav.spawn_p_value) and self._off_network(f)
         if len(self.window) < n:                    # after a start or a spawn
-            self.records.append((time_s, "degraded", np.nan, self.window[-1], ""))
+            self.records.append((time_s, "degraded", np.nan, self.window[-1], "", off))
             return hyps
         self.window, self.shares = self.window[-n:], self.shares[-n:]
         self.fixes_in_window = self.fixes_in_window[-n:]
@@ -277,9 +282,14 @@ class Spawner:
         p = float(chdtrc(2.0 * n_eff, sum(self.window) * n_eff / n))
         status = "lost" if p < self.nav.spawn_p_value else \
             "degraded" if p < self.p_degraded else "ok"
-        out = self._spawn(hyps, time_s, f) if status == "lost" and self.nav.spawn else hyps
+        explained = status != "lost" or self.network is None or \
+            self._on_network(self.fixes_in_window, self.shares)
+        out = self._spawn(hyps, time_s, f, explained) if status == "lost" and self.nav.spawn \
+            else hyps
+        if not explained:           # fixes no position on the network explains: not lost
+            status = "degraded"
         self.records.append((time_s, status, p, self.window[-1] if self.window else
-                             float(np.min(d2)), "spawn" if out is not hyps else ""))
+                             float(np.min(d2)), "spawn" if out is not hyps else "", off))
         return out
 
     def _frame(self, f: int):
@@ -289,6 +299,22 @@ class Spawner:
     def _node_points(self, hyps) -> tuple[Array, Array]:
         """The track points of `hyps` from the tracks' nodes (`points` parameter)."""
         return self._nodes.ecef([h.filt.track for h in hyps], [h.s_m for h in hyps])
+
+    def _fix_variance(self, k: int) -> float:
+        """Fix `k`'s horizontal variance's mean plus the map's across, m²."""
+        return 0.5 * float(np.trace(np.asarray(self.fixes.cov_n_m2[k])[:2, :2])) + \
+            self.cross_sigma_m ** 2
+
+    def _off_network(self, k: int) -> bool:
+        """Whether fix `k` is farther from every centre-line than the χ²₂ quantile of
+        `NetworkNavConfig.spawn_p_value` on `_fix_variance`: no position on the network
+        explains it (a receiver's jump or drift), whatever the hypotheses."""
+        if self.network is None:
+            return False
+        radius = math.sqrt(self._fix_variance(k) * chi2_isf(self.nav.spawn_p_value))
+        fx = self.fixes
+        return len(self.network.project(fx.lat[k:k + 1], fx.lon[k:k + 1],
+                                        radius_m=radius)) == 0
 
     def _on_network(self, window: list[int], shares: list[float]) -> bool:
         """Whether the network explains the window's fixes (indices; their evidence
@@ -306,8 +332,7 @@ class Spawner:
         reach = float(chi2_isf(self.nav.spawn_p_value)) * max(n, 1)   # beyond: fails alone
         d2 = np.full(n, reach)
         for j, k in enumerate(window):
-            var = 0.5 * float(np.trace(np.asarray(fx.cov_n_m2[k])[:2, :2])) + \
-                self.cross_sigma_m ** 2
+            var = self._fix_variance(k)
             near = self.network.project(fx.lat[k:k + 1], fx.lon[k:k + 1],
                                         radius_m=math.sqrt(var * reach))
             if len(near):
@@ -321,17 +346,19 @@ class Spawner:
         status`` (``degraded`` while the window fills after a start or a spawn, ``lost``
         below `NetworkNavConfig.spawn_p_value`, ``degraded`` below the monitor's
         ``p_degraded``, else ``ok``), ``p_fix`` (the window's tail probability),
-        ``d2_min`` (the epoch's best ``d_h²``), ``action`` (``spawn`` or empty)."""
+        ``d2_min`` (the epoch's best ``d_h²``), ``action`` (``spawn`` or empty),
+        ``fix_off_network`` (the fix is beyond the ``spawn_p_value`` quantile from every
+        centre-line: rejected whatever the hypotheses, `row_records` counts it for
+        ``degraded`` only)."""
         import pandas as pd
         return pd.DataFrame.from_records(self.records, columns=[
-            "time_s", "status", "p_fix", "d2_min", "action"])
+            "time_s", "status", "p_fix", "d2_min", "action", "fix_off_network"])
 
-    def _spawn(self, hyps: list, time_s: float, f: int) -> list:
+    def _spawn(self, hyps: list, time_s: float, f: int, explained: bool = True) -> list:
         if self.fixes.quality[f] == DEAD_RECKONING:
             return hyps      # no start from an extrapolation: the window waits for a GNSS fix
-        window, shares = self.fixes_in_window, self.shares
         self.window, self.shares, self.fixes_in_window = [], [], []   # one attempt per window
-        if self.network is not None and not self._on_network(window, shares):
+        if not explained:                       # the network does not explain the window
             return hyps
         try:
             t_new, new = self.start(time_s - 1e-3)

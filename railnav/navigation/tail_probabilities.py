@@ -10,7 +10,8 @@ from functools import cache
 
 import numpy as np
 
-__all__ = ["binom_sf", "chi2_cdf", "chi2_isf", "chi2_sf", "sigma_gate"]
+__all__ = ["binom_sf", "chi2_cdf", "chi2_isf", "chi2_sf", "fix_disagreement_tail",
+           "row_false_rejection_p", "sigma_gate"]
 
 
 @cache
@@ -57,3 +58,20 @@ def chi2_sf(values, dofs):
     if isinstance(values, float) or np.ndim(values) == 0:
         return float(chdtrc(dofs, values)) if dofs > 0 else 1.0
     return np.where(dofs > 0, chdtrc(dofs, values), 1.0)
+
+
+def row_false_rejection_p(gate_probability: float | None, nis_threshold: float | None
+                          ) -> float | None:
+    """Probability that a fault-free row is rejected: by the fault screen's row test
+    (``P(χ²₁ > nis_threshold)``) or the χ² row gate (``1 − gate_probability``), a union
+    bound; None where neither rejects rows (the rejected-row tests are then off)."""
+    p = 0.0 if gate_probability is None else 1.0 - float(gate_probability)
+    if nis_threshold is not None:
+        p += float(_special().chdtrc(1.0, float(nis_threshold)))
+    return p if p > 0.0 else None
+
+
+def fix_disagreement_tail(d2_sum: float, d_sum: float, n: int) -> float:
+    """The monitor's fix-disagreement tail of `n` fixes: ``Σ d²`` against χ²ₙ and the signed
+    mean ``(Σ d)²/n`` against χ²₁, the smaller tail doubled (Bonferroni)."""
+    return min(1.0, 2.0 * min(chi2_sf(d2_sum, n), chi2_sf(d_sum ** 2 / max(n, 1), min(n, 1))))

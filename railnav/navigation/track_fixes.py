@@ -235,7 +235,7 @@ def _spp_on_track(track, data, spp, filt) -> TrackFixes | None:
             v_e=spp.v_e[k], clock_bias_m={n: float(spp.clock_bias_m[n][k])
                                           for n in spp.systems},
             clock_drift_mps=float(spp.clock_drift_mps[k]), cov_enu_m2=spp.cov_enu_m2[k],
-            cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k]))
+            cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k]), restart=True)
     return fixes.with_start(start)
 
 
@@ -328,6 +328,6 @@ def fix_log_track_fixes(track, fixes, *, filt=None, config=None) -> TrackFixes |
     from railnav.navigation.fix_start import initial_at_fix
 
     def start(i: int) -> tuple[Array, Array]:
-        initial = initial_at_fix(filt, fixes, i, config)
+        initial = initial_at_fix(filt, fixes, i, config, restart=True)
         return initial.x0, initial.P0
     return out.with_start(start)

@@ -58,13 +58,15 @@ def _feed(monitor, times, s_prior, var_prior=0.0):
 
 @pytest.mark.parametrize("margin, expected", [(-1e-6, "degraded"), (1e-6, "lost")])
 def test_lost_threshold_is_the_chi2_quantile(margin, expected):
-    """Ten epochs whose fix disagreements square-sum to the χ²₁₀ quantile of p_lost/2
-    (the fix test's tail is doubled, Bonferroni over its two statistics) ± a hair: the
-    10th epoch is lost just above it, only degraded just below (and not ok: p < 1e-3)."""
+    """Ten epochs of equal |fix disagreement|, the nine other than the largest (the
+    first) square-summing to the χ²₉ quantile of p_lost/2 (the fix test's tail is doubled,
+    Bonferroni over its two statistics; ``lost`` needs the window to fail without its
+    worst fix) ± a hair: the 10th epoch is lost just above it, only degraded just below
+    (and not ok: p < 1e-3). The recorded p_fix is the whole window's."""
     cfg = MonitorConfig(recover=False)
-    total = stats.chi2.isf(cfg.p_lost / 2, 10) * (1 + margin)
-    # alternating signs: the signed-mean statistic stays 0
-    d = np.sqrt(total / 10) * np.array([1, -1] * 5)
+    total = stats.chi2.isf(cfg.p_lost / 2, 9) * (1 + margin) * 10 / 9
+    # alternating signs: the signed mean of the nine stays small; the first a hair larger
+    d = np.sqrt(total / 10) * np.array([1, -1] * 5) * np.r_[1.0 + 1e-9, np.ones(9)]
     times = np.arange(10.0)
     monitor = FilterMonitor(LAYOUT, _fixes(times, d), cfg, gate_probability=None)
     frame = _feed(monitor, times, np.zeros(10))
@@ -86,16 +88,22 @@ def test_consistent_fixes_raise_few_alarms(rng):
 
 
 def test_offset_filter_is_lost_and_restarted_at_the_fix():
-    """A prior 30 m (30σ) off the fixes: the first epoch already fails at 1e-6 (30² ≫ the
-    χ²₁ quantile, 23.9 with the doubled tail), and the state is re-initialised at the fix
-    (σ floored at 1 m)."""
+    """A prior 30 m (30σ) off the fixes: the first epoch fails at 1e-6 (30² ≫ the χ²₁
+    quantile, 23.9 with the doubled tail) but one fix cannot tell its own fault from the
+    filter's: ``degraded``, the state kept. The second fix agrees with the first: ``lost``
+    (the window without its worst fix still fails), and the state is re-initialised at
+    the fix (σ floored at 1 m)."""
     times = np.arange(5.0)
     monitor = FilterMonitor(LAYOUT, _fixes(times, np.zeros(5)), MonitorConfig(recover=True),
                             gate_probability=None)
     x, P = np.array([30.0, 0.0]), np.diag([0.0, 1.0])
     monitor.prior(0.0, x, P)
-    x_new, P_new = monitor.epoch(_chunk(0.0), x, P)
-    assert monitor.records[0]["status"] == "lost" and monitor.records[0]["action"] == "reinit"
+    assert monitor.epoch(_chunk(0.0), x, P) is None
+    assert monitor.records[0]["status"] == "degraded" and monitor.records[0]["action"] == ""
+    assert monitor.records[0]["p_fix"] < MonitorConfig().p_lost
+    monitor.prior(1.0, x, P)
+    x_new, P_new = monitor.epoch(_chunk(1.0), x, P)
+    assert monitor.records[1]["status"] == "lost" and monitor.records[1]["action"] == "reinit"
     assert x_new[0] == 0.0 and P_new[0, 0] == pytest.approx(1.0)
 
 
@@ -236,7 +244,7 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     """The same circle with a filter that is really off: started 50 m ahead of the truth
     with σ_s 1 m, or with IMU biases (0.5 m/s², 0.01 rad/s) it is not told of. Every epoch
     whose true along-track error exceeds 3σ_s is flagged, and the run ends ``lost`` (the
-    offset one from its first epoch; the bias shows first in the pseudo-observation NIS,
+    offset one from its second epoch; the bias shows first in the pseudo-observation NIS,
     ``degraded``, and is ``lost`` once its fix disagreement accumulates)."""
     from railnav.evaluation.metrics import error_series
     from railnav.jobs.run import truth_start
@@ -265,14 +273,16 @@ def test_high_speed_circle_diverged_filter_is_flagged(fault):
     beyond = np.abs(rows["along_track_m"]) > 3 * rows["sigma_s_m"]
     assert beyond.sum() >= 10                                   # really off
     assert (rows.loc[beyond, "status"] != "ok").all()
-    if fault == "offset":                    # 50σ off at once: lost at the first epoch
-        assert rows.loc[rows.index[beyond][0], "status"] == "lost"
+    if fault == "offset":                    # 50σ off at once: lost from the second epoch
+        assert beyond.iloc[0]                # (one fix cannot tell its fault from the filter's)
+        assert list(result.monitor["status"].iloc[:2]) == ["degraded", "lost"]
     assert result.final_status == "lost"     # the bias: degraded first, then lost
 
 
-def ring_restart_run():
-    """The R = 100 m ring at 100 m/s (`_circle_scenario`, seed 1), started 50 m ahead of the
-    truth with σ_s 1 m and recovery on (the default): ``(NavigationResult, Trip)``."""
+def ring_restart_run(start_time_s: float = 0.0):
+    """The R = 100 m ring at 100 m/s (`_circle_scenario`, seed 1), started at
+    `start_time_s` (the straight ends at 10 s) 50 m ahead of the truth with σ_s 1 m and
+    recovery on (the default): ``(NavigationResult, Trip)``."""
     from railnav.jobs.run import truth_start
     from railnav.navigation.navigator import navigate
     from railnav.simulation.trip import simulate_trip
@@ -281,10 +291,13 @@ def ring_restart_run():
     assert config.monitor.recover
     trip = simulate_trip(_circle_scenario(), track=_circle_track(0.3), seed=1)
 
+    k = int(np.searchsorted(trip.truth.time_s, start_time_s - 1e-9))
+
     def start(filt):
-        x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][0].copy()
+        x = filt.truth_states(trip.truth, *trip.clock_truth(trip.truth.time_s))[0][k].copy()
         x[filt.layout.index("s")] += 50.0
-        return truth_start(filt, trip, config, x_true=x)
+        return replace(truth_start(filt, trip, config, x_true=x),
+                       time_s=float(trip.truth.time_s[k]))
     return navigate(trip.track, trip.sensor_data(), config, initial=start), trip
 
 
@@ -302,6 +315,27 @@ def test_a_restart_on_a_ring_stays_on_the_filters_lap():
     assert np.abs(err[est["time_s"].to_numpy() > 12.0]).max() < 3.0
     assert result.final_status == "ok"
 
+
+
+def test_a_restart_takes_the_fixs_own_sigma():
+    """`ring_restart_run` from 0 s: the monitor restarts the filter once, from the
+    single-point fix of the second epoch that disagrees (1 s, on the straight). The
+    scenario's start σ (σ_v 0.1 m/s, `navigator_config_for`, for its start from the truth)
+    is not the fix's: its speed from the fix's Doppler is 0.41 m/s off. With the fix's own
+    σ the restarted speed is within 3σ of the simulation's, and σ_s holds after: ≤ 1 % of
+    the estimates beyond 3σ_s against the truth (with the start's σ: 80 %, |error| 3 m at
+    σ_s 0.9 m on the straight, then 0.26 m at 0.07 m to the end, ``ok``)."""
+    result, trip = ring_restart_run()
+    restarts = result.monitor.loc[result.monitor["action"] == "reinit", "time_s"]
+    assert list(restarts) == [1.0]
+    est = result.estimates
+    after = est[est["time_s"] > 1.0]
+    first = after.iloc[0]
+    v_true = np.interp(first["time_s"], trip.truth.time_s, trip.truth.v)
+    assert abs(first["speed_mps"] - v_true) <= 3.0 * first["sigma_speed_mps"]
+    err = after["s_m"].to_numpy() - np.interp(after["time_s"], trip.truth.time_s,
+                                              trip.truth.s)
+    assert np.mean(np.abs(err) > 3.0 * after["sigma_s_m"].to_numpy()) <= 0.01
 
 
 def test_a_speed_far_off_is_lost_at_once_by_its_range_rates(paper_track, monkeypatch):
@@ -406,10 +440,16 @@ def _kind_tail(screened, gate):
     return tail
 
 
-def _reference_statuses(inputs):
+def _reference_statuses(inputs, nav_config):
     """The module docstring's tests computed the plain way: per-epoch sums in Python,
-    windows as lists, scipy.stats tails; the windows restart after a recovery."""
-    cfg, p_reject = inputs[0]["config"], inputs[0]["p_reject"]
+    windows as lists, scipy.stats tails; the windows restart after a recovery. The
+    rejected-row test counts epochs with a row rejected by the fault screen or the gate,
+    each rejected with probability ``q = 1 − (1 − p_row)^m`` (``m`` the window's most rows
+    in an epoch, ``p_row`` the screen's χ²₁ tail plus the gate's); ``lost`` from the fix
+    test needs the window to fail without its largest ``d²``."""
+    cfg = inputs[0]["config"]
+    p_reject = (1.0 - nav_config.gate_probability) + float(
+        stats.chi2.sf(nav_config.fault_detection.nis_threshold, 1))
     window, small, seen, out = [], [], 0, []
     shared = 0.0       # the prior's share of an error common to the fixes (small_disagreement)
     for e in inputs:
@@ -431,7 +471,12 @@ def _reference_statuses(inputs):
             shared = (1.0 - gain) * shared + gain * np.sqrt(var_fix)
         acc = e["accepted"]
         nis = [nu * nu / s for nu, s, a in zip(e["innov"], e["S"], acc) if a]
-        window = (window + [dict(nis=sum(nis), n_acc=len(nis), n_rej=int(len(acc) - len(nis)),
+        screened = e["kind"]                    # the screen's epoch when it ran, else None
+        screen_rej = 0 if screened is None else int(sum(st == "rejected"
+                                                        for st in screened.status))
+        rows = max(len(acc), 0 if screened is None else len(screened.status))
+        n_rej_e = int(len(acc) - len(nis)) + screen_rej
+        window = (window + [dict(nis=sum(nis), n_acc=len(nis), n_rej=n_rej_e, rows=rows,
                                  d=d, nis_c=e["nis_c"], nis_c_dof=e["nis_c_dof"])])[
             -cfg.window_epochs:]
         small = (small + [d_raw])[-cfg.small_window_epochs:]
@@ -443,13 +488,21 @@ def _reference_statuses(inputs):
 
         def sf(value, dof):
             return float(stats.chi2.sf(value, dof)) if dof > 0 else 1.0
+
+        def fix_tail(values):
+            return min(1.0, 2.0 * min(sf(sum(v * v for v in values), len(values)),
+                                      sf(sum(values) ** 2 / max(len(values), 1),
+                                         min(len(values), 1))))
+        worst = int(np.argmax([v * v for v in ds_])) if ds_ else 0
+        p_fix_lost = fix_tail(ds_[:worst] + ds_[worst + 1:]) if len(ds_) >= 2 else 1.0
+        epochs_with_rows = [w for w in window if w["rows"] > 0]
+        k_rej = sum(w["n_rej"] > 0 for w in window)
+        q = 1.0 - (1.0 - p_reject) ** max(w["rows"] for w in window)
         tails = {
             "p_gnss_nis": sf(sum(w["nis"] for w in window), n_acc),
-            "p_rejected": 1.0 if p_reject is None or n_rej == 0 else
-            float(stats.binom.sf(n_rej - 1, n_acc + n_rej, p_reject)),
-            "p_fix": min(1.0, 2.0 * min(sf(sum(v * v for v in ds_), len(ds_)),
-                                        sf(sum(ds_) ** 2 / max(len(ds_), 1),
-                                           min(len(ds_), 1)))),
+            "p_rejected": 1.0 if k_rej == 0 else
+            float(stats.binom.sf(k_rej - 1, len(epochs_with_rows), q)),
+            "p_fix": fix_tail(ds_),
             "p_pseudo_nis": sf(sum(w["nis_c"] for w in window),
                                sum(w["nis_c_dof"] for w in window)),
             "p_fix_small": float(stats.chi2.cdf(sum(v * v for v in raw), len(raw)))
@@ -458,7 +511,7 @@ def _reference_statuses(inputs):
             "fix_disagreement_sigma": abs(d) if np.isfinite(d) else np.nan,
             "variance_factor": sum(v * v for v in ds_) / len(ds_) if ds_ else np.nan}
         share = n_rej / (n_acc + n_rej) if n_acc + n_rej else 0.0
-        if min(tails["p_fix"], tails["p_kind_rejected"]) < cfg.p_lost or (
+        if min(p_fix_lost, tails["p_kind_rejected"]) < cfg.p_lost or (
                 tails["p_rejected"] < cfg.p_lost and share >= cfg.lost_rejected_share):
             status = "lost"
         elif min(tails[k] for k in ("p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
@@ -487,7 +540,7 @@ def test_monitor_windows_equal_a_plain_recomputation(monkeypatch, paper_track, c
                                             gyro_bias_radps=0.01, name="biased"))
         config = replace(config, monitor=replace(config.monitor, recover=True))
     inputs = _epoch_inputs(monkeypatch, paper_track, sc, config)
-    reference = _reference_statuses(inputs)
+    reference = _reference_statuses(inputs, config)
     assert len(inputs) >= 55
     statuses = [e["record"]["status"] for e in inputs]
     assert statuses == [status for _, status, _ in reference]

@@ -171,6 +171,40 @@ def test_rows_used_leave_the_spawn_tests_status(heights_runs):
     assert (res.estimates["status"] == "ok").sum() == (expected == "ok").sum()
 
 
+def test_fixes_off_every_track_are_not_lost(tmp_path):
+    """Issue 14 (log_28554 in the airport tunnel, log_29083's jumps): carrier-fixed fixes
+    drifting 30 m north of the only netelement (no position on the network explains them,
+    `Network.project`) for 20 s: every row rejected, the navigator dead-reckons. Its σ_s
+    holds: the error against the fixes' true place on the element (`write_fixes`:
+    ``x = 100 m + 10 m/s · t``) is within 3σ_s at every estimate. Such fixes were ``lost``
+    (the rows' test and the spawn test); they are rejected whatever the hypotheses:
+    ``degraded`` from the stretch's second epoch, never ``lost``."""
+    path = write_fixes(tmp_path / "fixes.csv")
+    table = pd.read_csv(path)
+    t = table["gps_time_s"] - table["gps_time_s"].iloc[0]
+    off = (t >= 30.0) & (t < 50.0)
+    table.loc[off, "lat_deg"] += 30.0 / 111_200.0
+    table.to_csv(path, index=False, float_format="%.12f")
+    net = load_network(write_geojson(tmp_path / "net.geojson", heights=False))
+    near = net.project(table["lat_deg"].to_numpy()[off], table["lon_deg"].to_numpy()[off],
+                       radius_m=25.0)
+    assert len(near) == 0                                       # off every track
+    res = run_files_network(Network(net.elements, [], heights=False),
+                            fixes_path=path).network_result
+    rows = res.innovations
+    t0 = float(res.estimates["time_s"].iloc[0])
+    in_off = (rows["time_s"] - t0 >= 30.0 - 1e-6) & (rows["time_s"] - t0 < 50.0 - 1e-6)
+    assert in_off.sum() >= 40 and (rows.loc[in_off, "status"] == "rejected").all()
+    est = res.estimates
+    te = est["time_s"].to_numpy() - t0
+    err = est["netelement_offset_m"].to_numpy() - (100.0 + 10.0 * te)
+    stretch = (te >= 30.0) & (te < 50.0)
+    assert np.all(np.abs(err[stretch]) <= 3.0 * est["sigma_s_m"].to_numpy()[stretch])
+    status = est["status"].to_numpy()
+    assert "lost" not in set(status)
+    assert (status[(te >= 31.0) & (te < 50.0)] == "degraded").all()
+
+
 def test_pseudo_nis_and_its_window():
     """The cycle's NIS with each step's 2×2 covariance inverted by hand (adjugate over the
     determinant); the window's tail against SciPy's χ² of the summed NIS and steps × 2

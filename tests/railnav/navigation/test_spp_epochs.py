@@ -252,8 +252,8 @@ def wrong_start_runs():
     spawned = []
     original = spawning.Spawner._spawn
 
-    def spy(self, hyps, time_s, f):
-        out = original(self, hyps, time_s, f)
+    def spy(self, hyps, time_s, f, *more):
+        out = original(self, hyps, time_s, f, *more)
         spawned.extend((time_s, h.index("clock_bias"), h.x.copy(), h.P.copy())
                        for h in out[len(hyps):])
         return out
