@@ -43,8 +43,8 @@ def fix_hint_lines(summary: dict) -> list[str]:
 def report(outcome, out: Path) -> str:
     """A few lines for the terminal: what ran and the headline errors."""
     s = outcome.summary
-    lines = [f"{s['filter']} filter: {s['steps']} steps, {s['statistics']['gnss_epochs']} GNSS "
-             f"epochs in {s['runtime_s']:.2f} s -> {out}/"]
+    lines = [f"{s['filter']} filter: {s['steps']} steps, {_epochs(outcome)} in "
+             f"{s['runtime_s']:.2f} s -> {out}/"]
     left = s.get("left_track")
     if left:
         lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
@@ -86,6 +86,24 @@ def report(outcome, out: Path) -> str:
                      f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
                      "heights disagree")
     return "\n".join(lines)
+
+
+def _epochs(outcome) -> str:
+    """The run's measurement epochs: ``N GNSS epochs``; with odometer or balise rows (whose
+    epochs are measurement epochs too, ``summary.json`` ``gnss_epochs`` counts them all),
+    how many have a row of each kind (an epoch can have several)."""
+    stats = outcome.summary["statistics"]
+    if "odometer" not in stats and "balises" not in stats:
+        return f"{stats['gnss_epochs']} GNSS epochs"
+    from railnav.filters.balise_rows import BALISE_ROW_KIND   # CasADi: after the run only
+    from railnav.filters.odometer_rows import ODOMETER_ROW_KINDS
+    inn = outcome.result.innovations
+    kinds = {"GNSS": ~inn["kind"].isin([*ODOMETER_ROW_KINDS, BALISE_ROW_KIND]),
+             "odometer": inn["kind"].isin(ODOMETER_ROW_KINDS),
+             "balise": inn["kind"] == BALISE_ROW_KIND}
+    counts = ", ".join(f"{inn.loc[rows, 'epoch'].nunique()} {name}"
+                       for name, rows in kinds.items())
+    return f"{stats['gnss_epochs']} measurement epochs ({counts})"
 
 
 def _number(value, fmt: str) -> str:

@@ -162,3 +162,21 @@ def test_odometer_missing_the_run_is_an_error(trip, tmp_path, capsys):
                  "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "odometer times [5000.0, 5001.0] s miss the run" in err
+
+
+def test_report_counts_each_kind_of_epoch(trip, tmp_path, capsys):
+    """Audit finding: with fixes, an odometer and balises the report said '<all measurement
+    epochs> GNSS epochs'. Now each kind's epochs: the GNSS ones are the fixes (GGA
+    sentences of fixes.nmea), the balise ones the passages of balises.csv."""
+    out = tmp_path / "o"
+    assert main(["run", CURVY, "--fixes", str(trip / "fixes.nmea"), "--odometer",
+                 str(trip / "odometer.csv"), "--balises", str(trip / "balises.csv"),
+                 "--no-plots", "--out", str(out)]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    n_fixes = sum(line[3:6] == "GGA" for line in (trip / "fixes.nmea").read_text().split())
+    n_balises = len(pd.read_csv(trip / "balises.csv"))
+    stats = json.loads((out / "summary.json").read_text())["statistics"]
+    assert stats["fix_epochs"] == n_fixes
+    assert (f"{stats['gnss_epochs']} measurement epochs ({n_fixes} GNSS, "
+            f"{stats['odometer']['rows']} odometer, {n_balises} balise)") in head
+    assert "GNSS epochs" not in head
