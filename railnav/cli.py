@@ -32,6 +32,11 @@ __all__ = ["main", "console_main", "build_parser"]
 USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, FilterError,
                OSError)
 
+#: What ``-q`` does, for every command: the report on stdout is the command's result (what
+#: it wrote, the figures it found) and stays; ``2>/dev/null`` or ``>/dev/null`` silence more.
+QUIET_HELP = ("no progress bars, and log messages on stderr only for warnings and errors "
+              "(even with -v); the report on stdout is still printed")
+
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
 #: Ctrl-C (128 + SIGINT, as shells report it).
@@ -58,8 +63,7 @@ def _add_global_flags(parser: argparse.ArgumentParser, *, top: bool) -> None:
     extra = {} if top else {"default": argparse.SUPPRESS}
     parser.add_argument("-v", "--verbose", action="count", help="more log output (-vv for "
                         "debug)", **({"default": 0} if top else extra))
-    parser.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress bars, warnings and errors only", **extra)
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP, **extra)
     parser.add_argument("--debug", action="store_true",
                         help="show the traceback of an error", **extra)
 
