@@ -36,6 +36,7 @@ from railnav.evaluation.metrics import (
     error_series,
     summarize,
 )
+from railnav.evaluation.reference import read_reference
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.jobs.plot_worker import Figure, PlotHelper, draw
 from railnav.jobs.scoring import (
@@ -292,7 +293,7 @@ def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, wi
     """A file run's outcome: scored against `truth_path` when there is one."""
     score = None if truth_path is None else functools.partial(
         score_run, track=track, truth_path=truth_path, start_gps_time_s=data.start_gps_time_s,
-        quality=truth_quality)
+        quality=truth_quality, reference=_reference(track, data, truth_path, truth_quality))
     errors, extra = None, {}
     if score is not None:
         errors, extra["reference"] = score(result)
@@ -304,6 +305,17 @@ def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, wi
                                                     extra), errors, data=data)
     return smooth_outcome(outcome, score and (lambda r: score(r)[0]), window=window) \
         if smooth else outcome
+
+
+def _reference(track, data: SensorData, truth_path, truth_quality):
+    """The reference file read once for the run and its smoothed twin; the run's own fix
+    file, given as its reference, is not read again."""
+    try:
+        same = data.fixes is not None and os.path.samefile(data.fixes.path, truth_path)
+    except OSError:                          # a missing file: read_reference says which
+        same = False
+    return read_reference(truth_path, track, start_gps_time_s=data.start_gps_time_s,
+                          quality=truth_quality, fixes=data.fixes if same else None)
 
 
 def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat_lon_h,

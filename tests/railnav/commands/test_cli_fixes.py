@@ -330,3 +330,21 @@ def test_correlated_fix_errors_only_on_one_track(tmp_path, capsys, where):
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("error: ") and "one track only" in err
     assert "\n" not in err and not (tmp_path / "o").exists()
+
+
+def test_own_fix_file_as_reference_with_smooth_warns_once(tmp_path, capsys):
+    """Audit finding: ``--fixes F --truth F --smooth`` read F three times (the run, its
+    score, the smoothed twin's score): each warning of the reader printed three times,
+    the reference's twice. Now F is read once. The excerpt of log 29083 has a row whose
+    solution status is not SOL_COMPUTED (no fix) and its carrier-fixed rows are off the
+    track."""
+    log_file = EXCERPTS / "log_29083_L36-A_excerpt.csv"
+    table = pd.read_csv(log_file)
+    no_fix = int((table["solution_status"] != "SOL_COMPUTED").sum())
+    assert main(["run", str(BRUSSELS / "log_29083_L36-A.csv"), "--fixes", str(log_file),
+                 "--truth", str(log_file), "--smooth", "--no-plots",
+                 "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    read = [line for line in err if "fixes read; skipped" in line]
+    assert len(read) == 1 and read[0].endswith(f"skipped {no_fix} no fix")
+    assert sum("agrees with the track: no reference" in line for line in err) == 1
