@@ -62,7 +62,7 @@ def report(outcome, out: Path) -> str:
                      f"{ref['estimates_compared']} estimates compared")
     errors = s.get("errors")
     if errors and errors["all"]["along_track_m"]["rms"] is None:
-        lines.append("  no estimate has a reference sample: no errors")
+        lines.append("  no reference: no estimate has a reference sample (no errors.csv)")
     elif errors:
         a = errors["all"]
         lines.append(f"  along-track RMS {a['along_track_m']['rms']:.3f} m, max "
@@ -73,7 +73,9 @@ def report(outcome, out: Path) -> str:
             lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
                          f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
     smoothed = (s.get("smoothed") or {}).get("errors")
-    if smoothed:
+    if smoothed and smoothed["all"]["along_track_m"]["rms"] is None:
+        lines.append("  smoothed (RTS): no reference (no smoothed_errors.csv)")
+    elif smoothed:
         a = smoothed["all"]
         lines.append(f"  smoothed (RTS): along-track RMS {_number(a['along_track_m']['rms'], '.3f')}"
                      f" m, max {_number(a['along_track_m']['max'], '.3f')} m; speed RMS "

@@ -8,7 +8,8 @@
   a reference trajectory or a fix file: `railnav.jobs.scoring`), given or found beside
   ``railnav simulate``'s files, is used for the errors;
 * `write_run` writes ``estimates.csv``, ``innovations.csv``, ``summary.json`` (+ ``errors.csv``
-  with a truth, ``smoothed.csv`` with ``smooth=True``) and the plots, each file atomically.
+  with a truth that has samples of the run, ``smoothed.csv`` with ``smooth=True``) and the
+  plots, each file atomically.
 """
 from __future__ import annotations
 
@@ -366,7 +367,7 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
 
     csv("estimates.csv", outcome.result.estimates)
     csv("innovations.csv", outcome.result.innovations)
-    if outcome.errors is not None:
+    if outcome.errors is not None and outcome.errors.compared:
         csv("errors.csv", outcome.errors.to_frame())
     written += write_smoothed(outcome.smoothed, out)
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
@@ -379,14 +380,15 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
 
 
 def run_figures(outcome: RunOutcome, out: Path) -> list[Figure]:
-    """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth,
-    else ``estimates.png``; ``track.png``. Their arguments are what the figures read: the
+    """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth that
+    has samples of the run, else ``estimates.png``; ``track.png``. Their arguments are what the figures read: the
     result without its raw filter output and filter object (not drawn, and the largest
     part to send to a helper process)."""
     result = replace(outcome.result, raw=None, filter_object=None)
     plots = "railnav.evaluation.plots"
     first = (Figure(f"{plots}.plot_errors", (outcome.errors, result, out / "errors.png"),
-                    path=out / "errors.png") if outcome.errors is not None else
+                    path=out / "errors.png") if outcome.errors is not None
+             and outcome.errors.compared else
              Figure(f"{plots}.plot_estimates", (result, out / "estimates.png"),
                     path=out / "estimates.png"))
     return [first, Figure(f"{plots}.plot_track_estimate",

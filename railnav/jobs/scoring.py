@@ -15,8 +15,6 @@ import json
 import logging
 from pathlib import Path
 
-import numpy as np
-
 from gnss_obs.gpstime import gps_time_s_to_utc_iso
 from gnss_obs.sim_events import Outage
 from railnav.errors import ConfigError
@@ -100,7 +98,7 @@ def score_run(result, track, truth_path, *, start_gps_time_s: float, quality=Non
         reference = read_reference(truth_path, track, start_gps_time_s=start_gps_time_s,
                                    quality=quality)
     errors = reference_errors(result, reference, track)
-    compared = int(np.isfinite(errors.along_track_m).sum())
+    compared = errors.compared
     log.info("%s: %d estimates compared", truth_path, compared)
     return errors, {**reference.report, "estimates_compared": compared}
 

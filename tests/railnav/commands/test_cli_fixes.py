@@ -348,3 +348,24 @@ def test_own_fix_file_as_reference_with_smooth_warns_once(tmp_path, capsys):
     read = [line for line in err if "fixes read; skipped" in line]
     assert len(read) == 1 and read[0].endswith(f"skipped {no_fix} no fix")
     assert sum("agrees with the track: no reference" in line for line in err) == 1
+
+
+def test_a_reference_without_samples_writes_no_error_files(tmp_path, capsys):
+    """Audit finding: a reference none of whose samples is usable (log 29083's carrier-fixed
+    rows, all 90-200 m off the track) gave errors.csv and smoothed_errors.csv of empty rows
+    and 'RMS n/a m'. Now neither is written and the report says 'no reference'."""
+    log_file = EXCERPTS / "log_29083_L36-A_excerpt.csv"
+    carrier_fixed = int((pd.read_csv(log_file)["position_type"] == "NARROW_INT3").sum())
+    out = tmp_path / "o"
+    assert main(["run", str(BRUSSELS / "log_29083_L36-A.csv"), "--fixes", str(log_file),
+                 "--truth", str(log_file), "--smooth", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reference"]["candidates"] == summary["reference"]["off_track"] \
+        == carrier_fixed
+    assert summary["reference"]["estimates_compared"] == 0
+    assert "n/a" not in text and "no reference: no estimate has a reference sample" in text
+    assert "smoothed (RTS): no reference" in text
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["estimates.csv", "innovations.csv", "smoothed.csv", "summary.json",
+         "estimates.png", "track.png"])
