@@ -14,6 +14,7 @@ import importlib
 import logging
 import os
 import pkgutil
+import re
 import sys
 import threading
 from collections.abc import Sequence
@@ -26,7 +27,7 @@ from railnav.errors import PlottingError, RailnavError
 from strapdown.errors import StrapdownError
 from trackmodel.errors import InputError, TrackError
 
-__all__ = ["main", "console_main", "build_parser"]
+__all__ = ["main", "console_main", "build_parser", "flag_names"]
 
 #: Errors a user's input can cause: one line, exit 2.
 USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, FilterError,
@@ -123,10 +124,30 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
                         stream=sys.stderr, force=True)
 
 
-def _one_line(exc: BaseException) -> str:
+def _one_line(exc: BaseException, parser: argparse.ArgumentParser) -> str:
     if isinstance(exc, OSError) and exc.filename is not None:
         return f"{exc.filename}: {exc.strerror or exc}"
-    return " ".join(str(exc).split()) or type(exc).__name__
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    flags = flag_names(parser)
+    for name in getattr(exc, "arguments", ()):
+        flag = flags.get(name, flags.get(name.removesuffix("_path")))
+        if flag is not None:
+            text = re.sub(rf"\b{name}\b", flag, text)
+    return text
+
+
+def flag_names(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Each destination of `parser`'s options and its subcommands' and its flag
+    (``start_gps_time_s`` -> ``--start-gps-time-s``): how a library error that names its
+    arguments (`railnav.errors.RailnavError.arguments`) reads on the command line; a
+    library argument ``X_path`` is the flag of ``X`` (``imu_path`` -> ``--imu``)."""
+    names = {}
+    for p in [parser, *_subparsers(parser)]:
+        for action in p._actions:
+            longs = [o for o in action.option_strings if o.startswith("--")]
+            if longs:
+                names.setdefault(action.dest, longs[0])
+    return names
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -144,12 +165,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FilterDivergedError, PlottingError) as exc:
         if args.debug:
             raise
-        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        print(f"error: {_one_line(exc, parser)}", file=sys.stderr)
         return EXIT_FAILURE
     except USER_ERRORS as exc:
         if args.debug:
             raise
-        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        print(f"error: {_one_line(exc, parser)}", file=sys.stderr)
         return EXIT_USAGE
 
 

@@ -57,10 +57,15 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
     Raises
     ------
     ConfigError
-        Observations without navigation data (or the reverse); a recorded IMU file
-        without the noise the filter should assume, or with two of them.
+        No sensor file; observations without navigation data (or the reverse); a
+        recorded IMU file without the noise the filter should assume, or with two of
+        them.
     """
     check_gnss_pair(obs_path, nav_path)
+    if imu_path is None and obs_path is None and fixes_path is None:
+        raise ConfigError("no sensor data: give imu_path, obs_path with nav_path, or "
+                          "fixes_path", arguments=("imu_path", "obs_path", "nav_path",
+                                                   "fixes_path"))
     filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
     imu_log = read_imu_file(imu_path, imu_spec) if imu_path is not None else None
     if config is None:
@@ -135,8 +140,9 @@ def _default_file_config(imu_path, obs_path, fixes_path, filter: str, systems: s
                                                 initial_v_sigma_mps=None, **extra)
     if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
         raise ConfigError(f"{imu_path}: a recorded IMU file needs the noise the filter "
-                          f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))}) or "
-                          "an --imu-spec with a [noise] table")
+                          f"assumes: give imu_grade ({', '.join(sorted(IMU_GRADES))}) or "
+                          "an imu_spec with a [noise] table",
+                          arguments=("imu_grade", "imu_spec"))
     grade = {} if imu_grade is None else {"imu_errors": imu_grade}
     return NavigatorConfig(filter=filter, **grade,
                            measurement=MeasurementConfig(systems=systems or DEFAULT_SYSTEMS))
@@ -159,7 +165,9 @@ def _start_time(imu_path, imu_log, obs, fixes, fixes_path) -> float:
         starts.append(float(fixes.table["gps_time_s"].iloc[0]))
     if starts:
         return min(starts)
-    raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")
+    raise ConfigError("cannot tell when the trip starts (no GNSS observations or fixes, and "
+                      "the IMU log has no GPS time): give start_gps_time_s",
+                      arguments=("start_gps_time_s",))
 
 
 def sensor_summary(data: SensorData) -> dict:
