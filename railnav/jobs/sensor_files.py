@@ -89,12 +89,21 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
 def read_imu_file(path, spec=None):
     """An IMU log read with its spec (`strapdown.imu_spec.ImuSpec`, a TOML path, or None:
     railnav's ``imu.csv``), timing checked and plausibility tested
-    (`strapdown.imu_log.read_imu_log`); gaps are logged."""
+    (`strapdown.imu_log.read_imu_log`); gaps are logged. A log without the ``imu.csv``
+    columns, read without a spec, is a `ConfigError` that says a spec reads it."""
+    from strapdown.errors import ImuColumnsError
     from strapdown.imu_log import read_imu_log
     from strapdown.imu_spec import ImuSpec, read_imu_spec
     if spec is not None and not isinstance(spec, ImuSpec):
         spec = read_imu_spec(spec)
-    imu_log = read_imu_log(path, spec)
+    try:
+        imu_log = read_imu_log(path, spec)
+    except ImuColumnsError as exc:
+        if spec is not None:
+            raise
+        raise ConfigError(f"{exc}; a log with other columns is read with imu_spec (a TOML "
+                          "file naming its columns and units)",
+                          arguments=("imu_spec",)) from None
     if imu_log.gaps:
         log.warning("%s: %d gaps in the IMU samples (longest %.3f s at t = %.2f s), "
                     "%d samples missing at %.0f Hz", path, len(imu_log.gaps),

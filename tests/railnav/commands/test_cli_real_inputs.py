@@ -180,3 +180,24 @@ def test_report_counts_each_kind_of_epoch(trip, tmp_path, capsys):
     assert (f"{stats['gnss_epochs']} measurement epochs ({n_fixes} GNSS, "
             f"{stats['odometer']['rows']} odometer, {n_balises} balise)") in head
     assert "GNSS epochs" not in head
+
+
+def test_a_logger_file_without_a_spec_names_both_column_sets(trip, tmp_path, capsys):
+    """Audit finding: an IMU log with its own column names, given without --imu-spec, got
+    'missing columns X (imu.csv has X)': the expected names twice, the file's not at all,
+    and no word of --imu-spec. Now the missing ones, the file's, and the flag."""
+    from strapdown.imu import IMU_COLUMNS
+    theirs = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+    imu = pd.read_csv(trip / "imu.csv")
+    imu.columns = theirs
+    imu.to_csv(tmp_path / "logger.csv", index=False)
+    code = main(["run", CURVY, "--imu", str(tmp_path / "logger.csv"), "--fixes",
+                 str(trip / "fixes.nmea"), "--imu-grade", "tactical", "--out",
+                 str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    header = (tmp_path / "logger.csv").read_text().splitlines()[0]
+    assert code == 2 and "\n" not in err and not (tmp_path / "o").exists()
+    assert err.startswith(f"error: {tmp_path / 'logger.csv'}: missing columns "
+                          f"{', '.join(IMU_COLUMNS)} of the imu.csv layout; the file has "
+                          f"{header.replace(',', ', ')}; ")
+    assert err.count(IMU_COLUMNS[1]) == 1 and "--imu-spec" in err
