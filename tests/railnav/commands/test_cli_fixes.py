@@ -369,3 +369,23 @@ def test_a_reference_without_samples_writes_no_error_files(tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == sorted(
         ["estimates.csv", "innovations.csv", "smoothed.csv", "summary.json",
          "estimates.png", "track.png"])
+
+
+@pytest.mark.parametrize("sep, words", [(";", "separated by semicolons (';')"),
+                                        ("\t", "separated by tabs")])
+def test_a_fix_table_with_another_separator_says_so(tmp_path, capsys, sep, words):
+    """Audit finding: the Brussels excerpt re-saved with ';' (a European spreadsheet's
+    CSV) was 'not a fix file this reader knows'. Its header splits on the separator into
+    the excerpt's own columns; the error now names the separator."""
+    from gnss_obs.fixes.read import detect_fix_format
+    log_file = EXCERPTS / "log_28876_L36-B_excerpt.csv"
+    other = tmp_path / "log.csv"
+    other.write_text(log_file.read_text().replace(",", sep))
+    columns = list(pd.read_csv(log_file, nrows=0).columns)
+    assert other.read_text().splitlines()[0].split(sep) == columns
+    assert detect_fix_format(log_file) == "csv"
+    code = main(["run", str(BRUSSELS / "log_28876_L36-B.csv"), "--fixes", str(other),
+                 "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith(f"error: {other}: a table {words}")
+    assert "\n" not in err and not (tmp_path / "o").exists()
