@@ -381,9 +381,9 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
 
 def run_figures(outcome: RunOutcome, out: Path) -> list[Figure]:
     """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth that
-    has samples of the run, else ``estimates.png``; ``track.png``. Their arguments are what the figures read: the
-    result without its raw filter output and filter object (not drawn, and the largest
-    part to send to a helper process)."""
+    has samples of the run, else ``estimates.png``; ``track.png``. Their arguments are what
+    the figures read: the result without its raw filter output and filter object (not
+    drawn, and the largest part to send to a helper process)."""
     result = replace(outcome.result, raw=None, filter_object=None)
     plots = "railnav.evaluation.plots"
     first = (Figure(f"{plots}.plot_errors", (outcome.errors, result, out / "errors.png"),
