@@ -14,6 +14,7 @@ import importlib
 import logging
 import os
 import pkgutil
+import re
 import sys
 import threading
 from collections.abc import Sequence
@@ -26,11 +27,16 @@ from railnav.errors import PlottingError, RailnavError
 from strapdown.errors import StrapdownError
 from trackmodel.errors import InputError, TrackError
 
-__all__ = ["main", "console_main", "build_parser"]
+__all__ = ["main", "console_main", "build_parser", "flag_names"]
 
 #: Errors a user's input can cause: one line, exit 2.
 USER_ERRORS = (InputError, TrackError, StrapdownError, GnssError, RailnavError, FilterError,
                OSError)
+
+#: What ``-q`` does, for every command: the report on stdout is the command's result (what
+#: it wrote, the figures it found) and stays; ``2>/dev/null`` or ``>/dev/null`` silence more.
+QUIET_HELP = ("no progress bars, and log messages on stderr only for warnings and errors "
+              "(even with -v); the report on stdout is still printed")
 
 EXIT_USAGE = 2
 EXIT_FAILURE = 1
@@ -58,8 +64,7 @@ def _add_global_flags(parser: argparse.ArgumentParser, *, top: bool) -> None:
     extra = {} if top else {"default": argparse.SUPPRESS}
     parser.add_argument("-v", "--verbose", action="count", help="more log output (-vv for "
                         "debug)", **({"default": 0} if top else extra))
-    parser.add_argument("-q", "--quiet", action="store_true",
-                        help="no progress bars, warnings and errors only", **extra)
+    parser.add_argument("-q", "--quiet", action="store_true", help=QUIET_HELP, **extra)
     parser.add_argument("--debug", action="store_true",
                         help="show the traceback of an error", **extra)
 
@@ -119,10 +124,30 @@ def _configure_logging(verbose: int, quiet: bool) -> None:
                         stream=sys.stderr, force=True)
 
 
-def _one_line(exc: BaseException) -> str:
+def _one_line(exc: BaseException, parser: argparse.ArgumentParser) -> str:
     if isinstance(exc, OSError) and exc.filename is not None:
         return f"{exc.filename}: {exc.strerror or exc}"
-    return " ".join(str(exc).split()) or type(exc).__name__
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    flags = flag_names(parser)
+    for name in getattr(exc, "arguments", ()):
+        flag = flags.get(name, flags.get(name.removesuffix("_path")))
+        if flag is not None:
+            text = re.sub(rf"\b{name}\b", flag, text)
+    return text
+
+
+def flag_names(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Each destination of `parser`'s options and its subcommands' and its flag
+    (``start_gps_time_s`` -> ``--start-gps-time-s``): how a library error that names its
+    arguments (`railnav.errors.RailnavError.arguments`) reads on the command line; a
+    library argument ``X_path`` is the flag of ``X`` (``imu_path`` -> ``--imu``)."""
+    names = {}
+    for p in [parser, *_subparsers(parser)]:
+        for action in p._actions:
+            longs = [o for o in action.option_strings if o.startswith("--")]
+            if longs:
+                names.setdefault(action.dest, longs[0])
+    return names
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -140,12 +165,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FilterDivergedError, PlottingError) as exc:
         if args.debug:
             raise
-        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        print(f"error: {_one_line(exc, parser)}", file=sys.stderr)
         return EXIT_FAILURE
     except USER_ERRORS as exc:
         if args.debug:
             raise
-        print(f"error: {_one_line(exc)}", file=sys.stderr)
+        print(f"error: {_one_line(exc, parser)}", file=sys.stderr)
         return EXIT_USAGE
 
 

@@ -7,7 +7,16 @@ __all__ = ["RailnavError", "ConfigError", "PlottingError"]
 
 
 class RailnavError(Exception):
-    """Base class of application errors."""
+    """Base class of application errors.
+
+    `arguments`: the names of the library arguments the message names (``give
+    start_gps_time_s``); the command line writes them as its flags
+    (`railnav.cli.flag_names`: ``give --start-gps-time-s``).
+    """
+
+    def __init__(self, *args, arguments: tuple[str, ...] = (), **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.arguments = tuple(arguments)
 
 
 class ConfigError(RailnavError, InputError):

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from trackmodel.errors import InputError
 
-__all__ = ["StrapdownError", "ImuInputError"]
+__all__ = ["StrapdownError", "ImuInputError", "ImuColumnsError"]
 
 
 class StrapdownError(Exception):
@@ -12,3 +12,12 @@ class StrapdownError(Exception):
 
 class ImuInputError(StrapdownError, InputError):
     """IMU data (file or array) that cannot be used as documented."""
+
+
+class ImuColumnsError(ImuInputError):
+    """An IMU table without the columns its layout names: `missing` those not found,
+    `found` the file's (a caller may say how to read another layout)."""
+
+    def __init__(self, message: str, *, missing=(), found=(), **where) -> None:
+        super().__init__(message, **where)
+        self.missing, self.found = tuple(missing), tuple(found)

@@ -17,12 +17,14 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from strapdown.errors import ImuInputError
+from strapdown.errors import ImuColumnsError, ImuInputError
 from trackmodel.errors import finite_column
 from trackmodel.textfile import read_csv_table
 
 __all__ = ["Imu", "IMU_COLUMNS", "read_imu_csv", "read_imu_columns"]
 
+#: A missing-columns message lists at most this many of the file's columns.
+_SHOWN_COLUMNS = 12
 #: Read CSV floats exactly (pandas < 3 needs "round_trip"; pandas 3 does it by default and
 #: deprecates the argument).
 _EXACT_FLOATS = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
@@ -116,9 +118,12 @@ def read_imu_columns(path: str | os.PathLike, columns, *, layout: str) -> dict:
     frame = read_csv_table(path, error=ImuInputError, comment="#", **_EXACT_FLOATS)
     missing = [c for c in columns if c not in frame.columns]
     if missing:
-        raise ImuInputError(f"missing column{'s' if len(missing) > 1 else ''} "
-                            f"{', '.join(missing)} ({layout} has {', '.join(columns)})",
-                            path=path)
+        found = [str(c) for c in frame.columns]
+        shown = ", ".join(found[:_SHOWN_COLUMNS]) + (
+            f", ... ({len(found)} columns)" if len(found) > _SHOWN_COLUMNS else "")
+        raise ImuColumnsError(f"missing column{'s' if len(missing) > 1 else ''} "
+                              f"{', '.join(missing)} of the {layout} layout; the file has "
+                              f"{shown}", path=path, missing=missing, found=found)
     values = {c: finite_column(frame, c, path=path, error=ImuInputError) for c in columns}
     if len(frame) < 2:
         raise ImuInputError("needs at least 2 samples", path=path)

@@ -5,7 +5,8 @@
 * ``ubx``: the UBX sync characters ``0xB5 0x62`` (never in a text file: 0xB5 is not ASCII);
 * ``gpx``: XML whose root element is ``gpx``;
 * ``nmea``: a line that starts with ``$`` or ``!`` and has a ``*hh`` checksum;
-* ``csv``: anything else with a comma in its first line.
+* ``csv``: anything else with a comma in its first line; a first line with semicolons or
+  tabs and no comma is a table with another separator, refused as such.
 
 `read_fixes` reads with the format's reader (`gnss_obs.fixes.csv_reader`, ``nmea_reader``,
 ``ubx_reader``, ``gpx_reader``) and fills the σ the file lacks from the fix class
@@ -32,6 +33,8 @@ FIX_FORMATS = ("csv", "nmea", "ubx", "gpx")
 _UBX_SYNC = b"\xb5\x62"
 _NMEA_LINE = re.compile(rb"^[$!][A-Z0-9]{3,6},[^\r\n]*\*[0-9A-Fa-f]{2}\s*$", re.MULTILINE)
 _GPX_ROOT = re.compile(rb"<(?:\w+:)?gpx[\s>]")
+#: Separators of other tables, named in the error that refuses them.
+_OTHER_SEPARATORS = {b";": "semicolons (';')", b"\t": "tabs"}
 
 
 def detect_fix_format(path: str | os.PathLike) -> str:
@@ -40,7 +43,8 @@ def detect_fix_format(path: str | os.PathLike) -> str:
     Raises
     ------
     GnssInputError
-        An empty file, or content none of the rules recognises.
+        An empty file, a table separated by semicolons or tabs, or content none of the
+        rules recognises.
     OSError
         If the file cannot be opened.
     """
@@ -58,6 +62,10 @@ def detect_fix_format(path: str | os.PathLike) -> str:
     first_line = text.split(b"\n", 1)[0]
     if b"," in first_line:
         return "csv"
+    for sep, name in _OTHER_SEPARATORS.items():
+        if sep in first_line:
+            raise GnssInputError(f"a table separated by {name}: a fix CSV is separated by "
+                                 "commas (',', with '.' decimal points)", path=path)
     raise GnssInputError("not a fix file this reader knows (CSV, NMEA 0183, u-blox UBX, "
                          "GPX)", path=path)
 

@@ -65,8 +65,8 @@ def receiver_hint_lines(summary: dict) -> list[str]:
 def report(outcome, out: Path) -> str:
     """A few lines for the terminal: what ran and the headline errors."""
     s = outcome.summary
-    lines = [f"{s['filter']} filter: {s['steps']} steps, {s['statistics']['gnss_epochs']} GNSS "
-             f"epochs in {s['runtime_s']:.2f} s -> {out}/"]
+    lines = [f"{s['filter']} filter: {s['steps']} steps, {_epochs(outcome)} in "
+             f"{s['runtime_s']:.2f} s -> {out}/"]
     left = s.get("left_track")
     if left:
         lines.append(f"  stopped at t={left['time_s']:.1f} s: s = {left['s_m']:.1f} m is beyond "
@@ -84,7 +84,7 @@ def report(outcome, out: Path) -> str:
                      f"{ref['estimates_compared']} estimates compared")
     errors = s.get("errors")
     if errors and errors["all"]["along_track_m"]["rms"] is None:
-        lines.append("  no estimate has a reference sample: no errors")
+        lines.append("  no reference: no estimate has a reference sample (no errors.csv)")
     elif errors:
         a = errors["all"]
         lines.append(f"  along-track RMS {a['along_track_m']['rms']:.3f} m, max "
@@ -95,7 +95,9 @@ def report(outcome, out: Path) -> str:
             lines.append(f"  outage {o['start_s']:g}+{o['duration_s']:g} s: along-track error "
                          f"at its end {_number(o['at_end']['along_track_m'], '+.3f')} m")
     smoothed = (s.get("smoothed") or {}).get("errors")
-    if smoothed:
+    if smoothed and smoothed["all"]["along_track_m"]["rms"] is None:
+        lines.append("  smoothed (RTS): no reference (no smoothed_errors.csv)")
+    elif smoothed:
         a = smoothed["all"]
         lines.append(f"  smoothed (RTS): along-track RMS {_number(a['along_track_m']['rms'], '.3f')}"
                      f" m, max {_number(a['along_track_m']['max'], '.3f')} m; speed RMS "
@@ -108,6 +110,24 @@ def report(outcome, out: Path) -> str:
                      f"{baro['gnss_heights_flagged']} of {baro['gnss_heights_checked']} GNSS "
                      "heights disagree")
     return "\n".join(lines)
+
+
+def _epochs(outcome) -> str:
+    """The run's measurement epochs: ``N GNSS epochs``; with odometer or balise rows (whose
+    epochs are measurement epochs too, ``summary.json`` ``gnss_epochs`` counts them all),
+    how many have a row of each kind (an epoch can have several)."""
+    stats = outcome.summary["statistics"]
+    if "odometer" not in stats and "balises" not in stats:
+        return f"{stats['gnss_epochs']} GNSS epochs"
+    from railnav.filters.balise_rows import BALISE_ROW_KIND   # CasADi: after the run only
+    from railnav.filters.odometer_rows import ODOMETER_ROW_KINDS
+    inn = outcome.result.innovations
+    kinds = {"GNSS": ~inn["kind"].isin([*ODOMETER_ROW_KINDS, BALISE_ROW_KIND]),
+             "odometer": inn["kind"].isin(ODOMETER_ROW_KINDS),
+             "balise": inn["kind"] == BALISE_ROW_KIND}
+    counts = ", ".join(f"{inn.loc[rows, 'epoch'].nunique()} {name}"
+                       for name, rows in kinds.items())
+    return f"{stats['gnss_epochs']} measurement epochs ({counts})"
 
 
 def _number(value, fmt: str) -> str:

@@ -78,6 +78,13 @@ class ErrorSeries:
     nees: Array
     nees_dof: int
 
+    @property
+    def compared(self) -> int:
+        """How many estimates have a reference sample (a finite along-track error). With
+        none (a reference whose every sample is off the track or outside the run), the
+        runs write no ``errors.csv``: only empty rows."""
+        return int(np.isfinite(self.along_track_m).sum())
+
     def to_frame(self) -> pd.DataFrame:
         """The ``errors.csv`` table: one column per field (units in the names)."""
         return pd.DataFrame({f.name: getattr(self, f.name) for f in fields(self)

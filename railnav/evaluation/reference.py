@@ -173,8 +173,12 @@ def _jumps(t: Array, s: Array, candidate: npt.NDArray[np.bool_], max_jump_m: flo
 
 
 def read_reference(path: str | os.PathLike, track, *, start_gps_time_s: float,
-                   quality: str | None = None) -> Reference:
+                   quality: str | None = None, fixes=None) -> Reference:
     """A reference file (module docstring) on `track`, times from the trip start.
+
+    `fixes`, a `gnss_obs.fixes.table.FixLog` already read from `path` (the run's own fix
+    file given as its reference), is used instead of reading the file again (whose
+    warnings would print again).
 
     Raises
     ------
@@ -196,7 +200,7 @@ def read_reference(path: str | os.PathLike, track, *, start_gps_time_s: float,
                              track)
         return Reference(truth, ("s",), {"source": "trajectory", "path": os.fspath(path),
                                          "samples": int(len(frame))})
-    return _fix_reference(path, track, start_gps_time_s, quality)
+    return _fix_reference(path, track, start_gps_time_s, quality, fixes)
 
 
 def reference_kind(path: str | os.PathLike, quality: str | None = None) -> str:
@@ -231,9 +235,9 @@ def _header(path) -> set[str]:
     return {c.strip() for c in first.strip().split(",")} if "," in first else set()
 
 
-def _fix_reference(path, track, start_gps_time_s: float, quality) -> Reference:
+def _fix_reference(path, track, start_gps_time_s: float, quality, fixes=None) -> Reference:
     from gnss_obs.fixes.read import read_fixes
-    table = read_fixes(path).table
+    table = (fixes if fixes is not None else read_fixes(path)).table
     keep, report = screen_fix_reference(table, track, quality=quality)
     if not keep.any():
         log.warning("%s: none of the %d %s fixes agrees with the track: no reference",

@@ -5,7 +5,8 @@ this module feeds it from a run:
 
 * `read_baro_csv`: the altimeter file, columns ``baro_h_m`` (m) and the time, either
   ``gps_time_s`` (GPS seconds, as ``estimates.csv`` of a file run) or ``time_s`` (s from the
-  trip start); one-line located errors for anything else;
+  trip start), read as the railway sensors' files (`railnav.sensors.tables.read_timed_csv`);
+  one-line located errors for anything else;
 * `check_run_baro`: the track height and its σ at the baro times from the run's
   ``estimates.csv`` columns ``h_m``, ``sigma_up_m``, and the GNSS heights to check from a
   single-point solution of the run's observations (`gnss_obs.solve_spp`, which does not
@@ -21,12 +22,13 @@ import pandas as pd
 
 from railnav.errors import ConfigError
 from railnav.evaluation.baro import BaroCheck, BaroConfig, baro_track_check
+from railnav.sensors.tables import TIME_COLUMNS, read_timed_csv
 from trackmodel.errors import finite_column
 
 __all__ = ["read_baro_csv", "check_run_baro", "baro_summary", "BARO_TIME_COLUMNS"]
 
-#: Accepted time columns, in order of preference.
-BARO_TIME_COLUMNS = ("gps_time_s", "time_s")
+#: Accepted time columns, in order of preference (those of every sensor file).
+BARO_TIME_COLUMNS = TIME_COLUMNS
 
 
 def read_baro_csv(path: str | os.PathLike) -> pd.DataFrame:
@@ -40,29 +42,16 @@ def read_baro_csv(path: str | os.PathLike) -> pd.DataFrame:
     Raises
     ------
     ConfigError
-        Missing file or column, empty file, a value that is not a finite number (with its
-        row), times not increasing.
+        As `railnav.sensors.tables.read_timed_csv` (missing or empty file, no rows, no
+        time column, a bad or not increasing time: its row); no ``baro_h_m`` column, or a
+        height that is not a finite number (its row).
     """
-    try:
-        frame = pd.read_csv(path, comment="#")
-    except FileNotFoundError:
-        raise ConfigError("no such file", path=path) from None
-    except (pd.errors.EmptyDataError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"not a CSV table ({str(exc).splitlines()[0]})", path=path) from None
-    time_col = next((c for c in BARO_TIME_COLUMNS if c in frame.columns), None)
-    for name, col in (("time", time_col), ("baro_h_m", "baro_h_m")):
-        if col is None or col not in frame.columns:
-            wanted = " or ".join(BARO_TIME_COLUMNS) if name == "time" else name
-            raise ConfigError(f"missing column {wanted}", path=path)
-    if frame.empty:
-        raise ConfigError("no rows", path=path)
-    out = {col: finite_column(frame, col, path=path, error=ConfigError)
-           for col in (time_col, "baro_h_m")}
-    steps = np.flatnonzero(np.diff(out[time_col]) <= 0)
-    if steps.size:
-        raise ConfigError("times must increase", path=path, row=int(steps[0]) + 2,
-                          column=time_col)
-    table = pd.DataFrame(out)
+    frame, time_col, times = read_timed_csv(path, "baro")
+    if "baro_h_m" not in frame.columns:
+        raise ConfigError("missing column baro_h_m", path=path)
+    table = pd.DataFrame({time_col: times,
+                          "baro_h_m": finite_column(frame, "baro_h_m", path=path,
+                                                    error=ConfigError)})
     table.attrs["path"] = os.fspath(path)           # for messages about the file
     return table
 

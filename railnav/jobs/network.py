@@ -366,7 +366,7 @@ def write_network_run(run: NetworkRunOutcome, out_dir: str | os.PathLike, *,
     tables = {"estimates.csv": outcome.result.estimates,
               "innovations.csv": outcome.result.innovations,
               "hypotheses.csv": res.hypotheses, "route.csv": res.route_frame()}
-    if outcome.errors is not None:
+    if outcome.errors is not None and outcome.errors.compared:
         tables["errors.csv"] = outcome.errors.to_frame()
     written = []
     for name, frame in tables.items():
@@ -387,7 +387,7 @@ def _plots(run: NetworkRunOutcome, out: Path) -> list[Path]:
     fixes = None if outcome.data is None else outcome.data.fixes
     plot_network_run(run.network, run.network_result, out / "network.png", fixes=fixes,
                      truth=outcome.truth)
-    if outcome.errors is not None:
+    if outcome.errors is not None and outcome.errors.compared:
         plot_errors(outcome.errors, outcome.result, out / "errors.png")
         return [out / "network.png", out / "errors.png"]
     plot_estimates(outcome.result, out / "estimates.png")

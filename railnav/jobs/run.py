@@ -8,7 +8,8 @@
   a reference trajectory or a fix file: `railnav.jobs.scoring`), given or found beside
   ``railnav simulate``'s files, is used for the errors;
 * `write_run` writes ``estimates.csv``, ``innovations.csv``, ``summary.json`` (+ ``errors.csv``
-  with a truth, ``smoothed.csv`` with ``smooth=True``) and the plots, each file atomically.
+  with a truth that has samples of the run, ``smoothed.csv`` with ``smooth=True``) and the
+  plots, each file atomically.
 """
 from __future__ import annotations
 
@@ -36,6 +37,7 @@ from railnav.evaluation.metrics import (
     error_series,
     summarize,
 )
+from railnav.evaluation.reference import read_reference
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.jobs.plot_worker import Figure, PlotHelper, draw
 from railnav.jobs.scoring import (
@@ -299,7 +301,7 @@ def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, wi
     """A file run's outcome: scored against `truth_path` when there is one."""
     score = None if truth_path is None else functools.partial(
         score_run, track=track, truth_path=truth_path, start_gps_time_s=data.start_gps_time_s,
-        quality=truth_quality)
+        quality=truth_quality, reference=_reference(track, data, truth_path, truth_quality))
     errors, extra = None, {}
     if score is not None:
         errors, extra["reference"] = score(result)
@@ -311,6 +313,17 @@ def _file_outcome(result, track, data: SensorData, truth_path, truth_quality, wi
                                                     extra), errors, data=data)
     return smooth_outcome(outcome, score and (lambda r: score(r)[0]), window=window) \
         if smooth else outcome
+
+
+def _reference(track, data: SensorData, truth_path, truth_quality):
+    """The reference file read once for the run and its smoothed twin; the run's own fix
+    file, given as its reference, is not read again."""
+    try:
+        same = data.fixes is not None and os.path.samefile(data.fixes.path, truth_path)
+    except OSError:                          # a missing file: read_reference says which
+        same = False
+    return read_reference(truth_path, track, start_gps_time_s=data.start_gps_time_s,
+                          quality=truth_quality, fixes=data.fixes if same else None)
 
 
 def _augmented(data: SensorData, config: NavigatorConfig, *, base_path, base_lat_lon_h,
@@ -361,7 +374,7 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
 
     csv("estimates.csv", outcome.result.estimates)
     csv("innovations.csv", outcome.result.innovations)
-    if outcome.errors is not None:
+    if outcome.errors is not None and outcome.errors.compared:
         csv("errors.csv", outcome.errors.to_frame())
     written += write_smoothed(outcome.smoothed, out)
     atomic_write_text(out / "summary.json", json.dumps(outcome.summary, indent=2) + "\n")
@@ -374,14 +387,15 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
 
 
 def run_figures(outcome: RunOutcome, out: Path) -> list[Figure]:
-    """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth,
-    else ``estimates.png``; ``track.png``. Their arguments are what the figures read: the
-    result without its raw filter output and filter object (not drawn, and the largest
-    part to send to a helper process)."""
+    """The figures of a run (`railnav.evaluation.plots`): ``errors.png`` with a truth that
+    has samples of the run, else ``estimates.png``; ``track.png``. Their arguments are what
+    the figures read: the result without its raw filter output and filter object (not
+    drawn, and the largest part to send to a helper process)."""
     result = replace(outcome.result, raw=None, filter_object=None)
     plots = "railnav.evaluation.plots"
     first = (Figure(f"{plots}.plot_errors", (outcome.errors, result, out / "errors.png"),
-                    path=out / "errors.png") if outcome.errors is not None else
+                    path=out / "errors.png") if outcome.errors is not None
+             and outcome.errors.compared else
              Figure(f"{plots}.plot_estimates", (result, out / "estimates.png"),
                     path=out / "estimates.png"))
     return [first, Figure(f"{plots}.plot_track_estimate",

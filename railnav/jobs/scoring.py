@@ -15,8 +15,6 @@ import json
 import logging
 from pathlib import Path
 
-import numpy as np
-
 from gnss_obs.gpstime import gps_time_s_to_utc_iso
 from gnss_obs.sim_events import Outage
 from railnav.errors import ConfigError
@@ -72,7 +70,8 @@ def find_truth(*paths) -> Path | None:
     return truth if truth.is_file() else None
 
 
-def score_run(result, track, truth_path, *, start_gps_time_s: float, quality=None):
+def score_run(result, track, truth_path, *, start_gps_time_s: float, quality=None,
+              reference=None):
     """The errors of a run against a reference file, and the reference's report.
 
     Parameters
@@ -86,16 +85,20 @@ def score_run(result, track, truth_path, *, start_gps_time_s: float, quality=Non
         The run's trip start, GPS s.
     quality : str, optional
         A fix file's reference class (default its best).
+    reference : railnav.evaluation.reference.Reference, optional
+        `truth_path` already read (`read_reference`): a run scored twice (``--smooth``)
+        reads it once.
 
     Returns
     -------
     errors : railnav.evaluation.metrics.ErrorSeries
     report : dict
     """
-    reference = read_reference(truth_path, track, start_gps_time_s=start_gps_time_s,
-                               quality=quality)
+    if reference is None:
+        reference = read_reference(truth_path, track, start_gps_time_s=start_gps_time_s,
+                                   quality=quality)
     errors = reference_errors(result, reference, track)
-    compared = int(np.isfinite(errors.along_track_m).sum())
+    compared = errors.compared
     log.info("%s: %d estimates compared", truth_path, compared)
     return errors, {**reference.report, "estimates_compared": compared}
 

@@ -65,10 +65,15 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
     Raises
     ------
     ConfigError
-        Observations without navigation data (or the reverse); a recorded IMU file
-        without the noise the filter should assume, or with two of them.
+        No sensor file; observations without navigation data (or the reverse); a
+        recorded IMU file without the noise the filter should assume, or with two of
+        them.
     """
     check_gnss_pair(obs_path, nav_path)
+    if imu_path is None and obs_path is None and fixes_path is None:
+        raise ConfigError("no sensor data: give imu_path, obs_path with nav_path, or "
+                          "fixes_path", arguments=("imu_path", "obs_path", "nav_path",
+                                                   "fixes_path"))
     filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
     imu_log = read_imu_file(imu_path, imu_spec) if imu_path is not None else None
     if config is None:
@@ -93,12 +98,21 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
 def read_imu_file(path, spec=None):
     """An IMU log read with its spec (`strapdown.imu_spec.ImuSpec`, a TOML path, or None:
     railnav's ``imu.csv``), timing checked and plausibility tested
-    (`strapdown.imu_log.read_imu_log`); gaps are logged."""
+    (`strapdown.imu_log.read_imu_log`); gaps are logged. A log without the ``imu.csv``
+    columns, read without a spec, is a `ConfigError` that says a spec reads it."""
+    from strapdown.errors import ImuColumnsError
     from strapdown.imu_log import read_imu_log
     from strapdown.imu_spec import ImuSpec, read_imu_spec
     if spec is not None and not isinstance(spec, ImuSpec):
         spec = read_imu_spec(spec)
-    imu_log = read_imu_log(path, spec)
+    try:
+        imu_log = read_imu_log(path, spec)
+    except ImuColumnsError as exc:
+        if spec is not None:
+            raise
+        raise ConfigError(f"{exc}; a log with other columns is read with imu_spec (a TOML "
+                          "file naming its columns and units)",
+                          arguments=("imu_spec",)) from None
     if imu_log.gaps:
         log.warning("%s: %d gaps in the IMU samples (longest %.3f s at t = %.2f s), "
                     "%d samples missing at %.0f Hz", path, len(imu_log.gaps),
@@ -156,8 +170,9 @@ def _default_file_config(imu_path, obs_path, fixes_path, filter: str, systems: s
                                                 initial_v_sigma_mps=None, **extra)
     if imu_grade is None and imu_path is not None and filter_kind(filter).needs_imu:
         raise ConfigError(f"{imu_path}: a recorded IMU file needs the noise the filter "
-                          f"assumes: give --imu-grade ({', '.join(sorted(IMU_GRADES))}) or "
-                          "an --imu-spec with a [noise] table")
+                          f"assumes: give imu_grade ({', '.join(sorted(IMU_GRADES))}) or "
+                          "an imu_spec with a [noise] table",
+                          arguments=("imu_grade", "imu_spec"))
     grade = {} if imu_grade is None else {"imu_errors": imu_grade}
     return NavigatorConfig(filter=filter, **grade,
                            measurement=MeasurementConfig(systems=systems or DEFAULT_SYSTEMS))
@@ -180,7 +195,9 @@ def _start_time(imu_path, imu_log, obs, fixes, fixes_path) -> float:
         starts.append(float(fixes.table["gps_time_s"].iloc[0]))
     if starts:
         return min(starts)
-    raise ConfigError("cannot tell when the trip starts: give --start-gps-time-s")
+    raise ConfigError("cannot tell when the trip starts (no GNSS observations or fixes, and "
+                      "the IMU log has no GPS time): give start_gps_time_s",
+                      arguments=("start_gps_time_s",))
 
 
 def sensor_summary(data: SensorData) -> dict:

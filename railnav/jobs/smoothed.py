@@ -56,12 +56,13 @@ def smooth_outcome(outcome, score: Callable[[NavigationResult], ErrorSeries | No
 
 
 def write_smoothed(smoothed: SmoothedRun | None, out: Path) -> list[Path]:
-    """Write ``smoothed.csv`` (and ``smoothed_errors.csv`` with a truth) into `out`; the
+    """Write ``smoothed.csv`` (and ``smoothed_errors.csv`` with a truth that has samples of
+    the run: `railnav.evaluation.metrics.ErrorSeries.compared`) into `out`; the
     paths written (none without a smoothed twin)."""
     if smoothed is None:
         return []
     tables = {"smoothed.csv": smoothed.result.estimates}
-    if smoothed.errors is not None:
+    if smoothed.errors is not None and smoothed.errors.compared:
         tables["smoothed_errors.csv"] = smoothed.errors.to_frame()
     for name, frame in tables.items():
         atomic_write_csv(out / name, frame, float_format=CSV_FLOAT_FORMAT, decimals=CSV_DECIMALS)

@@ -255,7 +255,8 @@ def _check_overlap(data: SensorData, t: Array, epoch_times: Array) -> None:
                       for name, g in sources)
     raise RailnavError(f"the IMU samples ({t[0]:.1f} to {t[-1]:.1f} s from the trip start, "
                        f"GPS time {data.start_gps_time_s:.1f} s) and the GNSS data ({spans}) "
-                       "do not overlap: check the IMU's time_s and --start-gps-time-s")
+                       "do not overlap: check the IMU's time_s and start_gps_time_s",
+                       arguments=("start_gps_time_s",))
 
 
 def _sample_times(data: SensorData, config: NavigatorConfig) -> tuple[Array, Array]:

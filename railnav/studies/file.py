@@ -133,7 +133,9 @@ def parse_study_config(text: str, *, path: str | Path = "<study>") -> StudyConfi
 
 
 def _parse_toml(text: str, path: Path) -> dict:
-    """The TOML document, or a `ConfigError` at the line tomllib names."""
+    """The TOML document, or a `ConfigError` at the line tomllib names: ``not valid TOML``
+    for a ``.toml`` file, ``not a TOML study file`` for any other (a track CSV given by
+    mistake)."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -142,7 +144,10 @@ def _parse_toml(text: str, path: Path) -> dict:
         line = None
         if found:    # a line, or the end of the document: its last line
             line = int(found.group(1)) if found.group(1) else max(len(text.splitlines()), 1)
-        raise ConfigError(_TOML_LOCATION.sub("", message) or "not valid TOML", path=path,
+        what = "not valid TOML" if path.suffix.lower() == ".toml" else \
+            "not a TOML study file"
+        reason = _TOML_LOCATION.sub("", message)
+        raise ConfigError(f"{what} ({reason})" if reason else what, path=path,
                           line=line) from None
     except RecursionError:
         raise ConfigError("not valid TOML: arrays or tables nested too deeply",

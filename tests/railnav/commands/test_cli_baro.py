@@ -77,7 +77,7 @@ def test_file_run_with_a_baro_file_in_gps_time(simulated):
     ("time_s,pressure_hpa\n0,1013\n", "missing column baro_h_m"),
     ("baro_h_m\n520\n", "missing column gps_time_s or time_s"),
     ("time_s,baro_h_m\n0,520\n1,nan\n", "row 2"),
-    ("time_s,baro_h_m\n0,520\n0,521\n", "times must increase"),
+    ("time_s,baro_h_m\n0,520\n0,521\n", "row 2, time_s: time does not increase"),
     ("time_s,baro_h_m\n", "no rows"),
 ])
 def test_bad_baro_file_is_a_one_line_error(simulated, tmp_path, capsys, text, message):
@@ -126,3 +126,24 @@ def test_simulate_baro_bias_without_baro_is_an_error(simulated, tmp_path, capsys
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and "only with --baro" in err
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("text", ["", "# only a comment\n", "time_s,baro_h_m\n0,520\n1,521,7\n"])
+def test_baro_file_errors_are_the_sensor_files(tmp_path, text):
+    """Audit finding: read_baro_csv was a copy of railnav.sensors.tables.read_timed_csv
+    with its own messages (an empty file: 'not a CSV table (No columns to parse from
+    file)'). Now it is that reader: an empty or malformed file reads as an odometer file
+    with the same text does, in one line naming the file."""
+    from railnav.errors import ConfigError
+    from railnav.jobs.baro import read_baro_csv
+    from railnav.sensors.odometer import read_odometer_csv
+    baro, odo = tmp_path / "baro.csv", tmp_path / "odo.csv"
+    baro.write_text(text)
+    odo.write_text(text)
+    with pytest.raises(ConfigError) as b:
+        read_baro_csv(baro)
+    with pytest.raises(ConfigError) as o:
+        read_odometer_csv(odo)
+    assert str(b.value) == str(o.value).replace("odo.csv", "baro.csv")
+    assert str(b.value).startswith(f"{baro}: ") and "\n" not in str(b.value)
+    assert "not a CSV table" not in str(b.value)

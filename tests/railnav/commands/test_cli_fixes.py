@@ -330,3 +330,62 @@ def test_correlated_fix_errors_only_on_one_track(tmp_path, capsys, where):
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("error: ") and "one track only" in err
     assert "\n" not in err and not (tmp_path / "o").exists()
+
+
+def test_own_fix_file_as_reference_with_smooth_warns_once(tmp_path, capsys):
+    """Audit finding: ``--fixes F --truth F --smooth`` read F three times (the run, its
+    score, the smoothed twin's score): each warning of the reader printed three times,
+    the reference's twice. Now F is read once. The excerpt of log 29083 has a row whose
+    solution status is not SOL_COMPUTED (no fix) and its carrier-fixed rows are off the
+    track."""
+    log_file = EXCERPTS / "log_29083_L36-A_excerpt.csv"
+    table = pd.read_csv(log_file)
+    no_fix = int((table["solution_status"] != "SOL_COMPUTED").sum())
+    assert main(["run", str(BRUSSELS / "log_29083_L36-A.csv"), "--fixes", str(log_file),
+                 "--truth", str(log_file), "--smooth", "--no-plots",
+                 "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err.splitlines()
+    read = [line for line in err if "fixes read; skipped" in line]
+    assert len(read) == 1 and read[0].endswith(f"skipped {no_fix} no fix")
+    assert sum("agrees with the track: no reference" in line for line in err) == 1
+
+
+def test_a_reference_without_samples_writes_no_error_files(tmp_path, capsys):
+    """Audit finding: a reference none of whose samples is usable (log 29083's carrier-fixed
+    rows, all 90-200 m off the track) gave errors.csv and smoothed_errors.csv of empty rows
+    and 'RMS n/a m'. Now neither is written and the report says 'no reference'."""
+    log_file = EXCERPTS / "log_29083_L36-A_excerpt.csv"
+    carrier_fixed = int((pd.read_csv(log_file)["position_type"] == "NARROW_INT3").sum())
+    out = tmp_path / "o"
+    assert main(["run", str(BRUSSELS / "log_29083_L36-A.csv"), "--fixes", str(log_file),
+                 "--truth", str(log_file), "--smooth", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reference"]["candidates"] == summary["reference"]["off_track"] \
+        == carrier_fixed
+    assert summary["reference"]["estimates_compared"] == 0
+    assert "n/a" not in text and "no reference: no estimate has a reference sample" in text
+    assert "smoothed (RTS): no reference" in text
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["estimates.csv", "innovations.csv", "smoothed.csv", "summary.json",
+         "estimates.png", "track.png"])
+
+
+@pytest.mark.parametrize("sep, words", [(";", "separated by semicolons (';')"),
+                                        ("\t", "separated by tabs")])
+def test_a_fix_table_with_another_separator_says_so(tmp_path, capsys, sep, words):
+    """Audit finding: the Brussels excerpt re-saved with ';' (a European spreadsheet's
+    CSV) was 'not a fix file this reader knows'. Its header splits on the separator into
+    the excerpt's own columns; the error now names the separator."""
+    from gnss_obs.fixes.read import detect_fix_format
+    log_file = EXCERPTS / "log_28876_L36-B_excerpt.csv"
+    other = tmp_path / "log.csv"
+    other.write_text(log_file.read_text().replace(",", sep))
+    columns = list(pd.read_csv(log_file, nrows=0).columns)
+    assert other.read_text().splitlines()[0].split(sep) == columns
+    assert detect_fix_format(log_file) == "csv"
+    code = main(["run", str(BRUSSELS / "log_28876_L36-B.csv"), "--fixes", str(other),
+                 "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith(f"error: {other}: a table {words}")
+    assert "\n" not in err and not (tmp_path / "o").exists()

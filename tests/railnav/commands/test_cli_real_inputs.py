@@ -162,3 +162,42 @@ def test_odometer_missing_the_run_is_an_error(trip, tmp_path, capsys):
                  "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "odometer times [5000.0, 5001.0] s miss the run" in err
+
+
+def test_report_counts_each_kind_of_epoch(trip, tmp_path, capsys):
+    """Audit finding: with fixes, an odometer and balises the report said '<all measurement
+    epochs> GNSS epochs'. Now each kind's epochs: the GNSS ones are the fixes (GGA
+    sentences of fixes.nmea), the balise ones the passages of balises.csv."""
+    out = tmp_path / "o"
+    assert main(["run", CURVY, "--fixes", str(trip / "fixes.nmea"), "--odometer",
+                 str(trip / "odometer.csv"), "--balises", str(trip / "balises.csv"),
+                 "--no-plots", "--out", str(out)]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    n_fixes = sum(line[3:6] == "GGA" for line in (trip / "fixes.nmea").read_text().split())
+    n_balises = len(pd.read_csv(trip / "balises.csv"))
+    stats = json.loads((out / "summary.json").read_text())["statistics"]
+    assert stats["fix_epochs"] == n_fixes
+    assert (f"{stats['gnss_epochs']} measurement epochs ({n_fixes} GNSS, "
+            f"{stats['odometer']['rows']} odometer, {n_balises} balise)") in head
+    assert "GNSS epochs" not in head
+
+
+def test_a_logger_file_without_a_spec_names_both_column_sets(trip, tmp_path, capsys):
+    """Audit finding: an IMU log with its own column names, given without --imu-spec, got
+    'missing columns X (imu.csv has X)': the expected names twice, the file's not at all,
+    and no word of --imu-spec. Now the missing ones, the file's, and the flag."""
+    from strapdown.imu import IMU_COLUMNS
+    theirs = ["t", "acc_x", "acc_y", "acc_z", "gyr_x", "gyr_y", "gyr_z"]
+    imu = pd.read_csv(trip / "imu.csv")
+    imu.columns = theirs
+    imu.to_csv(tmp_path / "logger.csv", index=False)
+    code = main(["run", CURVY, "--imu", str(tmp_path / "logger.csv"), "--fixes",
+                 str(trip / "fixes.nmea"), "--imu-grade", "tactical", "--out",
+                 str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    header = (tmp_path / "logger.csv").read_text().splitlines()[0]
+    assert code == 2 and "\n" not in err and not (tmp_path / "o").exists()
+    assert err.startswith(f"error: {tmp_path / 'logger.csv'}: missing columns "
+                          f"{', '.join(IMU_COLUMNS)} of the imu.csv layout; the file has "
+                          f"{header.replace(',', ', ')}; ")
+    assert err.count(IMU_COLUMNS[1]) == 1 and "--imu-spec" in err

@@ -34,3 +34,26 @@ def test_bad_input_prints_one_line_and_exits_2(tmp_path):
     done = _railnav("run", str(missing), "--out", str(tmp_path / "run"))
     assert done.returncode == 2
     assert done.stderr.strip().splitlines()[-1] == f"error: {missing}: No such file or directory"
+
+
+def test_quiet_keeps_the_report_and_drops_info_logs(tmp_path):
+    """Audit finding: ``-q``'s help said 'warnings and errors only' while every command
+    still printed its report. The report on stdout is the command's result and is kept;
+    the help of every command now says so, and ``-q`` drops the info logs ``-v`` asks
+    for (a fix-started run logs where it started)."""
+    from railnav.cli import QUIET_HELP, _subparsers, build_parser
+    parser = build_parser()
+    for sub in [parser, *_subparsers(parser)]:
+        quiet = next(a for a in sub._actions if "-q" in a.option_strings)
+        assert quiet.help == QUIET_HELP and "report on stdout is still printed" in quiet.help
+    track = str(TRACKS_DIR / "curvy.csv")
+    sim = tmp_path / "sim"
+    assert _railnav("-q", "simulate", track, "--duration-s", "20", "--no-gnss",
+                    "--fixes-format", "csv", "--out", str(sim)).returncode == 0
+    runs = {flags: _railnav(*flags, "run", track, "--fixes", str(sim / "fixes.csv"),
+                            "--no-plots", "--out", str(tmp_path / "-".join(flags)))
+            for flags in (("-v",), ("-q", "-v"))}
+    assert "INFO" in runs[("-v",)].stderr and "started at t=" in runs[("-v",)].stderr
+    assert runs[("-q", "-v")].stderr == ""
+    for done in runs.values():
+        assert done.stdout.startswith("gnss-only filter: ")

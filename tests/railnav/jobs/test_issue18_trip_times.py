@@ -109,3 +109,29 @@ def test_a_simulated_fix_run_whose_outage_lasts_to_the_end_runs(tmp_path, capsys
     # the same outage given by the user is still a mistake
     with pytest.raises(ConfigError, match="outage 100-150 s starts after the trip ends at 99 s"):
         run_files(read_track(PAPER), fixes_path=sim / "fixes.nmea", outages=[(100.0, 50.0)])
+
+
+def test_library_errors_name_arguments_the_command_line_its_flags(sim, tmp_path, capsys):
+    """Audit finding: ``run_files(track)`` without any sensor file said 'give
+    --start-gps-time-s' (a flag, in a library error, and not the problem). Now it says
+    there is no sensor data and names run_files' arguments; the trip-start error names
+    ``start_gps_time_s``, which the command line writes as its flag. The IMU log alone,
+    away from its scenario.json, has no GPS time."""
+    import inspect
+    track = read_track(PAPER)
+    with pytest.raises(ConfigError, match="^no sensor data: give imu_path, obs_path with "
+                       "nav_path, or fixes_path$") as info:
+        run_files(track)
+    assert "--" not in str(info.value)
+    assert set(info.value.arguments) <= set(inspect.signature(run_files).parameters)
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    (alone / "imu.csv").write_bytes((sim / "imu.csv").read_bytes())
+    with pytest.raises(ConfigError, match="give start_gps_time_s$") as info:
+        run_files(track, imu_path=alone / "imu.csv", imu_grade="tactical")
+    assert info.value.arguments == ("start_gps_time_s",)
+    code = main(["run", PAPER, "--imu", str(alone / "imu.csv"), "--imu-grade", "tactical",
+                 "--out", str(tmp_path / "run")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.endswith("give --start-gps-time-s") and "\n" not in err
+    assert not (tmp_path / "run").exists()

@@ -145,3 +145,20 @@ def test_issue18_toml_at_its_limits_is_a_located_error(text, line, words):
     with pytest.raises(ConfigError, match=words) as info:
         parse_study_config(text, path="s.toml")
     assert info.value.line == line and "\n" not in str(info.value)
+
+
+def test_a_track_csv_given_as_a_study_says_it_is_not_a_study_file(tmp_path, capsys):
+    """Audit finding: 'railnav study TRACK.csv' said only 'line 3: Expected ...' (the
+    TOML parser's words). Now the file, the line (the track's first line that is not a
+    comment: its CSV header) and 'not a TOML study file'; a .toml with a typo is 'not
+    valid TOML'."""
+    track = DATA / "tracks" / "curvy.csv"
+    header = next(n for n, line in enumerate(track.read_text().splitlines(), start=1)
+                  if line.strip() and not line.startswith("#"))
+    out = tmp_path / "out"
+    assert main(["study", str(track), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {track}: line {header}: not a TOML study file (")
+    assert "\n" not in err and not out.exists()
+    with pytest.raises(ConfigError, match=r": line 2: not valid TOML \(Expected newline"):
+        parse_study_config("[study]\nseed = 1 2\n", path=tmp_path / "s.toml")
