@@ -15,8 +15,10 @@ line with the file name).
 """
 from __future__ import annotations
 
+import csv
 import os
 import re
+import warnings
 
 import pandas as pd
 
@@ -60,6 +62,16 @@ def read_text(path: str | os.PathLike, *, error: type[InputError] = InputError) 
         raise decode_error(path, error=error, data=data) from None
 
 
+def _longer_rows(path, error: type[InputError], comment: str | None) -> InputError:
+    """The located error of a table whose every row is longer than its header: the first
+    data row's line and width (comment and blank lines skipped, as pandas does)."""
+    rows = ((k, line) for k, line in enumerate(read_text(path, error=error).splitlines(), 1)
+            if line.strip() and not (comment and line.lstrip().startswith(comment)))
+    (_, header), (line, first) = next(rows), next(rows)
+    widths = [len(next(csv.reader([text]))) for text in (header, first)]
+    return error(f"{widths[1]} fields, but the header has {widths[0]}", path=path, line=line)
+
+
 def read_csv_table(path: str | os.PathLike, *, error: type[InputError] = InputError,
                    **read_csv_kwargs) -> pd.DataFrame:
     """`pandas.read_csv` of a user's file, with its failures as located `error` s.
@@ -76,12 +88,24 @@ def read_csv_table(path: str | os.PathLike, *, error: type[InputError] = InputEr
     ------
     InputError (`error`)
         Empty file; a byte that is not UTF-8 (its line); a row with more fields than the
-        header (its line); any other tokenizing failure (pandas' words, one line).
+        header (its line), or every row (empty trailing fields, a trailing comma, are
+        read); any other tokenizing failure (pandas' words, one line).
     OSError
         If the file cannot be read.
     """
+    # index_col=False: a row one field longer than the header everywhere would otherwise
+    # make pandas take the first column for the index and shift the others silently
+    # ("time_s,speed_mps" over "0,1,7" read time 1, speed 7); trailing commas still read.
+    # Without a header row (header=None) the first row sets the width: nothing to shift
+    kwargs = (read_csv_kwargs if read_csv_kwargs.get("header", "infer") is None
+              else {"index_col": False, **read_csv_kwargs})
     try:
-        return pd.read_csv(path, encoding="utf-8", **read_csv_kwargs)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("error", category=pd.errors.ParserWarning,
+                                    message="Length of header")
+            return pd.read_csv(path, encoding="utf-8", **kwargs)
+    except pd.errors.ParserWarning:
+        raise _longer_rows(path, error, read_csv_kwargs.get("comment")) from None
     except UnicodeDecodeError:
         raise decode_error(path, error=error) from None
     except pd.errors.EmptyDataError:

@@ -46,6 +46,20 @@ def test_extra_field_and_empty_file(tmp_path):
         read_csv_table(path)
 
 
+def test_every_row_one_field_longer_than_the_header(tmp_path):
+    """pandas takes such a file's first column for the index and shifts the others
+    ("time_s,speed_mps" over "0,1,7" read time 1, speed 7): refused; a trailing comma on
+    every row (an empty last field) reads as written."""
+    path = tmp_path / "x.csv"
+    path.write_text("# a logger\ntime_s,speed_mps\n\n0,1,7\n1,2,8\n")
+    with pytest.raises(InputError, match="3 fields, but the header has 2") as info:
+        read_csv_table(path, comment="#")
+    assert info.value.line == 4
+    path.write_text("time_s,speed_mps\n0,1,\n1,2,\n")
+    frame = read_csv_table(path)
+    assert frame.to_dict("list") == {"time_s": [0, 1], "speed_mps": [1, 2]}
+
+
 @pytest.mark.parametrize("cell,message", [
     ("abc", "'abc' is not a finite number"), (np.nan, "empty or NaN"),
     (np.float64(np.inf), "inf is not a finite number"),
