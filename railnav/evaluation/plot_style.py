@@ -260,11 +260,18 @@ def _extremes_and_gaps(y: Array, column: np.ndarray, first: np.ndarray,
     return out + [edge, edge + 1]
 
 
+#: zlib level of the PNG files: the fastest (1) encodes a run's figure in ~0.03 s instead
+#: of ~0.045 s (Pillow's default, 6), for files ~10-16 % larger (errors.png of the 1000-s
+#: trip 194 kB instead of 168 kB, track.png 115 kB instead of 105 kB); the pixels are the same.
+PNG_COMPRESS_LEVEL = 1
+
+
 def save_png(fig, path: str | os.PathLike, *, dpi: int = PNG_DPI) -> None:
-    """Write `fig` to `path` as PNG, atomically."""
+    """Write `fig` to `path` as PNG (`PNG_COMPRESS_LEVEL`), atomically."""
     from trackmodel.files import atomic_write
     with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=dpi)
+        fig.savefig(fh, format="png", dpi=dpi,
+                    pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
 
 
 def warm_up() -> None:
