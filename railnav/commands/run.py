@@ -79,12 +79,15 @@ def handler(args: argparse.Namespace) -> int:
 
 def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     """Run one filter on one track and write it into `tmp`: (report, files written). The
-    figures are drawn by a helper process started now, which imports matplotlib while the
-    run simulates and filters (`railnav.jobs.plot_worker`)."""
-    from railnav.jobs.plot_worker import PlotHelper
+    figures are drawn by a helper process started now, which imports matplotlib and lays
+    out the figures it expects while the run simulates and filters
+    (`railnav.jobs.plot_worker`)."""
+    from railnav.jobs.plot_worker import Figure, PlotHelper
     if args.no_plots:
         return _one_track_run(args, tmp, None)
-    with PlotHelper() as plotter:
+    truth = not files_given(args) or args.truth is not None     # errors.png, likely
+    ahead = Figure("railnav.evaluation.plots.lay_out_run", (args.filter, truth))
+    with PlotHelper(ahead) as plotter:
         return _one_track_run(args, tmp, plotter)
 
 

@@ -21,6 +21,7 @@ The conventions a reader can rely on in every PNG railnav writes:
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -29,7 +30,7 @@ __all__ = ["SIGMA_BAND", "GAP_FACTOR", "TIME_LABEL", "OUTAGE_STYLE", "MRAD_PER_R
            "gnss_gaps", "outage_spans", "shade_outages", "robust_limit", "limit_axis",
            "sigma_band", "plain_axis", "save_png", "outage_legend_handle", "fixed_margins",
            "bottom_legend", "PNG_DPI", "THIN_ABOVE_PER_COLUMN", "pixel_columns",
-           "thin_to_pixels", "warm_up"]
+           "thin_to_pixels", "warm_up", "Layout", "laid_out", "lay_out_ahead", "TICKS_AHEAD"]
 
 Array = npt.NDArray[np.float64]
 
@@ -187,6 +188,53 @@ def fixed_margins(fig, *, left_in: float = 1.05, right_in: float = 0.2,
     fig.subplots_adjust(left=left_in / width, right=1.0 - right_in / width,
                         top=1.0 - top_in / height, bottom=bottom_in / height,
                         hspace=hspace, wspace=wspace)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A figure's size (inches) and its grid of axes placed by `fixed_margins`
+    (`margins`: its keyword arguments, as pairs); `laid_out` makes it."""
+
+    figsize: tuple[float, float]
+    nrows: int
+    ncols: int
+    sharex: bool = False
+    width_ratios: tuple[float, ...] | None = None
+    margins: tuple[tuple[str, float], ...] = ()
+
+
+#: Ticks made on each axis of a figure laid out ahead (`lay_out_ahead`): matplotlib makes
+#: them when an axis is first drawn, as many as it shows (a run's figures: at most ~8).
+TICKS_AHEAD = 10
+#: Figures laid out ahead, by layout: each is used once.
+_AHEAD: dict[Layout, list] = {}
+
+
+def laid_out(layout: Layout):
+    """A new figure of `layout`: (figure, ndarray of axes, shape (nrows, ncols)). One laid
+    out ahead (`lay_out_ahead`) if there is one, the same objects as made now."""
+    ready = _AHEAD.get(layout)
+    if ready:
+        return ready.pop()
+    from matplotlib.figure import Figure
+    fig = Figure(figsize=layout.figsize)
+    fixed_margins(fig, **dict(layout.margins))
+    gridspec = {} if layout.width_ratios is None else {"width_ratios": layout.width_ratios}
+    return fig, fig.subplots(layout.nrows, layout.ncols, sharex=layout.sharex,
+                             squeeze=False, gridspec_kw=gridspec)
+
+
+def lay_out_ahead(layouts) -> None:
+    """Make a figure of each of `layouts` now, with `TICKS_AHEAD` ticks on each axis, for
+    `laid_out` to hand out later: what a process that waits for the data of its figures
+    (`railnav.jobs.plot_worker`) can do before they come (~0.035 s of the 1000-s trip's
+    ``errors.png``, ~0.02 s of ``track.png``; the PNG files are the same bytes)."""
+    for layout in layouts:
+        fig, axes = laid_out(layout)
+        for ax in axes.flat:
+            ax.xaxis.get_major_ticks(TICKS_AHEAD)
+            ax.yaxis.get_major_ticks(TICKS_AHEAD)
+        _AHEAD.setdefault(layout, []).append((fig, axes))
 
 
 def bottom_legend(fig, handles, *, ncols: int = 3) -> None:

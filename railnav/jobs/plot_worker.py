@@ -3,7 +3,9 @@
 ``railnav run`` starts a `PlotHelper` before it simulates and filters: a fork of the command
 (it shares the modules already imported) that imports matplotlib and the plotting modules at
 once, on the other core, draws a small figure in memory (fonts loaded, the PNG encoder
-started: `railnav.evaluation.plot_style.warm_up`), and then waits. When the run has its
+started: `railnav.evaluation.plot_style.warm_up`), lays out the figures it expects, their
+axes and ticks (`PlotHelper`'s ``ahead``: `railnav.evaluation.plots.lay_out_run`), and
+then waits. When the run has its
 result it sends the figures to draw (`Figure`: a function's name, its arguments — the run's
 tables, pickled once — and the PNG it writes), writes its CSV files and ``summary.json``
 meanwhile, and waits until every figure is written. The helper draws the first figure itself
@@ -112,7 +114,8 @@ class PlotHelper:
     written, and leaving ends the helper and its forks in any case.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, ahead: Figure | None = None) -> None:
+        self.ahead = ahead       # a call the helper makes once it has imported (see _serve)
         self.pid: int | None = None
         self._conn = None
         self._alive = None       # read end of a pipe every helper process holds open
@@ -139,7 +142,7 @@ class PlotHelper:
             try:
                 here.close()
                 os.close(alive_r)
-                _serve(there, parent)
+                _serve(there, parent, self.ahead)
                 code = 0
             finally:
                 os._exit(code)
@@ -248,9 +251,11 @@ def _die_with(parent_pid: int) -> None:
         os._exit(0)
 
 
-def _serve(conn, parent_pid: int) -> None:
-    """The helper: import the plotting modules, then draw each list of figures received
-    and answer None or (exception, traceback text); return at the end of the pipe."""
+def _serve(conn, parent_pid: int, ahead: Figure | None = None) -> None:
+    """The helper: import the plotting modules (and call `ahead`, which prepares what
+    it can of the figures: `railnav.evaluation.plots.lay_out_run`), then draw each list of
+    figures received and answer None or (exception, traceback text); return at the end of
+    the pipe."""
     os.setpgid(0, 0)          # a group of its own (with its forks): the command ends it
     _die_with(parent_pid)
     signal.signal(signal.SIGINT, signal.SIG_IGN)     # Ctrl-C is the command's to handle
@@ -260,6 +265,8 @@ def _serve(conn, parent_pid: int) -> None:
         for name in _WARM_MODULES:
             importlib.import_module(name)
         importlib.import_module("railnav.evaluation.plot_style").warm_up()   # fonts, PNG
+        if ahead is not None:
+            ahead.draw()
     except Exception:          # noqa: BLE001  (drawing raises it again, with its traceback)
         pass
     gc.freeze()
