@@ -82,12 +82,11 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     figures are drawn by a helper process started now, which imports matplotlib and lays
     out the figures it expects while the run simulates and filters
     (`railnav.jobs.plot_worker`)."""
-    from railnav.jobs.plot_worker import Figure, PlotHelper
+    from railnav.jobs.run import run_plot_helper
     if args.no_plots:
         return _one_track_run(args, tmp, None)
     truth = not files_given(args) or args.truth is not None     # errors.png, likely
-    ahead = Figure("railnav.evaluation.plots.lay_out_run", (args.filter, truth))
-    with PlotHelper(ahead) as plotter:
+    with run_plot_helper(args.filter, truth) as plotter:
         return _one_track_run(args, tmp, plotter)
 
 

@@ -59,6 +59,7 @@ from railnav.simulation.trip import (
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
 __all__ = ["RunOutcome", "run_simulated", "run_files", "write_run", "run_figures",
+           "run_plot_helper",
            "CSV_FLOAT_FORMAT", "read_sensor_files", "run_summary", "truth_start"]
 
 log = logging.getLogger(__name__)
@@ -362,6 +363,13 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
     else:
         draw(figures)
     return written + [figure.path for figure in figures]
+
+
+def run_plot_helper(filter_name: str, truth: bool) -> PlotHelper:
+    """The plot helper (`railnav.jobs.plot_worker`) of a one-track run with `filter_name`,
+    for `write_run`: it lays out ahead the map and, with a truth, ``errors.png``
+    (`railnav.evaluation.plots.lay_out_run`)."""
+    return PlotHelper(Figure("railnav.evaluation.plots.lay_out_run", (filter_name, truth)))
 
 
 def run_figures(outcome: RunOutcome, out: Path) -> list[Figure]:
