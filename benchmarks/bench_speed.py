@@ -223,8 +223,9 @@ def _stages_child() -> None:
     """In a fresh process: each stage of ``railnav run paper2017.csv`` timed (JSON line:
     wall per stage, and under ``cpu`` this process's CPU per stage and the plot helper's).
 
-    As the command does, the plot helper (`railnav.jobs.plot_worker.PlotHelper`) is forked
-    after the imports and draws the figures while `write_run` writes the tables:
+    As the command does, the plot helper (`railnav.jobs.run.run_plot_helper`) is forked
+    after the imports, lays out the figures ahead, and draws them while `write_run` writes
+    the tables:
     ``plots_helper_wait_s`` is what the figures add to the run then (`write_run` with the
     helper, less ``write_csv_s``); ``import_matplotlib_s`` and ``plots_s`` are the same
     figures drawn in this process after the tables (the path without fork)."""
@@ -237,14 +238,19 @@ def _stages_child() -> None:
         importlib.import_module(name)
     from railnav.commands.run_flags import DEFAULT_SEED
     from railnav.evaluation.metrics import error_series
-    from railnav.jobs.plot_worker import PlotHelper
-    from railnav.jobs.run import RunOutcome, run_summary, truth_start, write_run
+    from railnav.jobs.run import (
+        RunOutcome,
+        run_plot_helper,
+        run_summary,
+        truth_start,
+        write_run,
+    )
     from railnav.navigation.navigator import navigate
     from railnav.simulation.scenarios import get_scenario
     from railnav.simulation.trip import navigator_config_for, simulate_trip
     from trackmodel.io import read_track
     laps.lap("imports_s")
-    with PlotHelper() as helper:
+    with run_plot_helper("constrained", True) as helper:
         scenario = get_scenario("paper2017")
         config = navigator_config_for(scenario, filter="constrained", systems="G")
         trip = simulate_trip(scenario, track=read_track(TRACK), seed=DEFAULT_SEED,

@@ -63,8 +63,9 @@ def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
     args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
                                   or not files_given(args) else "gnss-only")
-    with imports_without_gc():
+    with imports_without_gc():   # and frozen: the engine's objects too (~0.02 s CPU of GC)
         check_flags(args)              # before the engine is imported: errors stay fast
+        import railnav.jobs.run  # noqa: F401  (every run's engine; the plot helper forks with it)
     inputs = [*args.tracks, args.imu, args.obs, args.nav, args.fixes, args.truth, args.baro,
               args.base, *args.sp3, args.network]
     with output_dir(args, inputs) as tmp:     # --out checked before any work
@@ -78,14 +79,14 @@ def handler(args: argparse.Namespace) -> int:
 
 def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     """Run one filter on one track and write it into `tmp`: (report, files written). The
-    figures are drawn by a helper process started now, which imports matplotlib while the
-    run simulates and filters (`railnav.jobs.plot_worker`)."""
-    with imports_without_gc():
-        import railnav.jobs.run  # noqa: F401  (the run's modules: the helper forks with them)
-    from railnav.jobs.plot_worker import PlotHelper
+    figures are drawn by a helper process started now, which imports matplotlib and lays
+    out the figures it expects while the run simulates and filters
+    (`railnav.jobs.plot_worker`)."""
+    from railnav.jobs.run import run_plot_helper
     if args.no_plots:
         return _one_track_run(args, tmp, None)
-    with PlotHelper() as plotter:
+    truth = not files_given(args) or args.truth is not None     # errors.png, likely
+    with run_plot_helper(args.filter, truth) as plotter:
         return _one_track_run(args, tmp, plotter)
 
 

@@ -19,10 +19,17 @@ import numpy.typing as npt
 from matplotlib.collections import LineCollection
 from matplotlib.figure import Figure
 
-from railnav.evaluation.plot_style import SIGMA_BAND, fixed_margins, outage_spans, save_png
+from railnav.evaluation.plot_style import (
+    SIGMA_BAND,
+    Layout,
+    laid_out,
+    outage_spans,
+    save_png,
+)
 from trackmodel.earth import ecef_to_enu, geodetic_to_ecef
 
-__all__ = ["track_estimate_figure", "plot_track_estimate", "ZOOM_MIN_HALF_WIDTH_M"]
+__all__ = ["track_estimate_figure", "plot_track_estimate", "ZOOM_MIN_HALF_WIDTH_M",
+           "MAP_LAYOUT"]
 
 Array = npt.NDArray[np.float64]
 
@@ -33,6 +40,9 @@ MAX_PATH_POINTS = 4000
 #: Share of the run at its start left out when looking for the zoom's moment.
 SETTLE_FRACTION = 0.05
 _TRACK_COLOURS = ("0.7", "C9", "C8", "C6", "C4")
+#: The map's figure: the overview and the zoom side by side.
+MAP_LAYOUT = Layout((13, 6.2), 1, 2, width_ratios=(1.45, 1.0), margins=(
+    ("left_in", 0.8), ("right_in", 0.3), ("top_in", 0.6), ("bottom_in", 0.6), ("wspace", 0.3)))
 
 
 def plot_track_estimate(track, result, path: str | os.PathLike, *, truth=None,
@@ -84,6 +94,7 @@ def track_estimate_figure(track, result, *, truth=None, names=None) -> Figure:
         The track, or every candidate track of a multi-track run (the first is drawn first).
     result : railnav.navigation.result.NavigationResult
     truth : railnav.simulation.truth.Truth, optional
+        Its ``time_s``, ``lat``, ``lon`` and ``h`` are read (`railnav.jobs.run.TruthPath`).
     names : sequence of str, optional
         The tracks' names for the legend.
 
@@ -101,9 +112,8 @@ def track_estimate_figure(track, result, *, truth=None, names=None) -> Figure:
                               est["h_m"].to_numpy())[:, :2]
     truth_en = _truth_en(local, truth, t)
     colour, colour_label = _colour_values(est, est_en, truth_en)
-    fig = Figure(figsize=(13, 6.2))
-    fixed_margins(fig, left_in=0.8, right_in=0.3, top_in=0.6, bottom_in=0.6, wspace=0.3)
-    ax_map, ax_zoom = fig.subplots(1, 2, gridspec_kw={"width_ratios": (1.45, 1.0)})
+    fig, axes = laid_out(MAP_LAYOUT)
+    ax_map, ax_zoom = axes[0]
     _overview(fig, ax_map, tracks, names, local, result, est_en, colour, colour_label)
     k = _worst(t, colour)
     _zoom(ax_zoom, tracks, names, local, est, est_en, truth_en, k)

@@ -27,8 +27,10 @@ from railnav.evaluation.plot_style import (
     MRAD_PER_RAD,
     SIGMA_BAND,
     TIME_LABEL,
+    Layout,
     bottom_legend,
-    fixed_margins,
+    lay_out_ahead,
+    laid_out,
     limit_axis,
     outage_legend_handle,
     outage_spans,
@@ -44,7 +46,8 @@ from railnav.evaluation.plot_style import (
 )
 
 __all__ = ["plot_errors", "plot_estimates", "plot_track_estimate", "errors_figure",
-           "estimates_figure", "track_estimate_figure", "SIGMA_BAND"]
+           "estimates_figure", "track_estimate_figure", "SIGMA_BAND", "errors_layout",
+           "lay_out_run", "ERROR_PANELS_OF_FILTER"]
 
 _DEG_TO_MRAD = np.pi / 180.0 * MRAD_PER_RAD
 
@@ -104,9 +107,8 @@ def errors_figure(errors, result) -> Figure:
     panels = _error_panels(est)
     spans = outage_spans(result)
     statuses = status_spans(result)
-    fig = Figure(figsize=(9, 1.9 * len(panels) + 0.8))
-    fixed_margins(fig)
-    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    fig, axes = laid_out(errors_layout(len(panels)))
+    axes = axes[:, 0]
     for ax, (field, sig_name, sig_scale, words, unit, scale) in zip(axes, panels):
         shade_status(ax, statuses)
         shade_outages(ax, spans)
@@ -132,6 +134,24 @@ def errors_figure(errors, result) -> Figure:
     return fig
 
 
+def errors_layout(n_panels: int) -> Layout:
+    """The layout of an ``errors.png`` of `n_panels` panels."""
+    return Layout((9, 1.9 * n_panels + 0.8), n_panels, 1, sharex=True)
+
+
+#: Panels of ``errors.png`` for each filter's estimates (`_error_panels`; tested).
+ERROR_PANELS_OF_FILTER = {"constrained": 5, "unconstrained": 7, "gnss-only": 2}
+
+
+def lay_out_run(filter_name: str, truth: bool) -> None:
+    """Lay out ahead (`plot_style.lay_out_ahead`) the figures of a one-track run
+    (`railnav.jobs.run.run_figures`) with `filter_name`, as far as they are known before
+    it runs: the map, and with a truth the ``errors.png`` of that filter's panels."""
+    from railnav.evaluation.map_plots import MAP_LAYOUT
+    panels = ERROR_PANELS_OF_FILTER.get(filter_name) if truth else None
+    lay_out_ahead([MAP_LAYOUT, *([] if panels is None else [errors_layout(panels)])])
+
+
 def estimates_figure(result) -> Figure:
     """Estimates with ±3σ bands (left) and their 1σ (right), GNSS outages shaded; for runs
     without a truth.
@@ -149,10 +169,8 @@ def estimates_figure(result) -> Figure:
     panels = [p for p in _ESTIMATE_PANELS if p[0] in est]
     spans = outage_spans(result)
     statuses = status_spans(result)
-    fig = Figure(figsize=(12, 1.9 * len(panels) + 0.8))
-    fixed_margins(fig, wspace=0.25)
-    axes = fig.subplots(len(panels), 2, sharex=True, squeeze=False,
-                        gridspec_kw={"width_ratios": (1.6, 1.0)})
+    fig, axes = laid_out(Layout((12, 1.9 * len(panels) + 0.8), len(panels), 2, sharex=True,
+                                width_ratios=(1.6, 1.0), margins=(("wspace", 0.25),)))
     for (ax, ax_sigma), (col, words, unit) in zip(axes, panels):
         value = est[col].to_numpy()
         sigma = est.get(f"sigma_{col}")

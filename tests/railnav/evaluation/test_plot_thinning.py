@@ -86,3 +86,26 @@ def test_short_series_are_drawn_whole():
     assert ax.get_autoscalex_on()                    # limits left to autoscaling
     kept = thin_to_pixels(ax, t[:n + 1], np.sin(t[:n + 1]))
     assert kept[0] == 0 and kept[-1] == n and np.all(np.diff(kept) > 0)
+
+
+def test_every_pixel_column_keeps_its_smallest_and_largest_sample():
+    """Reference: each sample's pixel column from the axes' own transform (Agg's pixels at
+    `PNG_DPI`), and each column's min and max over every sample, found one column at a
+    time, at the density of the 1000-s trip (10 Hz, ~12 samples a column)."""
+    rng = np.random.default_rng(37)
+    t = np.sort(rng.uniform(0.0, 1000.0, 10_000))
+    y = np.cumsum(rng.standard_normal(t.size)) + rng.standard_normal(t.size)
+    band = 1.0 + rng.uniform(0.0, 0.5, t.size)
+    fig, ax = _axes(t)
+    keep = thin_to_pixels(ax, t, y, band)
+    assert keep.size < t.size * 3 / 4                 # it thins at this density
+    column = np.floor(ax.transData.transform(np.column_stack([t, y]))[:, 0]).astype(int)
+    kept = np.zeros(t.size, dtype=bool)
+    kept[keep] = True
+    for c in np.unique(column):
+        here = column == c
+        for v in (y, band):
+            assert v[here & kept].min() == v[here].min()
+            assert v[here & kept].max() == v[here].max()
+        first, last = np.flatnonzero(here)[[0, -1]]
+        assert kept[first] and kept[last]
