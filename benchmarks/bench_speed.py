@@ -223,7 +223,7 @@ def _stages_child() -> None:
     """In a fresh process: each stage of ``railnav run paper2017.csv`` timed (JSON line:
     wall per stage, and under ``cpu`` this process's CPU per stage and the plot helper's).
 
-    As the command does, the plot helper (`railnav.jobs.run.run_plot_helper`) is forked
+    As the command does, the plot helper (`railnav.jobs.run_figures.run_plot_helper`) is forked
     after the imports, lays out the figures ahead, and draws them while `write_run` writes
     the tables:
     ``plots_helper_wait_s`` is what the figures add to the run then (`write_run` with the
@@ -238,13 +238,8 @@ def _stages_child() -> None:
         importlib.import_module(name)
     from railnav.commands.run_flags import DEFAULT_SEED
     from railnav.evaluation.metrics import error_series
-    from railnav.jobs.run import (
-        RunOutcome,
-        run_plot_helper,
-        run_summary,
-        truth_start,
-        write_run,
-    )
+    from railnav.jobs.run import RunOutcome, run_summary, truth_start, write_run
+    from railnav.jobs.run_figures import run_plot_helper
     from railnav.navigation.navigator import navigate
     from railnav.simulation.scenarios import get_scenario
     from railnav.simulation.trip import navigator_config_for, simulate_trip

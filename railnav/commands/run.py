@@ -82,7 +82,7 @@ def _one_track(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
     figures are drawn by a helper process started now, which imports matplotlib and lays
     out the figures it expects while the run simulates and filters
     (`railnav.jobs.plot_worker`)."""
-    from railnav.jobs.run import run_plot_helper
+    from railnav.jobs.run_figures import run_plot_helper
     if args.no_plots:
         return _one_track_run(args, tmp, None)
     truth = not files_given(args) or args.truth is not None     # errors.png, likely

@@ -94,7 +94,7 @@ def track_estimate_figure(track, result, *, truth=None, names=None) -> Figure:
         The track, or every candidate track of a multi-track run (the first is drawn first).
     result : railnav.navigation.result.NavigationResult
     truth : railnav.simulation.truth.Truth, optional
-        Its ``time_s``, ``lat``, ``lon`` and ``h`` are read (`railnav.jobs.run.TruthPath`).
+        Its ``time_s``, ``lat``, ``lon`` and ``h`` are read (`railnav.jobs.run_figures.TruthPath`).
     names : sequence of str, optional
         The tracks' names for the legend.
 

@@ -145,7 +145,7 @@ ERROR_PANELS_OF_FILTER = {"constrained": 5, "unconstrained": 7, "gnss-only": 2}
 
 def lay_out_run(filter_name: str, truth: bool) -> None:
     """Lay out ahead (`plot_style.lay_out_ahead`) the figures of a one-track run
-    (`railnav.jobs.run.run_figures`) with `filter_name`, as far as they are known before
+    (`railnav.jobs.run_figures.run_figures`) with `filter_name`, as far as they are known before
     it runs: the map, and with a truth the ``errors.png`` of that filter's panels."""
     from railnav.evaluation.map_plots import MAP_LAYOUT
     panels = ERROR_PANELS_OF_FILTER.get(filter_name) if truth else None
