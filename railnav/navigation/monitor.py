@@ -64,19 +64,8 @@ any test fails at `MonitorConfig.p_degraded` (1e-3; the fix test over the whole 
 else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 7·p_degraded
 per epoch (two kinds), false ``lost`` ≤ 4·p_lost; the windows overlap: alarms come in runs.
 
-Recovery (`MonitorConfig.recover`): when ``lost`` (two fixes or more disagree) and this
-epoch's fix alone disagrees beyond the χ²₁ quantile of `MonitorConfig.p_lost` (4.9σ at
-1e-6), ``s`` (and ``v`` where the fix has a speed) are re-initialised from it: the whole
-state through the filter's own start-from-fix code where the run has it (`TrackFixes.start`:
-``filter.initial_from_fix``, `railnav.filters.common.start_on_track`;
-`railnav.navigation.fix_start.initial_at_fix`),
-so that attitude, IMU biases and clock start over too (the attitude from the track at the
-fix, its error from the fix's along-track error correlated with ``s`` in ``P``,
-`railnav.filters.start_attitude`); else ``s`` and ``v`` alone (σ floored
-as ``start_on_track`` does), their rows and columns of ``P`` without correlations.
-Otherwise the ``s, v`` rows and columns of ``P`` are widened by the window's variance
-factor ``f = Σ d²/n`` (``P_ss`` times ``f``): the next updates pull the state back, and one
-noisy fix never replaces it.
+Recovery (`MonitorConfig.recover`, `railnav.navigation.monitor_recovery`): when ``lost``,
+the state is re-initialised from the epoch's fix or its ``s, v`` covariance widened.
 After a recovery the windows restart, and the status is ``degraded`` until
 `MonitorConfig.min_epochs` epochs have been seen again.
 
@@ -104,6 +93,7 @@ from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
+from railnav.navigation.monitor_recovery import reinitialised, widened
 from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
 from railnav.filters.row_sets import ROW_STATUSES
@@ -294,7 +284,9 @@ class FilterMonitor:
             fixes = self.fix_at(time_s)
             j = self._on_track(fixes, None if fixes is None else fixes.at(time_s))
         far = far and j is not None
-        recovered = self._recover(fixes, j if far else None, x, P)
+        recovered = (reinitialised(fixes, j, x, P, self.i_s, self.i_v, self.config) if far
+                     else widened(x, P, self.i_s, self.i_v,
+                                  self._window[_D2, self._window.shape[1] - self._n_window:]))
         record["action"] = "reinit" if far else "widen"
         self._n_window = 0                             # the windows restart
         self.small.restart()
@@ -377,42 +369,6 @@ class FilterMonitor:
                 "p_fix_small"], kind_tail) < cfg.p_degraded or self._seen < cfg.min_epochs:
             return "degraded", tails
         return "ok", tails
-
-    def _recover(self, f: TrackFixes | None, j: int | None, x: Array, P: Array
-                 ) -> tuple[Array, Array]:
-        x, P = x.copy(), P.copy()
-        i_s, i_v, cfg = self.i_s, self.i_v, self.config
-        if j is None:
-            w = self._window[_D2, self._window.shape[1] - self._n_window:]
-            factor = max(float(np.nanmean(w)) if np.isfinite(w).any() else 1.0, 1.0)
-            for i in (i_s, i_v):
-                P[i, :] *= np.sqrt(factor)
-                P[:, i] *= np.sqrt(factor)
-            return x, P
-        # a track through the same place twice (a loop, laps of a ring): the fix's pass
-        # nearest the filter, where the fix cannot tell the passes apart (`TrackFixes.near`)
-        s_fix, sigma_fix = f.near(j, float(x[i_s]))
-        if f.start is not None:
-            try:
-                x0, P0 = f.start(int(f.source[j]))
-            except (ValueError, ArithmeticError, np.linalg.LinAlgError):
-                x0 = None                  # no start from this fix: s and v alone
-            if x0 is not None:
-                x0 = np.array(x0, dtype=float)
-                x0[i_s] = s_fix
-                return x0, np.asarray(P0, dtype=float)
-        reset = [i_s]
-        x[i_s] = s_fix
-        var = {i_s: max(sigma_fix, cfg.min_fix_sigma_m) ** 2}
-        if np.isfinite(f.v_mps[j]):
-            x[i_v] = f.v_mps[j]
-            var[i_v] = max(f.sigma_v_mps[j], cfg.min_fix_sigma_mps) ** 2
-            reset.append(i_v)
-        for i in reset:
-            P[i, :] = 0.0
-            P[:, i] = 0.0
-            P[i, i] = var[i]
-        return x, P
 
     def frame(self) -> pd.DataFrame:
         """One row per tested epoch: ``time_s, status``, the tests' tail probabilities,
