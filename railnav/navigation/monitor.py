@@ -97,6 +97,7 @@ from railnav.navigation.monitor_recovery import reinitialised, widened
 from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
 from railnav.filters.row_sets import ROW_STATUSES
+from railnav.filters.standstill_rows import STANDSTILL_ROW_KINDS
 from railnav.navigation.tail_probabilities import (
     binom_sf,
     chi2_isf,
@@ -174,6 +175,7 @@ class FilterMonitor:
         self._clock_columns = clock_offset_columns(layout)
         self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
             else None
+        self._counted_key: dict[str, bool] = {}    # keys the rejected-row test counts
         self._position_key: dict[str, bool] = {}
         # the last epochs, oldest first, in the last `_n_window` columns
         self._window = np.full((_ROWS + 1, config.window_epochs), np.nan)
@@ -187,8 +189,7 @@ class FilterMonitor:
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         last = None if observations is None else self._new_screen_epoch()
-        self._screen_rows = (0, 0) if last is None else (
-            int(last.status.size), int(np.count_nonzero(last.status == ROW_STATUSES[1])))
+        self._screen_rows = (0, 0) if last is None else self._screen_rejections(last)
         if last is not None and self._gate is not None:
             self._kind_tail = kind_rejected_tail(last, self._gate)
         self._snapshot = None if observations is None or self._screened_out(last) else \
@@ -206,6 +207,18 @@ class FilterMonitor:
             return None
         self._screened = last
         return last
+
+    def _screen_rejections(self, last) -> tuple[int, int]:
+        """Screen epoch `last`'s rows and rejected rows, less the standstill detector's
+        (`STANDSTILL_ROW_KINDS`): their rejection refutes its guess, not the filter (a
+        MEMS IMU cruising reads as standing; counted, the 5-min stop was ``degraded`` on
+        21 % of its epochs)."""
+        counted = self._counted_key
+        for key in last.keys:                  # "<sv>/<kind>": the kind of each key, once
+            if key not in counted:
+                counted[key] = key_kind(key) not in STANDSTILL_ROW_KINDS
+        mask = np.fromiter(map(counted.__getitem__, last.keys), dtype=bool, count=len(last.keys))
+        return int(mask.sum()), int(np.count_nonzero(mask & (last.status == ROW_STATUSES[1])))
 
     def _screened_out(self, last) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`),
