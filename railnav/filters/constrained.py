@@ -9,7 +9,8 @@ inputs with the track linearized along the predicted path (the per-step paramete
 faulty satellites and receiver clock jumps (`railnav.filters.fault_detection`,
 ``config.fault_detection``); pseudoranges correlated from epoch to epoch
 (``config.pseudorange_correlation_s`` > 0) with their variances inflated as the gnss-only
-filter's (`railnav.filters.gnss_only_noise.pseudorange_inflation`).
+filter's (`railnav.filters.gnss_only_noise.pseudorange_inflation`) for the update, and
+screened at their own (`railnav.filters.fault_detection`, "Inflated rows").
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
 distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
@@ -322,8 +323,9 @@ class ConstrainedFilter:
         g, f = self.epoch_split(index)
         gnss = None if g < 0 else (self.rows.observations(g, x, self._chunk_end),
                                    self.rows.rows_sv[-1], self.rows.rows_kind[-1])
-        rows, sv, kind, modes, groups = self.epoch_rows(index, f, gnss, x, P)
-        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups)
+        rows, sv, kind, modes, groups, inflation = self.epoch_rows(index, f, gnss, x, P)
+        return self.screen.screen(rows, sv, kind, x, P, modes=modes, groups=groups,
+                                  inflation=inflation)
 
     def epoch_split(self, index: int) -> tuple[int, int]:
         """The GNSS and fix epochs of schedule epoch `index` (−1: none)."""
@@ -332,24 +334,32 @@ class ConstrainedFilter:
     def epoch_rows(self, index: int, f: int, gnss, x: Array, P: Array) -> tuple:
         """Epoch `index`'s rows before the screen: the GNSS rows `gnss` (``(rows, sv,
         kind)``, None without), fix epoch `f`'s rows, the sensor and body rows, stacked
-        (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple); `observations`, and
-        `railnav.filters.epochs_together` for a bank."""
+        (`railnav.filters.fix_rows.stack_epoch_rows`'s tuple), and each row's variance
+        inflation (`RowScreen.screen`'s ``inflation``: None when no row is inflated);
+        `observations`, and `railnav.filters.epochs_together` for a bank."""
         if self._along is not None:
             self._along.epoch = True
+        factor = 1.0
         if gnss is not None and self.pseudorange_inflation != 1.0:
-            gnss = (self._inflated(gnss[0], x), *gnss[1:])
+            factor = pseudorange_inflation(self.config, float(x[self._i["v"]]),
+                                           self.gnss_interval_s)
+            gnss = (self._inflated(gnss[0], factor), *gnss[1:])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:
             extra = [*extra, *self.body.parts(self.schedule, index, x, P)]
-        return stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
+        stacked = stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
+        if factor == 1.0:
+            return (*stacked, None)
+        model = self.rows.rows.pseudorange
+        return (*stacked, np.concatenate([np.full(o.rows, factor if o.model is model else 1.0)
+                                          for o in stacked[0]]))
 
-    def _inflated(self, rows: list[Observation], x: Array) -> list[Observation]:
-        """The GNSS rows `rows` with the pseudoranges' variances times
-        `railnav.filters.gnss_only_noise.pseudorange_inflation` at the prior's speed (the
-        fault screen then tests them with those variances, as the update uses them)."""
-        factor = pseudorange_inflation(self.config, float(x[self._i["v"]]),
-                                       self.gnss_interval_s)
+    def _inflated(self, rows: list[Observation], factor: float) -> list[Observation]:
+        """The GNSS rows `rows` with the pseudoranges' variances times `factor`
+        (`railnav.filters.gnss_only_noise.pseudorange_inflation` at the prior's speed): the
+        update's variances; the fault screen tests each row with its own
+        (`railnav.filters.fault_detection`, "Inflated rows")."""
         model = self.rows.rows.pseudorange
         return [replace(o, R=o.R * factor) if o.model is model else o for o in rows]
 

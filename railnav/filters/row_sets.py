@@ -15,7 +15,7 @@ import numpy.typing as npt
 from ekf.update import Observation
 
 __all__ = ["evaluate_rows", "subset_rows", "group_status", "innovation_covariances",
-           "influence_gains", "ROW_STATUSES"]
+           "influence_gains", "own_covariance", "ROW_STATUSES"]
 
 Array = npt.NDArray[np.float64]
 
@@ -88,6 +88,17 @@ def innovation_covariances(rows: list[tuple[Array, Array, Array]]) -> list[Array
         D.reshape(R.shape[:-1] + (m * m,))[..., ::m + 1] = R     # every (m+1)-th element
         return H @ P @ np.swapaxes(H, -1, -2) + D
     return _by_shape(covariance, rows)
+
+
+def own_covariance(S: Array, R: Array, inflation: Array) -> Array:
+    """``S`` with each row's variance ``R`` replaced by its own, ``R / inflation``:
+    ``S₀ = H P Hᵀ + diag(R / inflation)`` from ``S = H P Hᵀ + diag(R)`` (the fault
+    screen's tests of rows whose update variance is inflated for correlated errors,
+    `railnav.filters.fault_detection`)."""
+    m = R.size
+    S0 = S.copy()
+    S0.reshape(m * m)[::m + 1] += R / inflation - R          # the diagonal, in place
+    return S0
 
 
 def influence_gains(rows: list[tuple[Array, Array, Array]]) -> list[Array]:

@@ -32,7 +32,8 @@ def screen_together(screens, stacked, priors) -> list:
     screens : sequence of RowScreen
     stacked : sequence of tuple
         Each screen's rows ``(observations, sv, kind, modes, groups)``
-        (`railnav.filters.fix_rows.stack_epoch_rows`; `RowScreen.screen`'s arguments).
+        (`railnav.filters.fix_rows.stack_epoch_rows`; `RowScreen.screen`'s arguments),
+        optionally with the rows' ``inflation`` (`RowScreen.screen`) after them.
     priors : sequence of (ndarray (n,), ndarray (n, n))
         Each screen's prior state and covariance.
 
@@ -44,8 +45,9 @@ def screen_together(screens, stacked, priors) -> list:
     evaluated = [evaluate_rows(rows[0], x) for rows, (x, _) in zip(stacked, priors)]
     covariances = innovation_covariances([(H, P, R) for (_, H, R), (_, P)
                                           in zip(evaluated, priors)])
-    pending = [screen._start(rows[1], rows[2], x, P, nu, H, S, rows[3])
-               for screen, rows, (x, P), (nu, H, _), S
+    pending = [screen._start(rows[1], rows[2], x, P, nu, H, S, rows[3], R,
+                             rows[5] if len(rows) > 5 else None)
+               for screen, rows, (x, P), (nu, H, R), S
                in zip(screens, stacked, priors, evaluated, covariances)]
     probs = _fault_probabilities([screen.config for screen in screens],
                                  [one["r"] for one in pending])

@@ -97,3 +97,44 @@ def test_white_errors_leave_every_row_as_it_was(trip):
                     trip["gnss"])
     assert a.pseudorange_inflation == b.pseudorange_inflation == 1.0
     np.testing.assert_array_equal(_rows(a, x, P)[1], _rows(b, x, P)[1])
+
+
+def _shifted_row(filt, x, P, k_sigma: float) -> tuple[str, float]:
+    """Make the epoch's first pseudorange row's innovation at the prior ``k_sigma`` times
+    its own σ, ``√(H P Hᵀ + σ²)`` (σ² the row's white variance, written out here from its
+    Jacobian and the row builder's variance): the row's key and that σ."""
+    build = filt.rows.observations
+    rows = build(EPOCH, x, filt._chunk_end)
+    model = filt.rows.rows.pseudorange
+    offset = 0
+    for o in rows:
+        if o.model is model:
+            break
+        offset += o.rows
+    z_pred, H = o.model.evaluate(x, o.p)
+    sigma = math.sqrt(float(H[0] @ P @ H[0] + o.R[0]))
+    shift = k_sigma * sigma - (float(o.z.reshape(-1)[0]) - float(z_pred[0]))
+
+    def shifted(index, x_prior, end):
+        out = build(index, x_prior, end)
+        return [replace(r, z=r.z + np.eye(1, r.rows).reshape(r.z.shape) * shift)
+                if r.model is model else r for r in out]
+    filt.rows.observations = shifted
+    return f"{filt.rows.rows_sv[-1][offset]}/pseudorange", sigma
+
+
+@pytest.mark.parametrize("k_sigma, status", [(5.0, "rejected"), (2.0, "used")])
+def test_screen_tests_a_row_at_its_own_variance(trip, k_sigma, status):
+    """Told τ = 60 s standing (variance factor ~120 at 1 Hz, √ ~11), a pseudorange 5σ off
+    (σ of its own epoch: ``H P Hᵀ`` + the white variance) is rejected by the fault screen,
+    whose row test is at 3.73σ (`railnav.filters.fault_detection`); one 2σ off is used.
+    Tested against the inflated variance the 5σ row would be 0.45σ off and used."""
+    x, P = _prior(trip, 0.0)
+    i = trip["filt"].layout.index("clock_bias")
+    P[i, i] = 1.0             # the clock known to 1 m: the row's σ is mostly its own
+    filt = make_filter(trip["track"], replace(trip["white"], pseudorange_correlation_s=TAU_S),
+                       trip["gnss"])
+    key, _ = _shifted_row(filt, x, P, k_sigma)
+    filt.observations(EPOCH, x, P)
+    last = filt.screen.last
+    assert last.status[list(last.keys).index(key)] == status

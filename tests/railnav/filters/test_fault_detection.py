@@ -224,3 +224,53 @@ def test_a_receiver_clock_jump_is_absorbed(curvy_short):
     inn = blind.faulted.result.innovations
     late = inn[(inn["time_s"] > 60.0) & (inn["kind"] == "pseudorange")]
     assert (~late["accepted"]).mean() > 0.9
+
+
+#: A variance factor for errors correlated over τ: ``(1+ρ)/(1−ρ)``, ρ = exp(−1/60) (τ 60 s
+#: at 1 Hz).
+INFLATION = (1.0 + np.exp(-1.0 / 60.0)) / (1.0 - np.exp(-1.0 / 60.0))
+
+
+def _inflated_screen(screen, model, offsets_sigma):
+    """Rows whose innovation is ``offsets_sigma`` times their own σ (``S₀ = H P Hᵀ + σ²``),
+    given to the screen with the update's variance ``INFLATION σ²``."""
+    obs, H, S0 = _rows(model, offsets_sigma)
+    obs = [replace(obs[0], R=obs[0].R * INFLATION)]
+    out = screen.screen(obs, SVS, np.full(LOS.size, "pseudorange", dtype=object), X, P,
+                        inflation=np.full(LOS.size, INFLATION))
+    return out, screen.last, H, S0
+
+
+def test_inflated_rows_are_tested_at_their_own_variance(model):
+    """The row test's fault probability is that of ``ν²/(H P Hᵀ + σ²)`` (not of the
+    inflated variance, at which the 6σ row would be 0.6σ off); the update gets ``f σ²``."""
+    offsets = np.array([0.5, -1.0, 6.0, 0.0, -2.0, 1.5])
+    out, last, H, S0 = _inflated_screen(RowScreen(FaultDetectionConfig(), None), model,
+                                        offsets)
+    np.testing.assert_allclose(last.fault_probability,
+                               fault_probability(offsets ** 2, prior=0.01, scale=10.0),
+                               rtol=RTOL)
+    assert list(last.status) == ["used", "used", "rejected", "used", "used", "used"]
+    np.testing.assert_allclose(out[0].R, np.full(5, INFLATION * SIGMA_M ** 2), rtol=RTOL)
+    np.testing.assert_allclose(last.S, H @ P @ H.T + INFLATION * SIGMA_M ** 2 * np.eye(6),
+                               rtol=RTOL)
+
+
+@pytest.mark.parametrize("inflated", [False, True])
+def test_a_steady_bias_excludes_by_the_cusum_only_when_white(model, inflated):
+    """One row held at 2σ of its own variance (a multipath bias): white (f = 1), the CUSUM
+    adds 2 − 0.35 a epoch and passes h = 9 at the 6th; told τ 60 s it adds
+    ``2 √(S₀/S) − 0.35 < 0`` (the sums at the update's variance, the long-run one) and
+    the channel stays in for 20 epochs."""
+    screen = RowScreen(FaultDetectionConfig(), None)
+    offsets = np.array([2.0, 0, 0, 0, 0, 0])
+    statuses = []
+    for _ in range(20):
+        if inflated:
+            last = _inflated_screen(screen, model, offsets)[1]
+        else:
+            last = _screen(screen, model, offsets)[1]
+        statuses.append(last.status[0])
+    first = int(np.ceil(9.0 / (2.0 - 0.35)))
+    expected = ["used"] * 20 if inflated else ["used"] * (first - 1) + ["excluded"] * (21 - first)
+    assert statuses == expected
