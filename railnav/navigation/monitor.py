@@ -341,7 +341,7 @@ class FilterMonitor:
         self.small.push(small)
 
     def _status(self, kind_tail: float) -> tuple[str, dict]:
-        w = self._window[:, self._window.shape[1] - self._n_window:]   # (7, n), oldest first
+        w = self._window[:, self._window.shape[1] - self._n_window:]   # (10, n), oldest first
         # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers;
         # Python floats after, each the float64 it was)
         nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _, e_rej, e_rej_on, _ = \
