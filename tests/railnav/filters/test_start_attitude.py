@@ -72,7 +72,7 @@ def test_a_restart_on_the_ring_is_not_overconfident():
     restarts at 10 and 11 s: 93 %). A consistent σ_s puts ~0.3 % there. (Started at 0 s,
     the monitor now restarts once, at 1 s, on the straight, from the second fix that
     disagrees: `railnav.navigation.monitor`.)"""
-    from tests.railnav.navigation.test_monitor import ring_restart_run
+    from tests.railnav.navigation.test_monitor_recovery import ring_restart_run
     result, trip = ring_restart_run(start_time_s=12.0)
     restarts = result.monitor.loc[result.monitor["action"] == "reinit", "time_s"]
     last = float(restarts.max())
