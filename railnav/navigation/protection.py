@@ -25,6 +25,14 @@ Assumptions: Gaussian errors with the filter's covariance (real urban errors are
 correlated and heavier-tailed: measured on the shared drive, not proven); at most one
 undetected faulty row per epoch, and earlier epochs' undetected faults covered by σ_s;
 the track itself exact (its fit error is not in ``σ_s``).
+
+Measured with small code faults on one satellite (``benchmarks/bench_fault_protection.py``,
+``curvy`` tactical, 5 seeds: 10-m and 30-m steps, 0.1 and 0.03 m/s ramps, a 0.1 m/s ramp
+on the range rate too): the truth never left ``[s_min, s_max]`` nor the 1e-3 interval in
+150 000 scored epochs, while ``|error| > 3σ_s`` on up to 0.89 % of them (max 4.7σ_s: the
+slow ramp's rows the screen let through, whose pull ``σ_s`` does not cover). The price is
+width: the median ``PL`` is ~10 m at 1e-5 and ~8.4 m at 1e-3 against ``σ_s`` 0.76 m, the
+undetected-fault part dominating.
 """
 from __future__ import annotations
 
