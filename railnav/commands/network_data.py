@@ -20,13 +20,12 @@ from railnav.commands.support import (
     progress_bar,
 )
 from railnav.errors import ConfigError
+from trackmodel.fit_defaults import DEFAULT_TOL_M  # load_network's, check_network's
 
 __all__ = ["register_data_commands", "load", "start_position", "import_handler"]
 
 log = logging.getLogger(__name__)
 
-#: Netelement fit tolerance of an imported network, m (`trackmodel.fit_defaults`).
-DEFAULT_TOL_M = 0.5
 SOURCE_HELP = ("network folder, GeoJSON (netelements + netrelations), OpenStreetMap "
                "(.osm, .osm.pbf) or track .csv")
 
@@ -87,8 +86,9 @@ def register_data_commands(sub) -> None:
     r.add_argument("--to", dest="end", type=start_position, metavar="ELEMENT:S_M")
     r.add_argument("--elements", metavar="E1,E2,...",
                    help="netelements in order (',' or '>'; '-E' travelled backwards)")
-    r.add_argument("--max-routes", type=positive_int, default=3,
-                   help="--from/--to: how many routes to list (default 3)")
+    r.add_argument("--max-routes", type=positive_int, default=None,
+                   help="--from/--to: how many routes to list (default: "
+                        "trackmodel.Network.routes', 5)")
     r.add_argument("--out", type=output_path, metavar="TRACK.csv",
                    help="write the route's line as a track file")
     _add_tol(r)
@@ -182,7 +182,8 @@ def _route(args: argparse.Namespace) -> int:
         legs = [route_legs(network, args.elements)]
         lengths = [sum(network.length_m(e) for e, _ in legs[0])]
     else:
-        routes = network.routes(args.start, args.end, max_routes=args.max_routes)
+        given = {} if args.max_routes is None else {"max_routes": args.max_routes}
+        routes = network.routes(args.start, args.end, **given)
         if not routes:
             raise ConfigError(f"no route from {args.start.element} to {args.end.element} "
                               "(direction of travel and navigability respected)")

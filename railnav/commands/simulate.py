@@ -14,7 +14,7 @@ import logging
 from dataclasses import replace
 from pathlib import Path
 
-from railnav.commands.run_flags import SCENARIO_HELP, scenario_for
+from railnav.commands.run_flags import SCENARIO_HELP
 from railnav.commands.simulate_sensors import (
     add_sensor_arguments,
     sensor_configs,
@@ -28,7 +28,7 @@ from railnav.commands.support import (
     progress_bar,
     written_line,
 )
-from railnav.defaults import DEFAULT_SYSTEMS
+from railnav.defaults import DEFAULT_SEED, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.simulation.fixes import (
     DEFAULT_QUALITY_MIX,
@@ -36,7 +36,7 @@ from railnav.simulation.fixes import (
     FixSimConfig,
     parse_quality_mix,
 )
-from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
+from railnav.simulation.scenarios import SCENARIOS, scenario_for_track, scenario_to_dict
 from strapdown.imu_errors import IMU_GRADES
 from trackmodel.files import atomic_write_csv, atomic_write_text
 
@@ -88,7 +88,8 @@ def register(subparsers) -> None:
                         "rtk_fixed=0.5,single=0.5 (default "
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     add_sensor_arguments(p)
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                   help=f"random seed (default {DEFAULT_SEED})")
     add_output_arguments(p, DEFAULT_OUT)
     p.set_defaults(func=handler)
 
@@ -150,7 +151,7 @@ def handler(args: argparse.Namespace) -> int:
     _check_network_flags(args)
     fix_config = _fix_config(args)
     sensors = sensor_configs(args)
-    scenario = get_scenario(scenario_for(args.track or "", args.scenario)).with_overrides(
+    scenario = scenario_for_track(args.track or "", args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
     if args.lever_arm is not None:

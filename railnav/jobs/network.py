@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from railnav.defaults import DEFAULT_HORIZON_M
+from railnav.defaults import DEFAULT_HORIZON_M, DEFAULT_SEED
 from railnav.errors import ConfigError, RailnavError
 from railnav.evaluation.netelement_truth import (
     collapse,
@@ -293,7 +293,7 @@ def candidate_starts(trip, config, route_filter):
 
 
 def run_simulated_network(network: Network, legs, scenario, *, line=None, config=None,
-                          seed: int = 0, systems: str | None = None,
+                          seed: int = DEFAULT_SEED, systems: str | None = None,
                           nav: NetworkNavConfig = NetworkNavConfig(), known_start: bool = False,
                           start_direction: int | None = None, faults: tuple = (),
                           window: tuple[float, float] | None = None,
@@ -359,7 +359,8 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
 
 def write_network_run(run: NetworkRunOutcome, out_dir: str | os.PathLike, *,
                       plots: bool = True) -> list[Path]:
-    """Write a network run into `out_dir` (module docstring); the paths written."""
+    """Write a network run into `out_dir` (module docstring); the paths written. `plots`:
+    also draw the PNG figures (``--no-plots``: False)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     res, outcome = run.network_result, run.outcome

@@ -30,6 +30,7 @@ from railnav.config import (
     NavigatorConfig,
     SensorData,
 )
+from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import (
     ErrorSeries,
@@ -100,7 +101,7 @@ class RunOutcome:
 
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
-                  seed: int = 0, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
+                  seed: int = DEFAULT_SEED, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
                   faults: tuple = (), smooth: bool = False,
                   progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Simulate `scenario` on `track` and filter it.
@@ -359,9 +360,10 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
               plotter: PlotHelper | None = None) -> list[Path]:
     """Write a run's files into `out_dir` (created); returns the paths written.
 
-    With `plotter` (started before the run, `railnav.jobs.plot_worker`), its helper
-    process draws the figures while this one writes the tables; without, they are drawn
-    here after the tables.
+    `plots`: also draw the PNG figures (``railnav run --no-plots``: False). With `plotter`
+    (started before the run, `railnav.jobs.plot_worker`), its helper process draws the
+    figures while this one writes the tables; without, they are drawn here after the
+    tables.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -29,12 +29,12 @@ from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from railnav.config import (
-    DEFAULT_FILTER,
     DEFAULT_SYSTEMS,
     NavigatorConfig,
     SensorData,
     check_gnss_pair,
 )
+from railnav.defaults import default_filter
 from railnav.errors import ConfigError
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import filter_kind
@@ -75,7 +75,7 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
         raise ConfigError("no sensor data: give imu_path, obs_path with nav_path, or "
                           "fixes_path", arguments=("imu_path", "obs_path", "nav_path",
                                                    "fixes_path"))
-    filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
+    filter = default_filter(filter, imu=imu_path is not None)
     imu_log = read_imu_file(imu_path, imu_spec) if imu_path is not None else None
     if config is None:
         config = _default_file_config(imu_path, obs_path, fixes_path, filter, systems,

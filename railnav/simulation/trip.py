@@ -27,6 +27,7 @@ from gnss_obs.simulate import (
     simulate_gnss,
 )
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
+from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import check_trip_times
 from railnav.filters.track_frame import LeverArms
@@ -179,7 +180,7 @@ def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: st
     return base
 
 
-def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool = True,
+def simulate_trip(scenario: Scenario, *, track=None, seed: int = DEFAULT_SEED, gnss: bool = True,
                   systems: str = DEFAULT_SYSTEMS, faults: tuple[SatelliteFault, ...] = (),
                   nav: RinexNav | None = None,
                   progress: Callable[[int, int], None] | None = None) -> SimulatedTrip:
