@@ -11,7 +11,7 @@ the same defaults; the main ones are importable from the package itself::
 command                                function(s)
 =====================================  ===========================================
 ``railnav simulate``                   `simulate_trip`, `scenario_for_track`
-                                       (`get_scenario`)
+                                       (`get_scenario`), `write_simulated_trip`
 ``railnav simulate --fixes-format F``  + `trip_fixes` (`simulate_fixes`, `FixSimConfig`),
                                        `gnss_obs.write_fixes_csv` / ``write_fixes_nmea``
 ``railnav run TRACK``                  `run_simulated` (on `scenario_for_track`),
@@ -51,7 +51,8 @@ command                                function(s)
                                        `accuracy_summary` underneath); systems
                                        default G as every command (`gnss_obs`'s
                                        own `SppConfig` default is GE)
-``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
+``railnav track fit SURVEY``           `fit_survey` (`read_survey`; `trackmodel.fit_track`)
+``railnav track sample|info|plot``     `trackmodel` (`sample_track`, `track_info`, ...)
 ``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
                                        `check_network` (`read_osm`, GeoJSON readers)
 ``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
@@ -79,6 +80,8 @@ _EXPORTS = {
     "NavigationResult": "navigation.result",
     "run_simulated": "jobs.run", "run_files": "jobs.run", "write_run": "jobs.run", "RunOutcome": "jobs.run",
     "simulate_trip": "simulation.trip", "navigator_config_for": "simulation.trip",
+    "write_simulated_trip": "jobs.simulated_files",
+    "read_survey": "jobs.survey", "fit_survey": "jobs.survey",
     "get_scenario": "simulation.scenarios", "Scenario": "simulation.scenarios",
     "scenario_for_track": "simulation.scenarios",
     "run_experiment": "reproduce.common", "reproduce_paper2017": "reproduce.paper2017",

@@ -64,6 +64,8 @@ class SimulatedTrip:
     nav : gnss_obs.RinexNav or None
         The broadcast navigation data the GNSS simulation used.
     systems : str
+    seed : int
+        The random seed it was simulated with (`simulate_trip`).
     """
 
     scenario: Scenario
@@ -71,6 +73,7 @@ class SimulatedTrip:
     gnss: GnssSimulation | None
     nav: RinexNav | None
     systems: str
+    seed: int = DEFAULT_SEED
 
     @property
     def track(self):
@@ -218,7 +221,7 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = DEFAULT_SEED, g
     check_trip_times(end_s, outages=scenario.outages,
                      early_end="at the track's end" if early else "")
     if not gnss:
-        return SimulatedTrip(scenario, sim, None, None, systems)
+        return SimulatedTrip(scenario, sim, None, None, systems, seed)
     ratio = scenario.imu_rate_hz / scenario.gnss_rate_hz
     step = int(round(ratio))
     if step < 1 or abs(ratio - step) > 1e-9:
@@ -231,4 +234,4 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = DEFAULT_SEED, g
     obs = simulate_gnss(scenario.start_gps_time_s + epochs.time_s, r_e, v_e,
                         nav, gnss_sim_config_for(scenario, systems=systems, faults=faults),
                         rng=rng)
-    return SimulatedTrip(scenario, sim, obs, nav, systems)
+    return SimulatedTrip(scenario, sim, obs, nav, systems, seed)

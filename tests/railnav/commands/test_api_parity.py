@@ -179,7 +179,8 @@ API: dict[tuple[str, ...], tuple[tuple[str, ...], dict]] = {
                 "railnav.jobs.tracks:run_files_tracks", "railnav.jobs.tracks:run_simulated_tracks",
                 "railnav.jobs.tracks:write_track_run", NET_FILES,
                 "railnav.jobs.network:write_network_run"), RUN_OPTIONS),
-    ("simulate",): (("railnav.simulation.trip:simulate_trip",), SIMULATE_OPTIONS),
+    ("simulate",): (("railnav.simulation.trip:simulate_trip",
+                     "railnav.jobs.simulated_files:write_simulated_trip"), SIMULATE_OPTIONS),
     ("spp",): ((SPP,), {
         "systems": Param(SPP, "systems"), "ionosphere": Param(SPP, "ionosphere"),
         "elevation_mask_deg": Param(SPP, "elevation_mask_deg"), "raim": Param(SPP, "raim"),
@@ -194,10 +195,12 @@ API: dict[tuple[str, ...], tuple[tuple[str, ...], dict]] = {
                       "railnav.reproduce.common:write_result_json"), {
         "runs": Param("railnav.reproduce.common:run_experiment", "runs"),
         "seed": Param("railnav.reproduce.common:run_experiment", "seed")}),
-    ("track", "fit"): (("trackmodel.fit:fit_track",), {
-        "leg": Calls("trackmodel.polyline:split_legs"),
-        "tol_m": Param("trackmodel.fit:fit_track", "tol_m"),
-        "vtol_m": Param("trackmodel.fit:fit_track", "vtol_m")}),
+    ("track", "fit"): (("railnav.jobs.survey:fit_survey",), {
+        "leg": Param("railnav.jobs.survey:fit_survey", "leg"),
+        "tol_m": Param("railnav.jobs.survey:fit_survey", "tol_m",
+                       also=("trackmodel.fit:fit_track",)),
+        "vtol_m": Param("railnav.jobs.survey:fit_survey", "vtol_m",
+                        also=("trackmodel.fit:fit_track",))}),
     ("track", "sample"): (("trackmodel.summary:sample_track",), {
         "step_m": Param("trackmodel.summary:sample_track", "step_m")}),
     ("track", "info"): (("trackmodel.summary:track_info",), {}),
