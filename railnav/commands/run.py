@@ -164,7 +164,8 @@ def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path
                                    filter=args.filter, systems=args.systems,
                                    imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
                                    fix_model=fix_model(args),
-                                   outages=tuple(args.outage or ()), nav=nav,
+                                   outages=None if args.outage is None
+                                   else tuple(args.outage), nav=nav,
                                    window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for

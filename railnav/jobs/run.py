@@ -43,10 +43,9 @@ from railnav.filters.fix_epochs import FixModelConfig
 from railnav.jobs.plot_worker import PlotHelper, draw
 from railnav.jobs.run_figures import run_figures
 from railnav.jobs.scoring import (
+    file_outages,
     find_truth,
-    scenario_outages,
     score_run,
-    simulation_meta,
     with_timestamps,
 )
 from railnav.jobs.sensor_files import read_sensor_files, sensor_summary
@@ -287,10 +286,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,
                           max_correction_age_s=max_correction_age_s)
-    found = simulation_meta(imu_path, obs_path, fixes_path)
     own = outages is not None
-    if not own:
-        outages = scenario_outages(found[0] if found else None)
+    outages = file_outages(outages, imu_path, obs_path, fixes_path)
     check_trip_times(data.end_s, outages=outages, window=window,
                      early_end="" if own else "where the simulated files end")
     result = with_timestamps(navigate(track, data, config, outages=outages,

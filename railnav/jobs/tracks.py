@@ -234,7 +234,7 @@ def run_files_tracks(tracks, names, *, imu_path=None, obs_path=None, nav_path=No
                      fixes_path=None, start_gps_time_s: float | None = None,
                      config: NavigatorConfig | None = None, filter: str | None = None,
                      systems: str | None = None, imu_grade: str | None = None,
-                     fix_sigmas=None, fix_model=None, outages=(),
+                     fix_sigmas=None, fix_model=None, outages=None,
                      nav: NetworkNavConfig | None = None, direction: int | None = 1,
                      window: tuple[float, float] | None = None,
                      progress: Callable[[int, int], None] | None = None) -> TrackRunOutcome:
@@ -242,10 +242,10 @@ def run_files_tracks(tracks, names, *, imu_path=None, obs_path=None, nav_path=No
 
     Parameters are those of `railnav.jobs.network.run_files_network` (the sensor files, the
     filter and fix model; `filter` default `railnav.defaults.default_filter`'s: the
-    constrained filter with `imu_path`, else the gnss-only one, as ``railnav run``'s), plus the candidate `tracks`, their `names`, `nav` (default
-    ``track_nav(len(tracks))``) and the `direction` the vehicle faces on them (+1: along
-    ``s``, as the tracks are given; -1; None: either, one inertial hypothesis per track and
-    orientation).
+    constrained filter with `imu_path`, else the gnss-only one, as ``railnav run``'s),
+    plus the candidate `tracks`, their `names`, `nav` (default ``track_nav(len(tracks))``)
+    and the `direction` the vehicle faces on them (+1: along ``s``, as the tracks are
+    given; -1; None: either, one inertial hypothesis per track and orientation).
     """
     from railnav.navigation.network_start import NetworkStart
     network = track_network(tracks, names)

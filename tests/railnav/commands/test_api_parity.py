@@ -23,8 +23,10 @@ verbosity). Every function named must be public (in `railnav`'s or its module's
 
 A deliberate difference between a command and its function would go into `DELIBERATE`
 with the reason; none remains (stop 38: ``network route --max-routes`` was 3 against
-``Network.routes``' 5, ``run_files_tracks``' filter the constrained one against the
-command's gnss-only without an IMU; both now follow the library).
+``Network.routes``' 5; ``run_files_tracks``' filter the constrained one against the
+command's gnss-only without an IMU; its and ``run_files_network``'s outages ``()``
+against ``run_files``' None, the outages of ``railnav simulate``'s files: all now one
+rule).
 """
 from __future__ import annotations
 
@@ -103,8 +105,8 @@ RUN_OPTIONS = {
     "scenario": Param("railnav.simulation.scenarios:scenario_for_track", "name"),
     "imu_grade": Param(RUN, "imu_grade", also=MORE),
     "speed_mps": Param(OVERRIDES, "speed_mps"), "duration_s": Param(OVERRIDES, "duration_s"),
-    # run_files' None: scenario.json's outages; run_files_tracks/_network: () (none)
-    "outage": Param(RUN, "outages"),
+    # None: scenario.json's outages beside the files (railnav.jobs.scoring.file_outages)
+    "outage": Param(RUN, "outages", also=MORE),
     "filter": Param(RUN, "filter", also=MORE), "systems": Param(RUN, "systems", also=MORE),
     "window": Param(RUN, "window", also=MORE),
     "seed": Param(RUN_SIM, "seed", none_is_default=True,
