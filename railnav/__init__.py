@@ -53,8 +53,10 @@ command                                function(s)
                                        own `SppConfig` default is GE)
 ``railnav track fit SURVEY``           `fit_survey` (`read_survey`; `trackmodel.fit_track`)
 ``railnav track sample|info|plot``     `trackmodel` (`sample_track`, `track_info`, ...)
-``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
-                                       `check_network` (`read_osm`, GeoJSON readers)
+``railnav network import|build``       `import_network` (`trackmodel.load_network`,
+                                       `check_network`, `write_network`)
+``railnav network check|info``         `trackmodel.load_network`, `check_network`
+                                       (`read_osm`, GeoJSON readers)
 ``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
                                        `Network.routes`; `plot_network_map`
 ``railnav simulate --network --route`` `simulate_trip` on `trackmodel.route_track`
@@ -80,7 +82,7 @@ _EXPORTS = {
     "NavigationResult": "navigation.result",
     "run_simulated": "jobs.run", "run_files": "jobs.run", "write_run": "jobs.run", "RunOutcome": "jobs.run",
     "simulate_trip": "simulation.trip", "navigator_config_for": "simulation.trip",
-    "write_simulated_trip": "jobs.simulated_files",
+    "write_simulated_trip": "jobs.simulated_files", "import_network": "jobs.network_import",
     "read_survey": "jobs.survey", "fit_survey": "jobs.survey",
     "get_scenario": "simulation.scenarios", "Scenario": "simulation.scenarios",
     "scenario_for_track": "simulation.scenarios",

@@ -1,15 +1,17 @@
 """The defaults of a run that the command line shows: each written once here.
 
-`DEFAULT_FILTER` (and `default_filter`, the rule for sensor files), `DEFAULT_SEED`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
+`DEFAULT_FILTER`, `DEFAULT_IMU_GRADE`, `DEFAULT_SYSTEMS` (the defaults of
 `railnav.config.NavigatorConfig`, which re-exports them; `DEFAULT_SYSTEMS` is also
-`railnav.spp_files`'s), `DEFAULT_IONOSPHERE` and `DEFAULT_ELEVATION_MASK_DEG` (of
-`railnav.spp_files`) and `DEFAULT_CROSSING_RATE_PER_S`
-(of `railnav.navigation.network_config.NetworkNavConfig`; `railnav.navigation.bank` explains
-it). They live in a module
-that imports nothing, so that the ``railnav`` parser (help texts, choices, defaults) is
-built without importing the engine, CasADi, SciPy or pandas: ``railnav --help`` and an
-argument error stay fast. The defaults of a simulated trip (speed profile, GNSS σ, start
-time) are its scenario's (`railnav.simulation.scenarios`).
+`railnav.spp_files`'s), `default_filter` (the filter of sensor files without one named:
+`railnav.run_files` and its kin, ``railnav run``), `DEFAULT_SEED` (of every simulated
+trip), `DEFAULT_IONOSPHERE` and `DEFAULT_ELEVATION_MASK_DEG` (of `railnav.spp_files`),
+`DEFAULT_CROSSING_RATE_PER_S` (of `railnav.navigation.network_config.NetworkNavConfig`;
+`railnav.navigation.bank` explains it), `DEFAULT_HORIZON_M` and
+`DEFAULT_NETWORK_SPEED_MPS` (track networks). They live in a module that imports nothing,
+so that the ``railnav`` parser (help texts, choices, defaults) is built without importing
+the engine, CasADi, SciPy or pandas: ``railnav --help`` and an argument error stay fast.
+The other defaults of a simulated trip (speed profile, GNSS σ, start time) are its
+scenario's (`railnav.simulation.scenarios`).
 """
 from __future__ import annotations
 

@@ -1,6 +1,7 @@
 """``railnav network import|check|plot|route`` (and ``build``, ``info``): network data.
 
-Thin layer over `trackmodel.network_routes.load_network` (a network folder, GeoJSON,
+Thin layer over `railnav.jobs.network_import.import_network` (``import``, ``build``),
+`trackmodel.network_routes.load_network` (a network folder, GeoJSON,
 OpenStreetMap or a track CSV), `trackmodel.network_io.write_network`,
 `trackmodel.network_check.check_network`, `railnav.evaluation.network_map` and
 `trackmodel.network_routes` / `trackmodel.network.Network.routes`. Every NETWORK argument
@@ -118,25 +119,14 @@ def _summary(network) -> str:
 
 
 def import_handler(args: argparse.Namespace) -> int:
-    """``network import`` (and ``network build``): load, check, write the folder."""
-    from trackmodel.network_check import check_network
-    from trackmodel.network_io import write_network
+    """``network import`` (and ``network build``): `railnav.jobs.network_import`."""
+    from railnav.jobs.network_import import GEOJSON_SUFFIXES, import_network
     source = getattr(args, "source", None) or args.geojson
-    network = load(source, args)
-    findings = check_network(network, tol_m=args.tol_m)
-    errors = [f for f in findings if f.level == "error"]
-    if errors:
-        more = f" (and {len(errors) - 1} more errors)" if len(errors) > 1 else ""
-        raise ConfigError(f"{source}: {errors[0]}{more}; nothing written")
-    for finding in findings:
-        log.warning("%s: %s", source, finding)
-    if Path(args.out).suffix.lower() in (".geojson", ".json"):
-        from trackmodel.network_io import write_network_geojson
-        write_network_geojson(network, args.out)
-        print(f"{args.out}: {_summary(network)}; {len(findings)} warning(s)")
-    else:
-        write_network(network, args.out)
-        print(f"{args.out}/: {_summary(network)}; {len(findings)} warning(s)")
+    with progress_bar("fitting netelements", enabled=not args.quiet) as progress:
+        network, findings = import_network(source, args.out, tol_m=args.tol_m,
+                                           progress=progress)
+    folder = "" if Path(args.out).suffix.lower() in GEOJSON_SUFFIXES else "/"
+    print(f"{args.out}{folder}: {_summary(network)}; {len(findings)} warning(s)")
     return 0
 
 
@@ -157,15 +147,7 @@ def _plot(args: argparse.Namespace) -> int:
     from trackmodel.network_routes import route_legs
     network = load(args.network, args)
     route = None if args.route is None else route_legs(network, args.route)
-    fixes = None
-    if args.fixes is not None:
-        import numpy as np
-
-        from gnss_obs.fixes.read import read_fixes
-        table = read_fixes(args.fixes).table
-        fixes = (np.radians(table["lat_deg"].to_numpy(float)),
-                 np.radians(table["lon_deg"].to_numpy(float)))
-    plot_network_map(network, args.out, route=route, fixes=fixes)
+    plot_network_map(network, args.out, route=route, fixes=args.fixes)
     print(f"{args.out}: {_summary(network)}"
           + ("" if route is None else f"; route of {len(route)} netelements"))
     return 0

@@ -174,6 +174,7 @@ SIMULATE_OPTIONS = {
 }
 
 TOL = {"tol_m": Param(LOAD_NETWORK, "tol_m")}
+IMPORT = "railnav.jobs.network_import:import_network"
 
 #: Command -> (its public functions, where each option goes).
 API: dict[tuple[str, ...], tuple[tuple[str, ...], dict]] = {
@@ -207,12 +208,15 @@ API: dict[tuple[str, ...], tuple[tuple[str, ...], dict]] = {
         "step_m": Param("trackmodel.summary:sample_track", "step_m")}),
     ("track", "info"): (("trackmodel.summary:track_info",), {}),
     ("track", "plot"): (("trackmodel.plot:plot_track",), {}),
-    ("network", "import"): ((LOAD_NETWORK, "trackmodel.network_io:write_network"), TOL),
-    ("network", "build"): ((LOAD_NETWORK, "trackmodel.network_io:write_network"), TOL),
+    ("network", "import"): ((IMPORT,), {"tol_m": Param(IMPORT, "tol_m",
+                                                       also=(LOAD_NETWORK,))}),
+    ("network", "build"): ((IMPORT,), {"tol_m": Param(IMPORT, "tol_m",
+                                                      also=(LOAD_NETWORK,))}),
     ("network", "check"): (("trackmodel.network_check:check_network",), {
         "tol_m": Param("trackmodel.network_check:check_network", "tol_m")}),
     ("network", "plot"): (("railnav.evaluation.network_map:plot_network_map",), {
-        **TOL, "route": Calls(ROUTE_LEGS), "fixes": Calls("gnss_obs.fixes.read:read_fixes")}),
+        **TOL, "route": Calls(ROUTE_LEGS),
+        "fixes": Param("railnav.evaluation.network_map:network_map_figure", "fixes")}),
     ("network", "route"): (("trackmodel.network:Network.routes", ROUTE_LEGS), {
         **TOL, "start": Param("trackmodel.network:Network.routes", "start"),
         "end": Param("trackmodel.network:Network.routes", "end"),
