@@ -10,18 +10,21 @@ the same defaults; the main ones are importable from the package itself::
 =====================================  ===========================================
 command                                function(s)
 =====================================  ===========================================
-``railnav simulate``                   `simulate_trip`, `get_scenario`
+``railnav simulate``                   `simulate_trip`, `scenario_for_track`
+                                       (`get_scenario`), `write_simulated_trip`
 ``railnav simulate --fixes-format F``  + `trip_fixes` (`simulate_fixes`, `FixSimConfig`),
                                        `gnss_obs.write_fixes_csv` / ``write_fixes_nmea``
-``railnav run TRACK``                  `run_simulated`, `run_files`, `write_run`
-                                       (`navigate` underneath, `NavigatorConfig`)
+``railnav run TRACK``                  `run_simulated` (on `scenario_for_track`),
+                                       `run_files`, `write_run` (`navigate`
+                                       underneath, `NavigatorConfig`)
 ``railnav run TRACK --fixes F``        `run_files` (`gnss_obs.read_fixes`, `FixModelConfig`)
 ``railnav run ... --truth R``          `score_run` (`read_reference`, `reference_errors`,
                                        `screen_fix_reference`)
 ``railnav run TRACK --smooth``         ``run_simulated``/``run_files(smooth=True)``
                                        (`smooth_result`, `smooth_outcome`;
                                        ``NavigatorConfig(rts_smoothing=True)``)
-``railnav run TRACK --export F,...``    + `write_exports` (GeoJSON, KML, GPX, NMEA)
+``railnav run TRACK --export F,...``    + `write_run_exports` (`write_exports`: GeoJSON,
+                                       KML, GPX, NMEA)
 ``--out DIR [--overwrite]``            `trackmodel.files.output_directory` (every
                                        command: written whole or not at all)
 ``railnav run ... --imu-spec S``       `run_files(imu_spec=)` (`strapdown.read_imu_log`,
@@ -33,8 +36,9 @@ command                                function(s)
 ``--balises --imu-jitter-s S``         `SlipEpisode`), `simulate_balises`
                                        (`BaliseSimConfig`), `simulate_imu_log`
                                        (`ImuLogSimConfig`)
-``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `check_run_baro`
-                                       (`baro_track_check` underneath)
+``railnav run TRACK --baro B.csv``     + `read_baro_csv`, `add_run_baro`,
+                                       `write_run_baro` (`check_run_baro`,
+                                       `baro_track_check` underneath)
 ``railnav run TRACK_A TRACK_B``        `run_simulated_tracks`, `run_files_tracks`,
                                        `write_track_run` (`navigate_network` on
                                        `track_network`, `track_nav`)
@@ -47,17 +51,22 @@ command                                function(s)
                                        `accuracy_summary` underneath); systems
                                        default G as every command (`gnss_obs`'s
                                        own `SppConfig` default is GE)
-``railnav track ...``                  `trackmodel` (`read_track`, `fit_track`, ...)
-``railnav network import|check|info``  `trackmodel.load_network`, `write_network`,
-                                       `check_network` (`read_osm`, GeoJSON readers)
+``railnav track fit SURVEY``           `fit_survey` (`read_survey`; `trackmodel.fit_track`)
+``railnav track sample|info|plot``     `trackmodel` (`sample_track`, `track_info`, ...)
+``railnav network import|build``       `import_network` (`trackmodel.load_network`,
+                                       `check_network`, `write_network`)
+``railnav network check|info``         `trackmodel.load_network`, `check_network`
+                                       (`read_osm`, GeoJSON readers)
 ``railnav network route|plot``         `trackmodel.route_legs`, `route_track`,
                                        `Network.routes`; `plot_network_map`
 ``railnav simulate --network --route`` `simulate_trip` on `trackmodel.route_track`
 ``railnav run --network N ...``        `run_files_network`, `write_network_run`
                                        (`navigate_network` underneath, `NetworkNavConfig`,
                                        `NetworkStart`; track networks: `trackmodel.network`)
-``railnav network run N --start E:S``  `run_simulated_network` / `run_files_network`,
-                                       `route_candidates`
+``railnav network run N --start E:S``  `run_simulated_route` (`route_scenario`,
+                                       `run_simulated_network`) / `run_files_network`
+``railnav network routes N --start``   `route_candidates` (the list ``--true-route``
+                                       indexes)
 =====================================  ===========================================
 
 The names are imported on first use (PEP 562), so ``import railnav`` stays cheap;
@@ -73,7 +82,10 @@ _EXPORTS = {
     "NavigationResult": "navigation.result",
     "run_simulated": "jobs.run", "run_files": "jobs.run", "write_run": "jobs.run", "RunOutcome": "jobs.run",
     "simulate_trip": "simulation.trip", "navigator_config_for": "simulation.trip",
+    "write_simulated_trip": "jobs.simulated_files", "import_network": "jobs.network_import",
+    "read_survey": "jobs.survey", "fit_survey": "jobs.survey",
     "get_scenario": "simulation.scenarios", "Scenario": "simulation.scenarios",
+    "scenario_for_track": "simulation.scenarios",
     "run_experiment": "reproduce.common", "reproduce_paper2017": "reproduce.paper2017",
     "reproduce_anomaly2021": "reproduce.anomaly2021",
     "run_study": "studies.study", "load_study_config": "studies.file", "StudyConfig": "studies.config",
@@ -84,9 +96,12 @@ _EXPORTS = {
     "spp_files": "jobs.spp", "SppRun": "jobs.spp",
     "spp_errors": "evaluation.spp_accuracy", "accuracy_summary": "evaluation.spp_accuracy",
     "read_baro_csv": "jobs.baro", "check_run_baro": "jobs.baro",
+    "add_run_baro": "jobs.baro", "write_run_baro": "jobs.baro",
+    "write_run_exports": "jobs.export",
     "baro_track_check": "evaluation.baro",
     "route_candidates": "jobs.network", "run_simulated_network": "jobs.network",
     "run_files_network": "jobs.network", "write_network_run": "jobs.network",
+    "run_simulated_route": "jobs.network_sim", "route_scenario": "jobs.network_sim",
     "navigate_network": "navigation.network_navigator",
     "NetworkNavConfig": "navigation.network_config", "NetworkStart": "navigation.network_start",
     "FixModelConfig": "filters.fix_epochs", "trip_fixes": "simulation.fixes",

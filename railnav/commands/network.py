@@ -8,7 +8,6 @@
 from __future__ import annotations
 
 import argparse
-from dataclasses import replace
 from pathlib import Path
 
 from railnav.commands.network_data import (
@@ -26,31 +25,14 @@ from railnav.commands.support import (
     progress_bar,
     written_line,
 )
-from railnav.defaults import DEFAULT_HORIZON_M
+from railnav.defaults import DEFAULT_HORIZON_M, DEFAULT_NETWORK_SPEED_MPS, DEFAULT_SEED
 from railnav.errors import ConfigError
+from trackmodel.fit_defaults import DEFAULT_TOL_M
 
 __all__ = ["register", "start_position", "DEFAULT_OUT"]
 
 #: Output directory of ``network run`` when --out is not given.
 DEFAULT_OUT = "railnav-network-run"
-#: Speed of a simulated trip on a network, m/s (constant; the `curvy` scenario's sensors).
-SIM_SPEED_MPS = 20.0
-#: A simulated trip without --duration-s runs this share of the shortest route.
-SIM_ROUTE_SHARE = 0.9
-
-
-def _scenario(network, args):
-    """The `curvy` scenario's sensors at a constant speed, for --duration-s or 90 % of the
-    shortest route ahead (a trip must end on every route it might take)."""
-    from railnav.simulation.profiles import constant_speed
-    from railnav.simulation.scenarios import get_scenario
-    duration = args.duration_s
-    if duration is None:
-        shortest = min(r.length_m for r in network.routes_ahead(args.start,
-                                                                horizon_m=args.horizon_m))
-        duration = SIM_ROUTE_SHARE * shortest / args.speed_mps
-    return replace(get_scenario("curvy"), profile=constant_speed(args.speed_mps),
-                   duration_s=duration, outages=())
 
 
 def register(subparsers) -> None:
@@ -71,9 +53,9 @@ def register(subparsers) -> None:
                                    "a network folder (elements.csv, connections.csv, "
                                    "elements/*.csv); the same as 'network import'.")
     b.add_argument("geojson", metavar="NETWORK.geojson")
-    b.add_argument("--tol-m", type=positive_float, default=0.5,
+    b.add_argument("--tol-m", type=positive_float, default=DEFAULT_TOL_M,
                    help="largest deviation of a netelement's points from its track, m "
-                        "(default 0.5)")
+                        f"(default {DEFAULT_TOL_M:g})")
     b.add_argument("--out", required=True, metavar="DIR", help="network folder to write")
     b.set_defaults(func=import_handler)
     i = sub.add_parser("info", help="netelements, joints, kinks and checks of a network",
@@ -97,16 +79,17 @@ def register(subparsers) -> None:
                                      "columns, hypotheses.csv, route.csv, summary.json "
                                      "'route', network.png.")
     _add_start(run)
-    run.add_argument("--true-route", type=nonnegative_int, default=0, metavar="N",
+    run.add_argument("--true-route", type=nonnegative_int, default=None, metavar="N",
                      help="simulated trip: the route it takes, 0 = the first listed "
                           "(default 0; the filters are not told)")
     run.add_argument("--duration-s", type=positive_float, default=None,
-                     help="simulated trip: its duration, s (default: the scenario's)")
-    run.add_argument("--speed-mps", type=positive_float, default=SIM_SPEED_MPS,
+                     help="simulated trip: its duration, s (default: the time to run 90 %% "
+                          "of the shortest route ahead)")
+    run.add_argument("--speed-mps", type=positive_float, default=None,
                      help=f"simulated trip: its constant speed, m/s (default "
-                          f"{SIM_SPEED_MPS:g})")
-    run.add_argument("--seed", type=nonnegative_int, default=0,
-                     help="simulated trip: random seed (default 0)")
+                          f"{DEFAULT_NETWORK_SPEED_MPS:g})")
+    run.add_argument("--seed", type=nonnegative_int, default=None,
+                     help=f"simulated trip: random seed (default {DEFAULT_SEED})")
     run.add_argument("--imu", metavar="IMU.csv", help="IMU samples (sensor files)")
     run.add_argument("--obs", metavar="RINEX_OBS", help="RINEX observation file")
     run.add_argument("--nav", metavar="RINEX_NAV", help="RINEX navigation file")
@@ -156,12 +139,11 @@ def _info(args: argparse.Namespace) -> int:
 
 
 def _routes(args: argparse.Namespace) -> int:
-    from railnav.jobs.network import route_name
-    from railnav.jobs.network import load_network
+    from railnav.jobs.network import load_network, route_candidates
     network = load_network(args.network)
-    routes = network.routes_ahead(args.start, horizon_m=args.horizon_m)
-    for k, route in enumerate(routes):
-        print(f"{k}: {route.length_m:8.1f} m  {route_name(route)}")
+    names, routes, _ = route_candidates(network, args.start, horizon_m=args.horizon_m)
+    for k, (name, route) in enumerate(zip(names, routes)):
+        print(f"{k}: {route.length_m:8.1f} m  {name}")
     return 0
 
 
@@ -174,8 +156,12 @@ def _run(args: argparse.Namespace) -> int:
     from railnav.jobs.network import load_network
     network = load_network(args.network)
     files = args.imu is not None or args.obs is not None
-    if files and (args.duration_s is not None or args.speed_mps != SIM_SPEED_MPS):
-        raise ConfigError("--duration-s/--speed-mps: shape a simulated trip; with sensor "
+    shaping = [flag for flag, value in (("--true-route", args.true_route),
+                                        ("--duration-s", args.duration_s),
+                                        ("--speed-mps", args.speed_mps),
+                                        ("--seed", args.seed)) if value is not None]
+    if files and shaping:
+        raise ConfigError(f"{'/'.join(shaping)}: shape a simulated trip; with sensor "
                           "files there is none to shape")
     out = Path(args.out)
     start = NetworkStart(args.start.element, args.start.s_m, args.start.direction)
@@ -192,16 +178,13 @@ def _network_run(network, args: argparse.Namespace, start, files: bool, progress
     """The navigator from `start`: on the sensor files, or on a trip simulated along route
     --true-route ahead of it."""
     from railnav.commands.network_run import nav_config
-    from railnav.jobs.network import route_candidates, run_files_network, run_simulated_network
+    from railnav.jobs.network import run_files_network
+    from railnav.jobs.network_sim import run_simulated_route
     if files:
         return run_files_network(network, imu_path=args.imu, obs_path=args.obs,
                                  nav_path=args.nav, start=start, nav=nav_config(args),
                                  progress=progress)
-    names, routes, start_s = route_candidates(network, args.start, horizon_m=args.horizon_m)
-    if not 0 <= args.true_route < len(routes):
-        raise ConfigError(f"--true-route {args.true_route}: only {len(routes)} route(s) "
-                          "ahead of the start")
-    scenario = replace(_scenario(network, args), start_s=start_s)
-    return run_simulated_network(network, routes[args.true_route].legs, scenario,
-                                 seed=args.seed, nav=nav_config(args), known_start=True,
-                                 progress=progress)
+    given = {k: getattr(args, k) for k in ("true_route", "speed_mps", "duration_s", "seed")
+             if getattr(args, k) is not None}
+    return run_simulated_route(network, args.start, horizon_m=args.horizon_m,
+                               nav=nav_config(args), progress=progress, **given)

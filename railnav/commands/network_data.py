@@ -1,6 +1,7 @@
 """``railnav network import|check|plot|route`` (and ``build``, ``info``): network data.
 
-Thin layer over `trackmodel.network_routes.load_network` (a network folder, GeoJSON,
+Thin layer over `railnav.jobs.network_import.import_network` (``import``, ``build``),
+`trackmodel.network_routes.load_network` (a network folder, GeoJSON,
 OpenStreetMap or a track CSV), `trackmodel.network_io.write_network`,
 `trackmodel.network_check.check_network`, `railnav.evaluation.network_map` and
 `trackmodel.network_routes` / `trackmodel.network.Network.routes`. Every NETWORK argument
@@ -20,13 +21,12 @@ from railnav.commands.support import (
     progress_bar,
 )
 from railnav.errors import ConfigError
+from trackmodel.fit_defaults import DEFAULT_TOL_M  # load_network's, check_network's
 
 __all__ = ["register_data_commands", "load", "start_position", "import_handler"]
 
 log = logging.getLogger(__name__)
 
-#: Netelement fit tolerance of an imported network, m (`trackmodel.fit_defaults`).
-DEFAULT_TOL_M = 0.5
 SOURCE_HELP = ("network folder, GeoJSON (netelements + netrelations), OpenStreetMap "
                "(.osm, .osm.pbf) or track .csv")
 
@@ -87,8 +87,9 @@ def register_data_commands(sub) -> None:
     r.add_argument("--to", dest="end", type=start_position, metavar="ELEMENT:S_M")
     r.add_argument("--elements", metavar="E1,E2,...",
                    help="netelements in order (',' or '>'; '-E' travelled backwards)")
-    r.add_argument("--max-routes", type=positive_int, default=3,
-                   help="--from/--to: how many routes to list (default 3)")
+    r.add_argument("--max-routes", type=positive_int, default=None,
+                   help="--from/--to: how many routes to list (default: "
+                        "trackmodel.Network.routes', 5)")
     r.add_argument("--out", type=output_path, metavar="TRACK.csv",
                    help="write the route's line as a track file")
     _add_tol(r)
@@ -118,25 +119,14 @@ def _summary(network) -> str:
 
 
 def import_handler(args: argparse.Namespace) -> int:
-    """``network import`` (and ``network build``): load, check, write the folder."""
-    from trackmodel.network_check import check_network
-    from trackmodel.network_io import write_network
+    """``network import`` (and ``network build``): `railnav.jobs.network_import`."""
+    from railnav.jobs.network_import import GEOJSON_SUFFIXES, import_network
     source = getattr(args, "source", None) or args.geojson
-    network = load(source, args)
-    findings = check_network(network, tol_m=args.tol_m)
-    errors = [f for f in findings if f.level == "error"]
-    if errors:
-        more = f" (and {len(errors) - 1} more errors)" if len(errors) > 1 else ""
-        raise ConfigError(f"{source}: {errors[0]}{more}; nothing written")
-    for finding in findings:
-        log.warning("%s: %s", source, finding)
-    if Path(args.out).suffix.lower() in (".geojson", ".json"):
-        from trackmodel.network_io import write_network_geojson
-        write_network_geojson(network, args.out)
-        print(f"{args.out}: {_summary(network)}; {len(findings)} warning(s)")
-    else:
-        write_network(network, args.out)
-        print(f"{args.out}/: {_summary(network)}; {len(findings)} warning(s)")
+    with progress_bar("fitting netelements", enabled=not args.quiet) as progress:
+        network, findings = import_network(source, args.out, tol_m=args.tol_m,
+                                           progress=progress)
+    folder = "" if Path(args.out).suffix.lower() in GEOJSON_SUFFIXES else "/"
+    print(f"{args.out}{folder}: {_summary(network)}; {len(findings)} warning(s)")
     return 0
 
 
@@ -157,15 +147,7 @@ def _plot(args: argparse.Namespace) -> int:
     from trackmodel.network_routes import route_legs
     network = load(args.network, args)
     route = None if args.route is None else route_legs(network, args.route)
-    fixes = None
-    if args.fixes is not None:
-        import numpy as np
-
-        from gnss_obs.fixes.read import read_fixes
-        table = read_fixes(args.fixes).table
-        fixes = (np.radians(table["lat_deg"].to_numpy(float)),
-                 np.radians(table["lon_deg"].to_numpy(float)))
-    plot_network_map(network, args.out, route=route, fixes=fixes)
+    plot_network_map(network, args.out, route=route, fixes=args.fixes)
     print(f"{args.out}: {_summary(network)}"
           + ("" if route is None else f"; route of {len(route)} netelements"))
     return 0
@@ -182,7 +164,8 @@ def _route(args: argparse.Namespace) -> int:
         legs = [route_legs(network, args.elements)]
         lengths = [sum(network.length_m(e) for e, _ in legs[0])]
     else:
-        routes = network.routes(args.start, args.end, max_routes=args.max_routes)
+        given = {} if args.max_routes is None else {"max_routes": args.max_routes}
+        routes = network.routes(args.start, args.end, **given)
         if not routes:
             raise ConfigError(f"no route from {args.start.element} to {args.end.element} "
                               "(direction of travel and navigability respected)")

@@ -46,7 +46,7 @@ def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:
         truth_quality=args.truth_quality, start_gps_time_s=args.start_gps_time_s,
         filter=args.filter, systems=args.systems, imu_grade=args.imu_grade,
         fix_sigmas=fix_sigmas(args), fix_model=fix_model(args),
-        outages=tuple(args.outage or ()), progress=progress)
+        outages=None if args.outage is None else tuple(args.outage), progress=progress)
 
 
 def network_report(run, out: Path) -> str:

@@ -19,6 +19,7 @@ from railnav.commands.support import (
     progress_bar,
 )
 from railnav.reproduce.common import (
+    DEFAULT_SEED,
     EXPERIMENTS,
     result_path,
     run_experiment,
@@ -29,8 +30,6 @@ __all__ = ["register", "handler", "DEFAULT_SEED", "DEFAULT_OUT"]
 
 log = logging.getLogger(__name__)
 
-#: Seed of the Monte Carlo when ``--seed`` is not given.
-DEFAULT_SEED = 1
 #: Output folder when ``--out`` is not given (as ``railnav run``'s ``railnav-run``): never
 #: the working directory itself.
 DEFAULT_OUT = "railnav-reproduce"

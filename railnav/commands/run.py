@@ -24,7 +24,7 @@ from railnav.commands.run_flags import (
     fix_model,
     fix_sigmas,
     real_inputs,
-    scenario_name,
+    scenario_of,
     seed,
     time_window,
 )
@@ -35,8 +35,7 @@ from railnav.commands.support import (
     progress_bar,
     written_line,
 )
-from railnav.defaults import DEFAULT_FILTER, DEFAULT_SYSTEMS
-from railnav.simulation.scenarios import get_scenario
+from railnav.defaults import DEFAULT_SYSTEMS, default_filter
 
 __all__ = ["register", "handler", "DEFAULT_OUT", "DEFAULT_SCENARIO", "time_window"]
 
@@ -61,8 +60,7 @@ def register(subparsers) -> None:
 
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav run``; returns the exit status."""
-    args.filter = args.filter or (DEFAULT_FILTER if args.imu is not None
-                                  or not files_given(args) else "gnss-only")
+    args.filter = default_filter(args.filter, imu=args.imu is not None or not files_given(args))
     with imports_without_gc():   # and frozen: the engine's objects too (~0.02 s CPU of GC)
         check_flags(args)              # before the engine is imported: errors stay fast
         import railnav.jobs.run  # noqa: F401  (every run's engine; the plot helper forks with it)
@@ -95,7 +93,7 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
     from trackmodel.io import read_track
     baro = None
     if args.baro is not None:
-        from railnav.jobs.baro import read_baro_csv
+        from railnav.jobs.baro import add_run_baro, read_baro_csv, write_run_baro
         baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
     with progress_bar("filter", enabled=not args.quiet) as progress:
@@ -112,7 +110,7 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
                                 **augmentation(args), **real_inputs(args),
                                 **attitude_config(args))
         else:
-            scenario = car_body_scenario(args, get_scenario(scenario_name(args)).with_overrides(
+            scenario = car_body_scenario(args, scenario_of(args).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
                 imu_errors=args.imu_grade, outages=args.outage))
             from railnav.simulation.trip import navigator_config_for
@@ -122,10 +120,10 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, smooth=args.smooth,
                                     progress=progress)
-    baro_check = None if baro is None else _baro_check(outcome, baro)
+    baro_check = None if baro is None else add_run_baro(outcome, baro)
     written = write_run(outcome, tmp, plots=not args.no_plots, plotter=plotter)
     if baro_check is not None:
-        written += _write_baro(baro_check, tmp)
+        written += write_run_baro(baro_check, tmp)
     text = report(outcome, Path(args.out))
     if args.fixes is not None and not args.correlated_fix_errors:
         text = "\n".join([text, *fix_hint_lines(outcome.summary)])
@@ -138,29 +136,8 @@ def _exports(args: argparse.Namespace, outcome, tmp: Path) -> list[Path]:
     """--export: the trajectory (and the smoothed one) in the formats asked for."""
     if args.export is None:
         return []
-    from railnav.jobs.export import parse_export_formats, write_exports
-    formats = parse_export_formats(args.export)
-    written = write_exports(outcome.result.estimates, tmp, formats)
-    if outcome.smoothed is not None:
-        written += write_exports(outcome.smoothed.result.estimates, tmp, formats,
-                                 name="smoothed")
-    return written
-
-
-def _baro_check(outcome, baro):
-    """Run the baro check (GNSS heights from a single-point solution with the run's
-    measurement model) and add its summary to the run's (written with it)."""
-    from railnav.jobs.baro import baro_summary, check_run_baro
-    check = check_run_baro(outcome, baro)
-    outcome.summary["baro"] = baro_summary(check)
-    return check
-
-
-def _write_baro(check, out: Path) -> list[Path]:
-    from trackmodel.files import atomic_write_csv
-    atomic_write_csv(out / "baro.csv", check.to_frame())
-    atomic_write_csv(out / "baro_gnss.csv", check.gnss_frame())
-    return [out / "baro.csv", out / "baro_gnss.csv"]
+    from railnav.jobs.export import parse_export_formats, write_run_exports
+    return write_run_exports(outcome, tmp, parse_export_formats(args.export))
 
 
 def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path]]:
@@ -187,11 +164,12 @@ def _several_tracks(args: argparse.Namespace, tmp: Path) -> tuple[str, list[Path
                                    filter=args.filter, systems=args.systems,
                                    imu_grade=args.imu_grade, fix_sigmas=fix_sigmas(args),
                                    fix_model=fix_model(args),
-                                   outages=tuple(args.outage or ()), nav=nav,
+                                   outages=None if args.outage is None
+                                   else tuple(args.outage), nav=nav,
                                    window=args.window, progress=progress)
         else:
             from railnav.simulation.trip import navigator_config_for
-            scenario = get_scenario(scenario_name(args)).with_overrides(
+            scenario = scenario_of(args).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
                 imu_errors=args.imu_grade, outages=args.outage)
             systems = args.systems or DEFAULT_SYSTEMS

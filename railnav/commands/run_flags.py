@@ -10,7 +10,6 @@ owner modules at its top (start-up: `railnav.commands`).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from railnav.commands.result_flags import add_result_arguments, check_result_flags
 from railnav.commands.support import (
@@ -28,6 +27,7 @@ from railnav.defaults import (
     DEFAULT_CROSSING_RATE_PER_S,
     DEFAULT_FILTER,
     DEFAULT_ODOMETER_SIGMA_MPS,
+    DEFAULT_SEED,
     DEFAULT_SYSTEMS,
 )
 from railnav.commands.attitude_flags import add_attitude_arguments, check_attitude_flags
@@ -38,7 +38,7 @@ from railnav.commands.run_network_flags import (
 )
 from railnav.errors import ConfigError
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
-from railnav.simulation.scenarios import SCENARIOS
+from railnav.simulation.scenarios import DEFAULT_SCENARIO, SCENARIOS, scenario_for_track
 from strapdown.imu_errors import IMU_GRADES
 
 __all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "parse_start",
@@ -46,18 +46,14 @@ __all__ = ["add_run_arguments", "add_file_arguments", "add_network_arguments", "
            "time_window",
            "DEFAULT_OUT", "DEFAULT_SCENARIO", "DEFAULT_SEED", "SIMULATION_FLAGS",
            "measurement", "files_given", "fix_sigmas", "fix_model", "augmentation", "seed",
-           "scenario_name", "scenario_for", "SCENARIO_HELP", "add_real_input_arguments",
+           "scenario_of", "SCENARIO_HELP", "add_real_input_arguments",
            "real_inputs", "REAL_INPUT_FLAGS", "lever_arm"]
 
 #: Output directory when --out is not given.
 DEFAULT_OUT = "railnav-run"
-#: Scenario simulated on a track whose file name is not a scenario's name.
-DEFAULT_SCENARIO = "curvy"
-#: Help of --scenario (``run`` and ``simulate``: one rule, `scenario_for`).
+#: Help of --scenario (``run`` and ``simulate``: one rule, `scenario_for_track`).
 SCENARIO_HELP = (f"scenario to simulate (default: the track's file name if it is a scenario's, "
-                 f"else {DEFAULT_SCENARIO})")
-#: Random seed of a simulated trip when --seed is not given.
-DEFAULT_SEED = 0
+                 f"else {DEFAULT_SCENARIO}: railnav.scenario_for_track)")
 #: Flags that shape a simulated trip (attribute -> flag); with sensor files there is none.
 SIMULATION_FLAGS = {"scenario": "--scenario", "speed_mps": "--speed-mps",
                     "duration_s": "--duration-s", "seed": "--seed",
@@ -402,16 +398,7 @@ def seed(args: argparse.Namespace) -> int:
     return DEFAULT_SEED if args.seed is None else args.seed
 
 
-def scenario_name(args) -> str:
-    """--scenario, else the first track's file name if it is a scenario's, else
-    `DEFAULT_SCENARIO`."""
-    return scenario_for(args.tracks[0], args.scenario)
-
-
-def scenario_for(track, given: str | None) -> str:
-    """The scenario simulated on `track`: `given`, else the track's file name if it is a
-    scenario's, else `DEFAULT_SCENARIO` (the one rule of ``run`` and ``simulate``)."""
-    if given is not None:
-        return given
-    stem = Path(track).stem
-    return stem if stem in SCENARIOS else DEFAULT_SCENARIO
+def scenario_of(args):
+    """The scenario of a simulated trip on the first track: --scenario, else
+    `railnav.simulation.scenarios.scenario_for_track`'s rule."""
+    return scenario_for_track(args.tracks[0], args.scenario)

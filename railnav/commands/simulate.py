@@ -1,25 +1,22 @@
 """``railnav simulate TRACK --scenario NAME ...``: truth.csv, imu.csv and scenario.json.
 
-Thin layer over `railnav.simulation.trip.simulate_trip` (STYLE.md §2.11) on a track file or,
-with ``--network N --route E1,E2``, on the route's line (`trackmodel.route_track`); with
-``--fixes-format`` over `railnav.simulation.fixes.simulate_fixes` and the fix writers of
-`gnss_obs.fixes.writers`; with ``--odometer``, ``--balises``, ``--imu-jitter-s`` and
-``--lever-arm`` over `railnav.commands.simulate_sensors`.
+Thin layer (STYLE.md §2.11) over `railnav.simulation.trip.simulate_trip` on a track file
+(the scenario: `railnav.simulation.scenarios.scenario_for_track`) or, with ``--network N
+--route E1,E2``, on the route's line (`trackmodel.route_track`), and
+`railnav.jobs.simulated_files.write_simulated_trip`, which writes the files (with
+``--fixes-format`` the fixes of `railnav.simulation.fixes.trip_fixes`; with ``--odometer``,
+``--balises``, ``--baro`` and ``--imu-jitter-s`` the sensors whose configurations
+`railnav.commands.simulate_sensors` reads from the flags).
 """
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 from dataclasses import replace
 from pathlib import Path
 
-from railnav.commands.run_flags import SCENARIO_HELP, scenario_for
-from railnav.commands.simulate_sensors import (
-    add_sensor_arguments,
-    sensor_configs,
-    write_sensor_files,
-)
+from railnav.commands.run_flags import SCENARIO_HELP
+from railnav.commands.simulate_sensors import add_sensor_arguments, sensor_configs
 from railnav.commands.support import (
     add_output_arguments,
     outage_window,
@@ -28,7 +25,7 @@ from railnav.commands.support import (
     progress_bar,
     written_line,
 )
-from railnav.defaults import DEFAULT_SYSTEMS
+from railnav.defaults import DEFAULT_SEED, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.simulation.fixes import (
     DEFAULT_QUALITY_MIX,
@@ -36,18 +33,13 @@ from railnav.simulation.fixes import (
     FixSimConfig,
     parse_quality_mix,
 )
-from railnav.simulation.scenarios import SCENARIOS, get_scenario, scenario_to_dict
+from railnav.simulation.scenarios import SCENARIOS, scenario_for_track
 from strapdown.imu_errors import IMU_GRADES
-from trackmodel.files import atomic_write_csv, atomic_write_text
 
-__all__ = ["register", "handler", "FLOAT_FORMAT"]
+__all__ = ["register", "handler"]
 
 log = logging.getLogger(__name__)
 
-#: CSV float format: 17 significant digits round-trip every float64 exactly.
-FLOAT_FORMAT = "%.17g"
-#: With --network/--route: the route's line, a track file for ``railnav run``.
-ROUTE_TRACK_FILE = "route_track.csv"
 #: Output directory when --out is not given.
 DEFAULT_OUT = "railnav-simulate"
 
@@ -88,7 +80,8 @@ def register(subparsers) -> None:
                         "rtk_fixed=0.5,single=0.5 (default "
                         + ",".join(f"{q}={w:g}" for q, w in DEFAULT_QUALITY_MIX) + ")")
     add_sensor_arguments(p)
-    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--seed", type=int, default=DEFAULT_SEED,
+                   help=f"random seed (default {DEFAULT_SEED})")
     add_output_arguments(p, DEFAULT_OUT)
     p.set_defaults(func=handler)
 
@@ -135,22 +128,14 @@ def _fix_config(args: argparse.Namespace) -> FixSimConfig | None:
     return FixSimConfig(**extra)
 
 
-def _write_fixes(out: Path, fixes, config: FixSimConfig, fmt: str) -> dict:
-    """Write the simulated fixes; their ``scenario.json`` entry."""
-    from gnss_obs.fixes.writers import write_fixes_csv, write_fixes_nmea
-    name = f"fixes.{fmt}"
-    (write_fixes_csv if fmt == "csv" else write_fixes_nmea)(out / name, fixes.table)
-    return {"file": name, "format": fmt, "count": len(fixes), **config.to_dict()}
-
-
 def handler(args: argparse.Namespace) -> int:
     """Run ``railnav simulate``; returns the exit status."""
-    from railnav.simulation.fixes import trip_fixes
+    from railnav.jobs.simulated_files import write_simulated_trip
     from railnav.simulation.trip import simulate_trip
     _check_network_flags(args)
     fix_config = _fix_config(args)
     sensors = sensor_configs(args)
-    scenario = get_scenario(scenario_for(args.track or "", args.scenario)).with_overrides(
+    scenario = scenario_for_track(args.track or "", args.scenario).with_overrides(
         speed_mps=args.speed_mps, duration_s=args.duration_s, imu_errors=args.imu_grade,
         outages=args.outage)
     if args.lever_arm is not None:
@@ -160,35 +145,10 @@ def handler(args: argparse.Namespace) -> int:
         with progress_bar("simulate", enabled=not args.quiet) as progress:
             trip = simulate_trip(scenario, track=track, seed=args.seed, gnss=args.gnss,
                                  systems=args.systems, progress=progress)
-        fixes = None if fix_config is None else trip_fixes(trip, fix_config)
-        written, meta = _write(tmp, trip, track, track_name, scenario, sensors, fixes,
-                               fix_config, args)
+        written, meta = write_simulated_trip(
+            trip, tmp, track_name=track_name, fixes=fix_config,
+            fixes_format=args.fixes_format or "csv", route_track=args.network is not None,
+            **sensors)
     print(f"{written_line(args.out, written, tmp)} ({meta['n_samples']} IMU samples, "
           f"{meta['end_time_s']:.1f} s of the {scenario.name} scenario on {track_name})")
     return 0
-
-
-def _write(out: Path, trip, track, track_name: str, scenario, sensors, fixes, fix_config,
-           args: argparse.Namespace) -> tuple[list[Path], dict]:
-    """Write a simulated trip's files into `out`: (paths written, scenario.json content)."""
-    from gnss_obs.sim_files import write_simulation
-    result = trip.simulation
-    written = list(write_simulation(out, trip.gnss, trip.nav)) if trip.gnss is not None else []
-    if args.network is not None:
-        from trackmodel.io import write_track
-        write_track(track, out / ROUTE_TRACK_FILE, comments=[f"route {track_name}"])
-        written.append(out / ROUTE_TRACK_FILE)
-    atomic_write_csv(out / "truth.csv", result.truth.to_frame(), float_format=FLOAT_FORMAT)
-    atomic_write_csv(out / "imu.csv", result.imu_measured.to_frame(), float_format=FLOAT_FORMAT)
-    meta = {"scenario": scenario_to_dict(scenario), "track": track_name,
-            "seed": args.seed, "gnss_written": trip.gnss is not None,
-            "gnss_systems": args.systems if trip.gnss is not None else None,
-            "n_samples": int(len(result.truth.time_s)),
-            "end_time_s": float(result.truth.time_s[-1])}
-    if fix_config is not None:
-        meta["fixes"] = _write_fixes(out, fixes, fix_config, args.fixes_format)
-        written.append(out / meta["fixes"]["file"])
-    extra, entries = write_sensor_files(out, trip, sensors, float_format=FLOAT_FORMAT)
-    meta.update(entries)
-    atomic_write_text(out / "scenario.json", json.dumps(meta, indent=2) + "\n")
-    return [out / "truth.csv", out / "imu.csv", *written, *extra, out / "scenario.json"], meta

@@ -1,13 +1,13 @@
 """``railnav simulate``'s railway sensors: odometer, balises, barometer, a jittered IMU log,
 the antenna.
 
-The flags (`add_sensor_arguments`), their configurations (`sensor_configs`, checked before
-anything is simulated) and the files they add to the output folder (`write_sensor_files`:
-``odometer.csv``, ``balises.csv``, ``baro.csv``, and ``imu.csv`` as a jittered log with dropouts) with
-their ``scenario.json`` entries. Thin layers over `railnav.simulation.track_sensors` and
-`railnav.simulation.imu_logs`; the files are those `railnav run` reads with ``--odometer``,
-``--balises``, ``--baro`` and ``--imu`` (by flag, not found: a run on the folder uses only the sensors
-it is given; their models come from ``scenario.json``).
+The flags (`add_sensor_arguments`) and their configurations (`sensor_configs`, checked before
+anything is simulated): the keywords ``odometer``, ``balises``, ``baro`` and ``imu_log`` of
+`railnav.jobs.simulated_files.write_simulated_trip`, which simulates and writes the files
+(``odometer.csv``, ``balises.csv``, ``baro.csv``, ``imu.csv`` as a jittered log with
+dropouts) that `railnav run` reads with ``--odometer``, ``--balises``, ``--baro`` and
+``--imu`` (by flag, not found: a run on the folder uses only the sensors it is given; their
+models come from ``scenario.json``).
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import argparse
 from railnav.commands.support import nonnegative_float, nonnegative_int, positive_float
 from railnav.errors import ConfigError
 
-__all__ = ["add_sensor_arguments", "sensor_configs", "write_sensor_files", "slip_episode"]
+__all__ = ["add_sensor_arguments", "sensor_configs", "slip_episode"]
 
 
 def slip_episode(text: str):
@@ -110,46 +110,3 @@ def _needs(args, attrs, flag: str) -> None:
     given = ["--" + a.replace("_", "-") for a in attrs if getattr(args, a) is not None]
     if given and not getattr(args, flag):
         raise ConfigError(f"{', '.join(given)}: only with --{flag.replace('_', '-')}")
-
-
-def write_sensor_files(out, trip, configs: dict, *, float_format: str) -> tuple[list, dict]:
-    """Write the asked sensors' files into `out`; their paths and ``scenario.json`` entries.
-
-    ``imu.csv`` is rewritten as the jittered log when one is asked (after the uniform
-    record: this writes the file last)."""
-    from railnav.sensors.balises import write_balises_csv
-    from railnav.sensors.odometer import write_odometer_csv
-    from railnav.simulation.imu_logs import simulate_imu_log
-    from railnav.simulation.track_sensors import (
-        simulate_balises,
-        simulate_baro_readings,
-        simulate_odometer,
-    )
-    from trackmodel.files import atomic_write_csv
-    written, meta = [], {}
-    if configs["imu_log"] is not None:
-        imu = simulate_imu_log(trip, configs["imu_log"])
-        atomic_write_csv(out / "imu.csv", imu.to_frame(), float_format=float_format)
-        meta["imu_log"] = {**configs["imu_log"].to_dict(), "samples": int(imu.time_s.size)}
-    if configs["odometer"] is not None:
-        odo = simulate_odometer(trip, configs["odometer"])
-        values = {k: odo[k] for k in ("speed_mps", "pulses") if k in odo}
-        write_odometer_csv(out / "odometer.csv", odo["time_s"], **values)
-        meta["odometer"] = {"file": "odometer.csv",
-                            **configs["odometer"].to_dict(odo["scale_error"])}
-        written.append(out / "odometer.csv")
-    if configs["balises"] is not None:
-        bal = simulate_balises(trip, configs["balises"])
-        write_balises_csv(out / "balises.csv", bal["time_s"], bal["s_m"], sigma_m=bal["sigma_m"],
-                          ids=bal["id"])
-        meta["balises"] = {"file": "balises.csv", "passages": int(bal["time_s"].size),
-                           **configs["balises"].to_dict()}
-        written.append(out / "balises.csv")
-    if configs["baro"] is not None:
-        import pandas as pd
-        baro = simulate_baro_readings(trip, configs["baro"])
-        atomic_write_csv(out / "baro.csv", pd.DataFrame(baro), float_format=float_format)
-        meta["baro"] = {"file": "baro.csv", "readings": int(baro["time_s"].size),
-                        **configs["baro"].to_dict()}
-        written.append(out / "baro.csv")
-    return written, meta

@@ -1,6 +1,7 @@
 """``railnav track fit|sample|info|plot``: the track model from the command line.
 
-Thin layer over `trackmodel` (fit_track, sample_track, track_info, plot_track).
+Thin layer over `railnav.jobs.survey.fit_survey` (`trackmodel.fit.fit_track` on a survey
+file) and `trackmodel` (sample_track, track_info, plot_track).
 """
 from __future__ import annotations
 
@@ -8,9 +9,6 @@ import argparse
 import json
 import math
 import sys
-from typing import TYPE_CHECKING
-
-import numpy as np
 
 from railnav.commands.support import (
     check_outputs,
@@ -18,82 +16,23 @@ from railnav.commands.support import (
     positive_float,
     progress_bar,
 )
-from trackmodel.errors import InputError, TrackError, TrackFileError
 from trackmodel.files import atomic_write_text
 from trackmodel.fit_defaults import DEFAULT_TOL_M, DEFAULT_VTOL_M
-
-if TYPE_CHECKING:
-    from trackmodel.polyline import Polyline
 
 __all__ = ["register"]
 
 
-def read_survey(path) -> Polyline:
-    """A surveyed path: a polyline CSV (`trackmodel.polyline.read_polyline`), or a reference
-    trajectory in GPS week / seconds-of-week layout (`railnav.evaluation.spp_accuracy`), in
-    time order.
-
-    The reference layout is tried only when the file lacks the polyline's columns; an error
-    located in either layout's rows (a bad value, a ragged row) is the file's error.
-
-    Raises
-    ------
-    trackmodel.TrackFileError, railnav.errors.ConfigError
-        Located at the row/line and column of the problem; when the file is in neither
-        layout, the polyline reader's "required column missing".
-    """
-    from trackmodel.polyline import Polyline, read_polyline
-    try:
-        return read_polyline(path)
-    except TrackFileError as polyline_error:
-        if not _missing_polyline_column(polyline_error):
-            raise
-        from railnav.evaluation.spp_accuracy import read_reference_trajectory
-        try:
-            ref = read_reference_trajectory(path)
-        except InputError as ref_error:
-            if ref_error.row is None and ref_error.line is None:
-                raise polyline_error from None     # not that layout either
-            raise
-        return Polyline(np.radians(ref["lat_deg"].to_numpy()),
-                        np.radians(ref["lon_deg"].to_numpy()), ref["h_m"].to_numpy())
-
-
-def _missing_polyline_column(error: TrackFileError) -> bool:
-    """True for the polyline reader's error of a file without its columns (nothing located
-    in the rows: the file may be in the other layout)."""
-    from trackmodel.polyline import POLYLINE_COLUMNS
-    return error.column in POLYLINE_COLUMNS and error.row is None and error.line is None
-
-
-def _leg(poly: Polyline, leg: int | None, path) -> tuple[Polyline, str]:
-    """The points of leg `leg` (1-based) of a survey, and a note for the file's comment."""
-    from trackmodel.polyline import split_legs
-    if leg is None:
-        return poly, ""
-    legs = split_legs(poly)
-    if not 1 <= leg <= len(legs):
-        raise TrackFileError(f"--leg {leg}: the survey has {len(legs)} leg(s)", path=path)
-    index = legs[leg - 1]
-    return poly.take(index), f", leg {leg} of {len(legs)} (points {index[0]}-{index[-1]})"
-
-
 def _fit(args: argparse.Namespace) -> int:
-    from trackmodel.fit import fit_track
+    from railnav.jobs.survey import fit_survey
     from trackmodel.io import write_track
     check_outputs({"the survey being fitted": args.polyline},
                   {"--out": args.out, "--residuals": args.residuals})
-    try:
-        poly, note = _leg(read_survey(args.polyline), args.leg, args.polyline)
-        with progress_bar("fitting", enabled=not args.quiet) as progress:
-            result = fit_track(poly.lat, poly.lon, poly.h, tol_m=args.tol_m,
-                               vtol_m=args.vtol_m, progress=progress)
-    except TrackFileError:
-        raise
-    except TrackError as exc:       # a survey the fitter cannot use: say which file
-        raise TrackFileError(str(exc), path=args.polyline) from None
+    with progress_bar("fitting", enabled=not args.quiet) as progress:
+        fitted = fit_survey(args.polyline, leg=args.leg, tol_m=args.tol_m,
+                            vtol_m=args.vtol_m, progress=progress)
+    result = fitted.fit
     write_track(result.track, args.out, comments=[
-        f"fitted by railnav track fit from {args.polyline}{note} (tol_m={args.tol_m}): "
+        f"fitted by railnav track fit from {args.polyline}{fitted.note} (tol_m={args.tol_m}): "
         f"{result.n_sections} sections, max horizontal deviation "
         f"{result.max_horizontal_m:.3f} m over {int(result.residuals.kept.sum())} points"])
     if args.residuals:

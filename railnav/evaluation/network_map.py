@@ -23,7 +23,7 @@ import numpy.typing as npt
 from railnav.evaluation.plot_style import plain_axis, save_png
 from trackmodel.earth import ecef_to_enu, geodetic_to_ecef
 
-__all__ = ["network_map_figure", "plot_network_map", "draw_network"]
+__all__ = ["network_map_figure", "plot_network_map", "draw_network", "fix_points"]
 
 Array = npt.NDArray[np.float64]
 
@@ -112,7 +112,9 @@ def network_map_figure(network, *, route=None, fixes=None, title: str | None = N
     ----------
     network : trackmodel.network.Network
     route : sequence of (netelement, direction), optional
-    fixes : (lat, lon) arrays, rad, optional
+    fixes : path, gnss_obs FixLog or (lat, lon) arrays in rad, optional
+        GNSS fixes: a fix file (CSV, NMEA, UBX, GPX: `gnss_obs.read_fixes`), fixes read,
+        or their latitudes and longitudes (``railnav network plot --fixes``).
     title : str, optional
     """
     from matplotlib.figure import Figure
@@ -124,7 +126,8 @@ def network_map_figure(network, *, route=None, fixes=None, title: str | None = N
     ax, zoom = fig.subplots(1, 2, width_ratios=(1.6, 1.0))
     draw_network(ax, network, plane, scale)
     if fixes is not None:
-        en = plane.points(np.asarray(fixes[0], float), np.asarray(fixes[1], float)) / scale
+        lat, lon = fix_points(fixes)
+        en = plane.points(lat, lon) / scale
         ax.plot(en[:, 0], en[:, 1], ".", color="C2", ms=2, zorder=3, label=f"fixes ({len(en)})")
     if route is not None:
         _draw_route(ax, network, route, plane, scale)
@@ -224,6 +227,19 @@ def _connector(ax, network, plane: _Plane, centre: Array, frame: _Frame, c) -> N
     style = dict(color="C2", lw=1.5) if c.navigability != "none" else dict(
         color="C3", lw=1.0, ls=":")
     ax.plot(path[:, 0], path[:, 1], zorder=3, **style)
+
+
+def fix_points(fixes) -> tuple[Array, Array]:
+    """Latitudes and longitudes (rad) of `fixes`: a fix file's path, a
+    `gnss_obs.fixes.FixLog` (its ``lat_deg``, ``lon_deg``), or (lat, lon) arrays in rad."""
+    if isinstance(fixes, (str, os.PathLike)):
+        from gnss_obs.fixes.read import read_fixes
+        fixes = read_fixes(fixes)
+    table = getattr(fixes, "table", None)
+    if table is not None:
+        return (np.radians(table["lat_deg"].to_numpy(float)),
+                np.radians(table["lon_deg"].to_numpy(float)))
+    return np.asarray(fixes[0], float), np.asarray(fixes[1], float)
 
 
 def plot_network_map(network, path: str | os.PathLike, **kwargs) -> None:

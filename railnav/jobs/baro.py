@@ -11,11 +11,15 @@ this module feeds it from a run:
   ``estimates.csv`` columns ``h_m``, ``sigma_up_m``, and the GNSS heights to check from a
   single-point solution of the run's observations (`gnss_obs.solve_spp`, which does not
   know the track);
-* `baro_summary`: the ``baro`` entry of ``summary.json``.
+* `baro_summary`: the ``baro`` entry of ``summary.json``;
+* `add_run_baro` and `write_run_baro`: what ``railnav run --baro`` does with them: the
+  check added to the run's summary (before `railnav.jobs.run.write_run` writes it), and
+  ``baro.csv`` and ``baro_gnss.csv`` written beside the run's files.
 """
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -25,7 +29,8 @@ from railnav.evaluation.baro import BaroCheck, BaroConfig, baro_track_check
 from railnav.sensors.tables import TIME_COLUMNS, read_timed_csv
 from trackmodel.errors import finite_column
 
-__all__ = ["read_baro_csv", "check_run_baro", "baro_summary", "BARO_TIME_COLUMNS"]
+__all__ = ["read_baro_csv", "check_run_baro", "baro_summary", "add_run_baro", "write_run_baro",
+           "BARO_TIME_COLUMNS"]
 
 #: Accepted time columns, in order of preference (those of every sensor file).
 BARO_TIME_COLUMNS = TIME_COLUMNS
@@ -109,6 +114,25 @@ def baro_summary(check: BaroCheck) -> dict:
             "bias_flagged": int(check.bias_flag.sum()),
             "gnss_heights_checked": int(check.gnss_time_s.size),
             "gnss_heights_flagged": int(check.gnss_flag.sum())}
+
+
+def add_run_baro(outcome, baro: pd.DataFrame, **kwargs) -> BaroCheck:
+    """`check_run_baro` of `outcome` (keywords as its), with `baro_summary` added to the
+    run's summary as ``baro`` (``summary.json`` of `railnav.jobs.run.write_run`, called
+    after): ``railnav run --baro``."""
+    check = check_run_baro(outcome, baro, **kwargs)
+    outcome.summary["baro"] = baro_summary(check)
+    return check
+
+
+def write_run_baro(check: BaroCheck, out_dir: str | os.PathLike) -> list[Path]:
+    """Write ``out_dir/baro.csv`` (`BaroCheck.to_frame`) and ``out_dir/baro_gnss.csv``
+    (`BaroCheck.gnss_frame`) atomically; their paths."""
+    from trackmodel.files import atomic_write_csv
+    out = Path(out_dir)
+    atomic_write_csv(out / "baro.csv", check.to_frame())
+    atomic_write_csv(out / "baro_gnss.csv", check.gnss_frame())
+    return [out / "baro.csv", out / "baro_gnss.csv"]
 
 
 def _relative_times(baro: pd.DataFrame, start_gps_time_s: float) -> np.ndarray:

@@ -52,7 +52,8 @@ from trackmodel.files import atomic_write, atomic_write_text
 if TYPE_CHECKING:                   # pandas only where a table is written (start-up)
     import pandas as pd
 
-__all__ = ["EXPORT_FORMATS", "write_exports", "parse_export_formats", "GPX_NAMESPACE",
+__all__ = ["EXPORT_FORMATS", "write_exports", "write_run_exports", "parse_export_formats",
+           "GPX_NAMESPACE",
            "KML_NAMESPACE"]
 
 #: Formats of `write_exports`, in the order they are written.
@@ -101,6 +102,25 @@ def write_exports(estimates: pd.DataFrame, out_dir: str | os.PathLike,
         writers[fmt](estimates, path)
         paths.append(path)
     return paths
+
+
+def write_run_exports(outcome, out_dir: str | os.PathLike,
+                      formats=EXPORT_FORMATS) -> list[Path]:
+    """``railnav run --export``: `write_exports` of a run's estimates (``trajectory.*``)
+    and, when it was smoothed, of the smoothed ones (``smoothed.*``).
+
+    Parameters
+    ----------
+    outcome : railnav.jobs.run.RunOutcome
+    out_dir : path
+    formats : sequence of str
+        Of `EXPORT_FORMATS` (`parse_export_formats` reads ``geojson,kml``).
+    """
+    written = write_exports(outcome.result.estimates, out_dir, formats)
+    if outcome.smoothed is not None:
+        written += write_exports(outcome.smoothed.result.estimates, out_dir, formats,
+                                 name="smoothed")
+    return written
 
 
 def _value(v):

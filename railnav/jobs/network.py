@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from railnav.defaults import DEFAULT_HORIZON_M
+from railnav.defaults import DEFAULT_HORIZON_M, DEFAULT_SEED
 from railnav.errors import ConfigError, RailnavError
 from railnav.evaluation.netelement_truth import (
     collapse,
@@ -184,7 +184,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
                       start_gps_time_s: float | None = None, config=None,
                       filter: str | None = None, systems: str | None = None,
                       imu_grade: str | None = None, fix_sigmas=None, fix_model=None,
-                      outages=(), window: tuple[float, float] | None = None,
+                      outages=None, window: tuple[float, float] | None = None,
                       progress=None) -> NetworkRunOutcome:
     """Navigate sensor files on `network` (module docstring).
 
@@ -202,7 +202,8 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     ConfigError
         Pseudoranges (`obs_path`) on a network without heights.
     """
-    from railnav.jobs.scoring import find_truth, with_timestamps
+    from railnav.jobs.scoring import file_outages, find_truth, with_timestamps
+    outages = file_outages(outages, imu_path, obs_path, fixes_path)
     _check_heights(network, obs_path=obs_path, imu_path=imu_path)
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -215,7 +216,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
             # the grade is unknown: the start's pitch and the normal row say so
             config = replace(config, track_grade_sigma_rad=UNKNOWN_GRADE_SIGMA_RAD)
     result = navigate_network(network, data, config, nav=nav, start=start,
-                              outages=tuple(outages), progress=progress)
+                              outages=outages, progress=progress)
     combined = with_timestamps(result.combined(), data.fixes)
     if not network.heights:
         combined = without_heights(combined)
@@ -224,7 +225,7 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     if data.fixes is not None:
         extra["fixes"] = {"path": data.fixes.path, "format": data.fixes.format,
                           "read": len(data.fixes), "skipped": dict(data.fixes.skipped)}
-    summary = run_summary(combined, track, None, window, tuple(outages),
+    summary = run_summary(combined, track, None, window, outages,
                           {**extra, "heights": network.heights})
     truth_path = truth_path or find_truth(imu_path, obs_path, fixes_path)
     truth_t, truth = (None, None) if truth_path is None else _netelement_truth_of(
@@ -293,7 +294,7 @@ def candidate_starts(trip, config, route_filter):
 
 
 def run_simulated_network(network: Network, legs, scenario, *, line=None, config=None,
-                          seed: int = 0, systems: str | None = None,
+                          seed: int = DEFAULT_SEED, systems: str | None = None,
                           nav: NetworkNavConfig = NetworkNavConfig(), known_start: bool = False,
                           start_direction: int | None = None, faults: tuple = (),
                           window: tuple[float, float] | None = None,
@@ -359,7 +360,8 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
 
 def write_network_run(run: NetworkRunOutcome, out_dir: str | os.PathLike, *,
                       plots: bool = True) -> list[Path]:
-    """Write a network run into `out_dir` (module docstring); the paths written."""
+    """Write a network run into `out_dir` (module docstring); the paths written. `plots`:
+    also draw the PNG figures (``--no-plots``: False)."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     res, outcome = run.network_result, run.outcome

@@ -30,6 +30,7 @@ from railnav.config import (
     NavigatorConfig,
     SensorData,
 )
+from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import (
     ErrorSeries,
@@ -42,10 +43,9 @@ from railnav.filters.fix_epochs import FixModelConfig
 from railnav.jobs.plot_worker import PlotHelper, draw
 from railnav.jobs.run_figures import run_figures
 from railnav.jobs.scoring import (
+    file_outages,
     find_truth,
-    scenario_outages,
     score_run,
-    simulation_meta,
     with_timestamps,
 )
 from railnav.jobs.sensor_files import read_sensor_files, sensor_summary
@@ -100,7 +100,7 @@ class RunOutcome:
 
 
 def run_simulated(track, scenario: Scenario, *, config: NavigatorConfig | None = None,
-                  seed: int = 0, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
+                  seed: int = DEFAULT_SEED, systems: str = DEFAULT_SYSTEMS, window: tuple[float, float] | None = None,
                   faults: tuple = (), smooth: bool = False,
                   progress: Callable[[int, int], None] | None = None) -> RunOutcome:
     """Simulate `scenario` on `track` and filter it.
@@ -286,10 +286,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,
                           max_correction_age_s=max_correction_age_s)
-    found = simulation_meta(imu_path, obs_path, fixes_path)
     own = outages is not None
-    if not own:
-        outages = scenario_outages(found[0] if found else None)
+    outages = file_outages(outages, imu_path, obs_path, fixes_path)
     check_trip_times(data.end_s, outages=outages, window=window,
                      early_end="" if own else "where the simulated files end")
     result = with_timestamps(navigate(track, data, config, outages=outages,
@@ -359,9 +357,10 @@ def write_run(outcome: RunOutcome, out_dir: str | os.PathLike, *, plots: bool = 
               plotter: PlotHelper | None = None) -> list[Path]:
     """Write a run's files into `out_dir` (created); returns the paths written.
 
-    With `plotter` (started before the run, `railnav.jobs.plot_worker`), its helper
-    process draws the figures while this one writes the tables; without, they are drawn
-    here after the tables.
+    `plots`: also draw the PNG figures (``railnav run --no-plots``: False). With `plotter`
+    (started before the run, `railnav.jobs.plot_worker`), its helper process draws the
+    figures while this one writes the tables; without, they are drawn here after the
+    tables.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -20,7 +20,7 @@ from gnss_obs.sim_events import Outage
 from railnav.errors import ConfigError
 from railnav.evaluation.reference import read_reference, reference_errors
 
-__all__ = ["simulation_meta", "scenario_outages", "find_truth", "score_run",
+__all__ = ["simulation_meta", "scenario_outages", "file_outages", "find_truth", "score_run",
            "with_timestamps", "TRUTH_FILE"]
 
 log = logging.getLogger(__name__)
@@ -58,6 +58,17 @@ def scenario_outages(meta: dict | None) -> tuple[Outage, ...]:
         return tuple(Outage.of(o) for o in meta.get("scenario", {}).get("outages", []))
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"scenario.json: bad outages ({exc})") from None
+
+
+def file_outages(outages, *paths) -> tuple[Outage, ...]:
+    """The outages of a run on sensor files: `outages` as given (``()``: none), else (None)
+    those of the ``scenario.json`` beside one of `paths` (``railnav simulate``'s files),
+    else none. `railnav.jobs.run.run_files`' and `railnav.jobs.network.run_files_network`'s
+    rule."""
+    if outages is not None:
+        return tuple(outages)
+    found = simulation_meta(*paths)
+    return scenario_outages(found[0] if found else None)
 
 
 def find_truth(*paths) -> Path | None:

@@ -29,12 +29,12 @@ from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
 from railnav.config import (
-    DEFAULT_FILTER,
     DEFAULT_SYSTEMS,
     NavigatorConfig,
     SensorData,
     check_gnss_pair,
 )
+from railnav.defaults import default_filter
 from railnav.errors import ConfigError
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import filter_kind
@@ -68,14 +68,17 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
     ConfigError
         No sensor file; observations without navigation data (or the reverse); a
         recorded IMU file without the noise the filter should assume, or with two of
-        them.
+        them; an input the filter would ignore (`_check_filter_inputs`).
     """
     check_gnss_pair(obs_path, nav_path)
     if imu_path is None and obs_path is None and fixes_path is None:
         raise ConfigError("no sensor data: give imu_path, obs_path with nav_path, or "
                           "fixes_path", arguments=("imu_path", "obs_path", "nav_path",
                                                    "fixes_path"))
-    filter = filter or (DEFAULT_FILTER if imu_path is not None else "gnss-only")
+    filter = default_filter(filter, imu=imu_path is not None)
+    if config is None:                     # before any file is read
+        _check_filter_inputs(filter, imu_path=imu_path, imu_grade=imu_grade,
+                             fix_model=fix_model)
     imu_log = read_imu_file(imu_path, imu_spec) if imu_path is not None else None
     if config is None:
         config = _default_file_config(imu_path, obs_path, fixes_path, filter, systems,
@@ -94,6 +97,18 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
                       nav=nav, fixes=fixes, odometer=odometer, balises=balises,
                       imu_log=imu_log)
     return data, config
+
+
+def _check_filter_inputs(filter: str, *, imu_path, imu_grade, fix_model) -> None:
+    """Inputs that `filter` would ignore are errors, never dropped (as ``railnav run``'s):
+    an IMU file or grade for a filter that uses no IMU, correlated code-fix errors
+    (`FixModelConfig.correlated_code_errors`, the gnss-only filter's) for another."""
+    if not filter_kind(filter).needs_imu and (imu_path is not None or imu_grade is not None):
+        name = "imu_grade" if imu_grade is not None else "imu_path"
+        raise ConfigError(f"{name}: the {filter} filter uses no IMU", arguments=(name,))
+    if fix_model is not None and fix_model.correlated_code_errors and filter != "gnss-only":
+        raise ConfigError(f"fix_model.correlated_code_errors: the gnss-only filter's, not "
+                          f"the {filter} filter's", arguments=("fix_model",))
 
 
 def read_imu_file(path, spec=None):

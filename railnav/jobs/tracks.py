@@ -47,7 +47,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from railnav.config import NavigatorConfig
-from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S, DEFAULT_FILTER, DEFAULT_SYSTEMS
+from railnav.defaults import DEFAULT_CROSSING_RATE_PER_S, DEFAULT_SEED, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.jobs.network import (
     NetworkRunOutcome,
@@ -108,8 +108,8 @@ def track_nav(n_tracks: int, *, crossing_rate_per_s: float = DEFAULT_CROSSING_RA
               ) -> NetworkNavConfig:
     """The network navigator's configuration for a run over `n_tracks` candidates (module
     docstring): `NetworkNavConfig`'s defaults, no continuous evidence, room for a
-    hypothesis per track and orientation, pruning at `TRACK_PRUNE_PROBABILITY`, and the
-    crossing rate ε (1/s, >= 0)."""
+    hypothesis per track and orientation, pruning at `TRACK_PRUNE_PROBABILITY`, and
+    `crossing_rate_per_s`, the rate ε of changing to a track abreast (1/s, >= 0)."""
     base = NetworkNavConfig()
     return NetworkNavConfig(max_hypotheses=max(base.max_hypotheses, 2 * int(n_tracks)),
                             prune_probability=TRACK_PRUNE_PROBABILITY,
@@ -193,7 +193,7 @@ class TrackRunOutcome:
 
 
 def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int = 0,
-                         config: NavigatorConfig | None = None, seed: int = 0,
+                         config: NavigatorConfig | None = None, seed: int = DEFAULT_SEED,
                          systems: str = DEFAULT_SYSTEMS, nav: NetworkNavConfig | None = None,
                          window: tuple[float, float] | None = None, faults: tuple = (),
                          progress: Callable[[int, int], None] | None = None
@@ -232,19 +232,20 @@ def run_simulated_tracks(tracks, names, scenario: Scenario, *, true_track: int =
 
 def run_files_tracks(tracks, names, *, imu_path=None, obs_path=None, nav_path=None,
                      fixes_path=None, start_gps_time_s: float | None = None,
-                     config: NavigatorConfig | None = None, filter: str = DEFAULT_FILTER,
+                     config: NavigatorConfig | None = None, filter: str | None = None,
                      systems: str | None = None, imu_grade: str | None = None,
-                     fix_sigmas=None, fix_model=None, outages=(),
+                     fix_sigmas=None, fix_model=None, outages=None,
                      nav: NetworkNavConfig | None = None, direction: int | None = 1,
                      window: tuple[float, float] | None = None,
                      progress: Callable[[int, int], None] | None = None) -> TrackRunOutcome:
     """Identify the track of recorded (or simulated) sensor files among `tracks`.
 
     Parameters are those of `railnav.jobs.network.run_files_network` (the sensor files, the
-    filter and fix model), plus the candidate `tracks`, their `names`, `nav` (default
-    ``track_nav(len(tracks))``) and the `direction` the vehicle faces on them (+1: along
-    ``s``, as the tracks are given; -1; None: either, one inertial hypothesis per track and
-    orientation).
+    filter and fix model; `filter` default `railnav.defaults.default_filter`'s: the
+    constrained filter with `imu_path`, else the gnss-only one, as ``railnav run``'s),
+    plus the candidate `tracks`, their `names`, `nav` (default ``track_nav(len(tracks))``)
+    and the `direction` the vehicle faces on them (+1: along ``s``, as the tracks are
+    given; -1; None: either, one inertial hypothesis per track and orientation).
     """
     from railnav.navigation.network_start import NetworkStart
     network = track_network(tracks, names)

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
 __all__ = ["PaperFigure", "Quantity", "ReproductionResult", "Experiment", "EXPERIMENTS",
-           "run_experiment", "write_result_json", "result_path", "PERCENTILE"]
+           "run_experiment", "write_result_json", "result_path", "PERCENTILE", "DEFAULT_SEED"]
 
 Array = npt.NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -235,7 +235,11 @@ EXPERIMENTS: dict[str, Experiment] = {
 }
 
 
-def run_experiment(name: str, *, runs: int | None = None, seed: int = 1,
+#: Seed of an experiment's Monte Carlo when none is given (``railnav reproduce``'s too).
+DEFAULT_SEED = 1
+
+
+def run_experiment(name: str, *, runs: int | None = None, seed: int = DEFAULT_SEED,
                    progress: Progress | None = None) -> ReproductionResult:
     """Run a registered experiment.
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import logging
 import math
+from pathlib import Path
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from typing import TYPE_CHECKING, Any
@@ -44,7 +45,8 @@ if TYPE_CHECKING:
     from railnav.simulation.truth import Truth
     from strapdown.imu import Imu
 
-__all__ = ["Scenario", "SimulationResult", "SCENARIOS", "get_scenario", "simulate_scenario",
+__all__ = ["Scenario", "SimulationResult", "SCENARIOS", "get_scenario", "scenario_for_track",
+           "DEFAULT_SCENARIO", "simulate_scenario",
            "TRACKS_DIR", "DEFAULT_START_GPS_TIME_S", "scenario_to_dict", "RNG_STREAMS"]
 
 log = logging.getLogger(__name__)
@@ -168,10 +170,10 @@ class Scenario:
                        duration_s: float | None = None,
                        imu_errors: str | ImuErrors | None = None,
                        outages: tuple | None = None) -> "Scenario":
-        """The scenario with what is given replaced (None: kept): the profile's top speed
-        (m/s, scaling all speeds), the duration (s), the IMU grade, the outages (s from the
-        trip start). The one place where ``railnav simulate`` and ``railnav run`` apply
-        their flags to a scenario.
+        """The scenario with what is given replaced (None: kept): `speed_mps`, the
+        profile's top speed (m/s, scaling all speeds), `duration_s` (s), `imu_errors` (the
+        IMU grade), `outages` (s from the trip start). The one place where ``railnav
+        simulate`` and ``railnav run`` apply their flags to a scenario.
 
         A shorter duration drops the scenario's own outages that start after it (they
         belong to the longer trip); given `outages` are kept as given, and a run refuses
@@ -229,6 +231,27 @@ def get_scenario(name: str) -> Scenario:
         return SCENARIOS[name]
     except KeyError:
         raise ConfigError(f"unknown scenario {name!r}; known: {', '.join(SCENARIOS)}") from None
+
+
+#: The scenario simulated on a track whose file name is not a scenario's name.
+DEFAULT_SCENARIO = "curvy"
+
+
+def scenario_for_track(track, name: str | None = None) -> Scenario:
+    """The scenario simulated on the track file `track`: `name` if given, else the one
+    named as the file's stem (``paper2017.csv``: ``paper2017``) if there is one, else
+    `DEFAULT_SCENARIO` (``railnav run TRACK`` and ``railnav simulate TRACK`` without
+    ``--scenario``).
+
+    Raises
+    ------
+    ConfigError
+        An unknown `name`.
+    """
+    if name is None:
+        stem = Path(track).stem
+        name = stem if stem in SCENARIOS else DEFAULT_SCENARIO
+    return get_scenario(name)
 
 
 @dataclass(frozen=True)

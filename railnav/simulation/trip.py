@@ -27,6 +27,7 @@ from gnss_obs.simulate import (
     simulate_gnss,
 )
 from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
+from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import check_trip_times
 from railnav.filters.track_frame import LeverArms
@@ -63,6 +64,8 @@ class SimulatedTrip:
     nav : gnss_obs.RinexNav or None
         The broadcast navigation data the GNSS simulation used.
     systems : str
+    seed : int
+        The random seed it was simulated with (`simulate_trip`).
     """
 
     scenario: Scenario
@@ -70,6 +73,7 @@ class SimulatedTrip:
     gnss: GnssSimulation | None
     nav: RinexNav | None
     systems: str
+    seed: int = DEFAULT_SEED
 
     @property
     def track(self):
@@ -179,7 +183,7 @@ def _simulated_sensor_config(*, filter: str, systems: str, imu_errors, clock: st
     return base
 
 
-def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool = True,
+def simulate_trip(scenario: Scenario, *, track=None, seed: int = DEFAULT_SEED, gnss: bool = True,
                   systems: str = DEFAULT_SYSTEMS, faults: tuple[SatelliteFault, ...] = (),
                   nav: RinexNav | None = None,
                   progress: Callable[[int, int], None] | None = None) -> SimulatedTrip:
@@ -217,7 +221,7 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
     check_trip_times(end_s, outages=scenario.outages,
                      early_end="at the track's end" if early else "")
     if not gnss:
-        return SimulatedTrip(scenario, sim, None, None, systems)
+        return SimulatedTrip(scenario, sim, None, None, systems, seed)
     ratio = scenario.imu_rate_hz / scenario.gnss_rate_hz
     step = int(round(ratio))
     if step < 1 or abs(ratio - step) > 1e-9:
@@ -230,4 +234,4 @@ def simulate_trip(scenario: Scenario, *, track=None, seed: int = 0, gnss: bool =
     obs = simulate_gnss(scenario.start_gps_time_s + epochs.time_s, r_e, v_e,
                         nav, gnss_sim_config_for(scenario, systems=systems, faults=faults),
                         rng=rng)
-    return SimulatedTrip(scenario, sim, obs, nav, systems)
+    return SimulatedTrip(scenario, sim, obs, nav, systems, seed)

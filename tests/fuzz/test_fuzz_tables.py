@@ -14,7 +14,7 @@ import pandas as pd
 from hypothesis import given
 from hypothesis import strategies as st
 
-from railnav.commands.track import read_survey
+from railnav.jobs.survey import read_survey
 from railnav.errors import ConfigError
 from railnav.evaluation.spp_accuracy import read_reference_trajectory
 from railnav.jobs.baro import read_baro_csv
