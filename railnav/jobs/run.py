@@ -206,8 +206,10 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         Default: for files written by ``railnav simulate`` (a ``scenario.json`` beside the
         inputs) the simulation's sensor models
         (`railnav.simulation.trip.navigator_config_from_simulation`); otherwise `NavigatorConfig`'s
-        defaults (GNSS σ from elevation and C/N0). `filter`, `systems`, `imu_grade` and
-        `fix_model` apply to the default only.
+        defaults (GNSS σ from elevation and C/N0). `filter`, `systems`, `imu_grade`,
+        `fix_model`, `sigma_pr_m`, `sigma_rr_mps`, `odometer_model`, `balise_model` and
+        `lever_arms` shape the default only: given with `config`, they are refused
+        (`ConfigError`), not ignored.
     filter : str, optional
         Default `railnav.config.DEFAULT_FILTER` with an IMU file, else ``gnss-only``.
     systems : str, optional

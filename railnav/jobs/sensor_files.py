@@ -68,13 +68,19 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
     ConfigError
         No sensor file; observations without navigation data (or the reverse); a
         recorded IMU file without the noise the filter should assume, or with two of
-        them; an input the filter would ignore (`_check_filter_inputs`).
+        them; an input the filter would ignore (`_check_filter_inputs`); with `config`,
+        an argument that only shapes the default configuration (`filter`, `systems`,
+        `imu_grade`, `fix_model`, `sigma_pr_m`, `sigma_rr_mps`, `models`).
     """
     check_gnss_pair(obs_path, nav_path)
     if imu_path is None and obs_path is None and fixes_path is None:
         raise ConfigError("no sensor data: give imu_path, obs_path with nav_path, or "
                           "fixes_path", arguments=("imu_path", "obs_path", "nav_path",
                                                    "fixes_path"))
+    if config is not None:                 # what only the default configuration takes
+        _check_config_alone(filter=filter, systems=systems, imu_grade=imu_grade,
+                            fix_model=fix_model, sigma_pr_m=sigma_pr_m,
+                            sigma_rr_mps=sigma_rr_mps, **models)
     filter = default_filter(filter, imu=imu_path is not None)
     if config is None:                     # before any file is read
         _check_filter_inputs(filter, imu_path=imu_path, imu_grade=imu_grade,
@@ -97,6 +103,16 @@ def read_sensor_files(*, imu_path=None, obs_path=None, nav_path=None, fixes_path
                       nav=nav, fixes=fixes, odometer=odometer, balises=balises,
                       imu_log=imu_log)
     return data, config
+
+
+def _check_config_alone(**given) -> None:
+    """With a `NavigatorConfig` given, the arguments that only shape the default
+    configuration are errors, never dropped: they belong in that configuration."""
+    names = [k for k, v in given.items() if v is not None]
+    if names:
+        raise ConfigError(f"{', '.join(names)}: given with config, which they would not "
+                          "change; set them in the NavigatorConfig instead",
+                          arguments=tuple(names))
 
 
 def _check_filter_inputs(filter: str, *, imu_path, imu_grade, fix_model) -> None:

@@ -42,6 +42,20 @@ def test_inputs_the_filter_ignores_are_refused_before_reading(track, keywords, n
     assert info.value.arguments == (named,)
 
 
+@pytest.mark.parametrize("keywords", [
+    {"filter": "gnss-only"}, {"systems": "GE"}, {"imu_grade": "navigation"},
+    {"fix_model": FixModelConfig()}, {"sigma_pr_m": 3.0, "sigma_rr_mps": 0.1},
+    {"lever_arms": ()},
+])
+def test_arguments_of_the_default_config_are_refused_with_a_config(track, keywords):
+    """With `config` given, what only shapes the default configuration would be dropped
+    silently: each is refused by name, before any file is read."""
+    from railnav.config import NavigatorConfig
+    with pytest.raises(ConfigError) as info:
+        run_files(track, fixes_path="missing.csv", config=NavigatorConfig(), **keywords)
+    assert info.value.arguments == tuple(keywords)
+
+
 def test_file_outages_given_else_the_scenarios(tmp_path):
     (tmp_path / "scenario.json").write_text(json.dumps(
         {"scenario": {"outages": [[100.0, 50.0], [500.0, 25.0]]}}))
