@@ -286,7 +286,7 @@ class CdFilter:
         return rows
 
     def _sample_of(self, epoch: Epoch, t: Array) -> int | None:
-        j = int(np.searchsorted(t, epoch.t - self.config.time_tol_s))
+        j = int(t.searchsorted(epoch.t - self.config.time_tol_s))   # (the method: no wrapper)
         if j >= t.size:
             return t.size  # after this chunk
         if abs(t[j] - epoch.t) > self.config.time_tol_s:
