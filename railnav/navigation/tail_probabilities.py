@@ -54,7 +54,7 @@ def binom_sf(k, n, p):
     (an epoch's test, without NumPy's array calls), else elementwise, an array (the
     network run's records, `railnav.navigation.network_status`)."""
     if isinstance(k, int) or np.ndim(k) == 0:
-        return 1.0 if k <= 0 else _scalar().bdtrc(float(k - 1), float(n), float(p))
+        return 1.0 if k <= 0 else _scalar().bdtrc(int(k - 1), int(n), float(p))
     k, n = np.asarray(k, dtype=np.int64), np.asarray(n, dtype=np.int64)
     return np.where(k > 0, _special().bdtrc(np.maximum(k - 1, 0), n, p), 1.0)
 
