@@ -231,8 +231,9 @@ def _stages_child() -> None:
     figures drawn in this process after the tables (the path without fork)."""
     import importlib
 
-    from railnav.deferred_imports import defer_numpy_tools
+    from railnav.deferred_imports import defer_numpy_tools, plain_scipy_docstrings
     defer_numpy_tools()                 # as `railnav.cli.main` does before the command
+    plain_scipy_docstrings()
     laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)

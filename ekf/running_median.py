@@ -67,9 +67,14 @@ static void erase(double* buf, long long* n, double v) {
   --*n;
 }
 
-/* erase v_out and insert v_in with one shift of the values between them */
+/* erase v_out and insert v_in with one shift of the values between them (where each
+   goes: both counts in one pass over the window) */
 static void replace(double* buf, long long n, double v_out, double v_in) {
-  long long i = below(buf, n, v_out), p = below(buf, n, v_in), j;
+  long long i = 0, p = 0, j;
+  for (j = 0; j < n; ++j) {
+    i += buf[j] < v_out;
+    p += buf[j] < v_in;
+  }
   if (p > i) {
     for (j = i; j < p - 1; ++j) buf[j] = buf[j + 1];
     buf[p - 1] = v_in;

@@ -60,6 +60,8 @@ MIN_RECEIVER_RADIUS_M = 1.0e6
 MAX_RECEIVER_HEIGHT_M = 1.0e5
 #: Elevation floor of the 1/sin(elevation) weighting, rad.
 _MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
+#: `_prepared`'s rows of one guess: known, or not.
+_ONE, _NONE = np.zeros(1, dtype=np.intp), np.zeros(0, dtype=np.intp)
 
 
 @dataclass(frozen=True)
@@ -243,8 +245,11 @@ def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
         times = np.repeat([e.gps_time_s for e in epochs], sizes)
     states, clock_m = transmit_states(EpochData(times, meas, eph), config, precise=precise)
     bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
-    return [(replace(states, **{f.name: getattr(states, f.name)[a:b] for f in fields(states)}),
-             clock_m[a:b]) for a, b in zip(bounds[:-1], bounds[1:])]
+    names = [f.name for f in fields(states)]
+    columns = [getattr(states, name) for name in names]
+    kind = type(states)
+    return [(kind(**{name: column[a:b] for name, column in zip(names, columns)}), clock_m[a:b])
+            for a, b in zip(bounds[:-1], bounds[1:])]
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
@@ -331,9 +336,12 @@ def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuc
     several = r_rx_e.ndim == 2
     guesses = r_rx_e if several else r_rx_e[None, :]
     lead, meas, n = r_rx_e.shape[:-1], epoch.meas, len(epoch)
-    # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling
+    # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling (one
+    # guess: a Python bool, its index array only where it is known)
     rows = np.flatnonzero([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
-                           for r in guesses.tolist()])
+                           for r in guesses.tolist()]) if several else \
+        (_ONE if not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
+         else _NONE)
     if rows.size:
         lat, lon, h = ecef_to_geodetic(guesses[rows] if several else r_rx_e)
         height_ok = np.abs(h) < MAX_RECEIVER_HEIGHT_M
@@ -394,12 +402,15 @@ def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuc
 
 def _guess_epoch(shared: dict, own: tuple, ok: npt.NDArray[np.bool_]) -> PreparedEpoch:
     """One guess's `PreparedEpoch`: the `shared` fields and its own arrays (in the order
-    of `_prepared`'s ``own``), its satellites `ok`."""
+    of `_prepared`'s ``own``), its satellites `ok` (the arrays' rows `ok` taken before
+    the epoch is made: what `PreparedEpoch.subset` of the whole gives, made once)."""
     pos, vel, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr = own
-    one = PreparedEpoch(**shared, sat_pos_e=pos, sat_vel_e=vel, iono_m=iono, tropo_m=tropo,
-                        elevation=elevation, azimuth=azimuth, sigma_pr_m=sigma_pr,
-                        sigma_rr_mps=sigma_rr)
-    return one if np.count_nonzero(ok) == ok.size else one.subset(ok)
+    if np.count_nonzero(ok) != ok.size:
+        shared = {k: v if k == "gps_time_s" else v[ok] for k, v in shared.items()}
+        pos, vel, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr = (a[ok] for a in own)
+    return PreparedEpoch(**shared, sat_pos_e=pos, sat_vel_e=vel, iono_m=iono, tropo_m=tropo,
+                         elevation=elevation, azimuth=azimuth, sigma_pr_m=sigma_pr,
+                         sigma_rr_mps=sigma_rr)
 
 
 def _fill(values: Array, rows: Array, shape: tuple, fill: float) -> Array:

@@ -195,13 +195,21 @@ def _best_signal(table: pd.DataFrame, preferences: Mapping[str, tuple[str, ...]]
 
 def _frequencies(system: np.ndarray, band: np.ndarray, sv: np.ndarray,
                  channels: Mapping[str, int]) -> np.ndarray:
-    out = np.full(system.shape, np.nan)
-    for i, (s, b, name) in enumerate(zip(system, band, sv)):
-        try:
-            out[i] = carrier_frequency_hz(s, int(b), channels.get(name))
-        except KeyError:
-            pass
-    return out
+    """`carrier_frequency_hz` of each row (NaN where it has none), asked once per
+    distinct signal (system, band and, for GLONASS, the satellite's channel)."""
+    known: dict = {}
+    out = []
+    for s, b, name in zip(system.tolist(), band.tolist(), sv.tolist()):
+        key = (s, b, channels.get(name))
+        value = known.get(key)
+        if value is None:
+            try:
+                value = carrier_frequency_hz(s, int(b), key[2])
+            except KeyError:
+                value = np.nan
+            known[key] = value
+        out.append(value)
+    return np.array(out, dtype=float).reshape(np.shape(system))
 
 
 def select_measurements(table: pd.DataFrame, config: MeasurementConfig, *,

@@ -95,7 +95,8 @@ from ekf.series import EpochRows
 from ekf.update import EvaluatedObservations, Observation
 from railnav.filters.fault_channels import Channel
 from railnav.filters.fault_config import FaultDetectionConfig
-from railnav.filters.row_sets import ROW_STATUSES, group_status, own_covariance, subset_rows
+from railnav.filters.row_sets import (ROW_STATUSES, group_status, own_covariance, row_ids,
+                                      subset_rows)
 from railnav.filters.screens_together import screen_together
 
 __all__ = ["RowScreen", "EpochScreen", "key_kind", "ROW_STATUSES",
@@ -271,8 +272,11 @@ class RowScreen:
                                        float(jump[0]) if jump is not None else np.nan))
         self._sv.append(np.asarray(sv, dtype=object))
         self._kind.append(np.asarray(kind, dtype=object))
-        rows = EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
-                                     H=H[used], R=R[used], groups=np.arange(np.count_nonzero(used)))
+        n_used = np.count_nonzero(used)      # every row (most epochs): the arrays as they are
+        rows = EvaluatedObservations(observations, x=x, innov=nu, H=H, R=R,
+                                     groups=row_ids(n_used)) if n_used == used.size else \
+            EvaluatedObservations(subset_rows(observations, used), x=x, innov=nu[used],
+                                  H=H[used], R=R[used], groups=row_ids(n_used))
         return EpochRows(rows, Q) if np.count_nonzero(Q) else rows
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array

@@ -203,10 +203,20 @@ def stack_epoch_rows(gnss, fix, *, gnss_mode: str, fix_group: int, extra=()):
         obs += list(rows)
         sv.append(np.asarray(labels, dtype=object))
         kind.append(np.asarray(kinds, dtype=object))
-        modes.append(np.full(len(labels), mode, dtype=object))
-        groups.append(np.full(len(labels), group, dtype=np.intp))
+        modes.append(_filled(len(labels), mode, object))
+        groups.append(_filled(len(labels), group, np.intp))
     if not sv:
         empty = np.zeros(0, dtype=object)
         return obs, empty, empty, empty, np.zeros(0, dtype=np.intp)
+    if len(sv) == 1:                         # one part (GNSS rows alone): as they are
+        return obs, sv[0], kind[0], modes[0], groups[0]
     return (obs, np.concatenate(sv), np.concatenate(kind), np.concatenate(modes),
             np.concatenate(groups))
+
+
+@functools.lru_cache(maxsize=256)
+def _filled(n: int, value, dtype) -> np.ndarray:
+    """``np.full(n, value, dtype=dtype)``, read only (shared by the epochs)."""
+    out = np.full(n, value, dtype=dtype)
+    out.flags.writeable = False
+    return out

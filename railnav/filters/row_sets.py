@@ -9,19 +9,30 @@ BLAS/LAPACK call as for that matrix alone: each filter's numbers are its own, to
 """
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import numpy.typing as npt
 
 from ekf.update import Observation
 
 __all__ = ["evaluate_rows", "subset_rows", "group_status", "innovation_covariances",
-           "influence_gains", "own_covariance", "ROW_STATUSES"]
+           "influence_gains", "own_covariance", "row_ids", "ROW_STATUSES"]
 
 Array = npt.NDArray[np.float64]
 
 #: Row statuses of ``innovations.csv``: given to the update, rejected at this epoch, or
 #: not used because the row's channel is excluded (`railnav.filters.fault_detection`).
 ROW_STATUSES = ("used", "rejected", "excluded")
+
+
+@lru_cache(maxsize=64)
+def row_ids(m: int) -> npt.NDArray[np.intp]:
+    """``np.arange(m)``, read only (the used rows' ids of an update, shared by the epochs
+    of `m` rows)."""
+    ids = np.arange(m)
+    ids.flags.writeable = False
+    return ids
 
 
 def group_status(status: np.ndarray, groups: np.ndarray) -> np.ndarray:

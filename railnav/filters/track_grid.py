@@ -97,7 +97,7 @@ class TrackParameterGrid:
         s_min, s_max = np.minimum.reduce(s), np.maximum.reduce(s)
         if not (self._lo <= s_min and s_max <= self._hi):
             self._open(float(s_min), float(s_max))
-        j = np.minimum(np.maximum(np.searchsorted(self._s, s), 1), self._s.size - 1)
+        j = np.minimum(np.maximum(self._s.searchsorted(s), 1), self._s.size - 1)
         return np.where(s - self._s[j - 1] <= self._s[j] - s, j - 1, j)
 
     def parameters(self, s: Array) -> tuple[Array, npt.NDArray[np.intp]]:

@@ -4,15 +4,18 @@ correlated noise, Simon 2006 §7.1, and the standard discrete update), streaming
 and input validation."""
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import casadi as ca
 import numpy as np
 import pytest
 
-from ekf.cd_filter import CdFilter, FilterConfig
+from ekf.cd_filter import CdFilter, FilterConfig, _concat, _joined_step_data, step_data
 from ekf.errors import ModelError
 from ekf.history import concatenate_results
 from ekf.model import MeasurementModel
 from ekf.series import Epoch, InputSeries
+from ekf.step import StepData
 from ekf.update import Observation
 
 #: Same linear algebra in a different order, 200 steps: relative agreement.
@@ -228,3 +231,30 @@ def test_a_covariance_that_is_not_positive_definite_is_refused(tracking_system, 
     with pytest.raises(FilterDivergedError, match=words):
         filt.reset(np.zeros(2), P0)
     filt.reset(np.zeros(2), np.diag([1.0, 1e-12]))          # tiny but positive: accepted
+
+
+@pytest.mark.parametrize("n_lin", [0, 3])
+def test_joined_step_data_is_that_of_the_concatenated_samples(rng, n_lin):
+    """Reference: `step_data` of the previous chunk's last sample and the new chunk
+    concatenated (`_concat`, the engine's path before), compared bit for bit."""
+    data = StepData(n_u=3, n_p=2, n_c=1, n_w=2, n_lin=n_lin,
+                    jacobian_window_s=0.5 if n_lin else 0.0)
+
+    def shaped(t):
+        m = t.size
+        return InputSeries(t=t, u=rng.normal(size=(m, 3)), q_c=rng.uniform(size=(m, 2)),
+                           p=rng.normal(size=(m, 2)), z_c=rng.normal(size=(m, 1)),
+                           r_c=rng.uniform(size=(m, 1)),
+                           u_lin=rng.normal(size=(m, 3)) if n_lin else None)
+
+    last = shaped(np.array([0.3]))
+    chunk = shaped(0.3 + np.cumsum(rng.uniform(0.005, 0.02, 9)))
+    t, d = _joined_step_data(data, last, chunk)
+    joined = _concat(last, chunk)
+    reference = step_data(SimpleNamespace(data=data), joined)
+    assert d.shape == reference.shape == (9, data.size)
+    np.testing.assert_array_equal(t.view(np.int64), joined.t.view(np.int64))
+    np.testing.assert_array_equal(d.view(np.int64), reference.view(np.int64))
+    if n_lin:          # a chunk without u_lin: the medians are computed from the samples
+        no_lin = InputSeries(**{**chunk.__dict__, "u_lin": None})
+        assert _joined_step_data(data, last, no_lin) is None
