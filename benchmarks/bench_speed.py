@@ -231,9 +231,8 @@ def _stages_child() -> None:
     figures drawn in this process after the tables (the path without fork)."""
     import importlib
 
-    from railnav.deferred_imports import defer_numpy_tools, plain_scipy_docstrings
+    from railnav.deferred_imports import defer_numpy_tools
     defer_numpy_tools()                 # as `railnav.cli.main` does before the command
-    plain_scipy_docstrings()
     laps = _Laps()
     for name in _RUN_MODULES:       # the packages import their modules on first use
         importlib.import_module(name)

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 import railnav.commands
 from ekf.errors import FilterDivergedError, FilterError
 from gnss_obs.errors import GnssError
-from railnav.deferred_imports import defer_numpy_tools, plain_scipy_docstrings
+from railnav.deferred_imports import defer_numpy_tools
 from railnav.errors import PlottingError, RailnavError
 from strapdown.errors import StrapdownError
 from trackmodel.errors import InputError, TrackError
@@ -154,7 +154,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit status (0 ok, 1 failure, 2 bad input)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     defer_numpy_tools()        # before a command imports SciPy (0.05-0.1 s CPU a start)
-    plain_scipy_docstrings()   # (and its import-time docstring edits: ~0.07 s)
     parser = build_parser(argv)
     args = parser.parse_args(argv)
     _configure_logging(args.verbose, args.quiet)

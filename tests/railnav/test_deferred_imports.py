@@ -17,13 +17,11 @@ REPO = Path(__file__).resolve().parents[2]
 #: Import what the engine imports from SciPy, record which of NumPy's tool modules ran
 #: (a module's code has run when its own submodules are loaded), then use them.
 PROBE = """
-import inspect, json, sys
+import json, sys
 if sys.argv[1] == "defer":
-    from railnav.deferred_imports import defer_numpy_tools, plain_scipy_docstrings
+    from railnav.deferred_imports import defer_numpy_tools
     defer_numpy_tools()
-    plain_scipy_docstrings()
 import scipy.linalg, scipy.special
-import scipy._lib._docscrape as docscrape
 import numpy as np
 ran = sorted(m for m in sys.modules if m.startswith(("numpy.f2py.", "numpy.testing.")))
 include = np.f2py.get_include()
@@ -32,12 +30,8 @@ try:
     raised = False
 except AssertionError:
     raised = True
-doc = docscrape.FunctionDoc(scipy.linalg.cho_solve)
 print(json.dumps({"ran": ran, "include": include, "raised": raised,
-                  "solve": scipy.linalg.solve([[2.0, 0.0], [0.0, 4.0]], [1.0, 1.0]).tolist(),
-                  "summary": inspect.getdoc(scipy.linalg.solve).splitlines()[0],
-                  "ndtri": float(scipy.special.ndtri(0.975)),
-                  "parameters": len(doc["Parameters"]), "text": str(doc).split(chr(10))[1:3]}))
+                  "solve": scipy.linalg.solve([[2.0, 0.0], [0.0, 4.0]], [1.0, 1.0]).tolist()}))
 """
 
 
@@ -55,26 +49,3 @@ def test_numpy_tools_run_only_when_used():
     assert deferred["include"] == plain["include"]     # f2py, when used, as without
     assert deferred["raised"] and plain["raised"]      # numpy.testing checks as usual
     assert deferred["solve"] == plain["solve"] == [0.5, 0.25]
-
-
-def test_scipy_docstrings_not_parsed_at_import():
-    """With `plain_scipy_docstrings`, SciPy's docstring parser parses nothing (no section
-    read back: the plain run's parser finds cho_solve's parameters) and renders the
-    function's own docstring; SciPy's functions and their docstrings' text are as
-    without it."""
-    deferred, plain = _probe("defer"), _probe("plain")
-    assert plain["parameters"] > 0 and deferred["parameters"] == 0
-    own = plain_doc_lines("cho_solve")
-    assert deferred["text"] == own
-    assert deferred["summary"] == plain["summary"]
-    assert deferred["ndtri"] == plain["ndtri"]                  # 1.959963984540054
-
-
-def plain_doc_lines(name: str) -> list[str]:
-    """The first two lines of ``inspect.getdoc(scipy.linalg.<name>)`` in a fresh plain
-    interpreter."""
-    code = ("import inspect, json, scipy.linalg; "
-            f"print(json.dumps(inspect.getdoc(scipy.linalg.{name}).splitlines()[:2]))")
-    done = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True,
-                          text=True, timeout=120, check=True)
-    return json.loads(done.stdout.strip().splitlines()[-1])
