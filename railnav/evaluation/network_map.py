@@ -86,8 +86,8 @@ def draw_network(ax, network, plane: _Plane, scale: float, *, labels: bool = Tru
             ax.annotate(name, mid, fontsize=6, color="0.3", zorder=5)
     groups = _joints(network)
     switches = {frozenset(g) for g in groups.values() if len(g) >= 3}
-    for group in switches:
-        name, end = next(iter(group))
+    for group in sorted(switches, key=sorted):   # a set's order follows the string hash
+        name, end = min(group)
         p = _end_en(network, plane, name, end) / scale
         ax.plot(p[0], p[1], "o", color="k", ms=3, zorder=4)
     open_ends = [(n, e) for n in network.elements for e in (0, 1) if (n, e) not in groups]
