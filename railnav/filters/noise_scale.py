@@ -18,26 +18,39 @@ correlated-error inflation, whose rows' single-epoch variance is ``b``:
 `railnav.filters.fault_detection`, "Inflated rows") and λ the unknown ratio. Each row
 gives ``q = (ν²/m₁ − a)/b``, ``m₁ = 0.4549`` the χ²₁ median: the λ at which its NIS
 ``ν²/(a + λ b)`` is at the median. Over the rows of one kind of the last
-``window_epochs`` epochs (n rows), the NIS's median is ``m₁`` exactly at the median of
-the ``q``: that median is the covariance-matching estimate of λ, robust to any minority
-of rows (a faulty satellite, multipath on a few).
+``window_epochs`` epochs, the NIS's weighted median is ``m₁`` exactly at the weighted
+median of the ``q``: that is the covariance-matching estimate of λ, robust to any
+minority of the weight (a faulty satellite, multipath on a few). The weight of a row is
+its information ``1/b``: the state leans on the rows of small σ, and their consistency
+is the state's. A scale with equal weights is not enough where the σ model's shape is
+wrong: the simulator's σ is constant, the real receiver's default ``σ/sin(el)`` with a
+C/N0 penalty (``b`` from 1 to 120 m² on the plain trip), and the equal-weight median
+(σ factors 1.4 / 5) left the high satellites' rows, which carry the estimate, too
+precise: NEES 16.4 on the 1000-s plain trip (its innovations consistent at the median),
+against 6.0 with the weights.
 
 **Test, not estimate.** The scale is not the median but its one-sided lower confidence
-bound: the λ that leaves ``n/2 + z √n / 2`` of the ``q`` above it (the sign test at
-``z``: ``#{NIS > m₁}`` is Binomial(n, ½) when the σ are right), i.e. the ``(½ − z/(2√n))``
-quantile of the ``q``. It exceeds 1 only when the rows' NIS are above their median
-significantly more often than half the time; with the σ right it stays 1, exactly (the
-rows' scaled variances are then the told ones, to the bit). ``k² = min(max(λ, 1), k_max²)``:
-the declared σ is a floor (a receiver's σ may be pessimistic; shrinking it is not what
+bound: the largest λ that leaves the weight ``W/2 + z √(Σw²)/2`` of the ``q`` above it
+(the weighted sign test at ``z``: ``Σ w 1[NIS > m₁]`` has the mean ``W/2`` and the
+variance ``Σw²/4`` when the σ are right). It exceeds 1 only when the rows' NIS are above
+their median significantly more often than half the time; with the σ right it stays 1,
+exactly (the rows' variances are then the told ones, to the bit). The price is a bias
+low: at the default window (~1000 rows, ``n_eff = W²/Σw²`` ~700) the bound is the
+``q``'s 43rd percentile, ~0.75 λ when ``a`` ≪ ``b``; it tends to λ as the window grows
+(``tests/railnav/filters/test_noise_scale.py``). ``k² = min(max(λ, 1), k_max²)``: the
+declared σ is a floor (a receiver's σ may be pessimistic; shrinking it is not what
 honesty needs) and ``max_sigma_factor`` a ceiling. The scale of an epoch is the one
 estimated from the epochs before it: a fault cannot inflate its own rows' variance.
 
-**A fault.** One faulty satellite of eight is one row in eight: even when it fails every
-epoch, it moves the median of the ``q`` to the good rows' 57th percentile at most (λ ≲
-1.35 at ``H P Hᵀ`` ≪ ``R``), and only when the sign test finds it at ``z`` (n ≳ 580 rows
-at z = 3); a 30-m code step against σ ≤ 5 m stays ≥ 5σ and is rejected
-(``tests/railnav/filters/test_noise_scale.py``). A fault on more than half the rows is no
-longer a fault of one satellite: the scale then says so.
+**A fault.** A faulty satellite always above the median is its share of the weight: with
+8 satellites from 15° to 80°, the highest is 23 % and moves the bound to the good rows'
+upper 35 % at most (λ < 1.9 at ``a`` ≪ ``b``; 1.38 measured over 200 epochs), so a
+30-m code step against its σ of 3 m stays 8σ and is rejected. On simulated 300-s curvy
+trips with a 30-m step on G05 for 100 s (seeds 1-3), the step's rows were used in 0 of
+100 epochs with the scale as without it; the pseudorange scale rose during the fault by
+1.00-1.03 (told the σ) and from 2.5-3.4 to 3.5-3.7 (plain files, where the along-track
+pull of the fault fell from 2.2-24.9σ to 0.8-2.0σ). A fault on more than
+half the weight is no longer a fault of one satellite: the scale then says so.
 
 `NoiseScale` is owned by each filter with GNSS rows (`railnav.filters.constrained`, the
 rows scaled before its fault screen, which tests each row at its own scaled variance, fed
@@ -61,12 +74,10 @@ from railnav.filters.common import ROW_KINDS
 
 __all__ = ["NoiseScaleConfig", "NoiseScale", "CHI2_1_MEDIAN", "scale_bound",
            "row_ratios", "scaled_gnss_rows", "row_scales",
-           "scale_statistics", "REPORT_SCALE"]
+           "scale_statistics"]
 
 Array = npt.NDArray[np.float64]
 
-#: A σ factor above this is worth a line in the run report (`railnav.commands.run_report`).
-REPORT_SCALE = 1.5
 #: The median of χ²₁ (``scipy.stats.chi2.ppf(0.5, 1)``).
 CHI2_1_MEDIAN = 0.454936423119572
 
@@ -78,17 +89,19 @@ class NoiseScaleConfig:
     Attributes
     ----------
     window_epochs : int
-        Epochs whose rows estimate the scale (default 60: a minute at 1 Hz, ~500 rows of a
-        kind with 8 satellites).
+        Epochs whose rows estimate the scale (default 120: two minutes at 1 Hz, ~1000
+        rows of a kind with 8 satellites).
     z : float
-        Significance of the sign test, in σ of the Binomial count (default 3: a one-sided
-        false rise of 1.35e-3 per window of independent rows).
+        Significance of the sign test, in σ of its count (default 3.5: a one-sided false
+        rise of 2.3e-4 per window of independent rows; on synthetic rows told right,
+        8 satellites, 600 epochs, 100 seeds, no run rose, where z = 3 with a 60-epoch
+        window rose in 13, by ≤ 1.10 in σ).
     max_sigma_factor : float
         The largest factor ``k`` on the σ (default 20: variances ×400).
     """
 
-    window_epochs: int = 60
-    z: float = 3.0
+    window_epochs: int = 120
+    z: float = 3.5
     max_sigma_factor: float = 20.0
 
     def __post_init__(self) -> None:
@@ -172,6 +185,15 @@ class NoiseScale:
                         for kind in ROW_KINDS}
         self._pending: tuple | None = None
 
+    def copy(self) -> "NoiseScale":
+        """A scale with this one's window and factors and no history (a network run's
+        child hypothesis, `railnav.navigation.network_navigator`)."""
+        out = NoiseScale(self.config)
+        out.variance_factor = dict(self.variance_factor)
+        for kind, window in self._window.items():
+            out._window[kind].extend(window)
+        return out
+
     def begin_epoch(self) -> None:
         """Record the factors in effect for the epoch about to be built (`history`)."""
         self.history.append(tuple(math.sqrt(self.variance_factor[k]) for k in ROW_KINDS))
@@ -241,9 +263,9 @@ def scaled_gnss_rows(rows: list, models, *, pseudorange_factor: float,
 
 
 def row_scales(history: list[tuple[float, ...]], epoch: Array, kind: Array) -> Array:
-    """``innovations.csv``'s ``noise_scale``: each row's σ factor at its epoch (`NoiseScale.history`
-    indexed by `epoch`), NaN for kinds not scaled or when the history does not cover
-    the epochs."""
+    """``innovations.csv``'s ``noise_scale``: each row's σ factor at its epoch
+    (`NoiseScale.history` indexed by `epoch`), NaN for kinds not scaled or when the
+    history does not cover the epochs."""
     epoch = np.asarray(epoch, dtype=np.intp)
     out = np.full(epoch.size, np.nan)
     if not history or (epoch.size and epoch.max() >= len(history)):
