@@ -74,7 +74,7 @@ def receiver_hint_lines(summary: dict) -> list[str]:
     (a simulated 1000-s curvy trip as plain files without the noise scale: 52 % rejected,
     NEES 17 for 5 states, 40 restarts; told the simulated σ, 0.08 % rejected and NEES
     4.1). None when `noise_scale_lines` has said so already (with the scale, that trip:
-    σ factors 2.7 / 10.4, 3.7 % rejected, NEES 6.0, no restart)."""
+    σ factors 2.7 / 10.4, 3.3 % rejected, NEES 6.0, no restart)."""
     if noise_scale_lines(summary):
         return []
     stats = summary["statistics"]
