@@ -41,9 +41,9 @@ from railnav.filters.geometry_noise import remainder_correlation_s, statistical_
 from railnav.filters.gnss_only_noise import (correlation_inflation, epoch_interval_s,
                                              pseudorange_inflation)
 from railnav.filters.grade_noise import unknown_grade_density
-from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
+from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.one_sided import OneSidedLimit
 from railnav.filters.path_noise import PathNoise, bias_together
 from railnav.filters.scale_noise import step_nodes

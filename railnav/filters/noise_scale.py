@@ -131,11 +131,11 @@ def row_ratios(innov: Array, fixed_var: Array, own_var: Array) -> Array:
     return (np.square(innov) / CHI2_1_MEDIAN - fixed_var) / own_var
 
 
-def scale_bound(q: Array, weight: Array, *, z: float) -> float:
+def scale_bound(q: Array, weight: Array, *, z: float, floor: float = -math.inf) -> float:
     """The one-sided lower confidence bound at `z` of the weighted median of `q`: the
     largest λ with ``Σ_{q >= λ} w >= W/2 + z √(Σ w²) / 2`` (W = Σ w; the weighted sign
-    test's count, of variance ``Σ w² / 4`` when the σ are right); −inf when no λ has it
-    (too few rows).
+    test's count, of variance ``Σ w² / 4`` when the σ are right), at least `floor`
+    (`floor` when no λ has it: too few rows).
 
     Parameters
     ----------
@@ -145,18 +145,27 @@ def scale_bound(q: Array, weight: Array, *, z: float) -> float:
         Their weights (> 0; `NoiseScale`: the information ``1/b``).
     z : float
         In σ of the sign test's count.
+    floor : float
+        The result is at least this (without sorting when the bound is below it).
 
     Returns
     -------
     float
     """
     if not q.size:
-        return -math.inf
-    need = 0.5 * float(weight.sum()) + 0.5 * z * math.sqrt(float(np.dot(weight, weight)))
+        return floor
+    need = _needed_weight(float(weight.sum()), float(np.dot(weight, weight)), z)
+    if float(weight[q >= floor].sum()) < need:
+        return floor                                  # not significant above the floor
     order = np.argsort(q)[::-1]                                 # q descending
     reached = np.cumsum(weight[order])
-    j = int(np.searchsorted(reached, need * (1.0 - 1e-12)))    # first with that weight
-    return float(q[order[j]]) if j < q.size else -math.inf
+    j = int(np.searchsorted(reached, need))             # the first with that weight
+    return max(float(q[order[j]]), floor) if j < q.size else floor
+
+
+def _needed_weight(total: float, squares: float, z: float) -> float:
+    """``W/2 + z √(Σw²)/2`` (`scale_bound`), less a relative 1e-12 for the sums' rounding."""
+    return (0.5 * total + 0.5 * z * math.sqrt(squares)) * (1.0 - 1e-12)
 
 
 class NoiseScale:
@@ -222,8 +231,8 @@ class NoiseScale:
         fixed = np.diagonal(record.S) - R
         for k in ROW_KINDS:
             rows = kind == k
-            self._window[k].append((row_ratios(record.innov[rows], fixed[rows], own[rows]),
-                                    own[rows]))
+            self._window[k].append(_window_part(
+                row_ratios(record.innov[rows], fixed[rows], own[rows]), own[rows]))
         self._update()
 
     def add(self, rows: dict[str, tuple[Array, Array, Array]]) -> None:
@@ -233,8 +242,9 @@ class NoiseScale:
             return
         for k in ROW_KINDS:
             found = rows.get(k)
-            self._window[k].append((row_ratios(*found), found[2]) if found is not None
-                                   else (np.zeros(0), np.zeros(0)))
+            self._window[k].append(_window_part(row_ratios(*found), found[2])
+                                   if found is not None else _window_part(np.zeros(0),
+                                                                          np.ones(0)))
         self._update()
 
     def _update(self) -> None:
@@ -242,9 +252,20 @@ class NoiseScale:
         top = cfg.max_sigma_factor ** 2
         for k in ROW_KINDS:
             window = self._window[k]
+            total, squares, above = (sum(part[j] for part in window) for j in (2, 3, 4))
+            if above < _needed_weight(total, squares, cfg.z):   # the sign test at 1: no
+                self.variance_factor[k] = 1.0
+                continue
             q = np.concatenate([part[0] for part in window])
-            weight = 1.0 / np.concatenate([part[1] for part in window])
-            self.variance_factor[k] = min(max(scale_bound(q, weight, z=cfg.z), 1.0), top)
+            weight = np.concatenate([part[1] for part in window])
+            self.variance_factor[k] = min(scale_bound(q, weight, z=cfg.z, floor=1.0), top)
+
+
+def _window_part(q: Array, own_var: Array) -> tuple:
+    """One epoch's rows in a window: ``q``, the weights ``1/b``, and their sums ``Σw``,
+    ``Σw²`` and ``Σ w [q >= 1]`` (`NoiseScale._update`'s sign test at 1 needs no sort)."""
+    w = 1.0 / own_var
+    return q, w, float(w.sum()), float(np.dot(w, w)), float(w[q >= 1.0].sum())
 
 
 def scaled_gnss_rows(rows: list, models, *, pseudorange_factor: float,

@@ -61,6 +61,18 @@ def test_scale_bound_with_equal_weights_is_the_sign_test_order_statistic():
     assert scale_bound(q[:8], np.ones(8), z=3.0) == -math.inf   # 4 + 4.24 > 8 rows
 
 
+def test_scale_bound_with_a_floor_is_the_larger_of_the_two():
+    """The floor's shortcut (no sort when not significant above it) against
+    ``max(bound, floor)`` of the full computation, on weighted rows."""
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        n = int(rng.integers(1, 60))
+        q, w = rng.standard_normal(n) + rng.uniform(-1, 2), rng.uniform(0.1, 3.0, n)
+        for floor in (0.0, 1.0):
+            assert scale_bound(q, w, z=2.0, floor=floor) == max(scale_bound(q, w, z=2.0),
+                                                                floor)
+
+
 @pytest.mark.parametrize("ratio", [4.0, 25.0])
 def test_scale_converges_to_the_ratio_within_its_sampling_error(ratio):
     """``a = 0``: the rows' ``q`` are ``λ χ²₁ / m₁`` whatever their weight, so the bound is
