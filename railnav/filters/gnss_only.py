@@ -28,7 +28,9 @@ same inflation with ``config.fix_model.correlated_code_errors``
 (`GnssOnlyFilter._fix_rows`). What inflation cannot model, the part of the code errors
 that lasts minutes, is a state shared by each epoch's position rows
 (`railnav.filters.code_bias`, ``config.code_bias``). Gross outliers are rejected by
-the engine's χ² row gate (``config.gate_probability``). Optionally (`huber_k`) the rows
+the engine's χ² row gate (``config.gate_probability``). The rows' σ get the adaptive noise
+scale of each kind (`railnav.filters.noise_scale`, ``config.noise_scale``), estimated from
+the rows' innovations at the prior, which this filter evaluates for it. Optionally (`huber_k`) the rows
 are also down-weighted with Huber's weight at the prior (`railnav.filters.robust_rows`); it is off
 by default: at a prior made over-confident by correlated errors it down-weights the good
 rows too. Measured on the urban drive's first leg (``benchmarks/results/real_data.json``,
