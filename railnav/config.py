@@ -30,6 +30,7 @@ from railnav.filters.balise_epochs import BaliseModelConfig
 from railnav.filters.code_bias import CodeBiasConfig
 from railnav.filters.fault_config import FaultDetectionConfig
 from railnav.filters.fix_epochs import FixModelConfig
+from railnav.filters.noise_scale import NoiseScaleConfig
 from railnav.filters.attitude_config import TrackAttitudeConfig
 from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.protocol import FILTER_KINDS, filter_kind
@@ -202,6 +203,12 @@ class NavigatorConfig:
         clock jumps; `railnav.filters.fault_detection`); None: every row goes to the update (and
         its χ² gate). With GNSS position fixes (both track filters), also the fixes'
         screen (each fix's rows tested at the prior, used together or not at all).
+    noise_scale : railnav.filters.noise_scale.NoiseScaleConfig or None
+        GNSS-only and constrained filters: a factor ``k >= 1`` on the σ of each GNSS row
+        kind (pseudorange, range rate), raised from the filter's innovations only when
+        the sign test finds them significantly larger than the σ say
+        (`railnav.filters.noise_scale`); None: off. Default on: with the σ right it stays
+        1 and the run is the same to the bit.
     fix_model : railnav.filters.fix_epochs.FixModelConfig
         What the GNSS fix rows assume beyond each fix's σ (track centre-line σ, heights,
         speed; `railnav.filters.fix_rows`).
@@ -272,6 +279,7 @@ class NavigatorConfig:
     track_heading_huber_k: float | None = 4.0
     code_bias: CodeBiasConfig = CodeBiasConfig()
     fault_detection: FaultDetectionConfig | None = FaultDetectionConfig()
+    noise_scale: NoiseScaleConfig | None = NoiseScaleConfig()
     fix_model: FixModelConfig = FixModelConfig()
     rts_smoothing: bool = False
     _imu: ImuErrors = field(init=False, repr=False, compare=False)
@@ -319,7 +327,7 @@ class NavigatorConfig:
             if not isinstance(getattr(self, name), bool):
                 raise ConfigError(f"{name} must be True or False, got {getattr(self, name)!r}")
         for name, cls in (("track_attitude", TrackAttitudeConfig),
-                          ("standstill", StandstillConfig)):
+                          ("standstill", StandstillConfig), ("noise_scale", NoiseScaleConfig)):
             if not (getattr(self, name) is None or isinstance(getattr(self, name), cls)):
                 raise ConfigError(f"{name} must be a {cls.__name__} or None, got "
                                   f"{getattr(self, name)!r}")

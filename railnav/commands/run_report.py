@@ -3,7 +3,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["report", "monitor_lines", "fix_hint_lines", "receiver_hint_lines"]
+__all__ = ["report", "monitor_lines", "fix_hint_lines", "receiver_hint_lines",
+           "noise_scale_lines"]
 
 #: Share of the monitor's epochs not ``ok`` above which a gnss-only run on fixes taken as
 #: white gets the `fix_hint_lines` hint.
@@ -16,6 +17,10 @@ HINT_NOT_OK_SHARE = 0.5
 #: same trips on the default (a real receiver's) σ: 38-50 % (e7d615c, before the fault
 #: screen tested correlated rows at their own variance; a 1000-s curvy trip after: 52 %).
 HINT_REJECTED_SHARE = 0.05
+
+#: A factor on the GNSS σ (`railnav.filters.noise_scale`) above which the run report says
+#: so (`noise_scale_lines`).
+REPORT_SCALE = 1.5
 
 
 def monitor_lines(mon: dict | None, recoveries: str = "recoveries") -> list[str]:
@@ -48,12 +53,30 @@ def fix_hint_lines(summary: dict) -> list[str]:
             "errors are correlated from epoch to epoch: --correlated-fix-errors"]
 
 
+def noise_scale_lines(summary: dict) -> list[str]:
+    """A line when the adaptive noise scale (`railnav.filters.noise_scale`,
+    ``summary.json``'s ``statistics.noise_scale``) rose above `REPORT_SCALE` for a row
+    kind: the receiver's σ looked that many times too small."""
+    scale = summary["statistics"].get("noise_scale") or {}
+    big = [(kind.replace("_", " "), v["max"]) for kind, v in scale.items()
+           if v["max"] > REPORT_SCALE]
+    if not big:
+        return []
+    factors = ", ".join(f"{kind} up to {k:.1f}×" for kind, k in big)
+    return [f"  the receiver's σ looked too small ({factors}; innovations.csv noise_scale): "
+            "the filter scaled them up; tell railnav with --sigma-pr-m and --sigma-rr-mps"]
+
+
 def receiver_hint_lines(summary: dict) -> list[str]:
     """A hint for a run on GNSS observations whose receiver σ were not given and whose
     gate and fault screen rejected more than `HINT_REJECTED_SHARE` of the rows: the
     receiver is noisier than the default σ say, and the filter trusts its rows too much
-    (a simulated 1000-s curvy trip as plain files: 52 % rejected, NEES 17 for 5 states,
-    40 restarts; told the simulated σ, 0.08 % rejected and NEES 4.1)."""
+    (a simulated 1000-s curvy trip as plain files without the noise scale: 52 % rejected,
+    NEES 17 for 5 states, 40 restarts; told the simulated σ, 0.08 % rejected and NEES
+    4.1). None when `noise_scale_lines` has said so already (with the scale, that trip:
+    σ factors 2.7 / 10.4, 3.3 % rejected, NEES 6.0, no restart)."""
+    if noise_scale_lines(summary):
+        return []
     stats = summary["statistics"]
     rows, rejected = stats.get("gnss_rows") or 0, stats.get("gnss_rows_rejected") or 0
     if rows == 0 or rejected <= HINT_REJECTED_SHARE * rows:
@@ -75,6 +98,7 @@ def report(outcome, out: Path) -> str:
                      "not used")
     stats = s["statistics"]
     lines.extend(monitor_lines(stats.get("monitor")))
+    lines.extend(noise_scale_lines(s))
     if "fix_epochs" in stats:
         lines.append(f"  {stats['fix_epochs']} GNSS fixes, {stats['fixes_rejected']} rejected "
                      "by the fault screen")

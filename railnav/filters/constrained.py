@@ -20,8 +20,6 @@ grid (`railnav.filters.track_grid`) and the model corrects them to first/second 
 """
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 import numpy.typing as npt
 
@@ -32,7 +30,8 @@ from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters.along_force_noise import AlongForceNoise, forces_together
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
-from railnav.filters.common import GnssRowBuilder, start_on_track, states_from_values
+from railnav.filters.common import (ROW_KINDS, GnssRowBuilder, start_on_track,
+                                    states_from_values)
 from railnav.filters.constrained_model import (build_constrained_model, isb_state_name,
                                                scale_elements_for)
 from railnav.filters.estimate_columns import track_estimates
@@ -44,6 +43,7 @@ from railnav.filters.gnss_only_noise import (correlation_inflation, epoch_interv
 from railnav.filters.grade_noise import unknown_grade_density
 from railnav.filters.held_remainder import held_density
 from railnav.filters.ins_clock_model import initial_variances
+from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.one_sided import OneSidedLimit
 from railnav.filters.path_noise import PathNoise, bias_together
 from railnav.filters.scale_noise import step_nodes
@@ -131,7 +131,11 @@ class ConstrainedFilter:
         self.isb_systems = self.model.isb_systems
         self.rows = GnssRowBuilder(track, self.layout, gnss, config,
                                    tuple(isb_state_name(s) for s in self.isb_systems))
-        self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"))
+        #: The GNSS rows' adaptive noise scale (`railnav.filters.noise_scale`), fed by the
+        #: screen's record of each epoch.
+        self.noise_scale = NoiseScale(config.noise_scale)
+        self.screen = RowScreen(config.fault_detection, self.layout.index("clock_bias"),
+                                observer=self.noise_scale.seen)
         self.gnss_interval_s = epoch_interval_s(gnss)
         self.pseudorange_inflation = 1.0 if gnss is None else correlation_inflation(
             config.pseudorange_correlation_s, self.gnss_interval_s)
@@ -339,29 +343,25 @@ class ConstrainedFilter:
         `observations`, and `railnav.filters.epochs_together` for a bank."""
         if self._along is not None:
             self._along.epoch = True
+        self.noise_scale.begin_epoch()
         factor = 1.0
-        if gnss is not None and self.pseudorange_inflation != 1.0:
-            factor = pseudorange_inflation(self.config, float(x[self._i["v"]]),
-                                           self.gnss_interval_s)
-            gnss = (self._inflated(gnss[0], factor), *gnss[1:])
+        if gnss is not None:
+            if self.pseudorange_inflation != 1.0:
+                factor = pseudorange_inflation(self.config, float(x[self._i["v"]]),
+                                               self.gnss_interval_s)
+            gnss = (scaled_gnss_rows(gnss[0], self.rows.rows, pseudorange_factor=factor,
+                                     scale=self.noise_scale), *gnss[1:])
         fix = None if f < 0 else self.fix_rows.observations(f, x)
         extra = self.sensors.parts(self.schedule, index, x, P) if self.sensors else []
         if self.body:
             extra = [*extra, *self.body.parts(self.schedule, index, x, P)]
         stacked = stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
-        if factor == 1.0:
-            return (*stacked, None)
-        model = self.rows.rows.pseudorange
-        return (*stacked, np.concatenate([np.full(o.rows, factor if o.model is model else 1.0)
-                                          for o in stacked[0]]))
-
-    def _inflated(self, rows: list[Observation], factor: float) -> list[Observation]:
-        """The GNSS rows `rows` with the pseudoranges' variances times `factor`
-        (`railnav.filters.gnss_only_noise.pseudorange_inflation` at the prior's speed): the
-        update's variances; the fault screen tests each row with its own
-        (`railnav.filters.fault_detection`, "Inflated rows")."""
-        model = self.rows.rows.pseudorange
-        return [replace(o, R=o.R * factor) if o.model is model else o for o in rows]
+        inflation = None if factor == 1.0 else \
+            np.where(stacked[2] == ROW_KINDS[0], factor, 1.0).astype(float)
+        if self.noise_scale.config is not None:
+            self.noise_scale.expect(stacked[2], np.concatenate(
+                [o.R for o in stacked[0]]) if stacked[0] else np.zeros(0), inflation)
+        return (*stacked, inflation)
 
     # -- start -----------------------------------------------------------------------------
     def initial_covariance(self, *, sigma_s_m: float, sigma_v_mps: float) -> Array:

@@ -166,10 +166,13 @@ class RowScreen:
     clock_index : int or None
         Index of the receiver clock bias state (m) in the filter's layout; None: no clock
         jump test.
+    observer : callable(EpochScreen), optional
+        Called with each screened epoch (`railnav.filters.noise_scale.NoiseScale.seen`).
     """
 
     config: FaultDetectionConfig | None
     clock_index: int | None = None
+    observer: object = None
     epochs: list[EpochScreen] = field(default_factory=list)
     _sv: list[np.ndarray] = field(default_factory=list)
     _kind: list[np.ndarray] = field(default_factory=list)

@@ -28,7 +28,9 @@ same inflation with ``config.fix_model.correlated_code_errors``
 (`GnssOnlyFilter._fix_rows`). What inflation cannot model, the part of the code errors
 that lasts minutes, is a state shared by each epoch's position rows
 (`railnav.filters.code_bias`, ``config.code_bias``). Gross outliers are rejected by
-the engine's χ² row gate (``config.gate_probability``). Optionally (`huber_k`) the rows
+the engine's χ² row gate (``config.gate_probability``). The rows' σ get the adaptive noise
+scale of each kind (`railnav.filters.noise_scale`, ``config.noise_scale``), estimated from
+the rows' innovations at the prior, which this filter evaluates for it. Optionally (`huber_k`) the rows
 are also down-weighted with Huber's weight at the prior (`railnav.filters.robust_rows`); it is off
 by default: at a prior made over-confident by correlated errors it down-weights the good
 rows too. Measured on the urban drive's first leg (``benchmarks/results/real_data.json``,
@@ -55,7 +57,7 @@ from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
 from railnav.filters import code_bias as cb
-from railnav.filters.common import GnssRowBuilder, start_on_track
+from railnav.filters.common import ROW_KINDS, GnssRowBuilder, start_on_track
 from railnav.filters.estimate_columns import track_estimates
 from railnav.filters.constrained_model import isb_state_name
 from railnav.filters.fault_detection import RowScreen
@@ -71,6 +73,7 @@ from railnav.filters.gnss_only_noise import (
     robust_heading_sigma_rad,
 )
 from railnav.filters.ins_clock_model import clock_offset_columns
+from railnav.filters.noise_scale import NoiseScale
 from railnav.filters.odometer_epochs import SCALE_STATE
 from railnav.filters.robust_rows import huber_inflate
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
@@ -165,6 +168,8 @@ class GnssOnlyFilter:
         self.pseudorange_inflation = correlation_inflation(config.pseudorange_correlation_s,
                                                            interval)
         self.n_inflated = 0
+        #: The GNSS rows' adaptive noise scale (`railnav.filters.noise_scale`).
+        self.noise_scale = NoiseScale(config.noise_scale)
         #: The fix rows' factor standing, for the monitor (1: the fixes are taken as white).
         self.fix_inflation = self.pseudorange_inflation \
             if fixes is not None and config.fix_model.correlated_code_errors else 1.0
@@ -191,6 +196,7 @@ class GnssOnlyFilter:
         (`heading_covariance_mps2`), then (with `huber_k`) Huber-weighted; with fixes,
         the fix rows too, and the rows the fault screen lets through."""
         g, f = (index, -1) if self.schedule is None else self.schedule.split(index)
+        self.noise_scale.begin_epoch()
         rows = [] if g < 0 else self._gnss_rows(g, x, P)
         if self.screen is None:
             return rows
@@ -235,17 +241,24 @@ class GnssOnlyFilter:
     def _gnss_rows(self, index: int, x: Array, P: Array) -> list[Observation]:
         speed = float(x[self.layout.index("v")])
         factor = self.inflation_at(speed)
+        scale = self.noise_scale.variance_factor
         models = self.rows.rows
-        rows = []
+        rows, own = [], []
         for obs in self.rows.observations(index, x):
-            if obs.model is models.pseudorange:
+            kind = ROW_KINDS[0] if obs.model is models.pseudorange else ROW_KINDS[1]
+            own.append((kind, obs.R, scale[kind] * (factor if kind == ROW_KINDS[0] else 1.0)))
+            if scale[kind] != 1.0:
+                obs = replace(obs, R=obs.R * scale[kind])
+            if kind == ROW_KINDS[0]:
                 if self._bias_rows is not None:
                     obs = self._biased_pseudoranges(obs, x)
                 if factor != 1.0:
                     obs = replace(obs, R=obs.R * factor)
-            elif obs.model is models.range_rate:
+            else:
                 obs = self._heading_rows(obs, x, P, speed)
             rows.append(obs)
+        if self.noise_scale.config is not None:
+            self.noise_scale.add(_scale_rows(rows, own, x, P))
         if self.huber_k is None:
             return rows
         diagonal = [o for o in rows if o.R.ndim == 1]       # not the range-rate covariance
@@ -337,3 +350,18 @@ class GnssOnlyFilter:
         """Estimate columns (`railnav.navigation.result`) of stored states."""
         var = np.diagonal(unpack_sym(P_packed), axis1=1, axis2=2)
         return track_estimates(self.track, self.layout, x, var)
+
+
+def _scale_rows(rows: list[Observation], own: list, x: Array, P: Array) -> dict:
+    """``{kind: (ν, a, b)}`` of an epoch's GNSS rows for `NoiseScale.add`: innovations at
+    the prior, their variance but the rows' own (``a``: ``H P Hᵀ`` and the update
+    variance less the scaled own), the own variances ``b``; `own` is ``(kind, b, factor
+    on b in the update)`` of each observation of `rows`."""
+    parts: dict[str, list] = {}
+    for obs, (kind, b, applied) in zip(rows, own):
+        z_pred, H = obs.model.evaluate(x, obs.p)
+        R = obs.R if obs.R.ndim == 1 else np.diagonal(obs.R)
+        a = np.einsum("ij,jk,ik->i", H, P, H) + R - applied * b
+        parts.setdefault(kind, []).append((obs.z.reshape(-1) - z_pred, a, b))
+    return {kind: tuple(np.concatenate(c) for c in zip(*found))
+            for kind, found in parts.items()}

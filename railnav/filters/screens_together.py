@@ -66,6 +66,8 @@ def screen_together(screens, stacked, priors) -> list:
                                                        priors, evaluated):
         screen._add_influence(one["keys"], one["used"], nu, K_t)
         out.append(screen._record(one, rows[0], rows[1], rows[2], x, nu, H, R))
+        if screen.observer is not None:
+            screen.observer(screen.last)
     return out
 
 

@@ -114,10 +114,14 @@ class FilterFactory:
         filt = self(pieces)
         if type(filt) is type(parent.filt) and hasattr(filt, "inherit_memory"):
             filt.inherit_memory(parent.filt)
+        scale = getattr(parent.filt, "noise_scale", None)
+        if scale is not None and hasattr(filt, "noise_scale"):
+            filt.noise_scale = scale.copy()       # its window and factors, no history
         screen = getattr(parent.filt, "screen", None)
         if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
                                                         RowScreen):
-            filt.screen = parent_screen_copy(screen)
+            filt.screen = parent_screen_copy(screen, observer=getattr(
+                getattr(filt, "noise_scale", None), "seen", None))
         return filt
 
     def template(self, pieces):
@@ -128,10 +132,11 @@ class FilterFactory:
         return self._templates[key]
 
 
-def parent_screen_copy(screen: RowScreen) -> RowScreen:
-    """A fault screen with `screen`'s channel states and no records."""
+def parent_screen_copy(screen: RowScreen, observer=None) -> RowScreen:
+    """A fault screen with `screen`'s channel states and no records (`observer`: its
+    `RowScreen.observer`, the child's noise scale)."""
     import copy
-    out = RowScreen(screen.config, screen.clock_index)
+    out = RowScreen(screen.config, screen.clock_index, observer=observer)
     out._channels = copy.deepcopy(screen._channels)
     out._n_states = screen._n_states
     return out

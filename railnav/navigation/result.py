@@ -10,13 +10,15 @@ each; `railnav.filters.estimate_columns.estimate_columns`); with the divergence 
 epoch) and ``protection_level_risk_0p001_m`` (`railnav.navigation.protection`).
 `NavigationResult.innovations` is ``innovations.csv``: one
 row per GNSS measurement used or rejected (``time_s, gps_time_s, epoch, sv, kind,
-innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m``; innovation in
+innovation, sigma, nis, accepted, status, fault_probability, clock_jump_m, noise_scale``;
+innovation in
 m or m/s by kind; a GNSS position fix has the rows of `railnav.filters.fix_rows`, ``sv``
 ``fix:<class>``). ``status`` is ``used``, ``rejected`` (this epoch) or ``excluded`` (its
 channel is out, `railnav.filters.fault_detection`); ``accepted`` is ``status == "used"``;
 ``fault_probability`` is the row's posterior fault probability and ``clock_jump_m`` a
 receiver clock jump declared at the row's epoch (NaN for filters without the fault screen,
-and where none was).
+and where none was); ``noise_scale`` the factor on the σ of the row's kind at its epoch
+(`railnav.filters.noise_scale`; NaN for rows it does not scale).
 
 A run on tracks without heights (a network read without them, `trackmodel.network.Network`
 ``heights``) knows no height: `without_heights` empties the `HEIGHT_COLUMNS` of its
@@ -33,6 +35,7 @@ import pandas as pd
 from ekf.history import FilterResult
 from ekf.layout import StateLayout
 from railnav.filters.fix_rows import FIX_ROW_KINDS
+from railnav.filters.noise_scale import row_scales, scale_statistics
 from railnav.filters.sensor_rows import sensor_statistics
 from railnav.navigation.monitor import STATUSES, status_at
 from railnav.navigation.protection import protection_columns
@@ -195,6 +198,7 @@ class NavigationResult:
             used = fix.groupby("epoch")["accepted"].all()
             out["fix_epochs"], out["fixes_rejected"] = int(used.size), int((~used).sum())
         out.update(sensor_statistics(inn))      # odometer (slip episodes) and balises
+        out.update(scale_statistics(inn))
         if self.monitor is not None:
             out["monitor"] = monitor_statistics(self.monitor, self.estimates)
         return out
@@ -228,7 +232,10 @@ def _innovations(result: FilterResult, filt_obj, start_gps_time_s: float) -> pd.
     """One row per GNSS measurement, with the satellite and kind the filter recorded."""
     screen = getattr(filt_obj, "screen", None)
     if screen is not None and len(screen.epochs) == result.t_d.size:
-        return _screened_innovations(result, screen.frame(), start_gps_time_s)
+        rows = screen.frame()
+        out = _screened_innovations(result, rows, start_gps_time_s)
+        out["noise_scale"] = _noise_scales(filt_obj, rows["screen_epoch"], rows["kind"])
+        return out
     builder = getattr(filt_obj, "rows", None)
     sv = np.concatenate(builder.rows_sv) if builder is not None and builder.rows_sv else \
         np.zeros(0, dtype=object)
@@ -247,7 +254,15 @@ def _innovations(result: FilterResult, filt_obj, start_gps_time_s: float) -> pd.
                          "accepted": result.accepted,
                          "status": np.where(result.accepted, "used", "rejected").astype(object),
                          "fault_probability": np.full(n, np.nan),
-                         "clock_jump_m": np.full(n, np.nan)})
+                         "clock_jump_m": np.full(n, np.nan),
+                         "noise_scale": _noise_scales(filt_obj, result.epoch_of, kind)})
+
+
+def _noise_scales(filt_obj, epoch, kind) -> Array:
+    """``noise_scale``: each GNSS row's σ factor at its epoch
+    (`railnav.filters.noise_scale.row_scales`; NaN without a scale)."""
+    scale = getattr(filt_obj, "noise_scale", None)
+    return row_scales(scale.history if scale is not None else [], epoch, kind)
 
 
 def _screened_innovations(result: FilterResult, rows: pd.DataFrame,

@@ -332,9 +332,10 @@ def _flush(parts: list[FilterResult], segment: TripSegment, following: TripSegme
 def _forget_epoch_records(filt_obj) -> None:
     """Drop what the filter object keeps per GNSS epoch for ``innovations.csv`` (row labels
     of `railnav.filters.common.EpochRowBuilder`, the records of
-    `railnav.filters.fault_detection.RowScreen`): a streamed run does not write that file, and
-    those lists would grow with the trip. The screen's channel states, which carry over
-    from epoch to epoch, are kept."""
+    `railnav.filters.fault_detection.RowScreen`, the noise scale's history): a streamed
+    run does not write that file, and those lists would grow with the trip. The screen's
+    channel states and the noise scale's window, which carry over from epoch to epoch,
+    are kept."""
     rows = getattr(filt_obj, "rows", None)
     if rows is not None:
         rows.rows_sv.clear()
@@ -343,3 +344,6 @@ def _forget_epoch_records(filt_obj) -> None:
     if screen is not None:
         for records in (screen.epochs, screen._sv, screen._kind):
             records.clear()
+    scale = getattr(filt_obj, "noise_scale", None)
+    if scale is not None:
+        scale.history.clear()

@@ -1,5 +1,6 @@
 """``railnav run --sigma-pr-m --sigma-rr-mps``: the receiver's GNSS noise for a file run,
-and the hint when it was not given and the rows say the default σ are too small.
+and the hint when it was not given and the rows say the default σ are too small (the
+adaptive noise scale's line, or the share of rejected rows).
 
 The trip: a 150-s ``curvy`` simulation (the 2017 paper's receiver, noisier than the real
 receiver the defaults describe) copied without ``scenario.json``. Reference: the run's own
@@ -15,7 +16,8 @@ import pandas as pd
 import pytest
 
 from railnav.cli import main
-from railnav.commands.run_report import HINT_REJECTED_SHARE
+from railnav.commands.run_report import (HINT_REJECTED_SHARE, REPORT_SCALE,
+                                        noise_scale_lines, receiver_hint_lines)
 from railnav.simulation.scenarios import TRACKS_DIR
 
 CURVY = str(TRACKS_DIR / "curvy.csv")
@@ -46,13 +48,31 @@ def _hint(text: str) -> list[str]:
     return [line for line in text.splitlines() if "--sigma-pr-m" in line]
 
 
-def test_plain_files_untold_get_the_hint_with_the_rejected_rows(sim, tmp_path, capsys):
+def test_plain_files_untold_get_the_hint_with_the_noise_scale(sim, tmp_path, capsys):
+    """Told nothing, the adaptive noise scale (`railnav.filters.noise_scale`) rises for
+    both row kinds: one hint, with the largest factors of ``innovations.csv``'s
+    ``noise_scale``."""
     text = _run(sim[1], tmp_path / "a", capsys, "--imu-grade", "tactical")
     inn = pd.read_csv(tmp_path / "a" / "innovations.csv")
-    rejected = int((~inn["accepted"]).sum())
-    assert rejected > HINT_REJECTED_SHARE * len(inn)
+    top = inn.groupby("kind")["noise_scale"].max()
+    assert top["pseudorange"] > REPORT_SCALE and top["range_rate"] > REPORT_SCALE
     assert len(_hint(text)) == 1
-    assert f"{rejected} of {len(inn)} GNSS rows" in _hint(text)[0]
+    assert (f"pseudorange up to {top['pseudorange']:.1f}×, range rate up to "
+            f"{top['range_rate']:.1f}×") in _hint(text)[0]
+
+
+def test_the_rejected_rows_hint_when_the_scale_did_not_rise():
+    """Without a scale above `REPORT_SCALE` (off, or not significant), the hint counts the
+    rejected rows; with one, the scale's line says it and this hint is not repeated."""
+    stats = {"gnss_rows": 200, "gnss_rows_rejected": 60}
+    assert "60 of 200 GNSS rows (30 %)" in receiver_hint_lines({"statistics": stats})[0]
+    low = {"range_rate": {"final": 1.0, "max": REPORT_SCALE}}
+    assert receiver_hint_lines({"statistics": {**stats, "noise_scale": low}})
+    assert not noise_scale_lines({"statistics": {**stats, "noise_scale": low}})
+    high = {"range_rate": {"final": 1.0, "max": 2.04}}
+    assert not receiver_hint_lines({"statistics": {**stats, "noise_scale": high}})
+    line, = noise_scale_lines({"statistics": {**stats, "noise_scale": high}})
+    assert "range rate up to 2.0×" in line and "pseudorange" not in line
 
 
 def test_plain_files_told_the_sigmas_run_as_with_the_scenario(sim, tmp_path, capsys):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -52,10 +53,11 @@ def _files(folder) -> dict:
             "nav_path": folder / "gnss_nav.rnx"}
 
 
-def _nees_at(folder, **sigmas) -> tuple[float, int, float]:
-    """NEES at `NEES_TIME_S`, its dof, and the share of GNSS rows not used."""
+def _nees_at(folder, **options) -> tuple[float, int, float]:
+    """NEES at `NEES_TIME_S`, its dof, and the share of GNSS rows not used (`options`:
+    `run_files`'s told σ, or a configuration)."""
     out = run_files(read_track(CURVY), **_files(folder), truth_path=folder / "truth.csv",
-                    imu_grade="tactical", **sigmas)
+                    imu_grade="tactical", **options)
     k = int(np.argmin(np.abs(out.errors.time_s - NEES_TIME_S)))
     assert abs(out.errors.time_s[k] - NEES_TIME_S) < 0.051
     rows = out.result.innovations
@@ -78,18 +80,26 @@ def test_told_sigmas_reach_the_config_as_the_scenario_says(trips):
     assert told.pseudorange_correlation_s == plain.pseudorange_correlation_s
 
 
+def _plain_config(folder, **changes):
+    """The plain files' default configuration (`read_sensor_files`), with `changes`."""
+    return replace(read_sensor_files(**_files(folder), imu_grade="tactical")[1], **changes)
+
+
 def test_plain_files_told_the_receiver_sigmas_are_not_overconfident(trips):
     """Told the simulated σ (the rest the real-data defaults: σ/sin(el), C/N0 penalty,
     correlated pseudoranges, all of which only add variance to the simulator's constant
     σ), the mean NEES is at most the 99 % band's top, and the fault screen keeps out few
-    rows (its row test's design rate is 1.9e-4). Told nothing, the rows are read as far
-    more precise than they are, and the screen keeps out a large share of them (the run's
-    hint says so). Told nothing, the mean NEES at 140 s was above the band (17.4) until the
-    screen tested correlated rows at their own variance (s37screen): it now rejects the
-    rows it cannot explain instead (5.2), so NEES no longer tells the two apart here."""
+    rows (its row test's design rate is 1.9e-4). Told nothing and without the adaptive
+    noise scale (``NavigatorConfig.noise_scale`` None), the rows are read as far more
+    precise than they are, and the screen keeps out a large share of them (the run's
+    hint says so). Told nothing, the mean NEES at 140 s was above the band (17.4) until
+    the screen tested correlated rows at their own variance (s37screen): it now rejects
+    the rows it cannot explain instead (5.2), so NEES no longer tells the two apart
+    here."""
     told = [_nees_at(folder, sigma_pr_m=SIM_SIGMA_PR_M, sigma_rr_mps=SIM_SIGMA_RR_MPS)
             for folder, _ in trips]
-    untold = [_nees_at(folder) for folder, _ in trips]
+    untold = [_nees_at(folder, config=_plain_config(folder, noise_scale=None))
+              for folder, _ in trips]
     dof = {d for _, d, _ in told + untold}
     assert dof == {5}
     n = len(SEEDS)
@@ -99,3 +109,17 @@ def test_plain_files_told_the_receiver_sigmas_are_not_overconfident(trips):
     assert np.mean([v for v, _, _ in told]) <= high, told
     assert max(u for _, _, u in told) < HINT_REJECTED_SHARE, told
     assert min(u for _, _, u in untold) > HINT_REJECTED_SHARE, untold
+
+
+def test_plain_files_with_the_noise_scale(trips):
+    """Told nothing, with the adaptive noise scale (the default,
+    `railnav.filters.noise_scale`): the mean NEES at 140 s is inside the 99 % band, and
+    the screen keeps out fewer rows than without the scale on every trip."""
+    untold = [_nees_at(folder) for folder, _ in trips]
+    without = [_nees_at(folder, config=_plain_config(folder, noise_scale=None))
+               for folder, _ in trips]
+    low, high = chi2_band(5, len(SEEDS), 0.99)
+    assert low <= np.mean([v for v, _, _ in untold]) <= high, untold
+    assert all(u < w for (_, _, u), (_, _, w) in zip(untold, without)), (untold, without)
+
+
