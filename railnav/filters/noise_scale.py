@@ -164,8 +164,9 @@ def scale_bound(q: Array, weight: Array, *, z: float, floor: float = -math.inf) 
 
 
 def _needed_weight(total: float, squares: float, z: float) -> float:
-    """``W/2 + z √(Σw²)/2`` (`scale_bound`), less a relative 1e-12 for the sums' rounding."""
-    return (0.5 * total + 0.5 * z * math.sqrt(squares)) * (1.0 - 1e-12)
+    """``W/2 + z √(Σw²)/2`` (`scale_bound`), less a relative 1e-12 for the sums' rounding
+    (a window's running Σw² of no rows can be a rounding's −1e-17: taken as 0)."""
+    return (0.5 * total + 0.5 * z * math.sqrt(max(squares, 0.0))) * (1.0 - 1e-12)
 
 
 class NoiseScale:
@@ -192,6 +193,10 @@ class NoiseScale:
         self.history: list[tuple[float, ...]] = []
         self._window = {kind: deque(maxlen=config.window_epochs if config else 1)
                         for kind in ROW_KINDS}
+        # Σw, Σw², Σw[q >= 1] of each kind's window, kept as parts enter and leave, summed
+        # again from the parts each time the window has turned over (no drift)
+        self._sums = {kind: [0.0, 0.0, 0.0] for kind in ROW_KINDS}
+        self._appended = dict.fromkeys(ROW_KINDS, 0)
         self._pending: tuple | None = None
 
     def copy(self) -> "NoiseScale":
@@ -201,7 +206,23 @@ class NoiseScale:
         out.variance_factor = dict(self.variance_factor)
         for kind, window in self._window.items():
             out._window[kind].extend(window)
+            out._sums[kind] = list(self._sums[kind])
+            out._appended[kind] = self._appended[kind]
         return out
+
+    def _append(self, kind: str, part: tuple) -> None:
+        """Add one epoch's `_window_part` of `kind` to its window and its sums."""
+        window, sums = self._window[kind], self._sums[kind]
+        if len(window) == window.maxlen:
+            for j, old in enumerate(window[0][2:]):
+                sums[j] -= old
+        window.append(part)
+        self._appended[kind] += 1
+        if self._appended[kind] % window.maxlen == 0:
+            sums[:] = [sum(p[j] for p in window) for j in (2, 3, 4)]
+        else:
+            for j, new in enumerate(part[2:]):
+                sums[j] += new
 
     def begin_epoch(self) -> None:
         """Record the factors in effect for the epoch about to be built (`history`)."""
@@ -231,7 +252,7 @@ class NoiseScale:
         fixed = np.diagonal(record.S) - R
         for k in ROW_KINDS:
             rows = kind == k
-            self._window[k].append(_window_part(
+            self._append(k, _window_part(
                 row_ratios(record.innov[rows], fixed[rows], own[rows]), own[rows]))
         self._update()
 
@@ -242,9 +263,8 @@ class NoiseScale:
             return
         for k in ROW_KINDS:
             found = rows.get(k)
-            self._window[k].append(_window_part(row_ratios(*found), found[2])
-                                   if found is not None else _window_part(np.zeros(0),
-                                                                          np.ones(0)))
+            self._append(k, _window_part(row_ratios(*found), found[2])
+                         if found is not None else _window_part(np.zeros(0), np.ones(0)))
         self._update()
 
     def _update(self) -> None:
@@ -252,7 +272,7 @@ class NoiseScale:
         top = cfg.max_sigma_factor ** 2
         for k in ROW_KINDS:
             window = self._window[k]
-            total, squares, above = (sum(part[j] for part in window) for j in (2, 3, 4))
+            total, squares, above = self._sums[k]
             if above < _needed_weight(total, squares, cfg.z):   # the sign test at 1: no
                 self.variance_factor[k] = 1.0
                 continue

@@ -18,6 +18,7 @@ from scipy.stats import chi2
 
 from railnav.errors import ConfigError
 from railnav.filters.fault_config import FaultDetectionConfig
+from railnav.filters.common import ROW_KINDS
 from railnav.filters.noise_scale import (CHI2_1_MEDIAN, NoiseScale, NoiseScaleConfig,
                                          row_ratios, row_scales, scale_bound)
 from railnav.jobs.run import run_simulated
@@ -164,3 +165,31 @@ def test_a_trip_told_its_sigma_runs_as_without_the_scale(filter):
     gnss = inn["kind"].isin(("pseudorange", "range_rate"))
     assert (inn.loc[gnss, "noise_scale"] == 1.0).all()
     assert on.result.estimates.equals(off.result.estimates)
+
+
+def test_the_window_sums_kept_as_rows_come_and_go_equal_sums_from_scratch():
+    """`NoiseScale` keeps each window's Σw, Σw², Σw[q ≥ 1] as epochs enter and leave;
+    its factor at every epoch equals the sign test and `scale_bound` on the window's rows
+    summed from scratch (second method), through a rise (λ = 3) and back."""
+    rng = np.random.default_rng(3)
+    cfg = NoiseScaleConfig(window_epochs=20, z=2.0)
+    scale, kept, rose = NoiseScale(cfg), {k: [] for k in ROW_KINDS}, 1.0
+    for epoch in range(500):
+        lam = 3.0 if 150 <= epoch < 300 else 1.0
+        rows = {}
+        for k in ROW_KINDS:
+            n = int(rng.integers(0, 9))
+            b, a = rng.uniform(0.5, 5.0, n), rng.uniform(0.0, 1.0, n)
+            rows[k] = (rng.normal(0.0, np.sqrt(a + lam * b)), a, b)
+        scale.add(rows)
+        for k in ROW_KINDS:
+            nu, a, b = rows[k]
+            kept[k] = (kept[k] + [((nu ** 2 / CHI2_1_MEDIAN - a) / b, 1.0 / b)])[-20:]
+            q = np.concatenate([p[0] for p in kept[k]])
+            w = np.concatenate([p[1] for p in kept[k]])
+            need = 0.5 * w.sum() + 0.5 * cfg.z * np.sqrt(w @ w)
+            expected = 1.0 if w[q >= 1.0].sum() < need * (1 - 1e-12) else \
+                min(scale_bound(q, w, z=cfg.z, floor=1.0), cfg.max_sigma_factor ** 2)
+            assert scale.variance_factor[k] == expected, (epoch, k)
+            rose = max(rose, expected)
+    assert rose > 2.0                      # the rise was seen, and followed exactly
