@@ -114,7 +114,8 @@ class ChunkLoop:
         self._lin = None
         while start < t.size and self.left is None:
             if math.isfinite(engine.t):
-                self.left = self._end.check(filt, engine.x, engine.P, engine.t)
+                self.left = self._end.check(filt, engine.x, engine.P, engine.t,
+                                            variance_factor=self._degraded_factor())
                 if self.left is not None:
                     return
             stop = min(start + self.max_len, t.size)
@@ -203,6 +204,9 @@ class ChunkLoop:
                                      progress=progress, total=total)
         return results if self.monitor is None else self._monitored(results)
 
+    def _degraded_factor(self) -> float:
+        return _degraded_variance_factor(self.monitor)
+
     def _monitored(self, results):
         """The results, each chunk's epoch tested by `monitor`; a recovery replaces the
         engine's posterior before the next chunk is built from it."""
@@ -212,6 +216,18 @@ class ChunkLoop:
             if recovered is not None:
                 engine.x, engine.P = recovered
             yield result
+
+
+def _degraded_variance_factor(monitor) -> float:
+    """The monitor's variance factor ``f`` of its last epoch while ``degraded`` (the
+    factor `railnav.navigation.protection` puts on σ_s there), else 1: how much wider
+    `TrackEndWatch` takes σ before it says the vehicle has left the track."""
+    if monitor is None or not monitor.records:
+        return 1.0
+    last = monitor.records[-1]
+    f = last.get("variance_factor", np.nan)
+    return float(f) if last.get("status") == "degraded" and np.isfinite(f) and f > 1.0 \
+        else 1.0
 
 
 def _watched(monitor, time_s: float, rows, x: Array, P: Array):
@@ -264,6 +280,13 @@ class TrackEndWatch:
     below 3σ_v (GPS+Galileo: two epochs, 0.15 m on against 3σ_s = 3.5 m). A vehicle
     driving off the end at 10 m/s is stopped one 1-Hz epoch (10 m) later than by
     `beyond_track` alone (``tests/railnav/filters/test_gnss_only_filter.py``).
+
+    While the divergence monitor says ``degraded``, ``P`` is taken times its variance
+    factor (`check`'s ``variance_factor``, as `railnav.navigation.protection` widens the
+    interval): a simulated trip run as plain files, whose train stands 12 s at the
+    track's start while its filter's speed goes 1 m/s wrong at σ_v 0.1 m/s, was stopped
+    at 13 s "beyond the track's start" with the truth at the start; it now runs on
+    (``tests/railnav/navigation/test_end_watch_degraded.py``).
     """
 
     def __init__(self) -> None:
@@ -279,14 +302,21 @@ class TrackEndWatch:
             out.first = dict(self.first, s_m=self.first["s_m"] + by_m)
         return out
 
-    def check(self, filt, x: Array, P: Array, time_s: float) -> dict | None:
+    def check(self, filt, x: Array, P: Array, time_s: float, *,
+              variance_factor: float = 1.0) -> dict | None:
         """`beyond_track`'s record once the vehicle has left (class docstring), else None.
 
         Parameters
         ----------
         filt, x, P, time_s
             As `beyond_track`.
+        variance_factor : float
+            ≥ 1: ``P`` taken this many times larger (the divergence monitor's factor
+            while ``degraded``, as the protection level takes it: a filter the monitor
+            does not trust is not believed to have left on its own σ).
         """
+        if variance_factor != 1.0:
+            P = P * variance_factor
         left = beyond_track(filt, x, P, time_s)
         if left is None:
             self.first = None
