@@ -358,9 +358,6 @@ class ConstrainedFilter:
         stacked = stack_epoch_rows(gnss, fix, gnss_mode="channel", fix_group=f, extra=extra)
         inflation = None if factor == 1.0 else \
             np.where(stacked[2] == ROW_KINDS[0], factor, 1.0).astype(float)
-        if self.noise_scale.config is not None:
-            self.noise_scale.expect(stacked[2], np.concatenate(
-                [o.R for o in stacked[0]]) if stacked[0] else np.zeros(0), inflation)
         return (*stacked, inflation)
 
     # -- start -----------------------------------------------------------------------------

@@ -166,8 +166,9 @@ class RowScreen:
     clock_index : int or None
         Index of the receiver clock bias state (m) in the filter's layout; None: no clock
         jump test.
-    observer : callable(EpochScreen), optional
-        Called with each screened epoch (`railnav.filters.noise_scale.NoiseScale.seen`).
+    observer : callable(EpochScreen, kind, R, inflation), optional
+        Called with each screened epoch, its rows' kinds, variances and correlated-error
+        inflation (`screen`'s; None: 1): `railnav.filters.noise_scale.NoiseScale.seen`.
     """
 
     config: FaultDetectionConfig | None

@@ -197,7 +197,6 @@ class NoiseScale:
         # again from the parts each time the window has turned over (no drift)
         self._sums = {kind: [0.0, 0.0, 0.0] for kind in ROW_KINDS}
         self._appended = dict.fromkeys(ROW_KINDS, 0)
-        self._pending: tuple | None = None
 
     def copy(self) -> "NoiseScale":
         """A scale with this one's window and factors and no history (a network run's
@@ -228,32 +227,22 @@ class NoiseScale:
         """Record the factors in effect for the epoch about to be built (`history`)."""
         self.history.append(tuple(math.sqrt(self.variance_factor[k]) for k in ROW_KINDS))
 
-    def expect(self, kind: np.ndarray, R: Array, inflation: Array | None) -> None:
-        """Remember the stacked rows of the epoch before the screen: their kinds, update
-        variances ``R`` and correlated-error factors (`seen` pairs them with the screen's
-        record)."""
+    def seen(self, record, kind: np.ndarray, R: Array, inflation: Array | None) -> None:
+        """Add the screened epoch `record` (`railnav.filters.fault_detection.EpochScreen`:
+        its innovations and update covariance ``S``, whose diagonal less the update
+        variances `R` is ``a``) of rows of `kind`, whose own variances are `R` over their
+        correlated-error `inflation` (None: 1) and this scale's factor, and update the
+        scale (`RowScreen.observer`)."""
         if self.config is None:
-            return
-        kind = np.asarray(kind, dtype=object)
-        f = np.ones(kind.size) if inflation is None else np.asarray(inflation, dtype=float)
-        factor = np.array([self.variance_factor.get(k, 1.0) for k in kind.tolist()])
-        self._pending = (kind, np.asarray(R, dtype=float), R / (f * factor))
-
-    def seen(self, record) -> None:
-        """Add the screened epoch `record` (`railnav.filters.fault_detection.EpochScreen`
-        of the rows given to `expect`: its innovations and update covariance ``S``,
-        whose diagonal less the update variance is ``a``), and update the scale."""
-        if self._pending is None:
-            return
-        kind, R, own = self._pending
-        self._pending = None
-        if kind.size != record.innov.size:
             return
         fixed = np.diagonal(record.S) - R
         for k in ROW_KINDS:
             rows = kind == k
-            self._append(k, _window_part(
-                row_ratios(record.innov[rows], fixed[rows], own[rows]), own[rows]))
+            f = self.variance_factor[k] if inflation is None else \
+                inflation[rows] * self.variance_factor[k]
+            own = R[rows] / f
+            self._append(k, _window_part(row_ratios(record.innov[rows], fixed[rows], own),
+                                         own))
         self._update()
 
     def add(self, rows: dict[str, tuple[Array, Array, Array]]) -> None:

@@ -67,7 +67,7 @@ def screen_together(screens, stacked, priors) -> list:
         screen._add_influence(one["keys"], one["used"], nu, K_t)
         out.append(screen._record(one, rows[0], rows[1], rows[2], x, nu, H, R))
         if screen.observer is not None:
-            screen.observer(screen.last)
+            screen.observer(screen.last, rows[2], R, rows[5] if len(rows) > 5 else None)
     return out
 
 
