@@ -114,8 +114,9 @@ class ChunkLoop:
         self._lin = None
         while start < t.size and self.left is None:
             if math.isfinite(engine.t):
+                factor = _degraded_variance_factor(self.monitor)
                 self.left = self._end.check(filt, engine.x, engine.P, engine.t,
-                                            variance_factor=self._degraded_factor())
+                                            variance_factor=factor)
                 if self.left is not None:
                     return
             stop = min(start + self.max_len, t.size)
@@ -203,9 +204,6 @@ class ChunkLoop:
         results = self.engine.stream(chunks, epochs, x0=initial.x0, P0=initial.P0,
                                      progress=progress, total=total)
         return results if self.monitor is None else self._monitored(results)
-
-    def _degraded_factor(self) -> float:
-        return _degraded_variance_factor(self.monitor)
 
     def _monitored(self, results):
         """The results, each chunk's epoch tested by `monitor`; a recovery replaces the
