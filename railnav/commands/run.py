@@ -14,6 +14,7 @@ import logging
 from pathlib import Path
 
 from railnav.commands.attitude_flags import attitude_config, car_body_scenario
+from railnav.commands.receiver_flags import receiver_config, receiver_inputs
 from railnav.commands.run_flags import (
     DEFAULT_OUT,
     DEFAULT_SCENARIO,
@@ -108,7 +109,7 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
                                 outages=None if args.outage is None else tuple(args.outage),
                                 window=args.window, smooth=args.smooth, progress=progress,
                                 **augmentation(args), **real_inputs(args),
-                                **attitude_config(args))
+                                **receiver_inputs(args), **attitude_config(args))
         else:
             scenario = car_body_scenario(args, scenario_of(args).with_overrides(
                 speed_mps=args.speed_mps, duration_s=args.duration_s,
@@ -116,7 +117,7 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
             from railnav.simulation.trip import navigator_config_for
             systems = args.systems or DEFAULT_SYSTEMS
             config = navigator_config_for(scenario, filter=args.filter, systems=systems,
-                                          **attitude_config(args))
+                                          **attitude_config(args), **receiver_config(args))
             outcome = run_simulated(track, scenario, config=config, seed=seed(args),
                                     systems=systems, window=args.window, smooth=args.smooth,
                                     progress=progress)

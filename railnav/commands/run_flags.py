@@ -31,6 +31,7 @@ from railnav.defaults import (
     DEFAULT_SYSTEMS,
 )
 from railnav.commands.attitude_flags import add_attitude_arguments, check_attitude_flags
+from railnav.commands.receiver_flags import add_receiver_arguments, check_receiver_flags
 from railnav.commands.run_network_flags import (
     _check_network_flags,
     add_network_arguments,
@@ -121,6 +122,7 @@ def add_run_arguments(p) -> None:
     add_network_arguments(p)
     add_attitude_arguments(p)
     add_real_input_arguments(p)
+    add_receiver_arguments(p)
     p.add_argument("--no-plots", action="store_true", help="do not draw the PNG plots")
     add_result_arguments(p)
     add_output_arguments(p, DEFAULT_OUT)
@@ -187,6 +189,7 @@ def check_flags(args: argparse.Namespace) -> None:
     several = len(args.tracks) > 1
     _check_fix_flags(args, kind, several)
     _check_real_input_flags(args, kind, several)
+    check_receiver_flags(args, kind, files=files, several=several)
     if args.true_track is not None and args.true_track > len(args.tracks):
         raise ConfigError(f"--true-track {args.true_track}: only {len(args.tracks)} track(s) "
                           "given")
@@ -244,19 +247,12 @@ def lever_arm(text: str) -> tuple[float, float, float]:
 
 
 def add_real_input_arguments(p) -> None:
-    """The IMU spec, GNSS receiver σ, odometer, balise and lever-arm flags of ``run``
-    (sensor files only)."""
+    """The IMU spec, odometer, balise and lever-arm flags of ``run`` (sensor files only;
+    the receiver's σ: `railnav.commands.receiver_flags`)."""
     p.add_argument("--imu-spec", metavar="SPEC.toml", default=None,
                    help="how the --imu log is laid out (columns, units, increments, axes, "
                         "mounting) and, in its [noise] table, what the filter assumes "
                         "(instead of --imu-grade); docs/file-formats.md")
-    p.add_argument("--sigma-pr-m", type=positive_float, default=None, metavar="M",
-                   help="the receiver's pseudorange σ at zenith and high C/N0, m (default: "
-                        "a real receiver's, gnss_obs.MeasurementConfig's; railnav "
-                        "simulate's files: the simulated); give it for a noisier receiver")
-    p.add_argument("--sigma-rr-mps", type=positive_float, default=None, metavar="S",
-                   help="the receiver's range-rate (Doppler) σ at zenith and high C/N0, m/s "
-                        "(default as --sigma-pr-m)")
     p.add_argument("--odometer", metavar="ODO.csv", default=None,
                    help="odometer readings (time_s or gps_time_s; speed_mps, or pulses with "
                         "--wheel-circumference-m and --pulses-per-rev): a speed row with a "
@@ -292,10 +288,9 @@ REAL_INPUT_FLAGS = {"imu_spec": "--imu-spec", "odometer": "--odometer",
                     "odometer_sigma_mps": "--odometer-sigma-mps", "balises": "--balises",
                     "balise_sigma_m": "--balise-sigma-m", "lever_arm": "--lever-arm",
                     "imu_lever_arm": "--imu-lever-arm",
-                    "balise_reader_forward_m": "--balise-reader-forward-m",
-                    "sigma_pr_m": "--sigma-pr-m", "sigma_rr_mps": "--sigma-rr-mps"}
+                    "balise_reader_forward_m": "--balise-reader-forward-m"}
 #: Each of these needs the flag it maps to.
-_NEEDS = {"imu_spec": "imu", "sigma_pr_m": "obs", "sigma_rr_mps": "obs", "wheel_circumference_m": "odometer",
+_NEEDS = {"imu_spec": "imu", "wheel_circumference_m": "odometer",
           "pulses_per_rev": "odometer", "odometer_sigma_mps": "odometer",
           "balise_sigma_m": "balises", "balise_reader_forward_m": "balises"}
 
@@ -316,8 +311,7 @@ def _check_real_input_flags(args: argparse.Namespace, kind, several: bool) -> No
                           "--balises writes them for a simulated trip)")
     if several:
         raise ConfigError(f"{flags}: work with one track")
-    track_flags = [REAL_INPUT_FLAGS[a] for a in given
-                   if a not in ("imu_spec", "sigma_pr_m", "sigma_rr_mps")]
+    track_flags = [REAL_INPUT_FLAGS[a] for a in given if a != "imu_spec"]
     if track_flags and not kind.track_sensors:
         takes = " or ".join(k for k in FILTER_KINDS if filter_kind(k).track_sensors)
         raise ConfigError(f"{', '.join(track_flags)}: the {args.filter} filter takes no "
@@ -328,8 +322,7 @@ def real_inputs(args: argparse.Namespace) -> dict:
     """`run_files` keywords of `add_real_input_arguments`'s flags."""
     out = {"imu_spec": args.imu_spec, "odometer_path": args.odometer,
            "balises_path": args.balises, "wheel_circumference_m": args.wheel_circumference_m,
-           "pulses_per_rev": args.pulses_per_rev, "sigma_pr_m": args.sigma_pr_m,
-           "sigma_rr_mps": args.sigma_rr_mps}
+           "pulses_per_rev": args.pulses_per_rev}
     if args.odometer_sigma_mps is not None:
         from railnav.filters.odometer_epochs import OdometerConfig
         out["odometer_model"] = OdometerConfig(sigma_speed_mps=args.odometer_sigma_mps)

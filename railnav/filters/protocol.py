@@ -105,6 +105,9 @@ class FilterKind:
         It takes odometer readings, balise passages (`railnav.filters.sensor_rows`: its
         class accepts ``odometer`` and ``balises``) and sensor lever arms
         (`railnav.filters.track_frame.LeverArms`).
+    noise_scale : bool
+        It scales its GNSS observation rows' σ by the adaptive noise scale
+        (`railnav.filters.noise_scale`, ``NavigatorConfig.noise_scale``).
     """
 
     name: str
@@ -116,6 +119,7 @@ class FilterKind:
     fixes: bool
     summary: str
     track_sensors: bool = False
+    noise_scale: bool = False
 
 
 #: Every filter kind, by name, in the order the help lists them.
@@ -123,13 +127,14 @@ FILTERS: dict[str, FilterKind] = {k.name: k for k in (
     FilterKind("constrained", "railnav.filters.constrained", "ConstrainedFilter",
                needs_imu=True, streams=True, banks=True, fixes=True,
                summary="track-constrained tightly coupled INS/GNSS (the 2017 paper's)",
-               track_sensors=True),
+               track_sensors=True, noise_scale=True),
     FilterKind("unconstrained", "railnav.filters.unconstrained", "UnconstrainedFilter",
                needs_imu=True, streams=True, banks=False, fixes=False,
                summary="unconstrained 9-state tightly coupled INS/GNSS (baseline)"),
     FilterKind("gnss-only", "railnav.filters.gnss_only", "GnssOnlyFilter",
                needs_imu=False, streams=False, banks=False, fixes=True,
-               summary="GNSS-only on the track: [s, v, clock], no IMU", track_sensors=True),
+               summary="GNSS-only on the track: [s, v, clock], no IMU", track_sensors=True,
+               noise_scale=True),
 )}
 
 #: The names of `FILTERS`.

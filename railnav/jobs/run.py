@@ -40,6 +40,7 @@ from railnav.evaluation.metrics import (
 )
 from railnav.evaluation.reference import read_reference
 from railnav.filters.fix_epochs import FixModelConfig
+from railnav.filters.noise_scale import NoiseScaleConfig
 from railnav.jobs.plot_worker import PlotHelper, draw
 from railnav.jobs.run_figures import run_figures
 from railnav.jobs.scoring import (
@@ -182,7 +183,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
               lever_arms=None, smooth: bool = False, track_attitude=None,
               standstill=None, suspension_noise: bool | None = None,
               monitor=None, sigma_pr_m: float | None = None,
-              sigma_rr_mps: float | None = None) -> RunOutcome:
+              sigma_rr_mps: float | None = None,
+              noise_scale: bool | None = None) -> RunOutcome:
     """Filter sensor files on a track, and score the run when a reference is known.
 
     Parameters
@@ -265,6 +267,11 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         default configuration (`railnav.jobs.sensor_files`; default: the simulation's for
         ``railnav simulate``'s files, else `gnss_obs.MeasurementConfig`'s, a real
         receiver's).
+    noise_scale : bool, optional
+        The GNSS rows' adaptive noise scale (`railnav.filters.noise_scale`) applied to
+        whichever configuration: False off (the rows keep the σ given; ``railnav run
+        --no-noise-scale``), True on with `NoiseScaleConfig`'s defaults; default None: the
+        configuration's own (on by default).
     """
     data, config = read_sensor_files(imu_path=imu_path, obs_path=obs_path, nav_path=nav_path,
                                      fixes_path=fixes_path, start_gps_time_s=start_gps_time_s,
@@ -284,6 +291,8 @@ def run_files(track, *, imu_path=None, obs_path=None, nav_path=None, fixes_path=
         config = replace(config, suspension_noise=suspension_noise)
     if monitor is not None:
         config = replace(config, monitor=monitor)
+    if noise_scale is not None:
+        config = replace(config, noise_scale=NoiseScaleConfig() if noise_scale else None)
     if base_path is not None or smoothing is not None or sp3_paths or base_lat_lon_h:
         data = _augmented(data, config, base_path=base_path, base_lat_lon_h=base_lat_lon_h,
                           smoothing=smoothing, sp3_paths=sp3_paths,

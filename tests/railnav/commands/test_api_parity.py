@@ -132,6 +132,8 @@ RUN_OPTIONS = {
     "no_recover": Field("railnav.navigation.monitor_config:MonitorConfig", "recover", _negated),
     "suspension_noise": Field("railnav.config:NavigatorConfig", "suspension_noise"),
     "car_body": Field("railnav.simulation.scenarios:Scenario", "car_body", _on_or_none),
+    # a flag that switches off what is on by default (absent: the configuration's own)
+    "no_noise_scale": Param(RUN, "noise_scale", lambda v: False if v else None),
     "imu_spec": Param(RUN, "imu_spec"), "sigma_pr_m": Param(RUN, "sigma_pr_m"),
     "sigma_rr_mps": Param(RUN, "sigma_rr_mps"), "odometer": Param(RUN, "odometer_path"),
     "wheel_circumference_m": Param(RUN, "wheel_circumference_m"),

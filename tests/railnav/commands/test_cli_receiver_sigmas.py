@@ -106,3 +106,40 @@ def test_receiver_sigmas_are_not_taken_by_a_network_run(tmp_path, capsys):
                  "--sigma-pr-m", "3", "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and "--sigma-pr-m: not with --network" in err, err
+
+
+def test_no_noise_scale_keeps_the_given_sigmas(sim, tmp_path, capsys):
+    """``--no-noise-scale``: told nothing, the rows keep the real receiver's σ (their
+    ``noise_scale`` all 1, where the scale on rises: the first test), so many are rejected
+    and the report falls back on the rejected-rows hint; told the right σ, the scale never rose, so the estimates are those
+    of the run with it on, to the bit."""
+    text = _run(sim[1], tmp_path / "off", capsys, "--imu-grade", "tactical",
+                "--no-noise-scale")
+    inn = pd.read_csv(tmp_path / "off" / "innovations.csv")
+    stats = json.loads((tmp_path / "off" / "summary.json").read_text())["statistics"]
+    assert (inn["noise_scale"] == 1.0).all()
+    assert stats["noise_scale"]["pseudorange"]["max"] == 1.0
+    assert stats["gnss_rows_rejected"] > HINT_REJECTED_SHARE * stats["gnss_rows"]
+    assert len(_hint(text)) == 1 and "GNSS rows" in _hint(text)[0]
+    scenario = json.loads((sim[0] / "scenario.json").read_text())["scenario"]
+    told = ("--imu-grade", "tactical", "--sigma-pr-m", repr(scenario["sigma_pseudorange_m"]),
+            "--sigma-rr-mps", repr(scenario["sigma_range_rate_mps"]))
+    _run(sim[1], tmp_path / "on", capsys, *told)
+    _run(sim[1], tmp_path / "told_off", capsys, *told, "--no-noise-scale")
+    on = pd.read_csv(tmp_path / "on" / "innovations.csv")
+    assert (on["noise_scale"].dropna() == 1.0).all()
+    assert ((tmp_path / "on" / "estimates.csv").read_bytes()
+            == (tmp_path / "told_off" / "estimates.csv").read_bytes())
+
+
+@pytest.mark.parametrize("extra, message", [
+    (["--filter", "unconstrained", "--no-noise-scale"],
+     "--no-noise-scale: the unconstrained filter has no noise scale"),
+    (["--fixes", "f.nmea", "--no-noise-scale"], "--no-noise-scale: scales GNSS observation"),
+    ([CURVY, "--no-noise-scale"], "--no-noise-scale: one track only"),
+])
+def test_no_noise_scale_where_there_is_none_is_one_line_exit_2(tmp_path, capsys, extra,
+                                                               message):
+    code = main(["-q", "run", CURVY, *extra, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("error: ") and message in err and "\n" not in err, err
