@@ -1,14 +1,16 @@
 """One BLAS thread for the command line's process, unless the user chose otherwise.
 
 NumPy and SciPy each load their own OpenBLAS, and each OpenBLAS starts a pool of worker
-threads, one per core, when it is loaded; the new threads spin while they wait for work.
-No ``railnav`` command gives OpenBLAS work large enough to share: the filters' matrices
-are 7×7 to 20×20, and the batched arithmetic over samples is NumPy's own (elementwise,
-``matmul`` of stacked 3×3), not BLAS's threads. Starting the pools cost 0.035 s of CPU
-for NumPy's OpenBLAS and 0.07 s for SciPy's on the 2-core machine of issue 15 (importing
-NumPy then ``scipy.linalg``: 0.15 s of CPU with one thread, 0.25 s with the default),
-about 0.1 s of each ``railnav run`` (6-7 % of ``railnav run paper2017.csv --no-plots``,
-its outputs the same bytes).
+threads, one per core, when it is loaded; the new threads spin on the other cores while
+the imports go on. The commands' BLAS work is small: the filters' matrices are 7×7 to
+20×20, and the batched arithmetic over samples is NumPy's own (elementwise, ``matmul`` of
+stacked 3×3), not BLAS's threads; ``railnav track fit`` (the largest least-squares
+problems) was measured alike: the same bytes, no slower. On the 2-core machine of issue
+15 the pools cost the imports of ``railnav run paper2017.csv`` 0.24 s of CPU (0.58 s
+against 0.34 s, best of 5 fresh processes): the whole command 5-9 % of its CPU, and of
+its wall time where the other core is busy (3-7 % at a load average of 2-3), little where
+it is idle. The outputs are the same bytes (``run``, ``reproduce paper2017`` and
+``track fit`` compared).
 
 `one_blas_thread` sets ``OPENBLAS_NUM_THREADS=1`` before NumPy is imported
 (`railnav.cli` calls it first): OpenBLAS reads it when it is loaded. A user who set
