@@ -231,6 +231,8 @@ def _stages_child() -> None:
     figures drawn in this process after the tables (the path without fork)."""
     import importlib
 
+    from railnav.blas_threads import one_blas_thread
+    one_blas_thread()                   # as importing `railnav.cli` does, before NumPy
     from railnav.deferred_imports import defer_numpy_tools
     defer_numpy_tools()                 # as `railnav.cli.main` does before the command
     laps = _Laps()

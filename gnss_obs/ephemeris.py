@@ -129,7 +129,10 @@ def select_ephemeris(records: dict[str, pd.DataFrame], sv: npt.ArrayLike,
                          f"got {galileo_message!r}")
     sv = np.asarray(sv).astype(str)
     t = np.broadcast_to(np.asarray(t_gps_s, dtype=float), sv.shape)
-    system = np.array([s[:1] for s in sv], dtype=object)
+    # each request's system letter, ``s[:1]`` of each (the first character, as Python
+    # strings), without a Python loop over the requests (~10 ms for a simulated trip's
+    # 32 000)
+    system = sv.astype("U1").astype(object)
     parts = []
     for letter in np.unique(system):
         req = np.flatnonzero(system == letter)

@@ -41,7 +41,9 @@ def simulation_header(table: pd.DataFrame, *, signals: dict[str, str], r0_e: np.
         GPST - UTC, s.
     """
     t = np.unique(table["gps_time_s"].to_numpy())
-    systems = sorted(set(table["system"]))
+    # the distinct letters (``unique``: iterating the 10 812 rows of a text column, as
+    # ``set`` does, took ~3-20 ms of every simulated run)
+    systems = sorted(table["system"].unique())
     return ObsHeader(obs_types={s: [k + signals[s] for k in _KINDS] for s in systems},
                      first_obs_gps_time_s=float(t[0]), marker_name="SIMULATED",
                      receiver="railnav simulate_gnss", approx_position_e=np.array(r0_e, float),

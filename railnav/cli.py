@@ -19,13 +19,17 @@ import sys
 import threading
 from collections.abc import Sequence
 
-import railnav.commands
-from ekf.errors import FilterDivergedError, FilterError
-from gnss_obs.errors import GnssError
-from railnav.deferred_imports import defer_numpy_tools
-from railnav.errors import PlottingError, RailnavError
-from strapdown.errors import StrapdownError
-from trackmodel.errors import InputError, TrackError
+from railnav.blas_threads import one_blas_thread
+
+one_blas_thread()      # before the imports below load NumPy (its OpenBLAS reads it then)
+
+import railnav.commands  # noqa: E402
+from ekf.errors import FilterDivergedError, FilterError  # noqa: E402
+from gnss_obs.errors import GnssError  # noqa: E402
+from railnav.deferred_imports import defer_numpy_tools  # noqa: E402
+from railnav.errors import PlottingError, RailnavError  # noqa: E402
+from strapdown.errors import StrapdownError  # noqa: E402
+from trackmodel.errors import InputError, TrackError  # noqa: E402
 
 __all__ = ["main", "console_main", "build_parser", "flag_names"]
 
