@@ -73,9 +73,15 @@ its window each epoch. Weighting every hypothesis's rows by its probability woul
 the same measurements several times in one window (its sign test takes them for
 independent) and let the wrong tracks' rows raise the factors exactly when the bank is
 unsure; the most probable hypothesis's alone are one set per epoch. Which hypothesis
-feeds changes with the weights; branching, merging, pruning and spawning do not touch
-the window (every hypothesis, born when it may, is a `MemberNoiseScale` of the one
-bank). A bank of one is the single filter: the same factors, to the bit.
+feeds changes with the weights; branching, merging and pruning do not touch the window
+(every hypothesis, born when it may, is a `MemberNoiseScale` of the one bank). A spawn
+(`railnav.navigation.spawning`: no live hypothesis agrees with the fixes) and a start
+again after every hypothesis died forget it (`BankNoiseScale.restart`): the rows that
+fed it were a lost hypothesis's, no measure of the receiver's noise. Kept, a 400-m wrong
+start's rows had raised the factors of the spawned hypotheses on the right track with
+the wrong ones' (to 20, the ceiling) and slowed their recovery from 5-7 s to 7-21 s
+(``bench_network_spawn_gnss.py``, 5 seeds). A bank of one is the single filter: the same
+factors, to the bit.
 """
 from __future__ import annotations
 
@@ -323,6 +329,11 @@ class BankNoiseScale:
     def member(self) -> "MemberNoiseScale":
         """The scale of a new hypothesis's filter."""
         return MemberNoiseScale(self)
+
+    def restart(self) -> None:
+        """Forget the window, the factors back to 1 (the bank's hypotheses were found
+        lost: their rows were no measure of the receiver's noise)."""
+        self.scale = NoiseScale(self.scale.config)
 
     def epoch(self, feeder: "MemberNoiseScale | None") -> None:
         """Before an epoch: the member whose rows will count (None: none)."""

@@ -327,7 +327,10 @@ class _Run:
             hyps = _after_cycle(hyps, outcome, self.tracks, self.factory, nav,
                                 float(t[stop]), float(t[stop] - t[a]), self.recorder, share)
             if self.spawner is not None:            # every live hypothesis disagrees
-                hyps = self.spawner.after_epoch(hyps, epoch, float(t[stop]))
+                spawned = self.spawner.after_epoch(hyps, epoch, float(t[stop]))
+                if spawned is not hyps:             # their rows told no receiver's noise
+                    self.factory.noise_scale.restart()
+                hyps = spawned
             a = stop
             c += stop == b                          # else a joint reached within it
             while not hyps and a is not None:       # every hypothesis left the network
@@ -359,6 +362,7 @@ class _Run:
         log.warning("every hypothesis left the network at t=%.1f s: starting again from "
                     "the next fix near it", t[a])
         self.recorder.restarts.append(float(t[a]))
+        self.factory.noise_scale.restart()
         try:
             t_new, hyps = start_hypotheses(self.network, self.tracks, self.factory, self.trip,
                                            self.data, self.config, self.nav,

@@ -147,3 +147,29 @@ def test_without_a_feeder_nothing_enters():
         assert member.variance_factor == single.variance_factor
     assert not member.feeding
     assert member.variance_factor["pseudorange"] > 1.5
+
+
+def test_a_restart_forgets_the_window():
+    """After `BankNoiseScale.restart` the factors are 1 and the rows after it alone count:
+    a fresh single scale fed those rows, to the bit; the members keep their history."""
+    bank = BankNoiseScale(CONFIG)
+    member = bank.member()
+    rng = np.random.default_rng(26)
+    for _ in range(60):
+        bank.epoch(member)
+        member.begin_epoch()
+        member.add(_rows(rng, 25.0))
+        bank.end_epoch()
+    assert member.variance_factor["pseudorange"] > 5.0
+    bank.restart()
+    assert member.variance_factor == dict.fromkeys(ROW_KINDS, 1.0)
+    fresh = NoiseScale(CONFIG)
+    for _ in range(60):
+        rows = _rows(rng, 4.0)
+        bank.epoch(member)
+        member.begin_epoch()
+        member.add(rows)
+        bank.end_epoch()
+        fresh.add(rows)
+        assert member.variance_factor == fresh.variance_factor
+    assert len(member.history) == 120
