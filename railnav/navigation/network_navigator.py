@@ -327,10 +327,7 @@ class _Run:
             hyps = _after_cycle(hyps, outcome, self.tracks, self.factory, nav,
                                 float(t[stop]), float(t[stop] - t[a]), self.recorder, share)
             if self.spawner is not None:            # every live hypothesis disagrees
-                spawned = self.spawner.after_epoch(hyps, epoch, float(t[stop]))
-                if spawned is not hyps:             # their rows told no receiver's noise
-                    self.factory.noise_scale.restart()
-                hyps = spawned
+                hyps = self.spawner.after_epoch(hyps, epoch, float(t[stop]))
             a = stop
             c += stop == b                          # else a joint reached within it
             while not hyps and a is not None:       # every hypothesis left the network
