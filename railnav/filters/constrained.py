@@ -169,6 +169,12 @@ class ConstrainedFilter:
         #: The run's nominal sample interval, s (`inputs`; set by the chunk loop).
         self.sample_interval_s: float | None = None
 
+    def use_noise_scale(self, scale) -> None:
+        """Scale the GNSS rows by `scale` from now on, and feed it from the fault screen
+        (a bank's hypothesis: `railnav.filters.noise_scale.BankNoiseScale.member`)."""
+        self.noise_scale = scale
+        self.screen.observer = scale.seen
+
     # -- inputs ----------------------------------------------------------------------------
     def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
                t_prev: float) -> tuple[Array, Array, Array]:

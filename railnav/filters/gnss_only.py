@@ -174,6 +174,11 @@ class GnssOnlyFilter:
         self.fix_inflation = self.pseudorange_inflation \
             if fixes is not None and config.fix_model.correlated_code_errors else 1.0
 
+    def use_noise_scale(self, scale) -> None:
+        """Scale the GNSS rows by `scale` from now on (a bank's hypothesis:
+        `railnav.filters.noise_scale.BankNoiseScale.member`)."""
+        self.noise_scale = scale
+
     def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
                t_prev: float) -> tuple[Array, Array, None]:
         """No inputs and no per-step parameters: arrays of shape ``(M, 0)``.
@@ -257,7 +262,7 @@ class GnssOnlyFilter:
             else:
                 obs = self._heading_rows(obs, x, P, speed)
             rows.append(obs)
-        if self.noise_scale.config is not None:
+        if self.noise_scale.feeding:
             self.noise_scale.add(_scale_rows(rows, own, x, P))
         if self.huber_k is None:
             return rows

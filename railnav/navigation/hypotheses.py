@@ -46,7 +46,8 @@ from railnav.navigation.network_config import NetworkNavConfig
 
 __all__ = ["Hypothesis", "hypothesis", "branch", "branch_ahead",
            "rebased", "tail_pieces", "merge_coinciding", "prune", "carried_state",
-           "normalized_weights", "evidence_share", "LEAD_MARGIN_M", "CYCLE_REACH_S"]
+           "normalized_weights", "most_probable", "evidence_share", "LEAD_MARGIN_M",
+           "CYCLE_REACH_S"]
 
 Array = npt.NDArray[np.float64]
 
@@ -161,6 +162,11 @@ def normalized_weights(hyps) -> Array:
         return np.ones(len(hyps))
     log_w = np.array([h.log_weight for h in hyps], dtype=float)
     return np.exp(log_w - logsumexp(log_w))
+
+
+def most_probable(hyps) -> int:
+    """Index of the hypothesis of the largest weight (the first of equals)."""
+    return int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
 
 
 def carried_state(filt, x: Array, s_new: float) -> Array:

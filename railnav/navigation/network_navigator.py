@@ -45,6 +45,7 @@ import numpy as np
 from railnav.config import NavigatorConfig, SensorData
 from railnav.errors import ConfigError, RailnavError
 from railnav.filters.fault_detection import RowScreen
+from railnav.filters.noise_scale import BankNoiseScale
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.hypotheses import (
     NetworkNavConfig,
@@ -52,6 +53,7 @@ from railnav.navigation.hypotheses import (
     branch_ahead,
     evidence_share,
     merge_coinciding,
+    most_probable,
     normalized_weights,
     prune,
     rebased,
@@ -94,19 +96,26 @@ class FilterFactory:
     `railnav.navigation.net_tracks`).
 
     Each hypothesis gets its own (its fault screen keeps per-channel memory); a child
-    inherits its parent's channels (`child`). `template` is one shared object per track for
-    outputs (its ``estimates``), never stepped.
+    inherits its parent's channels (`child`). The GNSS rows' noise scale is the run's
+    one, `noise_scale` (`railnav.filters.noise_scale.BankNoiseScale`: each filter has a
+    member of it). `template` is one shared object per track for outputs (its
+    ``estimates``), never stepped.
     """
 
     def __init__(self, tracks: OrientedTracks, config: NavigatorConfig, trip) -> None:
         self.tracks, self.config, self.trip = tracks, config, trip
         self._templates: dict[tuple, object] = {}
+        #: The noise scale of every hypothesis's GNSS rows (`_Run.step` feeds it).
+        self.noise_scale = BankNoiseScale(config.noise_scale)
 
     def __call__(self, pieces):
         trip = self.trip
-        return make_filter(self.tracks.placed(pieces), self.config, trip.gnss,
+        filt = make_filter(self.tracks.placed(pieces), self.config, trip.gnss,
                            fixes=trip.fixes,
                            schedule=trip.schedule if trip.fixes is not None else None)
+        if hasattr(filt, "use_noise_scale"):
+            filt.use_noise_scale(self.noise_scale.member())
+        return filt
 
     def child(self, parent, pieces):
         """A filter for `parent`'s child (or rebased self) on `pieces` (with the parent
@@ -114,14 +123,10 @@ class FilterFactory:
         filt = self(pieces)
         if type(filt) is type(parent.filt) and hasattr(filt, "inherit_memory"):
             filt.inherit_memory(parent.filt)
-        scale = getattr(parent.filt, "noise_scale", None)
-        if scale is not None and hasattr(filt, "noise_scale"):
-            filt.noise_scale = scale.copy()       # its window and factors, no history
         screen = getattr(parent.filt, "screen", None)
         if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
                                                         RowScreen):
-            filt.screen = parent_screen_copy(screen, observer=getattr(
-                getattr(filt, "noise_scale", None), "seen", None))
+            filt.screen = parent_screen_copy(screen, observer=filt.screen.observer)
         return filt
 
     def template(self, pieces):
@@ -134,7 +139,7 @@ class FilterFactory:
 
 def parent_screen_copy(screen: RowScreen, observer=None) -> RowScreen:
     """A fault screen with `screen`'s channel states and no records (`observer`: its
-    `RowScreen.observer`, the child's noise scale)."""
+    `RowScreen.observer`: the child's own)."""
     import copy
     out = RowScreen(screen.config, screen.clock_index, observer=observer)
     out._channels = copy.deepcopy(screen._channels)
@@ -314,7 +319,7 @@ class _Run:
                 continue
             stop = crossing_sample(hyps, self.tracks, t, a, b)
             epoch = self.epoch_of.get(b) if stop == b else None
-            outcome = self.stepper.step(hyps, a, stop, epoch)
+            outcome = self.step(hyps, a, stop, epoch)
             share = 1.0
             if epoch is not None:
                 share, last_epoch = evidence_share(nav, float(t[stop]) - last_epoch), \
@@ -336,6 +341,16 @@ class _Run:
                 _report(self.recorder, float(t[a]))
         return hyps
 
+    def step(self, hyps, a: int, b: int, epoch: int | None):
+        """The stepper's cycle (`EngineStepper.step`), the noise scale fed by the
+        hypothesis most probable before it (`railnav.filters.noise_scale`, "A bank")."""
+        scale = self.factory.noise_scale
+        if epoch is not None and hyps:
+            scale.epoch(getattr(hyps[most_probable(hyps)].filt, "noise_scale", None))
+        outcome = self.stepper.step(hyps, a, b, epoch)
+        scale.end_epoch()
+        return outcome
+
     def start_again(self, a: int):
         """New hypotheses from the next fix near the network after every one died (module
         docstring), their first epoch used as a start's is: the sample index and the
@@ -344,6 +359,7 @@ class _Run:
         log.warning("every hypothesis left the network at t=%.1f s: starting again from "
                     "the next fix near it", t[a])
         self.recorder.restarts.append(float(t[a]))
+        self.factory.noise_scale.restart()
         try:
             t_new, hyps = start_hypotheses(self.network, self.tracks, self.factory, self.trip,
                                            self.data, self.config, self.nav,
@@ -352,7 +368,7 @@ class _Run:
             log.warning("no start again: %s", exc)
             return None, []
         a = int(np.searchsorted(t, t_new - EPOCH_TIME_TOL_S))
-        outcome = self.stepper.step(hyps, a, a, self.epoch_of.get(a))
+        outcome = self.step(hyps, a, a, self.epoch_of.get(a))
         return a, _after_cycle(hyps, outcome, self.tracks, self.factory, self.nav,
                                float(t[a]), 0.0, self.recorder)
 

@@ -45,7 +45,9 @@ import pandas as pd
 from ekf.bank import logsumexp
 from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
-from railnav.navigation.hypotheses import normalized_weights
+from railnav.filters.common import ROW_KINDS
+from railnav.filters.noise_scale import row_scales
+from railnav.navigation.hypotheses import most_probable, normalized_weights
 from railnav.navigation.monitor import status_at
 from railnav.navigation.network_status import (combined_status_records, pseudo_nis,
                                                 pseudo_records, row_records)
@@ -118,15 +120,16 @@ class NetworkRecorder:
         (`log_lik`, each hypothesis's, after the reweighting: `_element_log_likelihoods`)."""
         self.steps += outcome.steps
         self._log_lik = {} if log_lik is None else _element_log_likelihoods(hyps, log_lik)
-        best = int(np.argmax([h.log_weight for h in hyps])) if len(hyps) > 1 else 0
+        best = most_probable(hyps)
         if outcome.innov_c and len(outcome.innov_c) == len(hyps):
             self.pseudo.append((time_s, *pseudo_nis(outcome.innov_c[best],
                                                     outcome.S_c[best])))
         if outcome.screens is not None:
+            factors = _noise_factors(hyps[best].filt)
             screens = outcome.screens
             if isinstance(screens, list):   # else a stepper's stacked screens, read-only:
                 screens, best = [screens[best]], 0  # their EpochScreen made in `result`
-            self.innov.append((screens, best, time_s))
+            self.innov.append((screens, best, time_s, factors))
 
     def cycle(self, time_s: float, hyps, *, evidence_rows: int, merges: int,
               pruned: float) -> None:
@@ -177,8 +180,9 @@ class NetworkRecorder:
         final = [{"id": h.id, "element": h.element, "orientation": h.orientation,
                   "probability": float(wk), "path": h.path} for h, wk in zip(hyps, w)]
         table = pd.DataFrame(self.rows)
-        innovations = _innovation_frame([(screens[best], time_s) for screens, best, time_s
-                                         in self.innov], self.start_gps_time_s)
+        innovations = _innovation_frame([(screens[best], time_s) for screens, best, time_s, _
+                                         in self.innov], self.start_gps_time_s,
+                                        [factors for *_, factors in self.innov])
         return NetworkResult(
             network=network, tracks=self.tracks, factory=self.factory, config=config,
             nav=nav, start_gps_time_s=self.start_gps_time_s, runtime_s=float(runtime_s),
@@ -249,9 +253,18 @@ def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:
     return out
 
 
-def _innovation_frame(epochs: list, start_gps_time_s: float) -> pd.DataFrame:
+def _noise_factors(filt) -> tuple[float, ...]:
+    """The noise scale's σ factors of `filt`'s latest epoch (its ``noise_scale.history``,
+    `railnav.filters.noise_scale`), NaN without."""
+    history = getattr(getattr(filt, "noise_scale", None), "history", None)
+    return history[-1] if history else (np.nan,) * len(ROW_KINDS)
+
+
+def _innovation_frame(epochs: list, start_gps_time_s: float, factors: list
+                      ) -> pd.DataFrame:
     """``innovations.csv`` of the screened epochs ``(EpochScreen, time_s)``
-    (`railnav.navigation.result`'s columns; ``accepted``: used by the update)."""
+    (`railnav.navigation.result`'s columns; ``accepted``: used by the update; `factors`:
+    each epoch's noise scale, `_noise_factors`)."""
     sizes = [e.innov.size for e, _ in epochs]
     t = np.repeat([tk for _, tk in epochs], sizes).astype(float)
     keys = [k.split("/", 1) for e, _ in epochs for k in e.keys]
@@ -260,15 +273,17 @@ def _innovation_frame(epochs: list, start_gps_time_s: float) -> pd.DataFrame:
         np.zeros(0)
     cat = (lambda f: np.concatenate([f(e) for e, _ in epochs])) if epochs else \
         (lambda f: np.zeros(0))
+    epoch = np.repeat(np.arange(len(epochs)), sizes)
+    kind = np.array([b for _, b in keys], dtype=object)
     return pd.DataFrame({
-        "time_s": t, "gps_time_s": t + start_gps_time_s,
-        "epoch": np.repeat(np.arange(len(epochs)), sizes),
-        "sv": np.array([a for a, _ in keys], dtype=object),
-        "kind": np.array([b for _, b in keys], dtype=object), "innovation": innov,
+        "time_s": t, "gps_time_s": t + start_gps_time_s, "epoch": epoch,
+        "sv": np.array([a for a, _ in keys], dtype=object), "kind": kind,
+        "innovation": innov,
         "sigma": sigma, "nis": (innov / sigma) ** 2, "accepted": cat(lambda e: e.used),
         "status": cat(lambda e: e.status).astype(object),
         "fault_probability": cat(lambda e: e.fault_probability),
-        "clock_jump_m": np.repeat([e.clock_jump_m for e, _ in epochs], sizes).astype(float)})
+        "clock_jump_m": np.repeat([e.clock_jump_m for e, _ in epochs], sizes).astype(float),
+        "noise_scale": row_scales(factors, epoch, kind)})
 
 
 @dataclass(frozen=True, eq=False)

@@ -77,9 +77,11 @@ look). A spawn starts its hypotheses as the run's start does
 single-point fix), so their receiver clock bias and drift are the fix's, not the lost
 hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m,
 5 seeds): a start 400 m along the track, never recovered without spawning, is within
-10 m from 5-7 s on (one spawn, when the first window has filled); 150 m, which the
-curves between the loops correct by 24-32 s, from 5-7 s (one seed 19 s: the two
-parallel tracks undecided after the spawn). A start on the wrong one of two tracks
+10 m from 8-13 s on (one spawn, when the first window has filled); 150 m, which the
+curves between the loops correct by 24-32 s, from 7-13 s (one seed 21 s: the two
+parallel tracks undecided after the spawn). (5-7 s and 5-7 s, one seed 19 s, while each
+hypothesis had a noise scale of its own: the spawned ones started at factor 1, not at
+the one the lost hypotheses' rows had raised; `railnav.filters.noise_scale`, "A bank".) A start on the wrong one of two tracks
 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
 window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
 5-6 s). A known start therefore starts on the tracks abreast of it too
