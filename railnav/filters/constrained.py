@@ -171,7 +171,7 @@ class ConstrainedFilter:
 
     def use_noise_scale(self, scale) -> None:
         """Scale the GNSS rows by `scale` from now on, and feed it from the fault screen
-        (a bank's hypothesis: `railnav.filters.noise_scale.BankNoiseScale.member`)."""
+        (a bank's hypothesis: `railnav.filters.bank_noise_scale.BankNoiseScale.member`)."""
         self.noise_scale = scale
         self.screen.observer = scale.seen
 

@@ -176,7 +176,7 @@ class GnssOnlyFilter:
 
     def use_noise_scale(self, scale) -> None:
         """Scale the GNSS rows by `scale` from now on (a bank's hypothesis:
-        `railnav.filters.noise_scale.BankNoiseScale.member`)."""
+        `railnav.filters.bank_noise_scale.BankNoiseScale.member`)."""
         self.noise_scale = scale
 
     def inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,

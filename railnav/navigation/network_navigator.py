@@ -45,7 +45,7 @@ import numpy as np
 from railnav.config import NavigatorConfig, SensorData
 from railnav.errors import ConfigError, RailnavError
 from railnav.filters.fault_detection import RowScreen
-from railnav.filters.noise_scale import BankNoiseScale
+from railnav.filters.bank_noise_scale import BankNoiseScale
 from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
 from railnav.navigation.hypotheses import (
     NetworkNavConfig,
@@ -97,7 +97,7 @@ class FilterFactory:
 
     Each hypothesis gets its own (its fault screen keeps per-channel memory); a child
     inherits its parent's channels (`child`). The GNSS rows' noise scale is the run's
-    one, `noise_scale` (`railnav.filters.noise_scale.BankNoiseScale`: each filter has a
+    one, `noise_scale` (`railnav.filters.bank_noise_scale.BankNoiseScale`: each filter has a
     member of it). `template` is one shared object per track for outputs (its
     ``estimates``), never stepped.
     """

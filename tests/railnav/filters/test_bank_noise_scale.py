@@ -14,7 +14,8 @@ from types import SimpleNamespace
 import numpy as np
 
 from railnav.filters.common import ROW_KINDS
-from railnav.filters.noise_scale import BankNoiseScale, NoiseScale, NoiseScaleConfig
+from railnav.filters.bank_noise_scale import BankNoiseScale
+from railnav.filters.noise_scale import NoiseScale, NoiseScaleConfig
 
 #: Rows of a kind per epoch; their own variances ``b`` and prior parts ``a``.
 ROWS = 8

@@ -25,7 +25,8 @@ import pytest
 from scipy.stats import multivariate_normal
 
 from railnav.filters.common import ROW_KINDS
-from railnav.filters.noise_scale import MemberNoiseScale, NoiseScale
+from railnav.filters.bank_noise_scale import MemberNoiseScale
+from railnav.filters.noise_scale import NoiseScale
 from railnav.filters.protocol import make_filter
 from railnav.jobs.network import candidate_starts
 from railnav.jobs.tracks import track_nav, track_network
