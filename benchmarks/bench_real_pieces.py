@@ -17,7 +17,9 @@ default tolerances) and the filters started at the piece's first epoch, fed only
 
 Solutions on each piece: ``gnss-only`` (pseudoranges and Doppler, GPS L1, the run's
 defaults: `railnav.navigate`), ``fixes`` (the gnss-only filter on ``[s, v]`` from the SPP
-fixes, read back as a fix file, with ``FixModelConfig.correlated_code_errors``) and
+fixes, read back as a fix file, with ``FixModelConfig.correlated_code_errors``; the
+speed σ of each fix is the RMS of its velocity σ per axis, as `gnss_obs.fixes` reads an SPP
+table; until stop 39 it was the single-point class's 0.1 m/s) and
 ``spp`` (`gnss_obs.solve_spp`, GPS L1 defaults), all
 scored on the same epochs (whole seconds where each has a position and the reference one).
 Per piece: epochs, horizontal RMS / max of each, "never worse than SPP" (RMS and max), the
@@ -59,7 +61,7 @@ the simulated runs (no heading rows, no code-bias state there). The monitor is u
 The same 35 one by one, with the rover's own carrier phase as a second reference:
 ``bench_unflagged.py`` and ``docs/consistency-ablations.md`` ("Stop 35").
 
-The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.56 m, SPP
+The U-turn piece stays worse than SPP in maximum (gnss-only 5.79 m, fixes 4.54 m, SPP
 3.82 m): both start at the first fix's slow error (+2.5 / +1.7 m along the track), which
 grows by 3.0 m (gnss-only) over the next 17 s, while their code rows, as the calibrated slow
 error model says, pull slowly (the worst epochs: e_s 5.5 m at σ_s 1.9 m, 2.8σ; 4.3 m at
@@ -85,10 +87,10 @@ track end, which a projected fix does not have. On the U-turn piece the referenc
 m): at 45966-45983 the car drives the street the other way, 0.7-1.9 m beside the fitted
 lane (1.1-2.0 m below it to 45977), and at 46012-46017 stands 2.9-3.0 m beside the track's
 start; the floor, 2.97 m, is below SPP's 3.82 m. At the worst epochs the along-track error
-dominates: gnss-only 45983, 5.79 m = 5.52 along, 1.60 across; fixes 45996, 4.56 m = 4.27
+dominates: gnss-only 45983, 5.79 m = 5.52 along, 1.60 across; fixes 45996, 4.54 m = 4.24
 along, 1.76 across; SPP's worst (46030, 3.82 m) is 0.94 along, 3.70 across. Along the
 track alone SPP's projection has 2.00/3.50 m RMS/max there (gnss-only 2.08/5.56, fixes
-2.71/4.27). ``docs/consistency-ablations.md`` ("Stop 39") splits the two maxima further.
+2.65/4.24). ``docs/consistency-ablations.md`` ("Stop 39") splits the two maxima further.
 
 Before the heading's weight and this scoring (main 9ee4652's analysis): the 53 gnss-only
 epochs beyond 3σ_s (of 952; main 008931e), one by one against the
