@@ -8,7 +8,12 @@ Columns are found by name (others are ignored):
   ``h_m`` (ellipsoidal, m);
 * optional motion and σ: ``speed_mps``, ``course_deg``, ``v_east_mps``, ``v_north_mps``,
   ``v_up_mps``, ``sigma_east_m``, ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``,
-  ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes);
+  ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes); without
+  ``sigma_speed_mps`` (or where it is empty), a row's ``sigma_v_east_mps`` and
+  ``sigma_v_north_mps`` (the velocity σ per axis that `gnss_obs.solve_spp`'s table, and so
+  ``railnav spp``'s output, carries) give it as their RMS, ``√((σ_e² + σ_n²)/2)``: the
+  σ of the velocity along a horizontal axis of any direction, as the fix-class table's
+  σ_speed is (`gnss_obs.fixes.quality`);
 * the fix class: ``quality`` (`gnss_obs.fixes.table.FIX_QUALITIES`), or a receiver flag in
   ``position_type`` (NovAtel-style names: `novatel_quality`); without either every fix
   is ``single``. A ``solution_status`` other than ``SOL_COMPUTED`` (NovAtel: the receiver
@@ -41,6 +46,8 @@ SOLUTION_OK = "SOL_COMPUTED"
 _ALIASES = {"lat_deg": ("lat_deg", "latitude"), "lon_deg": ("lon_deg", "longitude")}
 _OPTIONAL = ("h_m", "speed_mps", "course_deg", "v_east_mps", "v_north_mps", "v_up_mps",
              "sigma_east_m", "sigma_north_m", "sigma_up_m", "cov_en_m2", "sigma_speed_mps")
+#: The velocity σ per axis (east, north) of an SPP table, m/s: the speed σ without one.
+_VELOCITY_SIGMAS = ("sigma_v_east_mps", "sigma_v_north_mps")
 #: NovAtel position types by the fix class they mean (substring rules, in this order).
 _NOVATEL_RULES = (("NONE", None), ("INT", "rtk_fixed"), ("RTKFIXED", "rtk_fixed"),
                   ("FLOAT", "rtk_float"), ("PPP", "rtk_float"), ("PSRDIFF", "dgps"),
@@ -98,6 +105,7 @@ def read_fixes_csv(path: str | os.PathLike) -> FixLog:
     for name in _OPTIONAL:
         if name in raw.columns:
             columns[name] = _optional_column(raw, name, path)
+    _speed_sigma_from_velocity(raw, columns, path)
     times, suffix = _times(raw, path)
     columns.update(times)
     quality, flag = _quality(raw, path)
@@ -109,6 +117,17 @@ def read_fixes_csv(path: str | os.PathLike) -> FixLog:
     skipped["duplicate_time"] = dup
     return FixLog(table, "csv", os.fspath(path), "GPS" if "timestamp" not in raw.columns
                   else "UTC", utc_suffix=suffix, skipped=skipped)
+
+
+def _speed_sigma_from_velocity(raw: pd.DataFrame, columns: dict, path) -> None:
+    """``sigma_speed_mps`` from the velocity σ per axis where the file gives no speed σ
+    (module docstring); unchanged without both velocity σ columns."""
+    if not set(_VELOCITY_SIGMAS) <= set(raw.columns):
+        return
+    east, north = (_optional_column(raw, name, path) for name in _VELOCITY_SIGMAS)
+    from_velocity = np.sqrt(0.5 * (east ** 2 + north ** 2))
+    own = columns.get("sigma_speed_mps", np.full(len(raw), np.nan))
+    columns["sigma_speed_mps"] = np.where(np.isfinite(own), own, from_velocity)
 
 
 def _column(raw: pd.DataFrame, name: str, path) -> str:

@@ -271,6 +271,25 @@ def test_csv_with_our_columns_and_iso_offsets(tmp_path):
     assert row["sigma_up_m"] == DEFAULT_FIX_SIGMAS["rtk_float"].vertical_m
 
 
+def test_csv_speed_sigma_from_the_velocity_sigmas_per_axis(tmp_path):
+    """An SPP table's ``sigma_v_east_mps``/``sigma_v_north_mps`` (``railnav spp``'s output)
+    give the speed σ, √((σ_e² + σ_n²)/2), where the file has no ``sigma_speed_mps`` or an
+    empty one; a file's own speed σ is kept; without either the class default holds."""
+    path = tmp_path / "spp.csv"
+    path.write_text("gps_time_s,lat_deg,lon_deg,sigma_v_east_mps,sigma_v_north_mps\n"
+                    "100.0,41.6,2.35,0.3,0.4\n101.0,41.6,2.35,0.12,0.12\n")
+    speed = read_fixes(path).table["sigma_speed_mps"].to_numpy()
+    assert speed == pytest.approx([math.sqrt((0.09 + 0.16) / 2), 0.12], abs=1e-12)
+    path.write_text("gps_time_s,lat_deg,lon_deg,sigma_speed_mps,sigma_v_east_mps,"
+                    "sigma_v_north_mps\n100.0,41.6,2.35,0.05,0.3,0.4\n"
+                    "101.0,41.6,2.35,,0.3,0.4\n")
+    speed = read_fixes(path).table["sigma_speed_mps"].to_numpy()
+    assert speed == pytest.approx([0.05, math.sqrt(0.125)], abs=1e-12)
+    path.write_text("gps_time_s,lat_deg,lon_deg,sigma_v_east_mps\n100.0,41.6,2.35,0.3\n")
+    assert read_fixes(path).table["sigma_speed_mps"].iloc[0] == \
+        DEFAULT_FIX_SIGMAS["single"].speed_mps
+
+
 def test_belgian_excerpt_as_shipped():
     """Reference: the excerpt's own columns read with pandas, naive times taken as UTC."""
     raw = pd.read_csv(EXCERPT)

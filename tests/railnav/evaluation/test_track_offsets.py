@@ -1,0 +1,71 @@
+"""`tests.support.track_offsets` (the urban pieces' figures beside "never worse than SPP",
+`benchmarks/bench_real_pieces.py`): points placed at known offsets from a straight track
+come back with those offsets, and the worst epoch's split agrees with the horizontal
+error an independent ENU difference (`railnav.evaluation.spp_accuracy.spp_errors`) gives."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from railnav.evaluation.spp_accuracy import spp_errors
+from tests.support.track_offsets import largest_error_parts, offset_summary, reference_offsets
+from trackmodel.earth import ecef_to_geodetic, enu_to_ecef
+from trackmodel.track import Section, Track
+
+#: A 500-m straight track heading north: its right (positive cross-track) is east.
+TRACK = Track.from_sections([Section(500.0, 0.0)], lat=math.radians(50.0),
+                            lon=math.radians(4.0), h=100.0)
+
+
+def _points(s_m, east_m, north_m, up_m) -> pd.DataFrame:
+    """Points at ENU offsets (m) from the track's point at each ``s_m``."""
+    at = TRACK.at(np.asarray(s_m, float))
+    rows = []
+    for k in range(len(s_m)):
+        r_e = enu_to_ecef(np.array([east_m[k], north_m[k], up_m[k]]), lat0=float(at.lat[k]),
+                          lon0=float(at.lon[k]), h0=float(at.h[k]))
+        lat, lon, h = ecef_to_geodetic(r_e)
+        rows.append((math.degrees(float(np.squeeze(lat))), math.degrees(float(np.squeeze(lon))),
+                     float(np.squeeze(h))))
+    return pd.DataFrame(rows, columns=["lat_deg", "lon_deg", "h_m"])
+
+
+def test_points_at_known_offsets_come_back_with_them():
+    # 2 m right and 1.5 m up at s = 100; 3 m left and 0.5 m down at 200; 4 m before the start
+    pts = _points([100.0, 200.0, 0.0], [2.0, -3.0, 0.0], [0.0, 0.0, -4.0], [1.5, -0.5, 0.0])
+    off = reference_offsets(TRACK, pts["lat_deg"], pts["lon_deg"], pts["h_m"])
+    np.testing.assert_allclose(off["s_m"], [100.0, 200.0, 0.0], atol=1e-3)
+    np.testing.assert_allclose(off["cross_track_m"], [2.0, -3.0, 0.0], atol=1e-3)
+    np.testing.assert_allclose(off["horizontal_m"], [2.0, 3.0, 4.0], atol=1e-3)
+    np.testing.assert_allclose(off["vertical_m"], [1.5, -0.5, 0.0], atol=1e-3)
+    summary = offset_summary(off)
+    assert summary["horizontal_max_m"] == pytest.approx(4.0, abs=1e-3)
+    assert summary["horizontal_rms_m"] == pytest.approx(math.sqrt((4 + 9 + 16) / 3), abs=1e-3)
+    assert summary["vertical_max_m"] == pytest.approx(1.5, abs=1e-3)
+    assert summary["vertical_rms_m"] == pytest.approx(math.sqrt((2.25 + 0.25) / 3), abs=1e-3)
+
+
+def test_the_worst_epoch_splits_into_the_along_track_error_and_the_offset():
+    s_ref = np.array([50.0, 120.0, 300.0, 410.0])
+    across = np.array([0.5, -2.5, 1.0, 0.0])          # the reference beside the track, m
+    along = np.array([1.0, -3.0, 3.2, -0.4])          # the estimates' errors along it, m
+    t = 1_000.0 + np.arange(4.0)
+    reference = _points(s_ref, across, np.zeros(4), np.zeros(4)).assign(gps_time_s=t)
+    on_track = TRACK.at(s_ref + along)                 # estimates lie on the track
+    estimates = pd.DataFrame({"gps_time_s": t, "lat_deg": np.degrees(on_track.lat),
+                              "lon_deg": np.degrees(on_track.lon), "h_m": on_track.h})
+    horizontal = spp_errors(estimates, reference)["horizontal_m"].to_numpy()
+    # straight track: the ENU difference is the two parts at right angles
+    np.testing.assert_allclose(horizontal, np.hypot(along, across), atol=1e-3)
+    off = reference_offsets(TRACK, reference["lat_deg"], reference["lon_deg"], reference["h_m"])
+    parts = largest_error_parts(t, horizontal, on_track.s - off["s_m"].to_numpy(),
+                                off["cross_track_m"].to_numpy())
+    assert parts["along_track_max_m"] == pytest.approx(3.2, abs=1e-3)
+    worst = parts["at_horizontal_max"]                 # |(-3.0, -2.5)| = 3.91 > |(3.2, 1.0)|
+    assert worst["gps_time_s"] == 1_001.0
+    assert worst["along_track_m"] == pytest.approx(-3.0, abs=1e-3)
+    assert worst["offset_m"] == pytest.approx(-2.5, abs=1e-3)
+    assert worst["horizontal_m"] == pytest.approx(math.hypot(3.0, 2.5), abs=1e-3)
