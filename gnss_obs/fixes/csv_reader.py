@@ -6,7 +6,7 @@ Columns are found by name (others are ignored):
   offset such as ``+01:00`` is applied), or ``gps_week`` + ``gps_sow_s``;
 * position: ``lat_deg``/``latitude``, ``lon_deg``/``longitude`` (WGS-84, deg), optional
   ``h_m`` (ellipsoidal, m);
-* optional motion and σ: ``speed_mps``, ``course_deg``, ``v_east_mps``, ``v_north_mps``,
+* optional motion and σ (finite and >= 0 where given): ``speed_mps``, ``course_deg``, ``v_east_mps``, ``v_north_mps``,
   ``v_up_mps``, ``sigma_east_m``, ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``,
   ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes); without
   ``sigma_speed_mps`` (or where it is empty), a row's ``sigma_v_east_mps`` and
@@ -32,7 +32,13 @@ import numpy as np
 import pandas as pd
 
 from gnss_obs.errors import GnssInputError
-from gnss_obs.fixes.table import FIX_COLUMNS, FIX_QUALITIES, FixLog, fix_frame
+from gnss_obs.fixes.table import (
+    FIX_COLUMNS,
+    FIX_QUALITIES,
+    SIGMA_COLUMNS,
+    FixLog,
+    fix_frame,
+)
 from gnss_obs.gpstime import utc_datetime64_to_gps_time_s, week_sow_to_gps_time_s
 from trackmodel.errors import finite_column
 
@@ -105,6 +111,8 @@ def read_fixes_csv(path: str | os.PathLike) -> FixLog:
     for name in _OPTIONAL:
         if name in raw.columns:
             columns[name] = _optional_column(raw, name, path)
+            if name in SIGMA_COLUMNS:
+                _check_sigma(columns[name], name, path)
     _speed_sigma_from_velocity(raw, columns, path)
     times, suffix = _times(raw, path)
     columns.update(times)
@@ -119,12 +127,24 @@ def read_fixes_csv(path: str | os.PathLike) -> FixLog:
                   else "UTC", utc_suffix=suffix, skipped=skipped)
 
 
+def _check_sigma(values: np.ndarray, name: str, path) -> np.ndarray:
+    """`values` of σ column `name`, which must be finite and >= 0 where given (an empty
+    cell gives none; 0, a σ below the file's resolution, as railnav's own exports of a
+    track-constrained axis write it, is kept)."""
+    bad = np.flatnonzero(~np.isnan(values) & ~(np.isfinite(values) & (values >= 0)))
+    if bad.size:
+        raise GnssInputError(f"{float(values[bad[0]])!r} is not a σ (finite, >= 0)",
+                             path=path, row=int(bad[0]) + 1, column=name)
+    return values
+
+
 def _speed_sigma_from_velocity(raw: pd.DataFrame, columns: dict, path) -> None:
     """``sigma_speed_mps`` from the velocity σ per axis where the file gives no speed σ
     (module docstring); unchanged without both velocity σ columns."""
     if not set(_VELOCITY_SIGMAS) <= set(raw.columns):
         return
-    east, north = (_optional_column(raw, name, path) for name in _VELOCITY_SIGMAS)
+    east, north = (_check_sigma(_optional_column(raw, name, path), name, path)
+                   for name in _VELOCITY_SIGMAS)
     from_velocity = np.sqrt(0.5 * (east ** 2 + north ** 2))
     own = columns.get("sigma_speed_mps", np.full(len(raw), np.nan))
     columns["sigma_speed_mps"] = np.where(np.isfinite(own), own, from_velocity)

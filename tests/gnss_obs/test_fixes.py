@@ -403,3 +403,24 @@ def test_writers_round_trip_through_the_readers(tmp_path):
         assert back["h_m"].to_numpy() == pytest.approx(fixes["h_m"], abs=1e-4)
         assert list(back["quality"]) == list(fixes["quality"])
         assert list(back.columns) == list(FIX_COLUMNS)
+
+
+@pytest.mark.parametrize("header, value", [("sigma_east_m", "-0.1"), ("sigma_up_m", "-1.5"),
+                                           ("sigma_speed_mps", "inf"),
+                                           ("sigma_v_east_mps,sigma_v_north_mps", "-1,0")])
+def test_csv_sigma_not_finite_and_positive_is_a_located_error(tmp_path, header, value):
+    """A negative or infinite σ is no σ: each is a one-line error naming the file, row and
+    column; an empty cell is no σ given (the class's fills it)."""
+    path = tmp_path / "f.csv"
+    path.write_text(f"gps_time_s,lat_deg,lon_deg,{header}\n100.0,41.6,2.35,{value}\n")
+    with pytest.raises(GnssInputError) as err:
+        read_fixes(path)
+    text = str(err.value)
+    assert "f.csv" in text and "is not a σ" in text and "row 1" in text \
+        and "\n" not in text, text
+    assert header.split(",")[0] in text
+    column = "sigma_speed_mps" if header.startswith("sigma_v") else header
+    path.write_text(f"gps_time_s,lat_deg,lon_deg,{header}\n100.0,41.6,2.35,"
+                    f"{','.join([''] * (header.count(',') + 1))}\n")
+    assert np.isfinite(read_fixes(path).table[column].iloc[0])
+
