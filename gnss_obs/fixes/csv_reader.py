@@ -6,9 +6,9 @@ Columns are found by name (others are ignored):
   offset such as ``+01:00`` is applied), or ``gps_week`` + ``gps_sow_s``;
 * position: ``lat_deg``/``latitude``, ``lon_deg``/``longitude`` (WGS-84, deg), optional
   ``h_m`` (ellipsoidal, m);
-* optional motion and σ (finite and >= 0 where given): ``speed_mps``, ``course_deg``, ``v_east_mps``, ``v_north_mps``,
-  ``v_up_mps``, ``sigma_east_m``, ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``,
-  ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes); without
+* optional motion and σ (each σ finite and >= 0 where given): ``speed_mps``,
+  ``course_deg``, ``v_east_mps``, ``v_north_mps``, ``v_up_mps``, ``sigma_east_m``,
+  ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``, ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes); without
   ``sigma_speed_mps`` (or where it is empty), a row's ``sigma_v_east_mps`` and
   ``sigma_v_north_mps`` (the velocity σ per axis that `gnss_obs.solve_spp`'s table, and so
   ``railnav spp``'s output, carries) give it as their RMS, ``√((σ_e² + σ_n²)/2)``: the
