@@ -8,12 +8,12 @@ Columns are found by name (others are ignored):
   ``h_m`` (ellipsoidal, m);
 * optional motion and σ (each σ finite and >= 0 where given): ``speed_mps``,
   ``course_deg``, ``v_east_mps``, ``v_north_mps``, ``v_up_mps``, ``sigma_east_m``,
-  ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``, ``sigma_speed_mps`` (what `gnss_obs.fixes.writers.write_fixes_csv` writes); without
-  ``sigma_speed_mps`` (or where it is empty), a row's ``sigma_v_east_mps`` and
-  ``sigma_v_north_mps`` (the velocity σ per axis that `gnss_obs.solve_spp`'s table, and so
-  ``railnav spp``'s output, carries) give it as their RMS, ``√((σ_e² + σ_n²)/2)``: the
-  σ of the velocity along a horizontal axis of any direction, as the fix-class table's
-  σ_speed is (`gnss_obs.fixes.quality`);
+  ``sigma_north_m``, ``sigma_up_m``, ``cov_en_m2``, ``sigma_speed_mps`` (what
+  `gnss_obs.fixes.writers.write_fixes_csv` writes); without ``sigma_speed_mps`` (or where
+  it is empty), a row's ``sigma_v_east_mps`` and ``sigma_v_north_mps`` (the velocity σ
+  per axis that `gnss_obs.solve_spp`'s table, and so ``railnav spp``'s output, carries)
+  give it as their RMS, ``√((σ_e² + σ_n²)/2)``: the σ of the velocity along a horizontal
+  axis of any direction, as the fix-class table's σ_speed is (`gnss_obs.fixes.quality`);
 * the fix class: ``quality`` (`gnss_obs.fixes.table.FIX_QUALITIES`), or a receiver flag in
   ``position_type`` (NovAtel-style names: `novatel_quality`); without either every fix
   is ``single``. A ``solution_status`` other than ``SOL_COMPUTED`` (NovAtel: the receiver
