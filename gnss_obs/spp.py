@@ -4,7 +4,8 @@
 notebooks. Per epoch:
 
 1. measurements (`gnss_obs.measurements`) and ephemerides (`gnss_obs.ephemeris`), satellite
-   states at transmission (`gnss_obs.epoch.transmit_states`, independent of the guess);
+   states at transmission (`gnss_obs.transmission.transmit_states`, independent of the
+   guess);
 2. Gauss-Newton on the pseudorange model (`gnss_obs.observables`) for ECEF position and one
    clock per system present (``b_sat = S @ clocks``, `observables.system_bias_matrix`),
    re-preparing corrections and the elevation mask at every iterate; the guess is the
@@ -42,7 +43,6 @@ from gnss_obs.epoch import (
     PreparedEpoch,
     prepare_epoch,
     split_epochs,
-    transmit_states,
 )
 from gnss_obs.errors import GnssError
 from gnss_obs.measurements import (
@@ -64,6 +64,7 @@ from gnss_obs.raim import (
 )
 from gnss_obs.spp_config import SppConfig
 from gnss_obs.spp_result import EpochFix, SppResult, assemble_result
+from gnss_obs.transmission import transmit_states
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
 __all__ = ["SppConfig", "SppResult", "solve_spp", "solve_spp_epoch"]
@@ -379,8 +380,8 @@ def solve_spp_epoch(epoch: EpochData, nav, config: SppConfig | None = None, *,
     approx_e : ndarray, shape (3,), optional
         ECEF, m (``obs.header.approx_position_e``).
     transmit : optional
-        The epoch's `gnss_obs.epoch.transmit_states` when the caller has them
-        (`gnss_obs.epoch.transmit_states_batch`).
+        The epoch's `gnss_obs.transmission.transmit_states` when the caller has them
+        (`gnss_obs.transmission.transmit_states_batch`).
     details : bool
         Also the protection levels, dilutions of precision and per-satellite sky; False:
         NaN and an empty ``sky`` (the position, clocks and covariance are the same).
