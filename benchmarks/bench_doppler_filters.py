@@ -70,8 +70,8 @@ from _carrier_phase import L1_HZ, carrier_rates  # noqa: E402
 from _data_dir import add_data_argument, checked_data_dir  # noqa: E402
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS  # noqa: E402
-from railnav.config import SensorData  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
+from railnav.sensor_data import SensorData  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "doppler_filters.json"

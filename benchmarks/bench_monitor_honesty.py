@@ -61,10 +61,10 @@ from bench_real_pieces import (  # noqa: E402
 )
 
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
-from railnav.config import SensorData  # noqa: E402
 from railnav.jobs.run import run_files  # noqa: E402
 from railnav.navigation.monitor_config import MonitorConfig  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
+from railnav.sensor_data import SensorData  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 

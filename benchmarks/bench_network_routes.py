@@ -28,8 +28,8 @@ from railnav.jobs.network import (  # noqa: E402
     route_candidates,
     run_simulated_network,
     simulation_line,
-    true_netelements,
 )
+from railnav.jobs.network_scoring import true_netelements  # noqa: E402
 from railnav.simulation.profiles import constant_speed  # noqa: E402
 from railnav.simulation.scenarios import get_scenario  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402

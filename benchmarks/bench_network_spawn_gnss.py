@@ -69,7 +69,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from railnav.filters.protocol import make_filter  # noqa: E402
-from railnav.jobs.network import candidate_starts, true_netelements  # noqa: E402
+from railnav.jobs.network import candidate_starts  # noqa: E402
+from railnav.jobs.network_scoring import true_netelements  # noqa: E402
 from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.navigation.network_navigator import navigate_network  # noqa: E402
 from railnav.navigation.network_start import NetworkStart  # noqa: E402

@@ -55,7 +55,8 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from railnav.jobs.network import run_simulated_network, true_netelements  # noqa: E402
+from railnav.jobs.network import run_simulated_network  # noqa: E402
+from railnav.jobs.network_scoring import true_netelements  # noqa: E402
 from railnav.jobs.run import run_simulated  # noqa: E402
 from railnav.simulation.profiles import constant_speed  # noqa: E402
 from railnav.simulation.scenarios import get_scenario  # noqa: E402

@@ -55,7 +55,7 @@ sys.path.insert(0, str(REPO))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import bench_network_spawn_gnss as trips  # noqa: E402
-from railnav.jobs.network import true_netelements  # noqa: E402
+from railnav.jobs.network_scoring import true_netelements  # noqa: E402
 from railnav.navigation.hypotheses import evidence_share  # noqa: E402
 from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.navigation.network_navigator import navigate_network  # noqa: E402

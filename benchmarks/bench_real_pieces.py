@@ -164,10 +164,11 @@ from ekf.packing import diagonal_indices  # noqa: E402
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
 from gnss_obs.measurements import URBAN_CODE_SIGMAS, MeasurementConfig  # noqa: E402
 from gnss_obs.spp import SppConfig, solve_spp  # noqa: E402
-from railnav.config import NavigatorConfig, SensorData  # noqa: E402
+from railnav.config import NavigatorConfig  # noqa: E402
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE  # noqa: E402
 from railnav.evaluation.spp_accuracy import spp_errors  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
+from railnav.sensor_data import SensorData  # noqa: E402
 from tests.support.track_offsets import (  # noqa: E402
     largest_error_parts,
     offset_summary,

@@ -31,7 +31,8 @@ measurement selection       `MeasurementConfig`, `IONOSPHERE_MODELS`, `SIGMA_MOD
                             `glonass_channels` (``measurements``);
                             `known_position_residuals` (``residuals``)
 epochs and models           `EpochData`, `PreparedEpoch`, `split_epochs`,
-                            `prepare_epoch`, `transmit_states_batch` (``epoch``);
+                            `prepare_epoch` (``epoch``); `transmit_states_batch`
+                            (``transmission``);
                             `build_measurement_model` (``observables``);
                             `reissue_ephemerides` (``ephemeris_reissue``)
 differential, smoothing,    `augment`, `Augmentation`, `DgpsConfig`, `base_corrections`,
@@ -76,7 +77,7 @@ _EXPORTS = {
     "select_measurements": "measurements", "glonass_channels": "measurements",
     "known_position_residuals": "residuals",
     "EpochData": "epoch", "PreparedEpoch": "epoch", "split_epochs": "epoch",
-    "prepare_epoch": "epoch", "transmit_states_batch": "epoch",
+    "prepare_epoch": "epoch", "transmit_states_batch": "transmission",
     "build_measurement_model": "observables",
     "reissue_ephemerides": "ephemeris_reissue",
     "augment": "dgps", "augment_files": "dgps", "Augmentation": "dgps", "DgpsConfig": "dgps",

@@ -34,7 +34,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from gnss_obs.epoch import prepare_epoch, split_epochs, transmit_states_batch
+from gnss_obs.epoch import prepare_epoch, split_epochs
 from gnss_obs.errors import GnssError
 from gnss_obs.measurements import (
     MeasurementConfig,
@@ -42,6 +42,7 @@ from gnss_obs.measurements import (
     select_measurements,
 )
 from gnss_obs.observables import predict_pseudorange
+from gnss_obs.transmission import transmit_states_batch
 from trackmodel.earth import geodetic_to_ecef
 
 __all__ = ["DgpsConfig", "CORRECTION_COLUMNS", "base_corrections", "apply_corrections",

@@ -1,4 +1,4 @@
-"""Per-epoch measurement preparation: satellites at transmission, corrections, weights.
+"""Per-epoch measurement preparation at a receiver guess: satellites, corrections, weights.
 
 For each epoch (`gnss_obs.epoch_table.split_epochs`, re-exported here with `EpochData` and
 `EpochColumns`), `prepare_epoch` turns the selected measurements (`gnss_obs.measurements`)
@@ -6,18 +6,13 @@ and broadcast ephemerides into a `PreparedEpoch` of arrays over satellites that 
 measurement models (`gnss_obs.observables`) consume (`prepare_epochs`: at K receiver
 guesses at once, a bank's hypotheses):
 
-* **transmission time** from the measured pseudorange (RTKLIB's method):
-  ``t_tx = t_rx - P/c - δt_sv(t_tx)``. Since ``P = c(τ + δt_r - δt_sv)`` and the time tag is
-  receiver time, this is the true transmission time whatever the receiver clock bias,
-  up to the atmosphere delays (tens of ns: sub-millimetre in the satellite position);
-* **Earth rotation during the flight** (Sagnac): the satellite position and velocity at
-  ``t_tx`` are turned by ``R_z(Ω τ)`` into the ECEF frame of the reception instant,
-  ``τ = |r_sat - r_rx| / c`` from the receiver position guess (ARCHITECTURE.md, GNSS;
-  ``Ω = OMEGA_E_GPS`` for every system);
-* **satellite clock** for the signal used: broadcast clock with the relativistic term minus
-  the group delay of the signal (or of the ionosphere-free pair), in metres;
+* **satellites at transmission** and the clock of the signal used
+  (`gnss_obs.transmission.transmit_states`: they do not depend on the guess), turned into
+  the ECEF frame of the reception instant by the Earth's rotation during the flight from
+  the guess (`gnss_obs.transmission.sagnac_rotation`);
 * **delays**: troposphere and ionosphere (`gnss_obs.corrections`) at the guess;
-* **standard deviations** of pseudorange and range rate from elevation and C/N0.
+* **standard deviations** of pseudorange and range rate from elevation and C/N0
+  (`measurement_sigmas`).
 
 The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
 ``ρ̇ = e·(sat_vel_e - v_e) + d - sat_clock_drift_mps``.
@@ -31,7 +26,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.constants import OMEGA_E_GPS, SPEED_OF_LIGHT_MPS
+from gnss_obs.constants import SPEED_OF_LIGHT_MPS
 from gnss_obs.corrections import (
     ionosphere_scale,
     klobuchar_delay_s,
@@ -39,15 +34,13 @@ from gnss_obs.corrections import (
     troposphere_delay_m,
     troposphere_delays_m,
 )
-from gnss_obs.ephemeris import group_delay_s, satellite_states
-from gnss_obs.epoch_table import EpochColumns, EpochData, split_epochs, whole_table
+from gnss_obs.epoch_table import EpochColumns, EpochData, split_epochs
 from gnss_obs.measurements import MeasurementConfig
+from gnss_obs.transmission import sagnac_rotation, transmit_states
 from trackmodel.earth import ecef_to_geodetic
 
 __all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch",
-           "prepare_epochs", "sagnac_rotation",
-           "transmit_states", "transmit_states_batch",
-           "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
+           "prepare_epochs", "measurement_sigmas", "MIN_RECEIVER_RADIUS_M"]
 
 log = logging.getLogger(__name__)
 
@@ -122,43 +115,6 @@ class PreparedEpoch:
                                 if f.name != "gps_time_s"})
 
 
-def sagnac_rotation(r_sat_e: Array, v_sat_e: Array, tau_s: Array) -> tuple[Array, Array]:
-    """Turn satellite states at transmission into ECEF of the reception instant.
-
-    Parameters
-    ----------
-    r_sat_e, v_sat_e : ndarray, shape (N, 3)
-        Position (m) and velocity (m/s) in ECEF at the transmission instant.
-    tau_s : ndarray, shape (N,)
-        Signal flight time, s.
-
-    Returns
-    -------
-    r, v : ndarray, shape (N, 3)
-        ``R_z(Ω τ) r`` and ``R_z(Ω τ) v`` with ``Ω = OMEGA_E_GPS``: the Earth turns by
-        ``Ω τ`` during the flight, so in the later frame the satellite's longitude is
-        smaller by that angle.
-    """
-    a = OMEGA_E_GPS * tau_s
-    c, s = np.cos(a), np.sin(a)
-    both = np.array([r_sat_e, v_sat_e])           # (2, N, 3): one pass for both
-    x, y = both[..., 0], both[..., 1]
-    out = np.empty_like(both)
-    out[..., 0] = c * x + s * y
-    out[..., 1] = -s * x + c * y
-    out[..., 2] = both[..., 2]
-    return out[0], out[1]
-
-
-def _signal_group_delay_s(eph: dict, meas: dict, config: MeasurementConfig) -> Array:
-    g1 = group_delay_s(eph, meas["band"], galileo_message=config.galileo_message)
-    if not config.iono_free:
-        return g1
-    g2 = group_delay_s(eph, meas["band2"], galileo_message=config.galileo_message)
-    f1, f2 = meas["frequency_hz"] ** 2, meas["frequency2_hz"] ** 2
-    return (f1 * g1 - f2 * g2) / (f1 - f2)
-
-
 def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementConfig, *,
                        frequency_hz: Array, frequency2_hz: Array) -> tuple[Array, Array]:
     """Pseudorange (m) and range-rate (m/s) standard deviations per satellite.
@@ -199,59 +155,6 @@ def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementCon
     return sigma_pr, config.sigma_rr_mps * factor
 
 
-def _states(eph, meas, t, precise):
-    if precise is None:
-        return satellite_states(eph, t)
-    return precise.states(meas["sv"], t)
-
-
-def transmit_states(epoch: EpochData, config: MeasurementConfig, *, precise=None):
-    """Satellite states at the transmission instants (ECEF of transmission) and clocks (m).
-
-    With `precise` (a `gnss_obs.precise.PreciseOrbits`), orbits and clocks come from it
-    instead of the broadcast ephemeris; the broadcast group delays still apply.
-    """
-    meas, eph = epoch.meas, epoch.eph
-    t_nominal = epoch.gps_time_s - meas["pseudorange_m"] / SPEED_OF_LIGHT_MPS
-    # δt_sv varies by ~1e-11 s/s: evaluated at t_nominal (ms away) it is exact to 1e-14 s.
-    t_tx = t_nominal - _states(eph, meas, t_nominal, precise).clock_s
-    states = _states(eph, meas, t_tx, precise)
-    clock_m = SPEED_OF_LIGHT_MPS * (states.clock_s - _signal_group_delay_s(eph, meas, config))
-    return states, clock_m
-
-
-def transmit_states_batch(epochs: list[EpochData], config: MeasurementConfig, *,
-                          precise=None) -> list:
-    """`transmit_states` of many epochs in one vectorized evaluation (`precise` as there).
-
-    The transmission-time states do not depend on the receiver guess, so a filter can
-    compute them for a whole file at once and pass each epoch's to `prepare_epoch`.
-
-    Returns
-    -------
-    list of (SatelliteStates, ndarray)
-        One ``(states, clock_m)`` per epoch, equal to ``transmit_states(epoch, config)``.
-    """
-    if not epochs:
-        return []
-    sizes = np.array([len(e) for e in epochs])
-    whole = whole_table(epochs)
-    if whole is not None:    # `split_epochs` of one table: its columns as they are
-        meas, eph = whole
-        times = meas["gps_time_s"]       # each row's time is its epoch's
-    else:
-        meas = {k: np.concatenate([e.meas[k] for e in epochs]) for k in epochs[0].meas}
-        eph = {k: np.concatenate([e.eph[k] for e in epochs]) for k in epochs[0].eph}
-        times = np.repeat([e.gps_time_s for e in epochs], sizes)
-    states, clock_m = transmit_states(EpochData(times, meas, eph), config, precise=precise)
-    bounds = np.concatenate([[0], np.cumsum(sizes)]).tolist()
-    names = [f.name for f in fields(states)]
-    columns = [getattr(states, name) for name in names]
-    kind = type(states)
-    return [(kind(**{name: column[a:b] for name, column in zip(names, columns)}), clock_m[a:b])
-            for a, b in zip(bounds[:-1], bounds[1:])]
-
-
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
                   klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
                   transmit=None, coarse: bool = False) -> PreparedEpoch:
@@ -268,8 +171,8 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
         Broadcast Klobuchar coefficients (``NavHeader.iono_gps_alpha/beta``); required for
         ``config.ionosphere == "klobuchar"``, else the ionosphere is 0.
     transmit : optional
-        The result of `transmit_states` for this epoch (it does not depend on the guess;
-        pass it to skip recomputing in an iteration).
+        The result of `gnss_obs.transmission.transmit_states` for this epoch (it does not
+        depend on the guess; pass it to skip recomputing in an iteration).
     coarse : bool
         Treat the guess as unknown (no elevation, corrections or weighting), as for a
         cold start's early iterates, which may be hundreds of km off.

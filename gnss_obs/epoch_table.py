@@ -4,7 +4,8 @@
 (`gnss_obs.ephemeris.select_ephemeris`) and cuts it into `EpochData`, whose columns are
 `EpochColumns`: views of the table's rows, sliced when read. `whole_table` recognizes a
 list of such epochs that covers one table whole and in order (so that a pass over all
-epochs can use the table's columns as they are: `gnss_obs.epoch.transmit_states_batch`).
+epochs can use the table's columns as they are:
+`gnss_obs.transmission.transmit_states_batch`).
 The per-epoch preparation of these epochs at a receiver guess is `gnss_obs.epoch`.
 """
 from __future__ import annotations

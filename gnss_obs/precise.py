@@ -2,8 +2,8 @@
 
 `PreciseOrbits.from_sp3` keeps, per satellite, the SP3 nodes (`gnss_obs.sp3`); `states`
 evaluates many satellites at many times in one call and returns the broadcast module's
-`SatelliteStates`, so `gnss_obs.epoch.transmit_states(..., precise=...)` swaps orbits and
-clocks without changing anything downstream:
+`SatelliteStates`, so `gnss_obs.transmission.transmit_states(..., precise=...)` swaps
+orbits and clocks without changing anything downstream:
 
 * position: Lagrange interpolation of degree `order` on the nearest nodes (as
   `Sp3.interpolate`); velocity: central difference of the interpolant over ±`_DT_S`;

@@ -28,9 +28,10 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from gnss_obs.epoch import prepare_epoch, split_epochs, transmit_states_batch
+from gnss_obs.epoch import prepare_epoch, split_epochs
 from gnss_obs.measurements import MeasurementConfig, glonass_channels, select_measurements
 from gnss_obs.observables import predict_pseudorange, predict_range_rate
+from gnss_obs.transmission import transmit_states_batch
 
 __all__ = ["known_position_residuals", "RESIDUAL_COLUMNS", "CLOCK_ITERATIONS",
            "TIME_MATCH_S"]

@@ -1,9 +1,8 @@
-"""Configuration of the navigator and the sensor data it consumes.
+"""Configuration of the navigator.
 
 `NavigatorConfig` says which filter runs and what it assumes (IMU grade, clock, GNSS
-measurement model, gating, output rate, initial uncertainty); `SensorData` carries the
-recorded or simulated measurements with the one time reference that links them
-(`start_gps_time_s`: the GPS time of ``time_s = 0``).
+measurement model, gating, output rate, initial uncertainty). The sensor data it consumes
+and their time reference are `railnav.sensor_data.SensorData`'s.
 
 This module owns `NavigatorConfig`'s field defaults; the defaults a command-line flag
 shows, `DEFAULT_FILTER`, `DEFAULT_IMU_GRADE` and `DEFAULT_SYSTEMS`, are written once in
@@ -16,14 +15,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from gnss_obs.errors import GnssError
-from gnss_obs.fixes.table import FixLog
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.oscillator import oscillator_from_name
-from gnss_obs.rinex_nav import RinexNav
-from gnss_obs.rinex_obs import RinexObs
 from railnav.defaults import DEFAULT_FILTER, DEFAULT_IMU_GRADE, DEFAULT_SYSTEMS
 from railnav.errors import ConfigError
 from railnav.filters.balise_epochs import BaliseModelConfig
@@ -37,25 +31,15 @@ from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.filters.track_frame import LeverArms
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.filters.standstill import StandstillConfig
+# SensorData is railnav.sensor_data's. Imported here (not exported) only while
+# railnav.navigation.network_navigator, edited on another branch, still imports it from
+# this module: drop this line when that import moves to railnav.sensor_data.
+from railnav.sensor_data import SensorData  # noqa: F401
 from strapdown.errors import StrapdownError
-from strapdown.imu import Imu
 from strapdown.imu_errors import ImuErrors, imu_grade
 
-__all__ = ["NavigatorConfig", "SensorData", "FILTER_KINDS", "DEFAULT_FILTER",
-           "DEFAULT_IMU_GRADE", "DEFAULT_SYSTEMS", "check_gnss_pair"]
-
-
-def check_gnss_pair(obs, nav) -> None:
-    """GNSS observations and navigation data (files or read) go together.
-
-    Raises
-    ------
-    ConfigError
-        When one is given without the other.
-    """
-    if (obs is None) != (nav is None):
-        raise ConfigError("--obs and --nav go together: GNSS observations need their "
-                          "navigation data")
+__all__ = ["NavigatorConfig", "FILTER_KINDS", "DEFAULT_FILTER", "DEFAULT_IMU_GRADE",
+           "DEFAULT_SYSTEMS"]
 
 
 @dataclass(frozen=True)
@@ -367,60 +351,3 @@ class NavigatorConfig:
         return any(getattr(imu, name) > 0 for name in (
             "accel_bias_mps2", "gyro_bias_radps", "accel_bias_instability_mps2",
             "gyro_bias_instability_radps"))
-
-
-@dataclass(frozen=True, eq=False)
-class SensorData:
-    """Measurements for one trip.
-
-    Parameters
-    ----------
-    start_gps_time_s : float
-        GPS time of ``time_s = 0``, s since 1980-01-06.
-    imu : strapdown.Imu or None
-        IMU samples (``time_s`` from the trip start); None for the GNSS-only filter.
-    obs : gnss_obs.RinexObs or None
-        GNSS observations; None for pure dead reckoning on the track.
-    nav : gnss_obs.RinexNav or None
-        Broadcast navigation data (required with `obs`).
-    augmentation : gnss_obs.Augmentation or None
-        Base-station corrections and precise orbits for the GNSS rows
-        (`gnss_obs.augment`; its carrier-smoothed observations are `obs`).
-    fixes : gnss_obs.fixes.table.FixLog or None
-        GNSS position fixes with every σ (`gnss_obs.fixes.read_fixes`).
-    odometer : railnav.sensors.odometer.OdometerLog or None
-        Odometer readings (`railnav.sensors.odometer.read_odometer_csv`).
-    balises : railnav.sensors.balises.BaliseLog or None
-        Balise passages (`railnav.sensors.balises.read_balises_csv`).
-    imu_log : strapdown.imu_log.ImuLog or None
-        How the IMU file was read (its timing, gaps: ``summary.json``), for file runs.
-    """
-
-    start_gps_time_s: float
-    imu: Imu | None = None
-    obs: RinexObs | None = None
-    nav: RinexNav | None = None
-    augmentation: object = None
-    fixes: FixLog | None = None
-    odometer: object = None
-    balises: object = None
-    imu_log: object = None
-
-    def __post_init__(self) -> None:
-        if not np.isfinite(self.start_gps_time_s):
-            raise ConfigError(f"start_gps_time_s must be finite, got {self.start_gps_time_s!r}")
-        check_gnss_pair(self.obs, self.nav)
-        if self.imu is None and self.obs is None and self.fixes is None:
-            raise ConfigError("no sensor data: give an IMU, GNSS observations or fixes")
-
-    @property
-    def end_s(self) -> float:
-        """The trip's last time, s from its start: the last IMU sample, else the last GNSS
-        epoch or fix."""
-        if self.imu is not None:
-            return float(self.imu.time_s[-1])
-        times = [float(frame["gps_time_s"].max()) for frame in (
-            self.obs.table if self.obs is not None else None,
-            self.fixes.table if self.fixes is not None else None)
-            if frame is not None and len(frame)]
-        return max(times) - self.start_gps_time_s if times else 0.0

@@ -3,15 +3,9 @@ r"""Satellite fault detection and exclusion (FDE) of a filter's GNSS rows, at th
 `RowScreen` looks at every GNSS epoch's rows before the filter's update, with the prior
 ``(x, P)`` of that epoch, and decides which rows the update uses:
 
-1. **Receiver clock jump.** A step of the receiver clock moves every pseudorange by the
-   same amount and no range rate. The common-offset GLR test (`ekf.outliers.common_offset`
-   on the pseudorange rows of the admitted channels, with the full innovation covariance
-   ``S = H P Hᵀ + R``) declares a jump when the offset part of the NIS exceeds the χ²₁
-   quantile of `FaultDetectionConfig.clock_jump_false_alarm` while the residual is
-   consistent (χ²_{m−1} at `CLOCK_RESIDUAL_PROBABILITY`). The clock bias then gets the
-   jump variance ``(clock_jump_sigma_factor · â)²`` added to its prior variance
-   (`ekf.EpochRows`): the update estimates the jump from all rows and no satellite is
-   blamed. Without it every pseudorange would fail and every satellite be excluded.
+1. **Receiver clock jump** (`railnav.filters.clock_jump`): a common offset of the admitted
+   channels' pseudoranges, with a consistent residual, is a step of the receiver clock; the
+   clock bias then gets the jump's variance and no satellite is blamed.
 2. **Fault hypothesis of each row** (Herasimov et al. 2018, SEEDS.md §3; `ekf.outliers`):
    normal ``ν ~ N(0, S_ii)`` or a fault, uninformative about the state, ``ν ~ N(0, κ² S_ii)``,
    with a prior fault probability ``p`` per row and epoch; the posterior fault probability
@@ -89,18 +83,16 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from ekf.gating import chi2_threshold
-from ekf.outliers import common_offset
 from ekf.series import EpochRows
 from ekf.update import EvaluatedObservations, Observation
+from railnav.filters.clock_jump import find_clock_jump
 from railnav.filters.fault_channels import Channel
 from railnav.filters.fault_config import FaultDetectionConfig
 from railnav.filters.row_sets import (ROW_STATUSES, group_status, own_covariance, row_ids,
                                       subset_rows)
 from railnav.filters.screens_together import screen_together
 
-__all__ = ["RowScreen", "EpochScreen", "key_kind", "ROW_STATUSES",
-           "CLOCK_RESIDUAL_PROBABILITY", "JUMP_ROW_KIND", "MIN_JUMP_ROWS", "SCREEN_MODES"]
+__all__ = ["RowScreen", "EpochScreen", "key_kind", "ROW_STATUSES", "SCREEN_MODES"]
 
 log = logging.getLogger(__name__)
 
@@ -109,14 +101,6 @@ Array = npt.NDArray[np.float64]
 #: How a row is screened (`RowScreen.screen`): with its channel's history, by the row
 #: test alone, or passed through.
 SCREEN_MODES = ("channel", "row", "pass")
-#: The residual of a declared clock jump must be consistent at this probability (the row
-#: gate's level: a jump is not declared while one satellite also fails).
-CLOCK_RESIDUAL_PROBABILITY = 0.9999
-#: Rows that move with the receiver clock bias.
-JUMP_ROW_KIND = "pseudorange"
-#: A common offset is tested only on at least this many pseudoranges (with fewer, one
-#: faulty satellite and a clock jump cannot be told apart).
-MIN_JUMP_ROWS = 4
 
 
 def key_kind(key: str) -> str:
@@ -285,35 +269,20 @@ class RowScreen:
 
     def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
                     ) -> tuple[float, float] | None:
-        """(offset m, jump variance m²) of a declared receiver clock jump, or None."""
+        """(offset m, jump variance m²) of a declared receiver clock jump among the rows of
+        the admitted channels (`railnav.filters.clock_jump.find_clock_jump`), or None."""
         cfg = self.config
         if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
             return None
         # no channel excluded (most epochs): every row admitted, without asking each
-        every = not any(ch.excluded for ch in self._channels.values())
         admitted = None
-        if not every:
+        if any(ch.excluded for ch in self._channels.values()):
             channel = self._channel
             admitted = np.fromiter((not channel(k).excluded for k in keys), dtype=bool,
                                    count=keys.size)
-            every = bool(admitted.all())
-        members = np.asarray(kind) == JUMP_ROW_KIND
-        if not every:
-            members = members[admitted]
-        if np.count_nonzero(members) < MIN_JUMP_ROWS:
-            return None
-        offset, _, nis_offset, nis_residual = common_offset(
-            nu, S, members) if every else common_offset(
-            nu[admitted], S[np.ix_(admitted, admitted)], members)
-        if nis_offset <= chi2_threshold(1.0 - cfg.clock_jump_false_alarm, 1):
-            return None
-        n_admitted = keys.size if every else int(admitted.sum())
-        if nis_residual > chi2_threshold(CLOCK_RESIDUAL_PROBABILITY, n_admitted - 1):
-            log.debug("common pseudorange offset %.1f m with an inconsistent residual: "
-                      "not taken for a clock jump", offset)
-            return None
-        log.debug("receiver clock jump of %.1f m", offset)
-        return offset, (cfg.clock_jump_sigma_factor * offset) ** 2
+            if admitted.all():
+                admitted = None
+        return find_clock_jump(cfg, kind, nu, S, admitted)
 
     def _channel(self, key: str) -> Channel:
         if key not in self._channels:

@@ -22,7 +22,6 @@ from gnss_obs.epoch import (
     PreparedEpoch,
     prepare_epochs,
     split_epochs,
-    transmit_states_batch,
 )
 from gnss_obs.measurements import (
     MeasurementConfig,
@@ -32,6 +31,7 @@ from gnss_obs.measurements import (
 from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from gnss_obs.sim_events import in_outages
+from gnss_obs.transmission import transmit_states_batch
 
 __all__ = ["GnssEpochs"]
 

@@ -5,12 +5,12 @@
   (`railnav.navigation.network_navigator.navigate_network`), started at a given netelement
   or at every netelement near the first fix; with ``truth_path`` (a fix file: its
   carrier-fixed rows) scored by issue 13's netelement truth
-  (`railnav.evaluation.netelement_truth`);
+  (`railnav.jobs.network_scoring`);
 * `run_simulated_network`: a trip simulated along one route (its netelements' legs, the
   line `Network.route_track` or, for tangent-continuous joints, the legs chained exactly),
   navigated without being told the route, each start candidate from the truth brought
   onto its own track plus one common error draw, scored per cycle against the true
-  netelement;
+  netelement (`railnav.jobs.network_scoring.true_netelements`);
 * `write_network_run`: ``estimates.csv`` (with the network columns), ``innovations.csv``,
   ``hypotheses.csv``, ``route.csv``, ``summary.json`` (with ``route``), ``errors.csv`` with
   a truth, and the plots ``network.png`` and ``estimates.png``/``errors.png``.
@@ -44,13 +44,12 @@ import numpy as np
 
 from railnav.defaults import DEFAULT_HORIZON_M, DEFAULT_SEED
 from railnav.errors import ConfigError, RailnavError
-from railnav.evaluation.netelement_truth import (
-    collapse,
-    netelement_scores,
-    netelement_truth,
-    route_passes,
-)
 from railnav.filters.grade_noise import UNKNOWN_GRADE_SIGMA_RAD
+from railnav.jobs.network_scoring import (
+    netelement_truth_of,
+    scored_summary,
+    true_netelements,
+)
 from railnav.jobs.run import RunOutcome, read_sensor_files, run_summary, truth_start
 from railnav.navigation.network_config import NetworkNavConfig
 from railnav.navigation.network_navigator import navigate_network
@@ -61,8 +60,7 @@ from trackmodel.files import atomic_write_csv, atomic_write_text
 from trackmodel.network import NetPosition, Network, Route
 
 __all__ = ["route_candidates", "route_name", "run_files_network", "run_simulated_network",
-           "write_network_run", "NetworkRunOutcome", "load_network", "true_netelements",
-           "candidate_starts",
+           "write_network_run", "NetworkRunOutcome", "load_network", "candidate_starts",
            "DEFAULT_HORIZON_M", "DEFAULT_MAX_ROUTES"]
 
 log = logging.getLogger(__name__)
@@ -132,52 +130,6 @@ def route_candidates(network: Network, start: NetPosition, *,
     return tuple(route_name(r) for r in routes), routes, float(start_s)
 
 
-def _scored_summary(summary: dict, result, network, truth_time_s, truth, extra: dict) -> dict:
-    """`summary` with ``route`` (`NetworkResult.route_summary`) and, with a truth, its
-    netelement scores and route check."""
-    route = result.route_summary()
-    if truth is not None:
-        cyc = result.cycles
-        route["truth"] = netelement_scores(cyc["time_s"], cyc["netelement"],
-                                           cyc["netelement_probability"], truth_time_s, truth)
-        frame = result.route_frame()
-        route["truth"].update(route_passes(network, zip(frame["netelement"],
-                                                        frame["orientation"]),
-                                           collapse(truth)))
-    route.update(extra)
-    return {**summary, "route": route}
-
-
-def _netelement_truth_of(network, truth_path, quality, start_gps_time_s: float):
-    """Issue 13's netelement truth (`railnav.evaluation.netelement_truth`) at the points
-    of a reference file (`railnav.evaluation.reference.reference_kind`): ``railnav
-    simulate``'s ``truth.csv`` (every sample), a reference trajectory (every row) or a fix
-    file (its rows of class `quality`, default ``rtk_fixed``). Times (s from the trip
-    start) and netelements (None where ambiguous)."""
-    import pandas as pd
-
-    from gnss_obs.fixes.read import read_fixes
-    from railnav.evaluation.reference import reference_kind
-    from railnav.evaluation.spp_accuracy import read_reference_trajectory
-    kind = reference_kind(truth_path, quality)
-    if kind == "truth":
-        tab = pd.read_csv(truth_path)
-        missing = {"time_s", "lat_deg", "lon_deg"} - set(tab.columns)
-        if missing:
-            raise ConfigError(f"truth file without {', '.join(sorted(missing))}",
-                              path=truth_path)
-        time_s = tab["time_s"].to_numpy(dtype=float)
-    else:
-        tab = read_reference_trajectory(truth_path) if kind == "trajectory" else \
-            read_fixes(truth_path).table
-        time_s = tab["gps_time_s"].to_numpy(dtype=float) - start_gps_time_s
-    truth = netelement_truth(network, np.radians(tab["lat_deg"].to_numpy(dtype=float)),
-                             np.radians(tab["lon_deg"].to_numpy(dtype=float)))
-    if kind == "fixes":
-        truth[tab["quality"].to_numpy() != (quality or "rtk_fixed")] = None
-    return time_s, truth
-
-
 def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_path=None,
                       nav_path=None, start=None, nav: NetworkNavConfig = NetworkNavConfig(),
                       truth_path=None, truth_quality: str | None = None,
@@ -228,9 +180,9 @@ def run_files_network(network: Network, *, fixes_path=None, imu_path=None, obs_p
     summary = run_summary(combined, track, None, window, outages,
                           {**extra, "heights": network.heights})
     truth_path = truth_path or find_truth(imu_path, obs_path, fixes_path)
-    truth_t, truth = (None, None) if truth_path is None else _netelement_truth_of(
+    truth_t, truth = (None, None) if truth_path is None else netelement_truth_of(
         network, truth_path, truth_quality, data.start_gps_time_s)
-    summary = _scored_summary(summary, result, network, truth_t, truth, {})
+    summary = scored_summary(summary, result, network, truth_t, truth, {})
     return NetworkRunOutcome(RunOutcome(combined, track, summary, data=data), result, network)
 
 
@@ -262,17 +214,6 @@ def simulation_line(network: Network, legs):
     curve where the map has a corner); for tangent-continuous joints the netelements as
     they are."""
     return network.route_track(legs)
-
-
-def true_netelements(network: Network, legs, s_m) -> np.ndarray:
-    """The netelement of each distance `s_m` along the chained legs of a route (None
-    beyond its ends)."""
-    ends = np.cumsum([network.length_m(e) for e, _ in legs])
-    k = np.searchsorted(ends, np.asarray(s_m, dtype=float), side="right")
-    names = np.array([e for e, _ in legs] + [None], dtype=object)
-    out = names[np.minimum(k, len(legs))]
-    out[np.asarray(s_m) < 0.0] = None
-    return out
 
 
 def candidate_starts(trip, config, route_filter):
@@ -351,7 +292,7 @@ def run_simulated_network(network: Network, legs, scenario, *, line=None, config
                           {"scenario": scenario.name, "seed": int(seed), "systems": systems,
                            "heights": True})
     truth_s = np.interp(result.time_s, trip.truth.time_s, trip.truth.s)
-    summary = _scored_summary(summary, result, network, result.time_s,
+    summary = scored_summary(summary, result, network, result.time_s,
                               true_netelements(network, legs, truth_s),
                               {"true_route": [e for e, _ in legs]})
     return NetworkRunOutcome(RunOutcome(combined, trip.track, summary, errors, trip,

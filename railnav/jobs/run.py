@@ -25,11 +25,7 @@ import numpy as np
 import pandas as pd
 
 from gnss_obs.dgps import augment_files
-from railnav.config import (
-    DEFAULT_SYSTEMS,
-    NavigatorConfig,
-    SensorData,
-)
+from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import (
@@ -54,6 +50,7 @@ from railnav.jobs.smoothed import smooth_outcome, write_smoothed
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, NavigationResult
+from railnav.sensor_data import SensorData
 from railnav.simulation.scenarios import RNG_STREAMS, Scenario
 from railnav.simulation.trip import (
     SimulatedTrip,

@@ -28,17 +28,13 @@ from gnss_obs.fixes.read import read_fixes
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
-from railnav.config import (
-    DEFAULT_SYSTEMS,
-    NavigatorConfig,
-    SensorData,
-    check_gnss_pair,
-)
+from railnav.config import DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.defaults import default_filter
 from railnav.errors import ConfigError
 from railnav.filters.fix_epochs import FixModelConfig
 from railnav.filters.protocol import filter_kind
 from railnav.jobs.scoring import simulation_meta
+from railnav.sensor_data import SensorData, check_gnss_pair
 from railnav.simulation.trip import navigator_config_from_simulation
 from strapdown.imu_errors import IMU_GRADES
 

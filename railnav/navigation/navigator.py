@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.history import concatenate_results
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.errors import RailnavError
 from railnav.filters.body_rows import body_stream_epochs
 from railnav.filters.fix_epochs import EpochSchedule, FixEpochs
@@ -48,6 +48,7 @@ from railnav.navigation.monitor import FilterMonitor
 from railnav.navigation.result import NavigationResult
 from railnav.navigation.sensors import imu_at_reference, track_sensor_epochs
 from railnav.navigation.track_fixes import fix_log_track_fixes, spp_fix_at
+from railnav.sensor_data import SensorData
 
 __all__ = ["navigate", "TripSamples", "trip_samples", "Start", "run_monitor"]
 

@@ -149,7 +149,7 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     tracks : railnav.navigation.net_tracks.OrientedTracks
     factory : callable(pieces) -> filter object
     trip : railnav.navigation.navigator.TripSamples
-    data : railnav.SensorData
+    data : railnav.sensor_data.SensorData
     config : railnav.NavigatorConfig
     nav : railnav.navigation.network_config.NetworkNavConfig
     start : NetworkStart, optional

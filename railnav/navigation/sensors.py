@@ -23,7 +23,7 @@ def track_sensor_epochs(data, config, track, *, span_s: tuple[float, float]) -> 
 
     Parameters
     ----------
-    data : railnav.SensorData
+    data : railnav.sensor_data.SensorData
     config : railnav.NavigatorConfig
         Its ``odometer_model`` and ``balise_model``.
     track : trackmodel.Track or None

@@ -86,7 +86,7 @@ def epoch_spp_fixes(gnss, data, config) -> FixEpochs | None:
     ----------
     gnss : railnav.filters.gnss_epochs.GnssEpochs or None
         The run's epochs (``TripSamples.gnss``).
-    data : railnav.SensorData
+    data : railnav.sensor_data.SensorData
         Its navigation file (``data.nav``) and the observation header's approximate
         position (the first guess).
     config : railnav.NavigatorConfig

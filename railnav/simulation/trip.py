@@ -26,11 +26,12 @@ from gnss_obs.simulate import (
     default_nav_path,
     simulate_gnss,
 )
-from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig, SensorData
+from railnav.config import DEFAULT_FILTER, DEFAULT_SYSTEMS, NavigatorConfig
 from railnav.defaults import DEFAULT_SEED
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import check_trip_times
 from railnav.filters.track_frame import LeverArms
+from railnav.sensor_data import SensorData
 from railnav.simulation.scenarios import (
     RNG_STREAMS,
     Scenario,

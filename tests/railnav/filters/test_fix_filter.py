@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 from ekf.consistency import chi2_band
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.evaluation.metrics import error_series
 from railnav.navigation.initialization import initial_from_truth
 from railnav.navigation.navigator import navigate
+from railnav.sensor_data import SensorData
 from railnav.simulation.fixes import FixSimConfig, trip_fixes
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import TRACKS_DIR, Scenario

@@ -17,7 +17,7 @@ from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name, process_noise
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.simulate import GnssSimConfig, default_nav_path, simulate_gnss
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.filters.constrained_model import ISB_RANDOM_WALK_M2PS
 from railnav.filters.gnss_only import GnssOnlyFilter
 from railnav.filters.code_bias import CodeBiasConfig
@@ -32,6 +32,7 @@ from railnav.jobs.run import run_simulated
 from railnav.navigation.initialization import InitialState
 from railnav.navigation.loop import END_MARGIN_SIGMA
 from railnav.navigation.navigator import navigate
+from railnav.sensor_data import SensorData
 from railnav.simulation.profiles import constant_speed, station_stop_profile
 from railnav.simulation.scenarios import DEFAULT_START_GPS_TIME_S, TRACKS_DIR, Scenario
 from railnav.simulation.trip import navigator_config_for

@@ -15,9 +15,10 @@ import pytest
 
 from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import read_rinex_obs
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.evaluation.spp_accuracy import read_reference_trajectory
 from railnav.navigation.navigator import navigate
+from railnav.sensor_data import SensorData
 from trackmodel.fit import fit_track
 
 GNSS_DATA = Path(__file__).resolve().parents[3] / "data" / "gnss"

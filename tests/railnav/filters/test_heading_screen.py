@@ -123,9 +123,9 @@ def _corner_piece_z(huber_k) -> np.ndarray:
     from dataclasses import replace
 
     from gnss_obs.rinex_obs import read_rinex_obs
-    from railnav.config import SensorData
     from railnav.evaluation.spp_accuracy import read_reference_trajectory
     from railnav.navigation.navigator import navigate
+    from railnav.sensor_data import SensorData
     from trackmodel.fit import fit_track
     t0, t1 = CORNER_PIECE_GPS_TIME_S
     ref = read_reference_trajectory(GNSS_DATA / "reference_trajectory_1240.csv")

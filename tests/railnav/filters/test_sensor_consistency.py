@@ -20,11 +20,11 @@ import pytest
 
 from ekf.consistency import chi2_band
 from ekf.packing import unpack_sym
-from railnav.config import SensorData
 from railnav.filters.odometer_epochs import OdometerConfig
 from railnav.filters.track_frame import LeverArms
 from railnav.jobs.run import truth_start
 from railnav.navigation.navigator import navigate
+from railnav.sensor_data import SensorData
 from railnav.sensors.balises import read_balises_csv, write_balises_csv
 from railnav.sensors.odometer import read_odometer_csv, write_odometer_csv
 from railnav.simulation.fixes import FixSimConfig, trip_fixes

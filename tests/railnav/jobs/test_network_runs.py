@@ -5,7 +5,7 @@ Geometry: the synthetic double line of `railnav.simulation.switch_network` (tang
 continuous joints, the truth on exactly the netelements' geometry; track B 4.5 m left of
 A, a passing loop L0 4.5 m right of it) and the real Brussels network for the route
 listing. References: the simulated route itself, and the truth's netelement at each cycle
-(`railnav.jobs.network.true_netelements`)."""
+(`railnav.jobs.network_scoring.true_netelements`)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -18,8 +18,8 @@ from railnav.jobs.network import (
     route_candidates,
     run_simulated_network,
     simulation_line,
-    true_netelements,
 )
+from railnav.jobs.network_scoring import true_netelements
 from railnav.navigation.network_status import row_records
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import get_scenario

@@ -17,10 +17,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from railnav.config import SensorData
 from railnav.filters.constrained import ConstrainedFilter
 from railnav.jobs.run import truth_start
 from railnav.navigation.navigator import navigate
+from railnav.sensor_data import SensorData
 from railnav.simulation.imu_logs import ImuLogSimConfig, simulate_imu_log
 from railnav.simulation.scenarios import get_scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from railnav.config import SensorData
 from railnav.jobs.run import run_simulated
 from railnav.navigation.navigator import _insert_samples, navigate
+from railnav.sensor_data import SensorData
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
 from railnav.simulation.trip import navigator_config_for, simulate_trip
 from trackmodel.io import read_track

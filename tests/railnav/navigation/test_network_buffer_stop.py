@@ -15,12 +15,13 @@ import types
 import numpy as np
 import pytest
 
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.filters.gnss_only import GnssOnlyFilter
 from railnav.navigation import loop
 from railnav.navigation.hypotheses import hypothesis, rebased
 from railnav.navigation.net_tracks import OrientedTracks, bare
 from railnav.navigation.network_navigator import navigate_network
+from railnav.sensor_data import SensorData
 from railnav.simulation.fixes import FixSimConfig, simulate_fixes
 from railnav.simulation.switch_network import SwitchNetworkSpec, switch_network
 from trackmodel.network import Network

@@ -14,8 +14,9 @@ import numpy as np
 import pandas as pd
 
 from gnss_obs.fixes.read import read_fixes
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
 from railnav.navigation.navigator import _sample_times
+from railnav.sensor_data import SensorData
 from railnav_data import shipped_path
 
 EXCERPT = shipped_path("fixes", "brussels/log_28876_L36-B_excerpt.csv")

@@ -20,7 +20,6 @@ from gnss_obs.rinex_nav import read_rinex_nav
 from gnss_obs.rinex_obs import RinexObs
 from gnss_obs.sim_events import in_outages as in_outage
 from gnss_obs.simulate import default_nav_path
-from railnav.config import SensorData
 from railnav.errors import ConfigError
 from railnav.evaluation.metrics import (
     ERROR_QUANTITIES,
@@ -32,6 +31,7 @@ from railnav.evaluation.running_stats import RunningSummary
 from railnav.filters.protocol import make_filter
 from railnav.navigation.navigator import navigate
 from railnav.navigation.streaming import _initial_state, stream_simulated
+from railnav.sensor_data import SensorData
 from railnav.simulation.profiles import constant_speed
 from railnav.simulation.scenarios import TRACKS_DIR, Scenario, get_scenario
 from railnav.simulation.trip import navigator_config_for
