@@ -201,6 +201,19 @@ class NoiseScale:
         # again from the parts each time the window has turned over (no drift)
         self._sums = {kind: [0.0, 0.0, 0.0] for kind in ROW_KINDS}
         self._appended = dict.fromkeys(ROW_KINDS, 0)
+        self._seed = dict.fromkeys(ROW_KINDS, 1.0)
+
+    def seed(self, variance_factor: dict[str, float]) -> None:
+        """Start from `variance_factor` (``k²`` of some kinds, ≥ 1; a start's evidence:
+        `railnav.navigation.start_scatter`): in effect now, and a floor on the scale until
+        the window has turned over once (its own evidence is then a full window). Without a
+        configuration, or at 1, nothing changes."""
+        if self.config is None:
+            return
+        top = self.config.max_sigma_factor ** 2
+        for kind, factor in variance_factor.items():
+            self._seed[kind] = min(max(float(factor), 1.0), top)
+            self.variance_factor[kind] = max(self.variance_factor[kind], self._seed[kind])
 
     def _append(self, kind: str, part: tuple) -> None:
         """Add one epoch's `_window_part` of `kind` to its window and its sums."""
@@ -280,13 +293,15 @@ class NoiseScale:
         top = cfg.max_sigma_factor ** 2
         for k in ROW_KINDS:
             window = self._window[k]
+            floor = self._seed[k] if self._appended[k] < cfg.window_epochs else 1.0
             total, squares, above = self._sums[k]
             if above < _needed_weight(total, squares, cfg.z):   # the sign test at 1: no
-                self.variance_factor[k] = 1.0
+                self.variance_factor[k] = floor
                 continue
             q = np.concatenate([part[0] for part in window])
             weight = np.concatenate([part[1] for part in window])
-            self.variance_factor[k] = min(scale_bound(q, weight, z=cfg.z, floor=1.0), top)
+            self.variance_factor[k] = min(max(scale_bound(q, weight, z=cfg.z, floor=1.0),
+                                              floor), top)
 
 
 def _window_part(q: Array, own_var: Array) -> tuple:
