@@ -25,7 +25,10 @@ fix's error is the high satellites'.
 covariance promises, whatever the rows' shape. `scatter_factors` fits the horizontal
 (east, north) positions of the first `START_EPOCHS` fixes with a cubic in time and their
 velocities with a quadratic (a train's motion over 10 s), whitened by each fix's own
-horizontal covariance, and tests each fit's χ² at `P_FALSE_INFLATION`: significant, the
+horizontal covariance (the velocities of a moving start by their speed alone, with its σ
+along the velocity: a turn rotates the components, not the speed; a car in the urban
+drive's corners had them off a quadratic by up to 80× their variance), and tests each
+fit's χ² at `P_FALSE_INFLATION`: significant, the
 variance factor is ``χ²/dof``; not, exactly 1 (a start told the right σ is unchanged, to
 the bit, but in `P_FALSE_INFLATION` of the starts or where the motion is not smooth over
 the window). The factor multiplies the fix's covariance (`inflated_fix`). Errors slower
@@ -53,6 +56,8 @@ START_EPOCHS = 10
 P_FALSE_INFLATION = 1e-3
 #: Polynomial degrees in time of the positions and of the velocities.
 POSITION_DEGREE, VELOCITY_DEGREE = 3, 2
+#: A start moves when every fix's speed is beyond this many σ (`scatter_factors`).
+MOVING_SIGMAS = 5.0
 #: Time unit of the polynomials, s (conditioning only).
 _TIME_UNIT_S = 10.0
 
@@ -109,6 +114,18 @@ def polynomial_chi2(time_s: Array, values: Array, cov: Array, *, degree: int
     return float(np.sum(np.square(y - design @ coef))), dof
 
 
+def _velocities(v_h: Array, cov_v_h: Array) -> tuple[Array, Array]:
+    """What the velocity fit takes: the horizontal speed and its variance along the
+    velocity when every fix moves by more than `MOVING_SIGMAS` of it (a turn rotates the
+    components, not the speed), else the east and north components."""
+    speed = np.linalg.norm(v_h, axis=1)
+    u = v_h / np.where(speed > 0.0, speed, 1.0)[:, None]
+    var = np.einsum("ki,kij,kj->k", u, cov_v_h, u)
+    if np.all(speed > MOVING_SIGMAS * np.sqrt(var)):
+        return speed[:, None], var[:, None, None]
+    return v_h, cov_v_h
+
+
 def _factor(chi2_value: float, dof: int, p_false: float) -> float:
     if dof <= 0 or chi2_value <= chi2.isf(p_false, dof):
         return 1.0
@@ -144,8 +161,8 @@ def scatter_factors(time_s: Array, r_e: Array, v_e: Array, cov_enu_m2: Array,
     chi_p, dof_p = polynomial_chi2(time_s, enu[:, horizontal],
                                    cov_enu_m2[:, horizontal, horizontal],
                                    degree=POSITION_DEGREE)
-    chi_v, dof_v = polynomial_chi2(time_s, v_enu[:, horizontal],
-                                   cov_v_enu_m2ps2[:, horizontal, horizontal],
-                                   degree=VELOCITY_DEGREE)
+    chi_v, dof_v = polynomial_chi2(time_s, *_velocities(
+        v_enu[:, horizontal], cov_v_enu_m2ps2[:, horizontal, horizontal]),
+        degree=VELOCITY_DEGREE)
     return ScatterFactors(_factor(chi_p, dof_p, p_false), _factor(chi_v, dof_v, p_false),
                           chi_p, dof_p, chi_v, dof_v)
