@@ -114,16 +114,21 @@ def polynomial_chi2(time_s: Array, values: Array, cov: Array, *, degree: int
     return float(np.sum(np.square(y - design @ coef))), dof
 
 
-def _velocities(v_h: Array, cov_v_h: Array) -> tuple[Array, Array]:
-    """What the velocity fit takes: the horizontal speed and its variance along the
-    velocity when every fix moves by more than `MOVING_SIGMAS` of it (a turn rotates the
-    components, not the speed), else the east and north components."""
+def _velocity_chi2(time_s: Array, v_h: Array, cov_v_h: Array) -> tuple[float, int]:
+    """The velocity fit's χ² and dof: of the horizontal speed, with its variance along the
+    velocity, when every fix moves by more than `MOVING_SIGMAS` of it (a turn rotates the
+    components, not the speed), else of the east and north components. The σ of that
+    test are the components' own times their fit's ``χ²/dof`` when above 1: overconfident
+    velocities of a standing receiver look like motion by their σ alone."""
+    chi_c, dof_c = polynomial_chi2(time_s, v_h, cov_v_h, degree=VELOCITY_DEGREE)
     speed = np.linalg.norm(v_h, axis=1)
     u = v_h / np.where(speed > 0.0, speed, 1.0)[:, None]
     var = np.einsum("ki,kij,kj->k", u, cov_v_h, u)
-    if np.all(speed > MOVING_SIGMAS * np.sqrt(var)):
-        return speed[:, None], var[:, None, None]
-    return v_h, cov_v_h
+    scatter = max(chi_c / dof_c, 1.0) if dof_c > 0 else 1.0
+    if np.all(speed > MOVING_SIGMAS * np.sqrt(var * scatter)):
+        return polynomial_chi2(time_s, speed[:, None], var[:, None, None],
+                               degree=VELOCITY_DEGREE)
+    return chi_c, dof_c
 
 
 def _factor(chi2_value: float, dof: int, p_false: float) -> float:
@@ -161,8 +166,7 @@ def scatter_factors(time_s: Array, r_e: Array, v_e: Array, cov_enu_m2: Array,
     chi_p, dof_p = polynomial_chi2(time_s, enu[:, horizontal],
                                    cov_enu_m2[:, horizontal, horizontal],
                                    degree=POSITION_DEGREE)
-    chi_v, dof_v = polynomial_chi2(time_s, *_velocities(
-        v_enu[:, horizontal], cov_v_enu_m2ps2[:, horizontal, horizontal]),
-        degree=VELOCITY_DEGREE)
+    chi_v, dof_v = _velocity_chi2(time_s, v_enu[:, horizontal],
+                                  cov_v_enu_m2ps2[:, horizontal, horizontal])
     return ScatterFactors(_factor(chi_p, dof_p, p_false), _factor(chi_v, dof_v, p_false),
                           chi_p, dof_p, chi_v, dof_v)
