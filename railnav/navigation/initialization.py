@@ -3,7 +3,11 @@
 * `initial_from_gnss`: single-point positioning (`gnss_obs.solve_spp`) over the first epochs
   of the trip; the first epoch with a position and a Doppler velocity gives the fix, which
   the filter turns into its state (projected on the track for the track-based filters) and
-  covariance (`filter.initial_from_fix`).
+  covariance (`filter.initial_from_fix`). With the noise scale on
+  (``NavigatorConfig.noise_scale``), the fix's covariances are multiplied by the variance
+  factors the scatter of the first fixes shows (`railnav.navigation.start_scatter`; 1
+  when not significant), and the start seeds the GNSS rows' scale with them
+  (`InitialState.noise_seed`, `railnav.filters.noise_scale.NoiseScale.seed`).
 * `initial_from_truth`: for simulations, ``x0 = x_true + e`` with ``e ~ N(0, P0)`` drawn from
   the filter's own initial covariance, so that the filter's covariance is honest from the
   first step (needed for NEES statistics). Components whose truth is itself a draw from
