@@ -127,9 +127,9 @@ def test_too_few_fixes_leave_the_start_alone():
 
 
 def test_noise_scale_seed_holds_for_one_window():
-    """A seed is in effect at once, as a floor while the window fills, and gone once it
-    has turned over (rows told right then give exactly 1); without a configuration it
-    does nothing; it is capped at the largest factor."""
+    """A seed is in effect at once, as a floor for half the window, falling linearly to
+    1 when the window has turned over (rows told right then give exactly 1); without a
+    configuration it does nothing; it is capped at the largest factor."""
     cfg = NoiseScaleConfig(window_epochs=5)
     scale = NoiseScale(cfg)
     scale.seed({"pseudorange": 9.0, "range_rate": 0.5})
@@ -142,7 +142,8 @@ def test_noise_scale_seed_holds_for_one_window():
                 for k in ("pseudorange", "range_rate")}
         scale.add(rows)
         seen.append(scale.variance_factor["pseudorange"])
-    assert seen[:4] == [9.0] * 4 and seen[4:] == [1.0, 1.0]
+    # the floor 1 + 8 · min(1, (5 − n) / 2.5) after n epochs
+    assert seen == pytest.approx([9.0, 9.0, 7.4, 4.2, 1.0, 1.0], rel=1e-12)
     off = NoiseScale(None)
     off.seed({"pseudorange": 9.0})
     assert off.variance_factor["pseudorange"] == 1.0
