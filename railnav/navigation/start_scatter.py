@@ -47,8 +47,7 @@ paper2017 plain files (moving at 20 m/s), five seeds, NEES 15.1 -> 1.23, lost ep
 100 -> 0. Told the σ (``scenario.json``), 8 of 8 runs bit-identical. On the urban drive's
 pieces (gnss-only) the position factor was 1 on every piece (its errors are slow) and
 the velocity factor 3.4-71; epochs beyond 3σ_s left ``ok`` 35 -> 23 (leg 1 whole
-# 20 -> 20, the other pieces 15 -> 3), and a start inside
-the U-turn (46006) 13 -> 0.
+20 -> 20, the other pieces 15 -> 3), and a start inside the U-turn (46006) 13 -> 0.
 """
 from __future__ import annotations
 
