@@ -3,7 +3,11 @@
 * `initial_from_gnss`: single-point positioning (`gnss_obs.solve_spp`) over the first epochs
   of the trip; the first epoch with a position and a Doppler velocity gives the fix, which
   the filter turns into its state (projected on the track for the track-based filters) and
-  covariance (`filter.initial_from_fix`).
+  covariance (`filter.initial_from_fix`). With the noise scale on
+  (``NavigatorConfig.noise_scale``), the fix's covariances are multiplied by the variance
+  factors the scatter of the first fixes shows (`railnav.navigation.start_scatter`; 1
+  when not significant), and the start seeds the GNSS rows' scale with them
+  (`InitialState.noise_seed`, `railnav.filters.noise_scale.NoiseScale.seed`).
 * `initial_from_truth`: for simulations, ``x0 = x_true + e`` with ``e ~ N(0, P0)`` drawn from
   the filter's own initial covariance, so that the filter's covariance is honest from the
   first step (needed for NEES statistics). Components whose truth is itself a draw from
@@ -13,16 +17,18 @@
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
 
 from gnss_obs.spp import SppConfig, solve_spp
 from railnav.errors import RailnavError
+from railnav.filters.common import ROW_KINDS
+from railnav.navigation.start_scatter import START_EPOCHS, scatter_factors
 
 __all__ = ["InitialState", "GnssFix", "first_fix", "initial_from_gnss", "initial_from_truth",
-           "MAX_INITIAL_EPOCHS"]
+           "noise_seed", "MAX_INITIAL_EPOCHS"]
 
 log = logging.getLogger(__name__)
 
@@ -43,11 +49,15 @@ class InitialState:
     x0 : ndarray, shape (n,)
     P0 : ndarray, shape (n, n)
         In the filter's `ekf.StateLayout`.
+    noise_seed : dict of str to float
+        The GNSS rows' starting variance factors by kind (`NoiseScale.seed`; empty: none),
+        from a start's fixes (`first_fix`'s `GnssFix.start_factors`).
     """
 
     time_s: float
     x0: Array
     P0: Array
+    noise_seed: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -66,6 +76,9 @@ class GnssFix:
         m/s.
     cov_enu_m2, cov_v_enu_m2ps2 : ndarray, shape (3, 3)
         Position and velocity covariance in ENU, m² and (m/s)².
+    start_factors : tuple of float
+        The variance factors (position, velocity) already in those covariances
+        (`railnav.navigation.start_scatter`; 1: none).
     """
 
     time_s: float
@@ -75,6 +88,7 @@ class GnssFix:
     clock_drift_mps: float
     cov_enu_m2: Array
     cov_v_enu_m2ps2: Array
+    start_factors: tuple[float, float] = (1.0, 1.0)
 
 
 def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
@@ -107,11 +121,30 @@ def first_fix(data, config, *, max_epochs: int = MAX_INITIAL_EPOCHS) -> GnssFix:
         raise RailnavError(f"{name}: no GNSS fix with velocity in the first {times.size} "
                            "epochs (too few satellites?)")
     k = int(np.argmax(ok))
+    pos_factor, vel_factor = _start_factors(spp, ok, k) if config.noise_scale is not None \
+        else (1.0, 1.0)
     return GnssFix(time_s=float(spp.gps_time_s[k] - data.start_gps_time_s),
                    r_e=spp.r_e[k], v_e=spp.v_e[k],
                    clock_bias_m={s: float(spp.clock_bias_m[s][k]) for s in spp.systems},
                    clock_drift_mps=float(spp.clock_drift_mps[k]),
-                   cov_enu_m2=spp.cov_enu_m2[k], cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k])
+                   cov_enu_m2=spp.cov_enu_m2[k] * pos_factor,
+                   cov_v_enu_m2ps2=spp.cov_v_enu_m2ps2[k] * vel_factor,
+                   start_factors=(pos_factor, vel_factor))
+
+
+def _start_factors(spp, ok, k: int) -> tuple[float, float]:
+    """The variance factors of fix `k`'s position and velocity from the scatter of the
+    fixes `ok` from it on (`railnav.navigation.start_scatter`)."""
+    use = np.flatnonzero(ok)
+    use = use[use >= k][:START_EPOCHS]
+    found = scatter_factors(spp.gps_time_s[use], spp.r_e[use], spp.v_e[use],
+                            spp.cov_enu_m2[use], spp.cov_v_enu_m2ps2[use])
+    if found.position != 1.0 or found.velocity != 1.0:
+        log.info("the first fixes scatter beyond their σ (χ² %.1f/%d position, %.1f/%d "
+                 "velocity): the start's variances ×%.3g and ×%.3g", found.chi2_position,
+                 found.dof_position, found.chi2_velocity, found.dof_velocity,
+                 found.position, found.velocity)
+    return found.position, found.velocity
 
 
 def initial_from_gnss(filt_obj, data, config, gnss):
@@ -122,7 +155,16 @@ def initial_from_gnss(filt_obj, data, config, gnss):
     fix = first_fix(data, config)
     x0, P0 = filt_obj.initial_from_fix(fix)
     log.info("started at t=%.3f s from a GNSS fix", fix.time_s)
-    return InitialState(fix.time_s, x0, P0)
+    return InitialState(fix.time_s, x0, P0, noise_seed=noise_seed(fix))
+
+
+def noise_seed(fix: GnssFix) -> dict[str, float]:
+    """The GNSS rows' starting variance factors (`InitialState.noise_seed`) of a start at
+    `fix`: its position factor for the pseudoranges, its velocity factor for the range
+    rates (`railnav.navigation.start_scatter`; empty when both are 1)."""
+    if fix.start_factors == (1.0, 1.0):
+        return {}
+    return dict(zip(ROW_KINDS, fix.start_factors))
 
 
 def initial_from_truth(x_true: npt.ArrayLike, P0: npt.ArrayLike, *, time_s: float,

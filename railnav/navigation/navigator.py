@@ -106,6 +106,8 @@ def navigate(track, data: SensorData, config: NavigatorConfig = NavigatorConfig(
         initial = initial_from_gnss(filt, data, config, trip.gnss)
     elif callable(initial):
         initial = initial(filt)
+    if initial.noise_seed and hasattr(filt, "noise_scale"):
+        filt.noise_scale.seed(initial.noise_seed)
     t, u, epoch_idx = trip.from_time(initial.time_s)
     loop = ChunkLoop(filt, config, sample_interval_s=float(np.median(np.diff(t))))
     loop.monitor = run_monitor(filt, data, config, trip.fixes, start_s=float(t[0]))

@@ -258,7 +258,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
     # the weights (outage_20min seed 5 lost for good with it; its limits there)
     factory = FilterFactory(tracks, replace(config, one_sided=False), trip)
     t0, hyps = start_hypotheses(network, tracks, factory, trip, data, config, nav,
-                                start=start, initial=initial, near=near)
+                                start=start, initial=initial, near=near, seed_scale=True)
     t, u, epoch_idx = trip.from_time(t0)
     at_sample = np.searchsorted(t, trip.epoch_times[epoch_idx] - EPOCH_TIME_TOL_S)
     stepper = StackedFixStepper(config, trip, tracks, t,
@@ -363,7 +363,7 @@ class _Run:
         try:
             t_new, hyps = start_hypotheses(self.network, self.tracks, self.factory, self.trip,
                                            self.data, self.config, self.nav,
-                                           after_s=float(t[a]))
+                                           after_s=float(t[a]), seed_scale=True)
         except (ConfigError, RailnavError) as exc:
             log.warning("no start again: %s", exc)
             return None, []

@@ -62,7 +62,7 @@ from railnav.errors import ConfigError, RailnavError
 from railnav.navigation.fix_start import MAX_INITIAL_FIXES, initial_at_fix
 from railnav.navigation.hypotheses import Hypothesis, hypothesis
 from railnav.navigation.net_tracks import bare
-from railnav.navigation.initialization import InitialState, first_fix
+from railnav.navigation.initialization import InitialState, first_fix, noise_seed
 from railnav.navigation.loop import EPOCH_TIME_TOL_S
 from railnav.navigation.network_weights import abreast, ecef_points, track_points_of
 from railnav.navigation.route_path import PathEntry
@@ -139,7 +139,7 @@ def _candidates(network, lat: float, lon: float, radius_m: float,
 
 def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                      start: NetworkStart | None = None, initial=None,
-                     after_s: float | None = None, near=None
+                     after_s: float | None = None, near=None, seed_scale: bool = False
                      ) -> tuple[float, list[Hypothesis]]:
     """The start time (s from the trip start) and the first hypotheses (module docstring).
 
@@ -162,6 +162,10 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
     near : (lat, lon), optional
         Look for candidates near this point (rad) instead of near the start fix (a
         simulation's true start, with `initial`).
+    seed_scale : bool
+        Seed the bank's noise scale (``factory.noise_scale``) with the start's
+        `InitialState.noise_seed` (a run's start and restart; not a spawn's, whose bank
+        has its window).
 
     Raises
     ------
@@ -186,6 +190,8 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
             if start is not None and start.offset_m is not None:
                 init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
             time_s = init.time_s if time_s is None else time_s
+            if seed_scale and init.noise_seed and hasattr(factory, "noise_scale"):
+                factory.noise_scale.scale.seed(init.noise_seed)
             hyps.append(hypothesis(tracks, bare(element, orientation), init.x0, init.P0,
                                    0.0, filt, (PathEntry(element, orientation,
                                                          float(init.time_s)),)))
@@ -301,7 +307,8 @@ def _start_point(network, trip, data, config, nav, start, told: bool, after_s):
         lat, lon, _ = ecef_to_geodetic(fix.r_e)
 
         def begin(filt):
-            return InitialState(fix.time_s, *filt.initial_from_fix(fix))
+            return InitialState(fix.time_s, *filt.initial_from_fix(fix),
+                                noise_seed=noise_seed(fix))
         return float(lat), float(lon), begin
     raise RailnavError("a network run needs GNSS observations or fixes to start from")
 

@@ -155,3 +155,37 @@ def test_no_track_abreast_where_the_start_fix_says_the_start_is_lost():
     _, _, told = _told(net, "B", 100.0)
     far = with_abreast([told], net, tracks, factory, nav, fix=_fix_at_point(a0, 190.0, 3.0))
     assert far == [told] and told.log_weight == 0.0
+
+
+def test_a_gnss_start_seeds_the_banks_noise_scale():
+    """A network run started from GNSS (no initial state: the first fix,
+    `railnav.navigation.initialization.first_fix`), the receiver's σ 10× too small: the
+    bank's scale at the first epoch is the start's factors (σ factors √ of the variance
+    factors `first_fix` gives the same data), and the first fix's covariance carries them
+    (`railnav.navigation.start_scatter`)."""
+    from railnav.navigation.initialization import first_fix
+    from railnav.navigation.network_navigator import navigate_network
+    from railnav.simulation.profiles import constant_speed
+    from railnav.simulation.scenarios import get_scenario
+    from railnav.simulation.switch_network import route_track
+    from railnav.simulation.trip import navigator_config_for, simulate_trip
+    spec = SwitchNetworkSpec(loops=1, lead_in_m=1500.0)
+    net = switch_network(spec)
+    line = route_track(net, [("A0", 1)])
+    scenario = replace(get_scenario("curvy"), profile=constant_speed(20.0), duration_s=30.0,
+                       outages=(), start_s=50.0)
+    config = navigator_config_for(scenario, filter="constrained", systems="G")
+    m = config.measurement
+    config = replace(config, measurement=replace(m, sigma_pr_m=m.sigma_pr_m / 10.0,
+                                                 sigma_rr_mps=m.sigma_rr_mps / 10.0))
+    trip = simulate_trip(scenario, track=line, seed=2, systems="G")
+    data = trip.sensor_data()
+    fix = first_fix(data, config)
+    pos, vel = fix.start_factors
+    assert pos > 1.0 and vel > 1.0
+    res = navigate_network(net, data, config, nav=NetworkNavConfig(spawn=False))
+    rows = res.innovations
+    first = rows[rows["epoch"] == rows["epoch"].min()]
+    for kind, factor in (("pseudorange", pos), ("range_rate", vel)):
+        scale = first.loc[first["kind"] == kind, "noise_scale"].to_numpy()
+        assert scale.size and np.allclose(scale, math.sqrt(min(factor, 400.0)), rtol=1e-12)
