@@ -275,6 +275,18 @@ class NoiseScale:
             self._append(k, parts[k])
         self._update()
 
+    def upper_bound(self, kind: str) -> float:
+        """The one-sided upper confidence bound at ``z`` of the weighted median of
+        `kind`'s window of ``q`` (`scale_bound` mirrored: the smallest λ with the weight
+        ``W/2 + z √(Σw²)/2`` of the ``q`` at or below it); inf without a configuration
+        or with too few rows."""
+        if self.config is None or not self._window[kind]:
+            return math.inf
+        q = np.concatenate([part[0] for part in self._window[kind]])
+        weight = np.concatenate([part[1] for part in self._window[kind]])
+        return -scale_bound(-q, weight, z=self.config.z, floor=-math.inf) if q.size \
+            else math.inf
+
     def _update(self) -> None:
         cfg = self.config
         top = cfg.max_sigma_factor ** 2
