@@ -61,7 +61,8 @@ own screen). The scale in effect at each epoch is ``innovations.csv``'s ``noise_
 factor ``k``), and ``summary.json``'s ``statistics.noise_scale`` its final and largest.
 
 **A bank** of hypotheses (the network navigator's) shares one scale, fed by its most
-probable hypothesis: `railnav.filters.bank_noise_scale`.
+probable hypothesis: `railnav.filters.bank_noise_scale`. The single-point fixes of its
+spawn test have one of their own, fed by their residuals: `railnav.navigation.spp_epochs`.
 """
 from __future__ import annotations
 

@@ -44,7 +44,8 @@ epochs before it counting: a σ told too small makes the fixes, and the spawn te
 the test exactly when that hypothesis is wrong; these residuals know no hypothesis. Not
 the solution's own residuals: the exclusions keep the satellites until the χ² test at
 the told σ passes, and Huber's weights near an L1 fit leave half the rows near 0 (k²
-2.9 and 3.2-3.9 where the plain residuals give 5.0-7.3, pseudoranges 3 m told 1 m).
+2.4-2.9 and 3.2-3.9 at 60, 120 and 300 s where the plain residuals give 5.0-7.3,
+pseudoranges 3 m told 1 m).
 Told right, ``k²`` stays 1 and the fixes are the unscaled ones to the bit (the sign
 test, `railnav.filters.noise_scale`). Told 1 m for 3 m (curvy, 300 s, seed 3): ``k²``
 4.96-7.33 after 60 epochs (a lower bound of 9), the fixes' horizontal NEES against the
