@@ -155,13 +155,14 @@ def _position(epoch: EpochData, tx, ctx: _Context, r0: Array, prepared=None):
         max_excl = cfg.max_exclusions - len(excluded) if cfg.raim else 0
         fde = fault_detection_exclusion(H, z, prep.sigma_pr_m, p_false_alarm=cfg.p_false_alarm,
                                         max_exclusions=max_excl, huber_k=cfg.huber_k)
+        every = (H, z, prep.sigma_pr_m) if not excluded else every   # all rows
         if fde.n_excluded == 0:
             if prepared is not None and not excluded and \
                     np.linalg.norm(fde.step.dx[:3]) > cfg.tol_m:
                 prepared, r_e = None, r_e + fde.step.dx[:3]    # too far: iterate from there
                 continue
             r_e = r_e + fde.step.dx[:3]
-            return r_e, prep, fde, present, sorted(excluded)
+            return r_e, prep, fde, present, sorted(excluded), every
         excluded |= set(prep.sv[~fde.kept])
 
 
@@ -210,7 +211,7 @@ def fix_epoch(epoch: EpochData, config: SppConfig, guess: Array, *,
     pos = _position(epoch, tx, ctx, guess, prepared)
     if pos is None:
         return None
-    r_e, prep, fde, present, excluded = pos
+    r_e, prep, fde, present, excluded, every = pos
     lat, lon, _ = ecef_to_geodetic(r_e)
     C = C_n_e(lat, lon)
     T = np.eye(3 + len(present))
@@ -234,7 +235,7 @@ def fix_epoch(epoch: EpochData, config: SppConfig, guess: Array, *,
                    clocks=clocks, used_sv=prep.sv.copy(), excluded_sv=excluded,
                    n_tracked=len(epoch), raim_ok=fde.raim_ok,
                    chi2=fde.step.test_statistic, dof=fde.step.dof, hpl_m=hpl, vpl_m=vpl,
-                   dop=dop, sky=sky)
+                   dop=dop, sky=sky, pr_rows=every)
     vel = _velocity(prep, r_e, config) if config.velocity else None
     if vel is not None:
         vfde, sub = vel

@@ -61,6 +61,10 @@ class EpochFix:
     velocity_raim_ok: bool = False
     chi2_doppler: float = float("nan")
     dof_doppler: int = 0
+    #: The position's last linearized problem with every usable satellite, before any
+    #: exclusion: design ``H``, pre-fit residuals ``z`` (m) and told σ (m)
+    #: (`railnav.navigation.spp_epochs`' noise scale).
+    pr_rows: tuple | None = None
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,8 @@
 the network navigator's (`railnav.navigation.network_navigator`).
 
 The scale is the receiver's and its surroundings', not a hypothesis's: every hypothesis's
-rows of an epoch carry the same factors, and the rows of one hypothesis feed them, those of the most probable before the
-epoch (its innovations at its prior, as a single filter's). A hypothesis on a wrong track
+rows of an epoch carry the same factors, and the rows of one hypothesis feed them, those
+of the most probable before the epoch (its innovations at its prior, as a single filter's). A hypothesis on a wrong track
 has large innovations; with a scale of its own (until 2026-12-07) its factors rose, its
 rows' variances with them, and its likelihood was penalised less: it lived longer, and
 its risen scale let rows back in (a 400-m wrong start of
@@ -13,23 +13,27 @@ the same measurements several times in one window (its sign test takes them for
 independent) and let the wrong tracks' rows raise the factors exactly when the bank is
 unsure; the most probable hypothesis's alone are one set per epoch. Which hypothesis
 feeds changes with the weights; branching, merging and pruning do not touch the window
-(every hypothesis, born when it may, is a `MemberNoiseScale` of the one bank), nor does
-a spawn (`railnav.navigation.spawning`): a start again after every hypothesis died forgets
-it (`BankNoiseScale.restart`), as a new run would. A spawn that forgot it would help a
-true wrong start (a 400-m one of ``benchmarks/bench_network_spawn_gnss.py``, whose rows
-raised the factors of the right hypotheses spawned: within 10 m after 5-7 s with a
-restart at the spawn, 8-13 s without, 5 seeds) and harm where the σ is told too small,
-where the spawn test of the epochs' own fixes fails falsely every ~20 s (3 tracks 4.5 m
-apart, pseudoranges 3 m told 1 m, 300 s, 5 seeds: right netelement in 95.0 % of the
-cycles with a restart at each spawn, one run ending on the wrong track; 99.8 % without;
-95.2 % with a scale per hypothesis). A bank of one is the single filter: the same
-factors, to the bit.
+(every hypothesis, born when it may, is a `MemberNoiseScale` of the one bank); a start
+again after every hypothesis died forgets it (`BankNoiseScale.restart`), as a new run
+would, and so does a spawn (`railnav.navigation.spawning`) when the scale is above what
+the epochs' own single-point fixes say (`BankNoiseScale.restart_above`: their residuals'
+scale, `railnav.navigation.spp_epochs`, which knows no hypothesis): the rows that raised
+it were a wrong hypothesis's. A true wrong start then recovers as with a scale per
+hypothesis (a 400-m one of ``benchmarks/bench_network_spawn_gnss.py``, whose rows raised
+the factors of the right hypotheses spawned: within 10 m after 5-7 s, 8-13 s without
+the restart, 5 seeds), while a σ told too small, which raises the fixes' scale as much,
+keeps it: 3 tracks 4.5 m apart, pseudoranges 3 m told 1 m, 300 s, seeds 1-5, where a
+restart at each spawn cost 99.8 -> 95.0 % of the cycles on the right netelement, the
+fixes' scale ends the false spawns (72 -> 0), and with the fixes unscaled none of the 72
+restarted it (k² 3.5-7.5 against the fixes' upper bounds 8.7-18). A bank of one is the
+single filter: the same factors, to the bit.
 """
 from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
 
+from railnav.filters.common import ROW_KINDS
 from railnav.filters.noise_scale import NoiseScale, NoiseScaleConfig
 
 __all__ = ["BankNoiseScale", "MemberNoiseScale"]
@@ -62,6 +66,19 @@ class BankNoiseScale:
         """Forget the window, the factors back to 1 (the bank's hypotheses were found
         lost: their rows were no measure of the receiver's noise)."""
         self.scale = NoiseScale(self.scale.config)
+
+    def restart_above(self, own: NoiseScale) -> bool:
+        """At a spawn (`railnav.navigation.spawning`): `restart` when the pseudoranges'
+        factor is above `own`'s upper confidence bound (`NoiseScale.upper_bound`; `own`
+        the scale of the epochs' own single-point fixes, `railnav.navigation.spp_epochs`,
+        from their residuals whatever the hypotheses): the rows that raised it were
+        significantly noisier than the receiver's, a wrong hypothesis's. Whether it
+        restarted."""
+        kind = ROW_KINDS[0]
+        if self.scale.variance_factor[kind] <= own.upper_bound(kind):
+            return False
+        self.restart()
+        return True
 
     def epoch(self, feeder: "MemberNoiseScale | None") -> None:
         """Before an epoch: the member whose rows will count (None: none)."""

@@ -69,7 +69,8 @@ fading to 1 as the window turns over (a plain-files curvy trip, 10 seeds: NEES a
 Told the right σ, the seed is 1 and nothing changes.
 
 **A bank** of hypotheses (the network navigator's) shares one scale, fed by its most
-probable hypothesis: `railnav.filters.bank_noise_scale`.
+probable hypothesis: `railnav.filters.bank_noise_scale`. The single-point fixes of its
+spawn test have one of their own, fed by their residuals: `railnav.navigation.spp_epochs`.
 """
 from __future__ import annotations
 
@@ -298,6 +299,18 @@ class NoiseScale:
         for k in ROW_KINDS:
             self._append(k, parts[k])
         self._update()
+
+    def upper_bound(self, kind: str) -> float:
+        """The one-sided upper confidence bound at ``z`` of the weighted median of
+        `kind`'s window of ``q`` (`scale_bound` mirrored: the smallest λ with the weight
+        ``W/2 + z √(Σw²)/2`` of the ``q`` at or below it); inf without a configuration
+        or with too few rows."""
+        if self.config is None or not self._window[kind]:
+            return math.inf
+        q = np.concatenate([part[0] for part in self._window[kind]])
+        weight = np.concatenate([part[1] for part in self._window[kind]])
+        return -scale_bound(-q, weight, z=self.config.z, floor=-math.inf) if q.size \
+            else math.inf
 
     def _update(self) -> None:
         cfg = self.config

@@ -282,7 +282,7 @@ def navigate_network(network, data: SensorData, config: NavigatorConfig = Naviga
                                                            after_s=after_s),
                           p_degraded=config.monitor.p_degraded,
                           points=_grid_points(stepper), network=network,
-                          **_spp_fixes(trip, data, config, nav))
+                          noise_scale=factory.noise_scale, **_spp_fixes(trip, data, config, nav))
     hyps = run.cycles(hyps, ends, progress)
     run.recorder.spawns.extend(run.spawner.spawns)
     if run.spawner.active:

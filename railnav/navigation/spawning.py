@@ -68,25 +68,26 @@ Runs without position fixes (GNSS observations, with or without an IMU) test and
 from each GNSS epoch's own single-point fix instead (`railnav.navigation.spp_epochs`:
 the epoch's pseudoranges alone, weighted least squares with the run's σ model and the
 receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior, only
-linearized at the most probable one's preparation of the epoch when that is near). Their
-errors are counted as correlated over the larger of `NetworkNavConfig.
-evidence_correlation_s` and the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for
-simulated trips; 20 s by default for real ones: a 5-epoch window at 1 Hz is then one
-look). A spawn starts its hypotheses as the run's start does
-(`railnav.navigation.network_start`: ``filt.initial_from_fix`` of that epoch's
-single-point fix), so their receiver clock bias and drift are the fix's, not the lost
-hypotheses'. Measured (`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m,
-5 seeds): a start 400 m along the track, never recovered without spawning, is within
-10 m from 8-13 s on (one spawn, when the first window has filled); 150 m, which the
-curves between the loops correct by 24-32 s, from 7-13 s (one seed 21 s: the two
-parallel tracks undecided after the spawn). (5-7 s and 5-7 s, one seed 19 s, while each
-hypothesis had a noise scale of its own: the spawned ones started at factor 1, not at
-the one the lost hypotheses' rows had raised; `railnav.filters.noise_scale`, "A bank".) A start on the wrong one of two tracks
-4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m per axis, adds ~1.4 to the
-window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15 m apart, it is (from
-5-6 s). A known start therefore starts on the tracks abreast of it too
-(`railnav.navigation.network_start.with_abreast`), and the weights' evidence tells the
-4.5-m tracks apart (~1.1 nats an epoch: right from 3-18 s on, 5 seeds).
+linearized at the most probable one's preparation of the epoch when that is near; its σ
+scaled by its own residuals' noise scale, `spp_epochs`, "Scale"). Their errors are
+counted as correlated over the larger of `NetworkNavConfig. evidence_correlation_s` and
+the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips; 20 s by
+default for real ones: a 5-epoch window at 1 Hz is then one look). A spawn starts its
+hypotheses as the run's start does (`railnav.navigation.network_start`:
+``filt.initial_from_fix`` of that epoch's single-point fix), so their receiver clock
+bias and drift are the fix's, not the lost hypotheses'; the hypotheses' noise scale
+starts again when above the fixes'
+(`railnav.filters.bank_noise_scale.BankNoiseScale.restart_above`). Measured
+(`benchmarks/bench_network_spawn_gnss.py`, tactical IMU, σ_pr 3 m, 5 seeds): a start 400
+m along the track, never recovered without spawning, is within 10 m from 5-7 s on (one
+spawn, when the first window has filled; 8-13 s without the restart); 150 m, which the
+curves between the loops correct by 11-32 s, from 5-12 s (one seed 19 s: the two
+parallel tracks undecided after the spawn, 4 confident cycles on the wrong one). A start
+on the wrong one of two tracks 4.5 m apart is not detected (one epoch's fix, σ ≈ 3-4 m
+per axis, adds ~1.4 to the window's sum per epoch, against the χ²₁₀ tail 1e-6 at 51); 15
+m apart, it is (from 5-6 s). A known start therefore starts on the tracks abreast of it
+too (`railnav.navigation.network_start.with_abreast`), and the weights' evidence tells
+the 4.5-m tracks apart (~1.1 nats an epoch: right from 3-18 s on, 5 seeds).
 Cost: one single-point solve per GNSS epoch (one least-squares step from a hypothesis's
 preparation of the epoch, ~0.3 ms of CPU; `railnav.navigation.spp_epochs`)
 and each live hypothesis's track point from its track's nodes
@@ -216,6 +217,8 @@ class Spawner:
         epoch of ``trip.gnss``, each solved when the test reaches it, linearized at the
         most probable hypothesis's preparation of the epoch (`_linearization`), or given
         (`railnav.navigation.spp_epochs.epoch_spp_fixes`); a run with fixes tests those.
+    noise_scale : railnav.filters.bank_noise_scale.BankNoiseScale, optional
+        The hypotheses' scale, restarted at a spawn when above `spp`'s (`restart_above`).
     spp_correlation_s : float
         τ of `spp`'s errors, s (`railnav.navigation.spp_epochs.correlation_s`): the
         window counts them as `NetworkNavConfig.evidence_correlation_s` says for fixes.
@@ -223,7 +226,8 @@ class Spawner:
 
     def __init__(self, nav, trip, cross_sigma_m: float, start,
                  p_degraded: float = 1e-3, points=None, network=None, spp=None,
-                 spp_correlation_s: float = 0.0) -> None:
+                 spp_correlation_s: float = 0.0, noise_scale=None) -> None:
+        self.noise_scale = noise_scale
         self.nav, self.trip, self.cross_sigma_m, self.start = nav, trip, cross_sigma_m, start
         self._nodes = NodePoints()
         self.points = points or self._node_points
@@ -392,6 +396,9 @@ class Spawner:
             h.path = best.path
             entered(h, time_s, through_joint=False)
         self.spawns.append((float(time_s), len(new)))
+        if self._solver is not None and self.noise_scale is not None and \
+                self.noise_scale.restart_above(self._solver.noise_scale):
+            log.info("t=%.1f s: the noise scale starts again (above the fixes')", time_s)
         log.info("t=%.1f s: no hypothesis agrees with the fixes: %d new from the fix on %s",
                  time_s, len(new), ", ".join(sorted({h.element for h in new})))
         return list(hyps) + list(new)

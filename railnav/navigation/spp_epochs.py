@@ -34,6 +34,25 @@ m); on curvy (σ_pr 3 m) < 1 % of the fix's smallest horizontal σ
 (`tests/railnav/navigation/test_spp_epochs.py`), against the metres the spawn test
 compares. A hypothesis that is wrong by more than `TOL_M` gets the fix of the guess path.
 
+**Scale.** The fixes' covariance is the solution's times the pseudoranges' ``k²`` of a
+`railnav.filters.noise_scale.NoiseScale` of their own (``NavigatorConfig.noise_scale``;
+None: 1), fed by each fix's post-fit residuals (`residual_rows`: the plain weighted
+least squares of every usable satellite before any exclusion, over ``√(1 − h)``), the
+epochs before it counting: a σ told too small makes the fixes, and the spawn test's
+``d_h²``, as much too precise as the hypotheses' rows, and the bank's scale
+(`railnav.filters.bank_noise_scale`), fed by its most probable hypothesis, would blunt
+the test exactly when that hypothesis is wrong; these residuals know no hypothesis. Not
+the solution's own residuals: the exclusions keep the satellites until the χ² test at
+the told σ passes, and Huber's weights near an L1 fit leave half the rows near 0 (k²
+2.4-2.9 and 3.2-3.9 at 60, 120 and 300 s where the plain residuals give 5.0-7.3,
+pseudoranges 3 m told 1 m).
+Told right, ``k²`` stays 1 and the fixes are the unscaled ones to the bit (the sign
+test, `railnav.filters.noise_scale`). Told 1 m for 3 m (curvy, 300 s, seed 3): ``k²``
+4.96-7.33 after 60 epochs (a lower bound of 9), the fixes' horizontal NEES against the
+truth 3.36 (χ²₂: 2) against 21.0 unscaled (`tests/railnav/navigation/
+test_spp_noise_scale.py`). Its upper bound (`NoiseScale.upper_bound`) decides whether a
+spawn restarts the bank's scale (`BankNoiseScale.restart_above`).
+
 Their errors are as correlated from epoch to epoch as the pseudoranges' are: the run's
 ``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips, whose errors are
 white; 20 s by default, urban code multipath). `correlation_s` gives the τ the spawn test
@@ -57,11 +76,14 @@ from dataclasses import replace
 
 import numpy as np
 
+from railnav.filters.common import ROW_KINDS
 from railnav.filters.fix_epochs import FixEpochs
+from railnav.filters.noise_scale import NoiseScale
 from railnav.navigation.track_fixes import spp_config_of
 from trackmodel.earth import ecef_to_geodetic
 
-__all__ = ["epoch_spp_fixes", "EpochSppFixes", "correlation_s", "SPP_QUALITY"]
+__all__ = ["epoch_spp_fixes", "EpochSppFixes", "correlation_s", "residual_rows",
+           "SPP_QUALITY"]
 
 #: The fix class (`gnss_obs.fixes.table.FIX_QUALITIES`) of a receiver's single-point fix.
 SPP_QUALITY = "single"
@@ -142,6 +164,9 @@ class EpochSppFixes:
             getattr(gnss, "elevation_mask_rad", None) == np.deg2rad(self.cfg.elevation_mask_deg)
         self._solved = np.zeros(n, dtype=bool)
         self._last: list = []                          # the last fixes (time, r_e)
+        #: The fixes' own noise scale (module docstring, "Scale"): the pseudoranges' k²
+        #: from the post-fit residuals of the fixes before, whatever the hypotheses.
+        self.noise_scale = NoiseScale(getattr(config, "noise_scale", None))
 
     @classmethod
     def of(cls, gnss, data, config) -> "EpochSppFixes | None":
@@ -176,14 +201,35 @@ class EpochSppFixes:
         fix = solve_spp_epoch(self.gnss.epochs[k], self.nav, self.cfg,
                               transmit=self._transmit[k], details=False,
                               approx_e=approx, prepared=prepared)
-        if fix is None or not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
+        if fix is None:
+            return
+        k2 = self.noise_scale.variance_factor[ROW_KINDS[0]]      # the epochs' before
+        if self.noise_scale.feeding and fix.pr_rows is not None:
+            self.noise_scale.add({ROW_KINDS[0]: residual_rows(*fix.pr_rows)})
+        if not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
             return
         r_e = np.asarray(fix.r_e, dtype=float)
         f = self.fixes
         f.lat[k], f.lon[k], f.h_m[k] = (float(np.asarray(a).reshape(-1)[0])
                                         for a in ecef_to_geodetic(r_e))
-        f.cov_n_m2[k] = fix.cov_enu
+        f.cov_n_m2[k] = fix.cov_enu * k2
         self._last = (self._last + [(time_s, r_e)])[-GUESS_FIXES:]
+
+
+def residual_rows(H, z, sigma_m):
+    """A fix's pseudorange rows as `NoiseScale.add` takes them, ``(ν, a, b)`` (module
+    docstring, "Scale"): the plain weighted least-squares post-fit residuals of every
+    usable satellite (`gnss_obs.raim.wls_step` of the fix's last linearized problem
+    before any exclusion, `gnss_obs.spp_result.EpochFix.pr_rows`) over ``√(1 − h)`` (h
+    the leverage: their variance is then λ σ²), ``a`` = 0, ``b`` = σ² (the told σ);
+    rows without redundancy (``h`` → 1) left out."""
+    from gnss_obs.raim import wls_step
+    sigma_m = np.asarray(sigma_m, dtype=float)
+    step = wls_step(H, z, sigma_m)
+    redundancy = 1.0 - np.asarray(step.leverage, dtype=float)
+    keep = redundancy > 1e-9
+    nu = np.asarray(step.residual, dtype=float)[keep] / np.sqrt(redundancy[keep])
+    return nu, np.zeros(nu.size), np.square(sigma_m[keep])
 
 
 def _guess(last: list, time_s: float, approx):

@@ -9,13 +9,14 @@ computed apart), and its factors do not move within an epoch.
 """
 from __future__ import annotations
 
+import math
 from types import SimpleNamespace
 
 import numpy as np
 
 from railnav.filters.common import ROW_KINDS
 from railnav.filters.bank_noise_scale import BankNoiseScale
-from railnav.filters.noise_scale import NoiseScale, NoiseScaleConfig
+from railnav.filters.noise_scale import CHI2_1_MEDIAN, NoiseScale, NoiseScaleConfig
 
 #: Rows of a kind per epoch; their own variances ``b`` and prior parts ``a``.
 ROWS = 8
@@ -174,3 +175,51 @@ def test_a_restart_forgets_the_window():
         fresh.add(rows)
         assert member.variance_factor == fresh.variance_factor
     assert len(member.history) == 120
+
+
+def test_upper_bound_with_equal_weights_is_the_sign_test_order_statistic():
+    """`NoiseScale.upper_bound`, equal weights: the ``ceil(n/2 + z √n / 2)``-th smallest
+    ``q`` of the window (``q`` recomputed from the rows, `row_ratios`' closed form);
+    inf with too few rows."""
+    scale = NoiseScale(CONFIG)
+    rng = np.random.default_rng(5)
+    assert scale.upper_bound(ROW_KINDS[0]) == math.inf            # nothing seen
+    own = np.ones(ROWS)
+    q = []
+    for _ in range(12):
+        nu = rng.standard_normal(ROWS) * 3.0
+        scale.add({ROW_KINDS[0]: (nu, np.zeros(ROWS), own)})
+        q.append(nu ** 2 / CHI2_1_MEDIAN)
+    q = np.concatenate(q)
+    k = math.ceil(q.size / 2 + CONFIG.z * math.sqrt(q.size) / 2)
+    assert scale.upper_bound(ROW_KINDS[0]) == np.sort(q)[k - 1]
+    assert scale.upper_bound(ROW_KINDS[1]) == math.inf            # no rows of that kind
+
+
+def _fed(rng, ratio: float, epochs: int = 30) -> NoiseScale:
+    scale = NoiseScale(CONFIG)
+    for _ in range(epochs):
+        scale.add({ROW_KINDS[0]: (rng.standard_normal(ROWS) * np.sqrt(ratio * OWN_VAR),
+                                  np.zeros(ROWS), OWN_VAR)})
+    return scale
+
+
+def test_restart_above_the_fixes_own_scale():
+    """`BankNoiseScale.restart_above`: a bank whose rows said λ = 9 restarts (factors 1,
+    window empty) against fixes whose rows say λ = 1 (their upper bound below 9), not
+    against fixes that say λ = 9 too."""
+    rng = np.random.default_rng(8)
+    for own_ratio, restarts in ((1.0, True), (9.0, False)):
+        bank = BankNoiseScale(CONFIG)
+        member = bank.member()
+        for _ in range(30):
+            bank.epoch(member)
+            member.add({ROW_KINDS[0]: (rng.standard_normal(ROWS) * np.sqrt(9.0 * OWN_VAR),
+                                       np.zeros(ROWS), OWN_VAR)})
+            bank.end_epoch()
+        before = bank.scale.variance_factor[ROW_KINDS[0]]
+        own = _fed(rng, own_ratio)
+        assert before > own.upper_bound(ROW_KINDS[0]) if restarts else \
+            before <= own.upper_bound(ROW_KINDS[0])
+        assert bank.restart_above(own) is restarts
+        assert bank.scale.variance_factor[ROW_KINDS[0]] == (1.0 if restarts else before)
