@@ -31,10 +31,6 @@ from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.filters.track_frame import LeverArms
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.filters.standstill import StandstillConfig
-# SensorData is railnav.sensor_data's. Imported here (not exported) only while
-# railnav.navigation.network_navigator, edited on another branch, still imports it from
-# this module: drop this line when that import moves to railnav.sensor_data.
-from railnav.sensor_data import SensorData  # noqa: F401
 from strapdown.errors import StrapdownError
 from strapdown.imu_errors import ImuErrors, imu_grade
 

@@ -42,7 +42,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from railnav.config import NavigatorConfig, SensorData
+from railnav.config import NavigatorConfig
+from railnav.sensor_data import SensorData
 from railnav.errors import ConfigError, RailnavError
 from railnav.filters.fault_detection import RowScreen
 from railnav.filters.bank_noise_scale import BankNoiseScale

@@ -34,24 +34,29 @@ m); on curvy (σ_pr 3 m) < 1 % of the fix's smallest horizontal σ
 (`tests/railnav/navigation/test_spp_epochs.py`), against the metres the spawn test
 compares. A hypothesis that is wrong by more than `TOL_M` gets the fix of the guess path.
 
-**Scale.** The fixes' covariance is the solution's times the pseudoranges' ``k²`` of a
-`railnav.filters.noise_scale.NoiseScale` of their own (``NavigatorConfig.noise_scale``;
-None: 1), fed by each fix's post-fit residuals (`residual_rows`: the plain weighted
-least squares of every usable satellite before any exclusion, over ``√(1 − h)``), the
-epochs before it counting: a σ told too small makes the fixes, and the spawn test's
-``d_h²``, as much too precise as the hypotheses' rows, and the bank's scale
-(`railnav.filters.bank_noise_scale`), fed by its most probable hypothesis, would blunt
-the test exactly when that hypothesis is wrong; these residuals know no hypothesis. Not
-the solution's own residuals: the exclusions keep the satellites until the χ² test at
-the told σ passes, and Huber's weights near an L1 fit leave half the rows near 0 (k²
-2.4-2.9 and 3.2-3.9 at 60, 120 and 300 s where the plain residuals give 5.0-7.3,
-pseudoranges 3 m told 1 m).
-Told right, ``k²`` stays 1 and the fixes are the unscaled ones to the bit (the sign
-test, `railnav.filters.noise_scale`). Told 1 m for 3 m (curvy, 300 s, seed 3): ``k²``
-4.96-7.33 after 60 epochs (a lower bound of 9), the fixes' horizontal NEES against the
-truth 3.36 (χ²₂: 2) against 21.0 unscaled (`tests/railnav/navigation/
-test_spp_noise_scale.py`). Its upper bound (`NoiseScale.upper_bound`) decides whether a
-spawn restarts the bank's scale (`BankNoiseScale.restart_above`).
+**Scale.** The fixes' pseudoranges feed a `railnav.filters.noise_scale.NoiseScale` of
+their own (``NavigatorConfig.noise_scale``; None: none), from each fix's post-fit
+residuals (`residual_rows`: the plain weighted least squares of every usable satellite
+before any exclusion, over ``√(1 − h)``), the epochs before it counting. These residuals
+know no hypothesis, whereas the bank's scale (`railnav.filters.bank_noise_scale`) is fed
+by its most probable hypothesis, wrong ones included. Not the solution's own residuals:
+the exclusions keep the satellites until the χ² test at the told σ passes, and Huber's
+weights near an L1 fit leave half the rows near 0 (k² 2.4-2.9 and 3.2-3.9 at 60, 120 and
+300 s where the plain residuals give 5.0-7.3, pseudoranges 3 m told 1 m). Told right,
+``k²`` stays 1 (the sign test). Its upper bound (`NoiseScale.upper_bound`) decides
+whether a spawn restarts the bank's scale (`BankNoiseScale.restart_above`): a bank's
+factor above it was raised by rows noisier than the receiver's, a wrong hypothesis's.
+
+The fixes' covariance stays the solution's (the told σ), not scaled by this ``k²``.
+Scaled (tried, stop 39), the told-too-small case (3 tracks 4.5 m apart, curvy,
+pseudoranges 3 m told 1 m, 300 s, seeds 1-5) lost its false spawns (72 → 0) with the
+share of cycles on the right netelement unchanged (99.80 %), and the fixes' horizontal
+NEES against the truth fell from 21.0 to 3.36 (χ²₂: 2); but with 2 m of code multipath
+the navigator is not told about (``benchmarks/bench_network_spawn_gnss.py
+--multipath-sigma 2``, parallel tracks 15 m apart, spawning) the multipath raised the
+fixes' scale and took the test's power: right 0.721 → 0.643 of the cycles and
+confident-wrong cycles 152 → 202. Unscaled, every series of that benchmark is as
+before, and the restart alone gives back the fast recovery of a wrong start.
 
 Their errors are as correlated from epoch to epoch as the pseudoranges' are: the run's
 ``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips, whose errors are
@@ -203,7 +208,6 @@ class EpochSppFixes:
                               approx_e=approx, prepared=prepared)
         if fix is None:
             return
-        k2 = self.noise_scale.variance_factor[ROW_KINDS[0]]      # the epochs' before
         if self.noise_scale.feeding and fix.pr_rows is not None:
             self.noise_scale.add({ROW_KINDS[0]: residual_rows(*fix.pr_rows)})
         if not fix.raim_ok or not np.all(np.isfinite(fix.r_e)):
@@ -212,7 +216,7 @@ class EpochSppFixes:
         f = self.fixes
         f.lat[k], f.lon[k], f.h_m[k] = (float(np.asarray(a).reshape(-1)[0])
                                         for a in ecef_to_geodetic(r_e))
-        f.cov_n_m2[k] = fix.cov_enu * k2
+        f.cov_n_m2[k] = fix.cov_enu      # the told σ's (module docstring, "Scale")
         self._last = (self._last + [(time_s, r_e)])[-GUESS_FIXES:]
 
 

@@ -1,6 +1,7 @@
 """The single-point fixes' own noise scale (`railnav.navigation.spp_epochs`, "Scale"):
-the spawn test's fixes of a GNSS network run carry the pseudoranges' k² estimated from
-their own post-fit residuals, whatever the hypotheses.
+the pseudoranges' k² estimated from the spawn test's fixes' own post-fit residuals,
+whatever the hypotheses (it decides whether a spawn restarts the bank's scale; the fixes
+keep the told σ's covariance).
 
 References: the residuals' closed form (the whitened hat matrix by NumPy's least
 squares) and their variance ``σ²(1 − h)`` by simulation; the simulator's truth and the
@@ -87,17 +88,19 @@ def test_told_right_the_fixes_are_those_without_the_scale(trip):
         assert np.array_equal(getattr(scaled, name), getattr(plain, name))
 
 
-def test_told_too_small_the_fixes_covariance_grows_towards_the_truth(trip):
+def test_told_too_small_the_scale_measures_the_fixes_errors(trip):
     """Pseudoranges of 3 m told 1 m (λ = 9): after 60 epochs k² is between half of 9 and 9
-    (a lower confidence bound, biased low) and the fixes' horizontal NEES against the
-    truth (χ²₂: mean 2 when honest) falls from above 6 unscaled to below 4 (measured:
-    k² 4.96-7.33, NEES 3.36 against 21.0), positions unchanged."""
-    scaled, k2 = _fixes(*trip, 1.0)
+    (a lower confidence bound, biased low), and the fixes' covariance times it brings
+    their horizontal NEES against the truth (χ²₂: mean 2 when honest) from above 6 to
+    below 4 (measured: k² 4.96-7.33, NEES 21.0 and 3.36). The fixes themselves keep the
+    told σ's covariance (module docstring, "Scale"): positions and covariance are those
+    without the scale."""
+    fixes, k2 = _fixes(*trip, 1.0)
     plain, _ = _fixes(*trip, 1.0, scaled=False)
-    assert np.array_equal(scaled.lat, plain.lat) and np.array_equal(scaled.lon, plain.lon)
+    for name in ("lat", "lon", "cov_n_m2"):
+        assert np.array_equal(getattr(fixes, name), getattr(plain, name))
     later = slice(60, None)
     assert np.all((k2[later] > 4.5) & (k2[later] <= 9.0))
-    np.testing.assert_allclose(scaled.cov_n_m2[later],
-                               plain.cov_n_m2[later] * k2[later, None, None], rtol=1e-12)
+    scaled = replace(plain, cov_n_m2=plain.cov_n_m2 * k2[:, None, None])
     assert _nees(trip[1], scaled)[later].mean() < 4.0
     assert _nees(trip[1], plain)[later].mean() > 6.0
