@@ -344,7 +344,7 @@ class _Run:
 
     def step(self, hyps, a: int, b: int, epoch: int | None):
         """The stepper's cycle (`EngineStepper.step`), the noise scale fed by the
-        hypothesis most probable before it (`railnav.filters.noise_scale`, "A bank")."""
+        hypothesis most probable before it (`railnav.filters.bank_noise_scale`)."""
         scale = self.factory.noise_scale
         if epoch is not None and hyps:
             scale.epoch(getattr(hyps[most_probable(hyps)].filt, "noise_scale", None))
