@@ -55,7 +55,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.stats import chi2
+from scipy.special import chdtri
 
 from trackmodel.earth import C_n_e, ecef_to_geodetic
 
@@ -146,7 +146,7 @@ def _velocity_chi2(time_s: Array, v_h: Array, cov_v_h: Array) -> tuple[float, in
 
 
 def _factor(chi2_value: float, dof: int, p_false: float) -> float:
-    if dof <= 0 or chi2_value <= chi2.isf(p_false, dof):
+    if dof <= 0 or chi2_value <= chdtri(dof, p_false):
         return 1.0
     return chi2_value / dof
 

@@ -79,3 +79,33 @@ def test_argument_errors_import_no_engine():
         assert report["code"] == 2, report
         assert not FORBIDDEN & set(report["heavy"]), report
         assert report["engine"] == [], report
+
+
+#: What a run of the main job never needs: SciPy's statistics (~0.3 s of imports: its
+#: distributions; `scipy.special`'s functions give the same quantiles) and the plots'
+#: library without plots.
+RUN_FORBIDDEN = ("scipy.stats", "matplotlib")
+
+RUN_PROBE = """
+import contextlib, io, json, sys
+from railnav.cli import main
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    code = main(json.loads(sys.argv[1]))
+print(json.dumps({"code": code, "loaded": sorted(m for m in sys.modules
+                                                 if m.startswith(%r))}))
+"""
+
+
+def test_a_run_without_plots_imports_no_statistics_or_plots(tmp_path):
+    """A short paper2017 run with --no-plots (the README's main job, in small) never
+    loads `RUN_FORBIDDEN` (stop 39: the start's scatter test had pulled in scipy.stats,
+    0.29 s of every file run's imports)."""
+    argv = ["-q", "run", PAPER, "--duration-s", "20", "--no-plots", "--out",
+            str(tmp_path / "o")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    done = subprocess.run([sys.executable, "-c", RUN_PROBE % (RUN_FORBIDDEN,),
+                           json.dumps(argv)], cwd=REPO, env=env, capture_output=True,
+                          text=True, timeout=300, check=True)
+    report = json.loads(done.stdout.strip().splitlines()[-1])
+    assert report["code"] == 0 and report["loaded"] == [], report
