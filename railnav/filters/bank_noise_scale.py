@@ -23,8 +23,8 @@ hypothesis (a 400-m one of ``benchmarks/bench_network_spawn_gnss.py``, whose row
 the factors of the right hypotheses spawned: within 10 m after 5-7 s, 8-13 s without
 the restart, 5 seeds), while a σ told too small, which raises the fixes' scale as much,
 keeps it: 3 tracks 4.5 m apart, pseudoranges 3 m told 1 m, 300 s, seeds 1-5, where a
-restart at each spawn cost 99.8 -> 95.0 % of the cycles on the right netelement, the
-fixes' scale ends the false spawns (72 -> 0), and with the fixes unscaled none of the 72
+restart at each spawn cost 99.8 -> 95.0 % of the cycles on the right netelement, none of
+the 72 spawns (false ones: the fixes keep the told σ, `railnav.navigation.spp_epochs`)
 restarted it (k² 3.5-7.5 against the fixes' upper bounds 8.7-18). A bank of one is the
 single filter: the same factors, to the bit.
 """

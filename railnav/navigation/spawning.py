@@ -69,7 +69,8 @@ from each GNSS epoch's own single-point fix instead (`railnav.navigation.spp_epo
 the epoch's pseudoranges alone, weighted least squares with the run's σ model and the
 receiver's fault exclusion, its ENU covariance; never from the hypotheses' prior, only
 linearized at the most probable one's preparation of the epoch when that is near; its σ
-scaled by its own residuals' noise scale, `spp_epochs`, "Scale"). Their errors are
+the told one: its own residuals' noise scale only decides the restart below, `spp_epochs`,
+"Scale"). Their errors are
 counted as correlated over the larger of `NetworkNavConfig. evidence_correlation_s` and
 the run's ``NavigatorConfig.pseudorange_correlation_s`` (0 for simulated trips; 20 s by
 default for real ones: a 5-epoch window at 1 Hz is then one look). A spawn starts its
