@@ -307,25 +307,27 @@ class NoiseScale:
         or with too few rows."""
         if self.config is None or not self._window[kind]:
             return math.inf
-        q = np.concatenate([part[0] for part in self._window[kind]])
-        weight = np.concatenate([part[1] for part in self._window[kind]])
-        return -scale_bound(-q, weight, z=self.config.z, floor=-math.inf) if q.size \
-            else math.inf
+        q, weight = self._window_rows(kind)
+        return -scale_bound(-q, weight, z=self.config.z, floor=-math.inf)   # no rows: inf
+
+    def _window_rows(self, kind: str) -> tuple[Array, Array]:
+        """``q`` and the weights of every row in `kind`'s window (not empty)."""
+        window = self._window[kind]
+        return (np.concatenate([part[0] for part in window]),
+                np.concatenate([part[1] for part in window]))
 
     def _update(self) -> None:
         cfg = self.config
         top = cfg.max_sigma_factor ** 2
+        half = 0.5 * cfg.window_epochs
         for k in ROW_KINDS:
-            window = self._window[k]
-            half = 0.5 * cfg.window_epochs
             floor = 1.0 + (self._seed[k] - 1.0) * min(max(
                 (cfg.window_epochs - self._appended[k]) / half, 0.0), 1.0)
             total, squares, above = self._sums[k]
             if above < _needed_weight(total, squares, cfg.z):   # the sign test at 1: no
                 self.variance_factor[k] = floor
                 continue
-            q = np.concatenate([part[0] for part in window])
-            weight = np.concatenate([part[1] for part in window])
+            q, weight = self._window_rows(k)
             self.variance_factor[k] = min(max(scale_bound(q, weight, z=cfg.z, floor=1.0),
                                               floor), top)
 
