@@ -58,13 +58,19 @@ ERRORS = [
 ]
 
 
-def _probe(calls: list[list[str]]) -> list[dict]:
-    """One fresh interpreter for all `calls` (a subprocess costs ~0.5 s)."""
+def _fresh(script: str, arg, timeout: float = 120) -> object:
+    """Run `script` in a fresh interpreter with `arg` as JSON (its ``sys.argv[1]``); the
+    JSON of its last output line."""
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(calls)], cwd=REPO, env=env,
-                          capture_output=True, text=True, timeout=120, check=True)
+    done = subprocess.run([sys.executable, "-c", script, json.dumps(arg)], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=timeout, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def _probe(calls: list[list[str]]) -> list[dict]:
+    """One fresh interpreter for all `calls` (a subprocess costs ~0.5 s)."""
+    return _fresh(PROBE, calls)
 
 
 def test_help_imports_no_heavy_module():
@@ -102,10 +108,5 @@ def test_a_run_without_plots_imports_no_statistics_or_plots(tmp_path):
     0.29 s of every file run's imports)."""
     argv = ["-q", "run", PAPER, "--duration-s", "20", "--no-plots", "--out",
             str(tmp_path / "o")]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
-        [str(REPO), *filter(None, [os.environ.get("PYTHONPATH")])])}
-    done = subprocess.run([sys.executable, "-c", RUN_PROBE % (RUN_FORBIDDEN,),
-                           json.dumps(argv)], cwd=REPO, env=env, capture_output=True,
-                          text=True, timeout=300, check=True)
-    report = json.loads(done.stdout.strip().splitlines()[-1])
+    report = _fresh(RUN_PROBE % (RUN_FORBIDDEN,), argv, timeout=300)
     assert report["code"] == 0 and report["loaded"] == [], report
