@@ -161,6 +161,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 if str(Path(__file__).resolve().parents[1]) not in sys.path:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests.support
 from _data_dir import add_data_argument, checked_data_dir, read_drive  # noqa: E402
+from _track_mismatch import on_track_code_errors  # noqa: E402
 
 from ekf.packing import diagonal_indices  # noqa: E402
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
@@ -304,6 +305,8 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
     offsets = reference_offsets(track, r["lat_deg"], r["lon_deg"], r["h_m"])
     row["reference_offset"] = offset_summary(offsets)
     s_ref = offsets["s_m"].to_numpy()
+    row["on_track_code"] = _on_track_code(obs, nav, config, track, r.reset_index(drop=True),
+                                          s_ref)
     for name, e in errors.items():
         h = e.set_index(np.round(e["gps_time_s"])).loc[common, "horizontal_m"].to_numpy()
         row[name] = {"horizontal_rms_m": float(np.sqrt(np.mean(h ** 2))),
@@ -330,7 +333,25 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
         row[name]["never_worse_than_spp_along_track"] = bool(
             row[name]["along_track_rms_m"] <= row["spp"]["along_track_rms_m"]
             and row[name]["along_track_max_m"] <= row["spp"]["along_track_max_m"])
+        row[name]["never_worse_than_on_track_code"] = bool(
+            row[name]["along_track_rms_m"] <= row["on_track_code"]["along_track_rms_m"]
+            and row[name]["along_track_max_m"] <= row["on_track_code"]["along_track_max_m"])
     return row
+
+
+def _on_track_code(obs, nav, config, track, reference: pd.DataFrame, s_ref) -> dict:
+    """The piece's pseudoranges solved epoch by epoch on its track (`_track_mismatch`):
+    RMS and largest |error| along the track of that solution (``along_track``), of its
+    part from the reference's offset from the track (``mismatch``) and of its part from
+    the code errors (``code``), and the epochs it has."""
+    e = on_track_code_errors(obs, nav, config, track, reference, s_ref)
+    out = {"epochs": int(len(e))}
+    for key, column in (("along_track", "total_m"), ("mismatch", "mismatch_m"),
+                        ("code", "code_m")):
+        x = e[column].to_numpy()
+        out[f"{key}_rms_m"] = float(np.sqrt(np.mean(x ** 2)))
+        out[f"{key}_max_m"] = float(np.max(np.abs(x)))
+    return out
 
 
 def _largest_parts(name: str, solution: pd.DataFrame, common, horizontal: np.ndarray,
@@ -387,7 +408,9 @@ def group_totals(results: dict) -> dict:
                 "pieces_worse_than_spp": [n for n, r in zip(names, rows)
                                           if not r["never_worse_than_spp"]],
                 "pieces_worse_than_spp_along_track": [
-                    n for n, r in zip(names, rows) if not r["never_worse_than_spp_along_track"]]}
+                    n for n, r in zip(names, rows) if not r["never_worse_than_spp_along_track"]],
+                "pieces_worse_than_on_track_code": [
+                    n for n, r in zip(names, rows) if not r["never_worse_than_on_track_code"]]}
     return out
 
 
@@ -458,6 +481,9 @@ def main(argv=None) -> int:
                                            for k in ("gnss-only", "fixes")),
            "all_never_worse_than_spp_along_track": all(
                r[k]["never_worse_than_spp_along_track"] for r in results.values()
+               for k in ("gnss-only", "fixes")),
+           "all_never_worse_than_on_track_code": all(
+               r[k]["never_worse_than_on_track_code"] for r in results.values()
                for k in ("gnss-only", "fixes")),
            "epochs_beyond_3sigma_not_flagged": sum(
                r[k]["epochs_beyond_3sigma_not_flagged"] for r in results.values()

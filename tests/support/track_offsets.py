@@ -8,6 +8,11 @@ straight. Where the reference is off the track (a car in another lane than the o
 track was fitted on, standing beside its end), no estimate on the track is closer than
 ``d``: `reference_offsets` gives that floor beside the figures, `largest_error_parts` the
 split at a solution's worst epoch.
+
+`on_track_shift` is the same question for one epoch's pseudoranges: solved alone on the
+track for ``s`` and the receiver clocks, where does a receiver off the track, or a code
+error, put ``s`` (the part of an along-track error that the rows themselves hold, before
+any filter; `benchmarks/_track_mismatch.py`).
 """
 from __future__ import annotations
 
@@ -15,7 +20,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-__all__ = ["reference_offsets", "offset_summary", "largest_error_parts"]
+__all__ = ["reference_offsets", "offset_summary", "largest_error_parts", "on_track_shift"]
 
 Array = npt.NDArray[np.float64]
 
@@ -60,3 +65,37 @@ def largest_error_parts(gps_time_s: Array, horizontal_m: Array, along_track_m: A
                                   "horizontal_m": float(horizontal_m[k]),
                                   "along_track_m": float(along_track_m[k]),
                                   "offset_m": float(offset_m[k])}}
+
+
+def on_track_shift(drho_ds: npt.ArrayLike, y_m: npt.ArrayLike, variances_m2: npt.ArrayLike,
+                   clock_of: npt.ArrayLike) -> tuple[float, float]:
+    """One epoch's pseudorange misfits `y_m` solved by weighted least squares for a shift
+    ``δs`` along the track and one receiver clock per value of `clock_of` (a system's).
+
+    Parameters
+    ----------
+    drho_ds : array_like, shape (m,)
+        Each range's change per metre along the track, ``−e_i·t`` (dimensionless).
+    y_m : array_like, shape (m,)
+        Pseudorange minus the range from the track's point (a receiver off it, a code error;
+        any part common to a system's rows is its clock's), m.
+    variances_m2 : array_like, shape (m,)
+        The rows' variances, m².
+    clock_of : array_like, shape (m,)
+        Each row's clock (its system's letter).
+
+    Returns
+    -------
+    (float, float)
+        ``δs`` (m) and its σ from `variances_m2` (m); NaN for fewer rows than unknowns.
+    """
+    h = np.asarray(drho_ds, float)
+    clocks = np.asarray(clock_of)
+    names = np.unique(clocks)
+    A = np.column_stack([h, *(clocks == c for c in names)]).astype(float)
+    if h.size <= A.shape[1]:
+        return float("nan"), float("nan")
+    w = 1.0 / np.asarray(variances_m2, float)
+    N = A.T @ (w[:, None] * A)
+    x = np.linalg.solve(N, A.T @ (w * np.asarray(y_m, float)))
+    return float(x[0]), float(np.sqrt(np.linalg.inv(N)[0, 0]))

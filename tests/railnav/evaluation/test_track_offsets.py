@@ -11,7 +11,12 @@ import pandas as pd
 import pytest
 
 from railnav.evaluation.spp_accuracy import spp_errors
-from tests.support.track_offsets import largest_error_parts, offset_summary, reference_offsets
+from tests.support.track_offsets import (
+    largest_error_parts,
+    offset_summary,
+    on_track_shift,
+    reference_offsets,
+)
 from trackmodel.earth import ecef_to_geodetic, enu_to_ecef
 from trackmodel.track import Section, Track
 
@@ -69,3 +74,37 @@ def test_the_worst_epoch_splits_into_the_along_track_error_and_the_offset():
     assert worst["along_track_m"] == pytest.approx(-3.0, abs=1e-3)
     assert worst["offset_m"] == pytest.approx(-2.5, abs=1e-3)
     assert worst["horizontal_m"] == pytest.approx(math.hypot(3.0, 2.5), abs=1e-3)
+
+
+#: Unit vectors from the receiver to six satellites, ENU (east, north, up), normalised.
+_LOS = np.array([[0.3, 0.8, 0.5], [-0.7, 0.2, 0.6], [0.1, -0.6, 0.8], [0.9, -0.1, 0.4],
+                 [-0.4, -0.7, 0.5], [0.0, 0.3, 0.95]])
+_LOS = _LOS / np.linalg.norm(_LOS, axis=1)[:, None]
+
+
+def test_a_receiver_moved_along_the_track_is_solved_to_that_shift():
+    # track heading north (t = north); the receiver 2.7 m further along and its clock 13 m
+    # off: each range shortens by e·t·2.7 and lengthens by 13 (first order, exact here)
+    t = np.array([0.0, 1.0, 0.0])
+    drho_ds = -_LOS @ t
+    y = drho_ds * 2.7 + 13.0
+    shift, sigma = on_track_shift(drho_ds, y, np.full(6, 4.0), ["G"] * 6)
+    assert shift == pytest.approx(2.7, abs=1e-9)
+    # equal variances: σ² = σ_row² / Σ(h − h̄)² (the slope of a line fitted with an intercept)
+    assert sigma == pytest.approx(2.0 / math.sqrt(np.sum((drho_ds - drho_ds.mean()) ** 2)))
+
+
+def test_a_receiver_beside_the_track_moves_s_by_the_geometry_s_regression():
+    # 1.5 m east of a north-running track: the misfit is −e·east·1.5; solved on the track
+    # it goes to s by the regression of the east column on the north one (with the clock),
+    # computed here from the normal equations of the two columns directly
+    t, east = np.array([0.0, 1.0, 0.0]), np.array([1.0, 0.0, 0.0])
+    drho_ds, y = -_LOS @ t, -_LOS @ east * 1.5
+    hc, yc = drho_ds - drho_ds.mean(), y - y.mean()
+    shift, _ = on_track_shift(drho_ds, y, np.ones(6), ["G"] * 6)
+    assert shift == pytest.approx(float(hc @ yc / (hc @ hc)), abs=1e-12)
+    # two systems, each with its own clock: a step between them does not move s
+    systems = ["G", "G", "G", "E", "E", "E"]
+    y2 = drho_ds * 0.4 + np.where(np.array(systems) == "E", 25.0, -3.0)
+    assert on_track_shift(drho_ds, y2, np.ones(6), systems)[0] == pytest.approx(0.4, abs=1e-9)
+    assert math.isnan(on_track_shift(drho_ds[:2], y[:2], np.ones(2), ["G"] * 2)[0])
