@@ -65,6 +65,7 @@ from railnav.jobs.run import run_files  # noqa: E402
 from railnav.navigation.monitor_config import MonitorConfig  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
 from railnav.sensor_data import SensorData  # noqa: E402
+from tests.support.track_offsets import along_track_s  # noqa: E402
 from trackmodel.files import atomic_write_text  # noqa: E402
 from trackmodel.io import read_track  # noqa: E402
 
@@ -190,8 +191,8 @@ def urban(data: Path) -> dict:
             r = ref.reindex(sow.astype(int))
             s_ref = np.full(sow.size, np.nan)
             have = np.isfinite(r["lat_deg"].to_numpy())
-            s_ref[have] = piece["track"].project(np.radians(r["lat_deg"].to_numpy()[have]),
-                                                 np.radians(r["lon_deg"].to_numpy()[have])).s
+            s_ref[have] = along_track_s(piece["track"], r["lat_deg"].to_numpy()[have],
+                                        r["lon_deg"].to_numpy()[have])
             frame = frame.assign(err_m=est["s_state_m"].to_numpy() - s_ref,
                                  sigma_m=est["sigma_s_m"].to_numpy())
             out[piece["name"]] = score(frame, config.monitor)

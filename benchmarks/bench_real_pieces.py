@@ -173,6 +173,7 @@ from railnav.evaluation.spp_accuracy import spp_errors  # noqa: E402
 from railnav.navigation.navigator import navigate  # noqa: E402
 from railnav.sensor_data import SensorData  # noqa: E402
 from tests.support.track_offsets import (  # noqa: E402
+    along_track_s,
     largest_error_parts,
     offset_summary,
     reference_offsets,
@@ -304,14 +305,15 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
     r = ref.loc[common]
     offsets = reference_offsets(track, r["lat_deg"], r["lon_deg"], r["h_m"])
     row["reference_offset"] = offset_summary(offsets)
-    s_ref = offsets["s_m"].to_numpy()
     row["on_track_code"] = _on_track_code(obs, nav, config, track, r.reset_index(drop=True),
-                                          s_ref)
+                                          offsets["s_m"].to_numpy())
+    s_ref = along_track_s(track, r["lat_deg"], r["lon_deg"])   # beyond an end: not clamped
     for name, e in errors.items():
         h = e.set_index(np.round(e["gps_time_s"])).loc[common, "horizontal_m"].to_numpy()
         row[name] = {"horizontal_rms_m": float(np.sqrt(np.mean(h ** 2))),
                      "horizontal_max_m": float(h.max())}
-        row[name].update(_largest_parts(name, solutions[name], common, h, offsets, track))
+        row[name].update(_largest_parts(name, solutions[name], common, h, offsets, s_ref,
+                                        track))
     for name in ("gnss-only", "fixes"):
         est = solutions[name].set_index("gps_time_s").loc[common]
         e_s = est["s_state_m"].to_numpy() - s_ref
@@ -355,7 +357,7 @@ def _on_track_code(obs, nav, config, track, reference: pd.DataFrame, s_ref) -> d
 
 
 def _largest_parts(name: str, solution: pd.DataFrame, common, horizontal: np.ndarray,
-                   offsets: pd.DataFrame, track) -> dict:
+                   offsets: pd.DataFrame, s_ref: np.ndarray, track) -> dict:
     """A solution's along-track error on the piece's track (the filters' state ``s``; SPP
     projected on the track) and its worst horizontal epoch split
     (`tests.support.track_offsets.largest_error_parts`): for the filters, whose position is
@@ -363,7 +365,6 @@ def _largest_parts(name: str, solution: pd.DataFrame, common, horizontal: np.nda
     error. SPP also gets its along-track RMS (the filters' is ``along_track_rms_m``)."""
     est = solution.assign(gps_time_s=np.round(solution["gps_time_s"])).drop_duplicates(
         "gps_time_s", keep="last").set_index("gps_time_s").loc[common]
-    s_ref = offsets["s_m"].to_numpy()
     cross_ref = offsets["cross_track_m"].to_numpy()
     if name == "spp":
         proj = track.project(np.radians(est["lat_deg"].to_numpy()),

@@ -63,6 +63,7 @@ from bench_real_pieces import (  # noqa: E402
 )
 
 from trackmodel.files import atomic_write_text  # noqa: E402
+from tests.support.track_offsets import along_track_s  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "unflagged.json"
 #: The carrier chain starts at the last epoch before with |z| below this.
@@ -148,8 +149,7 @@ def piece_epochs(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFra
         est = est.join(mon[[*TAILS, "fix_disagreement_sigma"]], how="left")
         est = est.loc[est.index.intersection(ref.index)]
         r = ref.loc[est.index]
-        est["s_ref"] = track.project(np.radians(r["lat_deg"].to_numpy()),
-                                     np.radians(r["lon_deg"].to_numpy())).s
+        est["s_ref"] = along_track_s(track, r["lat_deg"], r["lon_deg"])
         both = est.index.intersection(fixes.index)
         f = fixes.loc[both]
         est["spp_e_s"] = pd.Series(track.project(np.radians(f["lat_deg"].to_numpy()),

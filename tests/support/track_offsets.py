@@ -20,9 +20,21 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-__all__ = ["reference_offsets", "offset_summary", "largest_error_parts", "on_track_shift"]
+__all__ = ["reference_offsets", "offset_summary", "largest_error_parts", "on_track_shift",
+           "along_track_s"]
 
 Array = npt.NDArray[np.float64]
+
+
+def along_track_s(track, lat_deg: npt.ArrayLike, lon_deg: npt.ArrayLike) -> Array:
+    """Points' along-track coordinate on `track`: the projection's ``s``, and beyond a
+    track end its remainder along the tangent (before the start negative, beyond the end
+    past the length), as a filter's state ``s`` runs on there; the scale the pieces'
+    along-track errors are taken on (a reference point beyond an end clamped to it put a
+    state beside the point a metre or more wrong)."""
+    proj = track.project(np.radians(np.asarray(lat_deg, float)),
+                         np.radians(np.asarray(lon_deg, float)))
+    return proj.s + proj.along_m
 
 
 def reference_offsets(track, lat_deg: npt.ArrayLike, lon_deg: npt.ArrayLike,

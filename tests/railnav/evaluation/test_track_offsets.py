@@ -12,6 +12,7 @@ import pytest
 
 from railnav.evaluation.spp_accuracy import spp_errors
 from tests.support.track_offsets import (
+    along_track_s,
     largest_error_parts,
     offset_summary,
     on_track_shift,
@@ -108,3 +109,11 @@ def test_a_receiver_beside_the_track_moves_s_by_the_geometry_s_regression():
     y2 = drho_ds * 0.4 + np.where(np.array(systems) == "E", 25.0, -3.0)
     assert on_track_shift(drho_ds, y2, np.ones(6), systems)[0] == pytest.approx(0.4, abs=1e-9)
     assert math.isnan(on_track_shift(drho_ds[:2], y[:2], np.ones(2), ["G"] * 2)[0])
+
+
+def test_along_track_s_runs_on_beyond_the_track_ends():
+    # 4 m before the start and 3 m past the end along the tangent, 1 m to the side; one
+    # inside: the projection's s there, its signed remainder beyond the ends
+    pts = _points([0.0, 500.0, 250.0], [1.0, -1.0, 0.5], [-4.0, 3.0, 0.0], [0.0, 0.0, 0.0])
+    s = along_track_s(TRACK, pts["lat_deg"], pts["lon_deg"])
+    np.testing.assert_allclose(s, [-4.0, 503.0, 250.0], atol=2e-3)
