@@ -29,7 +29,7 @@ from gnss_obs.residuals import known_position_residuals
 from tests.support.track_offsets import on_track_shift
 from trackmodel.earth import geodetic_to_ecef
 
-__all__ = ["on_track_code_errors", "COLUMNS"]
+__all__ = ["on_track_code_errors", "on_track_summary", "rows_at_worst", "COLUMNS"]
 
 COLUMNS = ("gps_time_s", "mismatch_m", "code_m", "total_m", "sigma_m")
 #: Half the step of the along-track difference, m.
@@ -80,3 +80,30 @@ def on_track_code_errors(obs, nav, config, track, reference: pd.DataFrame,
         if np.isfinite(sigma):
             rows.append((float(t), mismatch, code, mismatch + code, sigma))
     return pd.DataFrame(rows, columns=list(COLUMNS))
+
+
+def on_track_summary(e: pd.DataFrame) -> dict:
+    """The piece's pseudoranges solved epoch by epoch on its track
+    (`on_track_code_errors`, `e`): RMS and largest |error| along the track
+    of that solution (``along_track``), of its part from the reference's offset from the
+    track (``mismatch``) and of its part from the code errors (``code``), and the epochs
+    it has."""
+    out = {"epochs": int(len(e))}
+    for key, column in (("along_track", "total_m"), ("mismatch", "mismatch_m"),
+                        ("code", "code_m")):
+        x = e[column].to_numpy()
+        out[f"{key}_rms_m"] = float(np.sqrt(np.mean(x ** 2)))
+        out[f"{key}_max_m"] = float(np.max(np.abs(x)))
+    return out
+
+
+def rows_at_worst(row: dict, e: pd.DataFrame) -> None:
+    """Each solution's worst epoch (``at_horizontal_max``) with the rows' own answer there
+    (`on_track_code_errors`' ``total_m``, ``mismatch_m``, ``code_m`` as ``rows_on_track``; NaN
+    where the epoch has none)."""
+    e = e.set_index(np.round(e["gps_time_s"]))
+    for name in ("spp", "gnss-only", "fixes"):
+        worst = row[name]["at_horizontal_max"]
+        t = round(worst["gps_time_s"])
+        worst["rows_on_track"] = {k: float(e.at[t, k]) if t in e.index else float("nan")
+                                  for k in ("total_m", "mismatch_m", "code_m")}

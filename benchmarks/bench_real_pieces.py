@@ -94,6 +94,26 @@ along, 1.76 across; SPP's worst (46030, 3.82 m) is 0.94 along, 3.70 across. Alon
 track alone SPP's projection has 2.00/3.50 m RMS/max there (gnss-only 2.08/5.56, fixes
 2.65/4.24). ``docs/consistency-ablations.md`` ("Stop 39") splits the two maxima further.
 
+``on_track_code`` (stop 40, `_track_mismatch`): the piece's pseudoranges (the filters'
+systems, mask and white σ, no exclusion) solved epoch by epoch on its track for ``s`` and
+the clock, against the reference: RMS / largest |error| along the track, split into the
+part the reference's offset from the track gives (``mismatch``: the ranges from the
+reference solved on the track) and the code errors' part (``code``); each worst epoch
+(``at_horizontal_max``) gets the same three there (``rows_on_track``), and each filter
+``never_worse_than_on_track_code`` (its along-track RMS and max against that solution's:
+what the filter's own position rows say without memory, the fair bar for a filter with
+no along-track sensor besides them). On the U-turn piece the rows on the track are
+3.04 / 6.68 m (mismatch 0.69 / 1.66, code 2.87 / 6.58) against gnss-only 1.86 / 5.10,
+fixes 2.66 / 4.24 and SPP's projection 2.00 / 3.50; on every other piece the mismatch is
+≤ 0.16 m RMS, and the code part on the track exceeds SPP's projection on 8 of the 10
+pieces (leg 1 2.82 against 2.36 m RMS): what SPP puts into its height and across the
+track goes along it when both are held (the same rows with a free height come 4.9-10.4 m
+below the track on average per piece; their along-track error then falls only a little,
+3.03 → 2.79 m RMS on the U-turn piece, docs/consistency-ablations.md, "Stop 40").
+The along-track errors are taken against the reference's ``s`` run on beyond a track end
+(`tests.support.track_offsets.along_track_s`), as the filters' state and SPP's
+projection are (a clamped reference moved these figures by ≤ 6 mm).
+
 Before the heading's weight and this scoring (main 9ee4652's analysis): the 53 gnss-only
 epochs beyond 3σ_s (of 952; main 008931e), one by one against the
 reference and SPP projected on the same track: 20 are a slow code error that SPP shares
@@ -161,7 +181,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 if str(Path(__file__).resolve().parents[1]) not in sys.path:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests.support
 from _data_dir import add_data_argument, checked_data_dir, read_drive  # noqa: E402
-from _track_mismatch import on_track_code_errors  # noqa: E402
+from _track_mismatch import on_track_code_errors, on_track_summary, rows_at_worst  # noqa: E402
 
 from ekf.packing import diagonal_indices  # noqa: E402
 from gnss_obs.fixes.read import read_fixes  # noqa: E402
@@ -305,8 +325,9 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
     r = ref.loc[common]
     offsets = reference_offsets(track, r["lat_deg"], r["lon_deg"], r["h_m"])
     row["reference_offset"] = offset_summary(offsets)
-    row["on_track_code"] = _on_track_code(obs, nav, config, track, r.reset_index(drop=True),
-                                          offsets["s_m"].to_numpy())
+    rows_on_track = on_track_code_errors(obs, nav, config, track, r.reset_index(drop=True),
+                                         offsets["s_m"].to_numpy())
+    row["on_track_code"] = on_track_summary(rows_on_track)
     s_ref = along_track_s(track, r["lat_deg"], r["lon_deg"])   # beyond an end: not clamped
     for name, e in errors.items():
         h = e.set_index(np.round(e["gps_time_s"])).loc[common, "horizontal_m"].to_numpy()
@@ -338,22 +359,8 @@ def run_piece(piece: dict, obs, nav, reference: pd.DataFrame, spp: pd.DataFrame,
         row[name]["never_worse_than_on_track_code"] = bool(
             row[name]["along_track_rms_m"] <= row["on_track_code"]["along_track_rms_m"]
             and row[name]["along_track_max_m"] <= row["on_track_code"]["along_track_max_m"])
+    rows_at_worst(row, rows_on_track)
     return row
-
-
-def _on_track_code(obs, nav, config, track, reference: pd.DataFrame, s_ref) -> dict:
-    """The piece's pseudoranges solved epoch by epoch on its track (`_track_mismatch`):
-    RMS and largest |error| along the track of that solution (``along_track``), of its
-    part from the reference's offset from the track (``mismatch``) and of its part from
-    the code errors (``code``), and the epochs it has."""
-    e = on_track_code_errors(obs, nav, config, track, reference, s_ref)
-    out = {"epochs": int(len(e))}
-    for key, column in (("along_track", "total_m"), ("mismatch", "mismatch_m"),
-                        ("code", "code_m")):
-        x = e[column].to_numpy()
-        out[f"{key}_rms_m"] = float(np.sqrt(np.mean(x ** 2)))
-        out[f"{key}_max_m"] = float(np.max(np.abs(x)))
-    return out
 
 
 def _largest_parts(name: str, solution: pd.DataFrame, common, horizontal: np.ndarray,

@@ -91,7 +91,7 @@ def test_a_receiver_moved_along_the_track_is_solved_to_that_shift():
     y = drho_ds * 2.7 + 13.0
     shift, sigma = on_track_shift(drho_ds, y, np.full(6, 4.0), ["G"] * 6)
     assert shift == pytest.approx(2.7, abs=1e-9)
-    # equal variances: σ² = σ_row² / Σ(h − h̄)² (the slope of a line fitted with an intercept)
+    # equal variances: σ² = σ_row² / Σ(h − h̄)² (a line's slope fitted with an intercept)
     assert sigma == pytest.approx(2.0 / math.sqrt(np.sum((drho_ds - drho_ds.mean()) ** 2)))
 
 
