@@ -1,0 +1,64 @@
+"""An epoch's satellite terms at a receiver guess in compiled C (issue 15).
+
+`gnss_obs.guess_terms.satellite_terms` (flight time, Sagnac rotation, look angles, slant
+troposphere and ionosphere, σ of one satellite at one guess) is written with NumPy ufuncs
+and operators only; here the same function is called on CasADi symbols, and the
+expression compiled to a C loop over an epoch's satellites (`ekf.compiled.CompiledEach`,
+cached on disk under the hash of the expression). A filter's epoch is then one ctypes
+call a guess instead of ~60 NumPy calls on arrays of ~10 satellites.
+
+The numbers are those of the NumPy evaluation (`gnss_obs.guess_terms.evaluate_numpy`) to
+the last bits only: C's libm and CasADi's own expressions (``x³`` as ``x·x²``, ``mod`` as
+``x - y floor(x/y)``) against NumPy's SIMD loops (`tests/railnav/filters/
+test_guess_kernel.py` bounds the difference). Without a C compiler, `compiled_evaluator`
+gives None and the NumPy evaluation is used.
+"""
+from __future__ import annotations
+
+import functools
+
+import casadi as ca
+import numpy as np
+
+from ekf.compiled import CompiledEach, compiler_available
+from gnss_obs.guess_terms import (
+    RECEIVER_TERMS,
+    SATELLITE_COLUMNS,
+    satellite_terms,
+)
+from gnss_obs.measurements import MeasurementConfig
+
+__all__ = ["compiled_evaluator", "terms_function"]
+
+
+def terms_function(config: MeasurementConfig, with_klobuchar: bool) -> ca.Function:
+    """``(rx, sat) -> outputs``: `satellite_terms` of one satellite at one guess as a
+    CasADi function (the `gnss_obs.guess_terms.OUTPUTS`)."""
+    rx = ca.SX.sym("rx", RECEIVER_TERMS)
+    sat = ca.SX.sym("sat", SATELLITE_COLUMNS)
+    mode = ca.GlobalOptions.getNumpyMode()
+    ca.GlobalOptions.setNumpyMode(-1)     # NumPy ufuncs on symbols give symbols, silently
+    try:
+        out = satellite_terms([rx[i] for i in range(RECEIVER_TERMS)],
+                              [sat[i] for i in range(SATELLITE_COLUMNS)], config,
+                              with_klobuchar, where=ca.if_else)
+    finally:
+        ca.GlobalOptions.setNumpyMode(mode)
+    return ca.Function("gnss_guess_terms", [rx, sat],
+                       [ca.vertcat(*a) if isinstance(a, tuple) else a for a in out])
+
+
+@functools.lru_cache(maxsize=16)
+def compiled_evaluator(config: MeasurementConfig):
+    """An ``evaluate(rx, sat, config, with_klobuchar)`` for `gnss_obs.epoch.prepare_epochs`
+    running the compiled `terms_function` (one C call a guess), or None without a C
+    compiler. `sat` must be C-contiguous floats (`gnss_obs.guess_terms.satellite_columns`
+    gives them so)."""
+    if not compiler_available():
+        return None
+    kernel = functools.cache(lambda flag: CompiledEach(terms_function(config, flag)).run)
+
+    def evaluate(rx: np.ndarray, sat: np.ndarray, config_: MeasurementConfig,
+                 with_klobuchar: bool) -> list[np.ndarray]:
+        return kernel(with_klobuchar)(rx, sat)
+    return evaluate
