@@ -392,6 +392,8 @@ class CompiledEach:
         self._ptrs = (ctypes.c_void_p * len(self.sizes_out))()
         #: The addresses of the buffers every call passes (held by this object).
         self._fixed = (ctypes.addressof(self._ptrs), address(self._iw), address(self._w))
+        self._total = sum(self.sizes_out)
+        self._starts = np.cumsum((0,) + self.sizes_out[:-1]).tolist()
 
     def run(self, a_rows: np.ndarray, p_rows: np.ndarray) -> list[np.ndarray]:
         """Each output for C-contiguous float ``a_rows (K, n_a)`` and ``p_rows (m, n_p)``:
@@ -403,9 +405,13 @@ class CompiledEach:
         a_rows = np.ascontiguousarray(a_rows, dtype=float)
         p_rows = np.ascontiguousarray(p_rows, dtype=float)
         K, m = a_rows.shape[0], p_rows.shape[0]
-        outs = [np.empty((K, m) if size == 1 else (K, m, size)) for size in self.sizes_out]
-        for i, out in enumerate(outs):
-            self._ptrs[i] = address(out)
+        # one buffer, each output a contiguous part of it (one allocation, one address)
+        buffer = np.empty(K * m * self._total)
+        base, ptrs, outs = address(buffer) if buffer.size else 0, self._ptrs, []
+        for i, (size, start) in enumerate(zip(self.sizes_out, self._starts)):
+            part = buffer[start * K * m:(start + size) * K * m]
+            outs.append(part.reshape((K, m) if size == 1 else (K, m, size)))
+            ptrs[i] = base + 8 * start * K * m
         if self._fun(K, m, address(a_rows), address(p_rows), *self._fixed):
             raise FilterError("the compiled function reported an error")
         return outs

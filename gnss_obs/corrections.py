@@ -77,7 +77,10 @@ _NIELL_WET = np.array([
 _NIELL_HEIGHT = (2.53e-5, 5.49e-3, 1.14e-3)
 #: The tables in Python floats, for one receiver's latitude (`_interp_lat`).
 _NIELL_LAT_LIST = _NIELL_LAT_RAD.tolist()
-_NIELL_ROWS = {id(t): t.tolist() for t in (_NIELL_HYD_AVG, _NIELL_HYD_AMP, _NIELL_WET)}
+#: The three tables' rows together (hydrostatic average, amplitude, wet): one
+#: interpolation of a receiver's latitude for all nine.
+_NIELL_ALL = np.vstack([_NIELL_HYD_AVG, _NIELL_HYD_AMP, _NIELL_WET])
+_NIELL_ROWS = {id(_NIELL_ALL): _NIELL_ALL.tolist()}
 #: Day of year of the hydrostatic minimum (northern hemisphere); +half a year in the south.
 _NIELL_DOY_MIN = 28.0
 _YEAR_DAYS = 365.25
@@ -240,11 +243,11 @@ def _niell_terms(lat, h, day_of_year) -> tuple:
         abs_lat = np.abs(lat)
         doy = np.asarray(day_of_year, dtype=float) + np.where(lat < 0, 0.5 * _YEAR_DAYS, 0.0)
         season = np.cos(2.0 * np.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
-    avg = _interp_lat(_NIELL_HYD_AVG, abs_lat)
-    amp = _interp_lat(_NIELL_HYD_AMP, abs_lat)
+    rows = _interp_lat(_NIELL_ALL, abs_lat)
+    avg, amp, wet = rows[0:3], rows[3:6], rows[6:9]
     a, b, c = (m - s * season for m, s in zip(avg, amp))
     h_km = (h if isinstance(h, float) else np.asarray(h, dtype=float)) * 1e-3
-    return (a, b, c, h_km, *_interp_lat(_NIELL_WET, abs_lat))
+    return (a, b, c, h_km, *wet)
 
 
 def _niell_map(sin_el: Array, terms: tuple) -> tuple[Array, Array]:

@@ -264,9 +264,11 @@ def _geodetic(guesses: list, coarse: bool) -> list:
     places: list = [None] * len(guesses)
     if not near:
         return places
-    found = ecef_to_geodetic(guesses[near[0]] if len(near) == 1 else
-                             np.array([guesses[k] for k in near]))
-    for k, lat, lon, h in zip(near, *(np.reshape(a, -1).tolist() for a in found)):
+    lat, lon, h = ecef_to_geodetic(guesses[near[0]] if len(near) == 1 else
+                                   np.array([guesses[k] for k in near]))
+    found = [(float(lat), float(lon), float(h))] if len(near) == 1 else \
+        zip(lat.tolist(), lon.tolist(), h.tolist())
+    for k, (lat, lon, h) in zip(near, found):
         if abs(h) < MAX_RECEIVER_HEIGHT_M:
             places[k] = (lat, lon, h)
     return places
