@@ -28,7 +28,7 @@ from gnss_obs.guess_terms import (
 )
 from gnss_obs.measurements import MeasurementConfig
 
-__all__ = ["compiled_evaluator", "terms_function"]
+__all__ = ["compiled_evaluator", "CompiledTerms", "terms_function"]
 
 
 def terms_function(config: MeasurementConfig, with_klobuchar: bool) -> ca.Function:
@@ -49,16 +49,29 @@ def terms_function(config: MeasurementConfig, with_klobuchar: bool) -> ca.Functi
 
 
 @functools.lru_cache(maxsize=16)
-def compiled_evaluator(config: MeasurementConfig):
-    """An ``evaluate(rx, sat, config, with_klobuchar)`` for `gnss_obs.epoch.prepare_epochs`
-    running the compiled `terms_function` (one C call a guess), or None without a C
-    compiler. `sat` must be C-contiguous floats (`gnss_obs.guess_terms.satellite_columns`
-    gives them so)."""
-    if not compiler_available():
-        return None
-    kernel = functools.cache(lambda flag: CompiledEach(terms_function(config, flag)).run)
+def compiled_evaluator(config: MeasurementConfig) -> "CompiledTerms | None":
+    """The `CompiledTerms` of `config` (one a process), or None without a C compiler."""
+    return CompiledTerms(config) if compiler_available() else None
 
-    def evaluate(rx: np.ndarray, sat: np.ndarray, config_: MeasurementConfig,
+
+class CompiledTerms:
+    """``evaluate(rx, sat, config, with_klobuchar)`` for `gnss_obs.epoch.prepare_epochs`
+    running the compiled `terms_function` of its configuration: one C call for all guesses
+    (K rows `rx`) and satellites (`sat`, C-contiguous floats, as
+    `gnss_obs.guess_terms.satellite_columns` gives them). The libraries are loaded at the
+    first call of each Klobuchar flag; a pickled copy loads its own."""
+
+    def __init__(self, config: MeasurementConfig) -> None:
+        self.config = config
+        self._runs: dict = {}
+
+    def __call__(self, rx: np.ndarray, sat: np.ndarray, config: MeasurementConfig,
                  with_klobuchar: bool) -> list[np.ndarray]:
-        return kernel(with_klobuchar)(rx, sat)
-    return evaluate
+        run = self._runs.get(with_klobuchar)
+        if run is None:
+            run = self._runs[with_klobuchar] = CompiledEach(
+                terms_function(self.config, with_klobuchar)).run
+        return run(rx, sat)
+
+    def __getstate__(self) -> dict:
+        return {"config": self.config, "_runs": {}}

@@ -111,3 +111,18 @@ def test_compiled_geometry_is_the_textbook_one():
                                                       abs=1e-12)
             assert together[5][k, i] == pytest.approx(math.atan2(e, n) % (2 * math.pi),
                                                       abs=1e-12)
+
+
+def test_a_pickled_evaluator_computes_the_same():
+    """A `CompiledTerms` sent to another process (pickled without its libraries) loads
+    its own and gives the same numbers, to the bit."""
+    import pickle
+    config = CONFIGS[1]
+    receivers, r_sat, v_sat, meas = _scene(np.random.default_rng(8), n_guesses=2)
+    sat = np.ascontiguousarray(satellite_columns(_States(r_sat, v_sat), meas, config))
+    rx = np.array([receiver_terms(r.tolist(), *(float(a) for a in ecef_to_geodetic(r)),
+                                  1.2e9, config, KLOBUCHAR) for r in receivers])
+    evaluate = compiled_evaluator(config)
+    copy = pickle.loads(pickle.dumps(evaluate))
+    for got, want in zip(copy(rx, sat, config, True), evaluate(rx, sat, config, True)):
+        np.testing.assert_array_equal(got, want)
