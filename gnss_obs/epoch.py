@@ -15,7 +15,8 @@ guesses at once, a bank's hypotheses):
   (`measurement_sigmas`).
 
 What depends on the guess is computed per satellite by `gnss_obs.guess_terms` (in NumPy,
-or by a filter's compiled C function of the same code). The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
+or by a filter's compiled C function of the same code). The model is then
+``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
 ``ρ̇ = e·(sat_vel_e - v_e) + d - sat_clock_drift_mps``.
 """
 from __future__ import annotations
@@ -229,7 +230,8 @@ def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuc
     `transmit`'s third item when given), then `evaluate` (default
     `gnss_obs.guess_terms.evaluate_numpy`) of all guesses; a guess too far off for look
     angles and atmosphere gets NaN angles, no delays and the σ of unknown elevation."""
-    states, clock_m = transmit[:2] if transmit is not None else transmit_states(epoch, config)
+    states, clock_m = transmit[:2] if transmit is not None else \
+        transmit_states(epoch, config)
     meas, n = epoch.meas, len(epoch)
     sat = transmit[2] if transmit is not None and len(transmit) > 2 else \
         satellite_columns(states, meas, config)
@@ -251,7 +253,8 @@ def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuc
               "sat_clock_drift_mps": SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
               "pseudorange_m": meas["pseudorange_m"], "range_rate_mps": meas["range_rate_mps"],
               "cn0_dbhz": meas["cn0_dbhz"]}
-    return [_guess_epoch(shared, tuple(a[k] for a in own), ok[k]) for k in range(len(guesses))]
+    return [_guess_epoch(shared, tuple(a[k] for a in own), ok[k])
+            for k in range(len(guesses))]
 
 
 def _geodetic(guesses: list, coarse: bool) -> list:
@@ -276,8 +279,8 @@ def _geodetic(guesses: list, coarse: bool) -> list:
 
 def _unknown_guesses(own: list, unknown: list, meas: dict, config: MeasurementConfig
                      ) -> list:
-    """`own` (`_prepared`'s, in the order of `gnss_obs.guess_terms.OUTPUTS`) with the guesses `unknown` given NaN look angles, no delays
-    and the σ of unknown elevation."""
+    """`own` (`_prepared`'s, in the order of `gnss_obs.guess_terms.OUTPUTS`) with the
+    guesses `unknown` given NaN look angles, no delays and the σ of unknown elevation."""
     own = [np.array(a) for a in own]          # writable copies
     n = own[4].shape[-1]
     sigma_pr, sigma_rr = measurement_sigmas(np.full(n, np.nan), meas["cn0_dbhz"], config,

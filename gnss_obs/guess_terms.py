@@ -6,16 +6,16 @@
   of its latitude and longitude, the troposphere's zenith delays and Niell terms, the
   Klobuchar model's receiver numbers): `RECEIVER_TERMS` Python floats a guess;
 * `satellite_columns`: what depends on the satellites only (their states at transmission,
-  the ionosphere's frequency scale, the C/N0 amplitude and the ionosphere-free noise gain
-  of the σ): `SATELLITE_COLUMNS` columns, computed once for a whole file's epochs by a
-  filter (`railnav.filters.gnss_epochs`);
+  the ionosphere's frequency scale, the C/N0 amplitude, the numerator and denominator of
+  the ionosphere-free noise gain of the σ): `SATELLITE_COLUMNS` columns, computed once
+  for a whole file's epochs by a filter (`railnav.filters.gnss_epochs`);
 * `satellite_terms`: the rest, per satellite at one guess (flight time, Sagnac rotation,
   look angles, slant troposphere and ionosphere, σ): the `OUTPUTS`. It is written with
   elementwise NumPy ufuncs and operators only, from the owners of each formula
-  (`gnss_obs.transmission`, `gnss_obs.corrections`, `sigmas_of`), so the same code runs
-  on NumPy arrays (`evaluate_numpy`: K guesses' columns against N satellites) and on
-  CasADi symbols, from which a filter compiles one C function a satellite
-  (`railnav.filters.guess_kernel`).
+  (`gnss_obs.transmission`, `gnss_obs.corrections`, `gnss_obs.ionosphere`, `sigmas_of`),
+  so the same code runs on NumPy arrays (`evaluate_numpy`: K guesses' columns against N
+  satellites) and on CasADi symbols, from which a filter compiles one C function a
+  satellite (`railnav.filters.guess_kernel`).
 """
 from __future__ import annotations
 
@@ -26,13 +26,8 @@ import numpy as np
 import numpy.typing as npt
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS, WEEK_S
-from gnss_obs.corrections import (
-    enu_look_angles,
-    ionosphere_scale,
-    klobuchar_core,
-    slant_troposphere_m,
-    troposphere_terms,
-)
+from gnss_obs.corrections import enu_look_angles, slant_troposphere_m, troposphere_terms
+from gnss_obs.ionosphere import ionosphere_scale, klobuchar_core
 from gnss_obs.measurements import MeasurementConfig
 from gnss_obs.transmission import sagnac_cos_sin, sagnac_turn
 
@@ -47,8 +42,9 @@ Array = npt.NDArray[np.float64]
 #: in semicircles, GPS seconds of week, 9 troposphere terms, Klobuchar α (4) and β (4).
 RECEIVER_TERMS = 27
 #: Satellite columns: position and velocity at transmission (ECEF of transmission),
-#: ionosphere scale (f_L1/f)², C/N0 amplitude, ionosphere-free noise gain.
-SATELLITE_COLUMNS = 9
+#: ionosphere scale (f_L1/f)², C/N0 amplitude, ionosphere-free noise gain's numerator and
+#: denominator.
+SATELLITE_COLUMNS = 10
 #: `satellite_terms`: position (3 numbers) and velocity (3) in ECEF of reception,
 #: ionosphere and troposphere delays (m), elevation and azimuth (rad), σ of pseudorange
 #: and range rate.
@@ -94,19 +90,20 @@ def cn0_amplitude(cn0_dbhz: Array, config: MeasurementConfig) -> Array:
 
 
 def iono_free_gain(frequency_hz: Array, frequency2_hz: Array,
-                   config: MeasurementConfig) -> Array:
-    """Noise gain ``sqrt(f1⁴ + f2⁴) / (f1² - f2²)`` of the ionosphere-free combination
-    (1 for single-frequency pseudoranges)."""
+                   config: MeasurementConfig) -> tuple[Array, Array]:
+    """Noise gain ``sqrt(f1⁴ + f2⁴) / (f1² - f2²)`` of the ionosphere-free combination as
+    its numerator and denominator (1 and 1 for single-frequency pseudoranges)."""
     if not config.iono_free:
-        return np.ones(np.shape(frequency_hz))
+        return np.ones(np.shape(frequency_hz)), np.ones(np.shape(frequency_hz))
     g1, g2 = frequency_hz ** 2, frequency2_hz ** 2
-    return np.sqrt(g1 * g1 + g2 * g2) / (g1 - g2)
+    return np.sqrt(g1 * g1 + g2 * g2), g1 - g2
 
 
-def sigmas_of(inv_sin, amplitude, gain, config: MeasurementConfig) -> tuple:
+def sigmas_of(inv_sin, amplitude, gain: tuple, config: MeasurementConfig) -> tuple:
     """Pseudorange and range-rate σ (`gnss_obs.epoch.measurement_sigmas`) from
     ``1/sin(max(el, 5°))`` (1 without elevation weighting), the C/N0 `amplitude` and the
-    noise `gain`: operators and ``np.sqrt`` only (also CasADi symbols)."""
+    noise `gain` (`iono_free_gain`'s numerator and denominator): operators and ``np.sqrt``
+    only (also CasADi symbols)."""
     factor = inv_sin * amplitude
     if config.sigma_model == "additive":
         var = config.sigma_pr_m ** 2 + 0.0 * factor
@@ -119,22 +116,22 @@ def sigmas_of(inv_sin, amplitude, gain, config: MeasurementConfig) -> tuple:
         sigma_pr = config.sigma_pr_m * factor
         if config.sigma_pr_floor_m > 0.0:
             sigma_pr = np.sqrt(config.sigma_pr_floor_m ** 2 + sigma_pr ** 2)
-    return sigma_pr * gain, config.sigma_rr_mps * factor
+    return sigma_pr * gain[0] / gain[1], config.sigma_rr_mps * factor
 
 
 def satellite_columns(states, meas: dict, config: MeasurementConfig) -> Array:
     """The `SATELLITE_COLUMNS` of the satellites of `states` (`transmit_states`) with
-    measurements `meas` (one epoch's or many's: rows in the same order), shape (N, 9)."""
+    measurements `meas` (one epoch's or many's: rows in the same order), shape (N, 10)."""
     return np.column_stack([states.r_e, states.v_e, ionosphere_scale(meas["frequency_hz"]),
                             cn0_amplitude(meas["cn0_dbhz"], config),
-                            iono_free_gain(meas["frequency_hz"], meas["frequency2_hz"],
-                                           config)])
+                            *iono_free_gain(meas["frequency_hz"], meas["frequency2_hz"],
+                                            config)])
 
 
 def satellite_columns_batch(epochs: list, transmit: list, config: MeasurementConfig
                             ) -> list[Array]:
     """`satellite_columns` of many epochs (`transmit`: each one's `transmit_states`) in
-    one vectorized pass: one C-contiguous (N, 9) array an epoch."""
+    one vectorized pass: one C-contiguous (N, 10) array an epoch."""
     if not epochs:
         return []
     names = ("frequency_hz", "frequency2_hz", "cn0_dbhz")
@@ -152,7 +149,7 @@ def satellite_terms(rx, sat, config: MeasurementConfig, with_klobuchar: bool,
     ``np.where`` or ``casadi.if_else``); the position and velocity as 3-tuples."""
     x, y, z, sl, cl, so, co, lat_sc, lon_sc, sow = rx[:10]
     tropo_terms, alpha, beta = rx[10:19], rx[19:23], rx[23:27]
-    sx, sy, sz, vx, vy, vz, scale, amplitude, gain = sat
+    sx, sy, sz, vx, vy, vz, scale, amplitude = sat[:8]
     dx, dy, dz = sx - x, sy - y, sz - z
     tau = np.sqrt(dx * dx + dy * dy + dz * dz) / SPEED_OF_LIGHT_MPS
     c, s = sagnac_cos_sin(tau)
@@ -166,7 +163,7 @@ def satellite_terms(rx, sat, config: MeasurementConfig, with_klobuchar: bool,
         if with_klobuchar else zero
     inv_sin = 1.0 / np.sin(np.maximum(elevation, MIN_WEIGHT_ELEVATION_RAD)) \
         if config.elevation_weighting else 1.0 + zero
-    sigma_pr, sigma_rr = sigmas_of(inv_sin, amplitude, gain, config)
+    sigma_pr, sigma_rr = sigmas_of(inv_sin, amplitude, sat[8:10], config)
     return [(px, py, sz), (qx, qy, vz), iono, tropo, elevation, azimuth, sigma_pr, sigma_rr]
 
 

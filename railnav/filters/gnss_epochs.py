@@ -120,7 +120,8 @@ class GnssEpochs:
         transmit = transmit_states_batch(epochs, config, precise=precise)
         return cls(epochs=epochs, time_s=times, config=config,
                    elevation_mask_rad=float(np.deg2rad(elevation_mask_deg)), klobuchar=klobuchar,
-                   transmit=transmit, columns=satellite_columns_batch(epochs, transmit, config),
+                   transmit=transmit,
+                   columns=satellite_columns_batch(epochs, transmit, config),
                    evaluate=compiled_evaluator(config))
 
     def __len__(self) -> int:

@@ -3,9 +3,10 @@
 `gnss_obs.guess_terms.satellite_terms` (flight time, Sagnac rotation, look angles, slant
 troposphere and ionosphere, σ of one satellite at one guess) is written with NumPy ufuncs
 and operators only; here the same function is called on CasADi symbols, and the
-expression compiled to a C loop over an epoch's satellites (`ekf.compiled.CompiledEach`,
-cached on disk under the hash of the expression). A filter's epoch is then one ctypes
-call a guess instead of ~60 NumPy calls on arrays of ~10 satellites.
+expression compiled to a C loop over guesses and an epoch's satellites
+(`ekf.compiled_each.CompiledEach`, cached on disk under the hash of the expression). A
+filter's epoch (a bank's K guesses) is then one ctypes call instead of ~60 NumPy calls
+on arrays of ~10 satellites.
 
 The numbers are those of the NumPy evaluation (`gnss_obs.guess_terms.evaluate_numpy`) to
 the last bits only: C's libm and CasADi's own expressions (``x³`` as ``x·x²``, ``mod`` as
@@ -20,7 +21,8 @@ import functools
 import casadi as ca
 import numpy as np
 
-from ekf.compiled import CompiledEach, compiler_available
+from ekf.compiled import compiler_available
+from ekf.compiled_each import CompiledEach
 from gnss_obs.guess_terms import (
     RECEIVER_TERMS,
     SATELLITE_COLUMNS,

@@ -205,10 +205,12 @@ def test_compiled_each_evaluates_every_pair(tmp_path):
     and 4 rows ``p``: each pair's outputs are the closed form's, in (K, m) and (K, m, 2)
     arrays; no rows ``p``: empty arrays; a row of the wrong length: `FilterError`."""
     import casadi as ca
+
+    from ekf.compiled_each import CompiledEach
     a, p = ca.SX.sym("a", 2), ca.SX.sym("p", 2)
     fun = ca.Function("pairs", [a, p], [a[0] * p[0] + ca.sin(p[1]),
                                          ca.vertcat(a[1] * p[0], p[1] - a[0])])
-    each = compiled.CompiledEach(fun, CompileOptions(cache_dir=str(tmp_path)))
+    each = CompiledEach(fun, CompileOptions(cache_dir=str(tmp_path)))
     A = np.array([[1.0, 2.0], [-0.5, 3.0], [4.0, 0.25]])
     P = np.array([[0.1, 0.2], [1.0, -1.0], [2.5, 0.0], [-3.0, 7.0]])
     first, second = each.run(A, P)
