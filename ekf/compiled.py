@@ -164,6 +164,7 @@ def _c_source(fun: ca.Function, template: str, loop: str) -> str:
     return source + template.format(
         fname=fun.name(), loop=loop, sz_arg=max(fun.sz_arg(), 1), sz_res=max(fun.sz_res(), 1),
         n_out=fun.n_out(), sizes_out=sizes_out, size_d=fun.nnz_in(fun.n_in() - 1),
+        size_a=fun.nnz_in(0),
         size_p=fun.nnz_in(fun.n_in() - 1), size_z=fun.nnz_out(0),
         size_h=fun.nnz_out(fun.n_out() - 1))
 

@@ -1,4 +1,5 @@
-"""Propagation corrections: look angles, troposphere (Saastamoinen + Niell), ionosphere (Klobuchar).
+"""Propagation corrections: look angles, troposphere (Saastamoinen + Niell); the ionosphere
+(Klobuchar) is `gnss_obs.ionosphere`, re-exported here.
 
 All delays are positive path lengths in metres added to the geometric range. The
 functions are plain NumPy, vectorized over satellites; the SPP/navigator measurement prep
@@ -28,11 +29,13 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from gnss_obs.constants import DAY_S, FREQUENCY_HZ, WEEK_S
-from trackmodel.earth import WGS84, C_n_e, Ellipsoid, ecef_to_geodetic
+from gnss_obs.constants import DAY_S
+from gnss_obs.ionosphere import ionosphere_scale, klobuchar_core, klobuchar_delay_s
+from trackmodel.earth import WGS84, Ellipsoid, ecef_to_geodetic
 
 __all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
            "troposphere_delay_m", "troposphere_delays_m", "klobuchar_delay_s",
+           "enu_look_angles", "klobuchar_core", "troposphere_terms", "slant_troposphere_m",
            "ionosphere_scale", "day_of_year", "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
 
 Array = npt.NDArray[np.float64]
@@ -76,7 +79,10 @@ _NIELL_WET = np.array([
 _NIELL_HEIGHT = (2.53e-5, 5.49e-3, 1.14e-3)
 #: The tables in Python floats, for one receiver's latitude (`_interp_lat`).
 _NIELL_LAT_LIST = _NIELL_LAT_RAD.tolist()
-_NIELL_ROWS = {id(t): t.tolist() for t in (_NIELL_HYD_AVG, _NIELL_HYD_AMP, _NIELL_WET)}
+#: The three tables' rows together (hydrostatic average, amplitude, wet): one
+#: interpolation of a receiver's latitude for all nine.
+_NIELL_ALL = np.vstack([_NIELL_HYD_AVG, _NIELL_HYD_AMP, _NIELL_WET])
+_NIELL_ROWS = {id(_NIELL_ALL): _NIELL_ALL.tolist()}
 #: Day of year of the hydrostatic minimum (northern hemisphere); +half a year in the south.
 _NIELL_DOY_MIN = 28.0
 _YEAR_DAYS = 365.25
@@ -112,11 +118,21 @@ def look_angles(r_rx_e: npt.ArrayLike, r_sat_e: npt.ArrayLike, *,
     r_sat_e = np.asarray(r_sat_e, dtype=float)
     lat, lon = ecef_to_geodetic(r_rx_e, earth=earth)[:2] if geodetic is None else geodetic
     los_e = r_sat_e - r_rx_e
-    los_n = np.einsum("...ji,...j->...i", C_n_e(lat, lon), los_e)
-    horizontal = np.hypot(los_n[..., 0], los_n[..., 1])
-    elevation = np.arctan2(los_n[..., 2], horizontal)
-    azimuth = np.mod(np.arctan2(los_n[..., 0], los_n[..., 1]), 2.0 * np.pi)
-    return elevation, azimuth
+    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
+    return enu_look_angles(sl, cl, so, co, los_e[..., 0], los_e[..., 1], los_e[..., 2])
+
+
+def enu_look_angles(sin_lat, cos_lat, sin_lon, cos_lon, dx, dy, dz):
+    """Elevation and azimuth (rad, azimuth in [0, 2π)) of the lines of sight ``(dx, dy,
+    dz)`` (ECEF, m) from a receiver of those latitude and longitude sines and cosines:
+    the line turned into east, north, up (`trackmodel.earth.C_n_e`'s columns), each
+    component summed in the order x, y, z. Elementwise NumPy ufuncs and operators only,
+    so it also takes CasADi symbols (`gnss_obs.guess_terms`)."""
+    east = -sin_lon * dx + cos_lon * dy
+    north = (-sin_lat * cos_lon) * dx + (-sin_lat * sin_lon) * dy + cos_lat * dz
+    up = (cos_lat * cos_lon) * dx + (cos_lat * sin_lon) * dy + sin_lat * dz
+    elevation = np.arctan2(up, np.hypot(east, north))
+    return elevation, np.mod(np.arctan2(east, north), 2.0 * np.pi)
 
 
 def standard_atmosphere(h: npt.ArrayLike, *, humidity: float = STANDARD_HUMIDITY
@@ -229,11 +245,11 @@ def _niell_terms(lat, h, day_of_year) -> tuple:
         abs_lat = np.abs(lat)
         doy = np.asarray(day_of_year, dtype=float) + np.where(lat < 0, 0.5 * _YEAR_DAYS, 0.0)
         season = np.cos(2.0 * np.pi * (doy - _NIELL_DOY_MIN) / _YEAR_DAYS)
-    avg = _interp_lat(_NIELL_HYD_AVG, abs_lat)
-    amp = _interp_lat(_NIELL_HYD_AMP, abs_lat)
+    rows = _interp_lat(_NIELL_ALL, abs_lat)
+    avg, amp, wet = rows[0:3], rows[3:6], rows[6:9]
     a, b, c = (m - s * season for m, s in zip(avg, amp))
     h_km = (h if isinstance(h, float) else np.asarray(h, dtype=float)) * 1e-3
-    return (a, b, c, h_km, *_interp_lat(_NIELL_WET, abs_lat))
+    return (a, b, c, h_km, *wet)
 
 
 def _niell_map(sin_el: Array, terms: tuple) -> tuple[Array, Array]:
@@ -305,70 +321,26 @@ def troposphere_delays_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.Ar
     ndarray, shape (K, N)
         Slant delays, m.
     """
-    doy = day_of_year(gps_time_s)
-    terms = [(*zenith_delays_m(la, hk, humidity=humidity), *_niell_terms(la, hk, doy))
-             for la, hk in zip(np.asarray(lat, dtype=float).tolist(),
-                               np.asarray(h, dtype=float).tolist())]
-    columns = np.array(terms, dtype=float).T[:, :, None]             # (9, K, 1)
-    sin_el = np.sin(np.maximum(np.asarray(elevation, dtype=float), _MIN_ELEVATION_RAD))
-    m_h, m_w = _niell_map(sin_el, tuple(columns[2:]))
-    return columns[0] * m_h + columns[1] * m_w
+    columns = np.array([troposphere_terms(la, hk, gps_time_s, humidity=humidity)
+                        for la, hk in zip(np.asarray(lat, dtype=float).tolist(),
+                                          np.asarray(h, dtype=float).tolist())],
+                       dtype=float).T[:, :, None]                      # (9, K, 1)
+    return slant_troposphere_m(np.asarray(elevation, dtype=float), tuple(columns))
 
 
-# --- Klobuchar -----------------------------------------------------------------------------
-_SEMICIRCLE_RAD = np.pi
-_NIGHT_DELAY_S = 5e-9
-_MIN_PERIOD_S = 72_000.0
-_PEAK_LOCAL_TIME_S = 50_400.0
-_MAX_IPP_LAT_SC = 0.416
-_SEC_PER_SEMICIRCLE_LON = 43_200.0
-_GPS_L1_HZ = FREQUENCY_HZ["G"][1]
-#: Exponents of the amplitude and period polynomials in the IPP's geomagnetic latitude.
-_POLY_POWERS = np.arange(4)
+def troposphere_terms(lat: float, h: float, gps_time_s: float, *,
+                      humidity: float = STANDARD_HUMIDITY) -> tuple:
+    """One receiver's terms of `troposphere_delay_m`, Python floats: the zenith
+    hydrostatic and wet delays (m), then the Niell terms (`_niell_terms`)."""
+    return (*zenith_delays_m(lat, h, humidity=humidity),
+            *_niell_terms(lat, h, day_of_year(gps_time_s)))
 
 
-def klobuchar_delay_s(alpha: npt.ArrayLike, beta: npt.ArrayLike, *, lat: float, lon: float,
-                      elevation: npt.ArrayLike, azimuth: npt.ArrayLike,
-                      gps_time_s: npt.ArrayLike) -> Array:
-    """GPS L1 ionospheric group delay of the broadcast Klobuchar model, s.
-
-    Parameters
-    ----------
-    alpha, beta : array_like, shape (4,)
-        Broadcast coefficients (``GPSA``/``GPSB`` of the nav header): α in s, s/sc, s/sc²,
-        s/sc³; β in s, s/sc, s/sc², s/sc³ (sc = semicircle).
-    lat, lon : float
-        Receiver geodetic latitude and longitude, rad.
-    elevation, azimuth : array_like, shape (N,)
-        Satellite elevation and azimuth, rad.
-    gps_time_s : float or array_like
-        GPS time, s since the GPS epoch.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-        Vertical-to-slant L1 delay, s (IS-GPS-200N §20.3.3.5.2.5, Figure 20-4).
-    """
-    alpha, beta = np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float)
-    el_sc = np.asarray(elevation, dtype=float) / _SEMICIRCLE_RAD
-    az = np.asarray(azimuth, dtype=float)
-    psi = 0.0137 / (el_sc + 0.11) - 0.022
-    phi_i = np.minimum(np.maximum(lat / _SEMICIRCLE_RAD + psi * np.cos(az), -_MAX_IPP_LAT_SC),
-                       _MAX_IPP_LAT_SC)
-    lam_i = lon / _SEMICIRCLE_RAD + psi * np.sin(az) / np.cos(phi_i * _SEMICIRCLE_RAD)
-    phi_m = phi_i + 0.064 * np.cos((lam_i - 1.617) * _SEMICIRCLE_RAD)
-    sow = float(gps_time_s) % WEEK_S if _receiver_scalar(gps_time_s) else \
-        np.mod(np.asarray(gps_time_s, dtype=float), WEEK_S)     # % is np.mod's modulo
-    t_local = np.mod(_SEC_PER_SEMICIRCLE_LON * lam_i + sow, DAY_S)
-    slant = 1.0 + 16.0 * (0.53 - el_sc) ** 3
-    powers = phi_m[..., None] ** _POLY_POWERS
-    amplitude = np.maximum(powers @ alpha, 0.0)
-    period = np.maximum(powers @ beta, _MIN_PERIOD_S)
-    x = 2.0 * np.pi * (t_local - _PEAK_LOCAL_TIME_S) / period
-    day = _NIGHT_DELAY_S + amplitude * (1.0 - x * x / 2.0 + x ** 4 / 24.0)
-    return slant * np.where(np.abs(x) < 1.57, day, _NIGHT_DELAY_S)
-
-
-def ionosphere_scale(frequency_hz: npt.ArrayLike) -> Array:
-    """``(f_L1 / f)²``: first-order ionospheric delay at `frequency_hz` relative to GPS L1."""
-    return (_GPS_L1_HZ / np.asarray(frequency_hz, dtype=float)) ** 2
+def slant_troposphere_m(elevation, terms: tuple):
+    """The satellites' part of `troposphere_delay_m` from a receiver's `troposphere_terms`
+    (numbers, or columns of K receivers' broadcast against (K, N) elevations): elementwise
+    NumPy ufuncs and operators only, so it also takes CasADi symbols
+    (`gnss_obs.guess_terms`)."""
+    sin_el = np.sin(np.maximum(elevation, _MIN_ELEVATION_RAD))
+    m_h, m_w = _niell_map(sin_el, tuple(terms[2:]))
+    return terms[0] * m_h + terms[1] * m_w

@@ -9,12 +9,14 @@ guesses at once, a bank's hypotheses):
 * **satellites at transmission** and the clock of the signal used
   (`gnss_obs.transmission.transmit_states`: they do not depend on the guess), turned into
   the ECEF frame of the reception instant by the Earth's rotation during the flight from
-  the guess (`gnss_obs.transmission.sagnac_rotation`);
+  the guess (`gnss_obs.transmission.sagnac_turn`);
 * **delays**: troposphere and ionosphere (`gnss_obs.corrections`) at the guess;
 * **standard deviations** of pseudorange and range rate from elevation and C/N0
   (`measurement_sigmas`).
 
-The model is then ``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
+What depends on the guess is computed per satellite by `gnss_obs.guess_terms` (in NumPy,
+or by a filter's compiled C function of the same code). The model is then
+``ρ = |sat_pos_e - r_e| + b - sat_clock_m + iono_m + tropo_m`` and
 ``ρ̇ = e·(sat_vel_e - v_e) + d - sat_clock_drift_mps``.
 """
 from __future__ import annotations
@@ -27,16 +29,20 @@ import numpy as np
 import numpy.typing as npt
 
 from gnss_obs.constants import SPEED_OF_LIGHT_MPS
-from gnss_obs.corrections import (
-    ionosphere_scale,
-    klobuchar_delay_s,
-    look_angles,
-    troposphere_delay_m,
-    troposphere_delays_m,
-)
 from gnss_obs.epoch_table import EpochColumns, EpochData, split_epochs
+from gnss_obs.guess_terms import (
+    MIN_WEIGHT_ELEVATION_RAD,
+    cn0_amplitude,
+    evaluate_numpy,
+    iono_free_gain,
+    receiver_terms,
+    satellite_columns,
+    sigmas_of,
+    unknown_receiver_terms,
+    uses_klobuchar,
+)
 from gnss_obs.measurements import MeasurementConfig
-from gnss_obs.transmission import sagnac_rotation, transmit_states
+from gnss_obs.transmission import transmit_states
 from trackmodel.earth import ecef_to_geodetic
 
 __all__ = ["EpochData", "EpochColumns", "PreparedEpoch", "split_epochs", "prepare_epoch",
@@ -51,10 +57,6 @@ Array = npt.NDArray[np.float64]
 #: elevation, atmosphere or weighting is computed from it.
 MIN_RECEIVER_RADIUS_M = 1.0e6
 MAX_RECEIVER_HEIGHT_M = 1.0e5
-#: Elevation floor of the 1/sin(elevation) weighting, rad.
-_MIN_WEIGHT_ELEVATION_RAD = np.deg2rad(5.0)
-#: `_prepared`'s rows of one guess: known, or not.
-_ONE, _NONE = np.zeros(1, dtype=np.intp), np.zeros(0, dtype=np.intp)
 
 
 @dataclass(frozen=True)
@@ -132,27 +134,9 @@ def measurement_sigmas(elevation: Array, cn0_dbhz: Array, config: MeasurementCon
     inv_sin = np.ones(np.shape(elevation))      # (np.ones_like, without its wrapper)
     if config.elevation_weighting:
         el = np.where(np.isfinite(elevation), elevation, np.pi / 2)
-        inv_sin = 1.0 / np.sin(np.maximum(el, _MIN_WEIGHT_ELEVATION_RAD))
-    amplitude = np.ones(np.shape(elevation))   # C/N0 deficit as an amplitude ratio
-    if np.isfinite(config.cn0_ref_dbhz):
-        deficit = np.where(np.isfinite(cn0_dbhz), config.cn0_ref_dbhz - cn0_dbhz, 0.0)
-        amplitude = 10.0 ** (np.maximum(deficit, 0.0) / 20.0)
-    factor = inv_sin * amplitude
-    if config.sigma_model == "additive":
-        var = np.full_like(factor, config.sigma_pr_m ** 2)
-        if config.elevation_weighting:
-            var = var + (config.sigma_pr_elevation_m * inv_sin) ** 2
-        if np.isfinite(config.cn0_ref_dbhz):
-            var = var + (config.sigma_pr_cn0_m * amplitude) ** 2
-        sigma_pr = np.sqrt(var)
-    else:
-        sigma_pr = config.sigma_pr_m * factor
-        if config.sigma_pr_floor_m > 0.0:
-            sigma_pr = np.sqrt(config.sigma_pr_floor_m ** 2 + sigma_pr ** 2)
-    if config.iono_free:
-        g1, g2 = frequency_hz ** 2, frequency2_hz ** 2
-        sigma_pr = sigma_pr * np.sqrt(g1 * g1 + g2 * g2) / (g1 - g2)
-    return sigma_pr, config.sigma_rr_mps * factor
+        inv_sin = 1.0 / np.sin(np.maximum(el, MIN_WEIGHT_ELEVATION_RAD))
+    return sigmas_of(inv_sin, cn0_amplitude(cn0_dbhz, config),
+                     iono_free_gain(frequency_hz, frequency2_hz, config), config)
 
 
 def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
@@ -196,25 +180,34 @@ def prepare_epoch(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.Ar
 def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.ArrayLike,
                    klobuchar: tuple[np.ndarray, np.ndarray] | None = None,
                    transmit=None, coarse: bool = False,
-                   elevation_mask_rad: float | None = None) -> list[PreparedEpoch]:
+                   elevation_mask_rad: float | None = None,
+                   evaluate=None) -> list[PreparedEpoch]:
     """`prepare_epoch` at K receiver guesses at once (a bank's hypotheses).
 
     What does not depend on the guess (the satellites at transmission, their clocks, the
-    measurements) is shared; the flight time, Sagnac rotation, look angles, ionosphere
-    and σ of all K guesses are computed together, elementwise, and the troposphere from
-    each guess's receiver terms (`gnss_obs.corrections.troposphere_delays_m`): each
-    guess's numbers are those it would have alone, to the bit.
+    measurements, `gnss_obs.guess_terms.satellite_columns`) is shared; each guess's
+    receiver terms are its own (`gnss_obs.guess_terms.receiver_terms`), and the flight
+    time, Sagnac rotation, look angles, delays and σ of all K guesses are computed
+    together, elementwise (`gnss_obs.guess_terms.satellite_terms`): each guess's numbers
+    are those it would have alone, to the bit.
 
     Parameters
     ----------
-    epoch, config, klobuchar, transmit, coarse
+    epoch, config, klobuchar, coarse
         As `prepare_epoch`.
+    transmit : optional
+        As `prepare_epoch`, optionally with the epoch's
+        `gnss_obs.guess_terms.satellite_columns` as a third item.
     r_rx_e : array_like, shape (K, 3), or (3,)
         Receiver position guesses, ECEF, m (one guess, shape (3,) or (1, 3): a list of
         one, computed as `prepare_epoch` computes it).
     elevation_mask_rad : float, optional
         Keep only the satellites with a finite pseudorange at or above this elevation
         (rad; NaN elevations, at an unknown guess, are below it).
+    evaluate : callable, optional
+        ``evaluate(rx, sat, config, with_klobuchar)``: the satellite terms of K guesses
+        (`gnss_obs.guess_terms.evaluate_numpy`, the default; a filter's compiled one,
+        `railnav.filters.guess_kernel`).
 
     Returns
     -------
@@ -226,81 +219,77 @@ def prepare_epochs(epoch: EpochData, config: MeasurementConfig, *, r_rx_e: npt.A
         raise ValueError(f"r_rx_e must have shape (K, 3) or (3,), got {r_rx_e.shape}")
     # one guess of K: the same numbers through the one-guess path, at half its cost
     return _prepared(epoch, config, r_rx_e[0] if r_rx_e.shape[0] == 1 and r_rx_e.ndim == 2
-                     else r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad)
+                     else r_rx_e, klobuchar, transmit, coarse, elevation_mask_rad, evaluate)
 
 
 def _prepared(epoch: EpochData, config: MeasurementConfig, r_rx_e: Array, klobuchar,
-              transmit, coarse: bool, elevation_mask_rad: float | None
+              transmit, coarse: bool, elevation_mask_rad: float | None, evaluate=None
               ) -> list[PreparedEpoch]:
-    """`prepare_epoch` (`r_rx_e` shape (3,)) and `prepare_epochs` (shape (K, 3)): the
-    guess-dependent arrays with the guesses' axis leading (none for one guess), the
-    receiver terms of one guess as Python floats, of K guesses as (K, 1) columns."""
-    states, clock_m = transmit if transmit is not None else transmit_states(epoch, config)
+    """`prepare_epoch` (`r_rx_e` shape (3,)) and `prepare_epochs` (shape (K, 3)): each
+    guess's `gnss_obs.guess_terms.receiver_terms`, the satellites' columns (from
+    `transmit`'s third item when given), then `evaluate` (default
+    `gnss_obs.guess_terms.evaluate_numpy`) of all guesses; a guess too far off for look
+    angles and atmosphere gets NaN angles, no delays and the σ of unknown elevation."""
+    states, clock_m = transmit[:2] if transmit is not None else \
+        transmit_states(epoch, config)
+    meas, n = epoch.meas, len(epoch)
+    sat = transmit[2] if transmit is not None and len(transmit) > 2 else \
+        satellite_columns(states, meas, config)
     several = r_rx_e.ndim == 2
-    guesses = r_rx_e if several else r_rx_e[None, :]
-    lead, meas, n = r_rx_e.shape[:-1], epoch.meas, len(epoch)
-    # |r| > MIN_RECEIVER_RADIUS_M, without np.linalg.norm's generic axis handling (one
-    # guess: a Python bool, its index array only where it is known)
-    rows = np.flatnonzero([not coarse and math.hypot(*r) > MIN_RECEIVER_RADIUS_M
-                           for r in guesses.tolist()]) if several else \
-        (_ONE if not coarse and math.hypot(*r_rx_e.tolist()) > MIN_RECEIVER_RADIUS_M
-         else _NONE)
-    if rows.size:
-        lat, lon, h = ecef_to_geodetic(guesses[rows] if several else r_rx_e)
-        height_ok = np.abs(h) < MAX_RECEIVER_HEIGHT_M
-        if several:
-            rows, lat, lon, h = rows[height_ok], lat[height_ok], lon[height_ok], h[height_ok]
-        elif not height_ok:
-            rows = rows[:0]
-    # np.linalg.norm(d, axis=-1)'s own reduction (sqrt of the sums of d * d: the same
-    # bits), without its generic argument handling
-    d = states.r_e - r_rx_e[..., None, :]                           # (..., N, 3)
-    tau = np.sqrt(np.add.reduce(d * d, axis=-1)) / SPEED_OF_LIGHT_MPS
-    if several:
-        sat_pos_e, sat_vel_e = sagnac_rotation(np.broadcast_to(states.r_e, d.shape),
-                                               np.broadcast_to(states.v_e, d.shape), tau)
-    else:
-        sat_pos_e, sat_vel_e = sagnac_rotation(states.r_e, states.v_e, tau)
-    iono = tropo = None
-    if rows.size:
-        # the guesses' rows and their receiver terms: (K, 1) columns, or one guess's floats
-        pick, column = (rows, lambda a: a[:, None]) if several else (Ellipsis, float)
-        elevation, azimuth = look_angles(r_rx_e[pick][..., None, :], sat_pos_e[pick],
-                                         geodetic=(column(lat), column(lon)))
-        if config.troposphere:
-            tropo = (troposphere_delays_m if several else troposphere_delay_m)(
-                elevation, lat, h, gps_time_s=epoch.gps_time_s)
-        if config.ionosphere == "klobuchar" and klobuchar is not None:
-            iono = SPEED_OF_LIGHT_MPS * klobuchar_delay_s(
-                *klobuchar, lat=column(lat), lon=column(lon), elevation=elevation,
-                azimuth=azimuth, gps_time_s=epoch.gps_time_s) \
-                * ionosphere_scale(meas["frequency_hz"])
-        if several and rows.size < guesses.shape[0]:      # some guesses unknown
-            elevation, azimuth, iono, tropo = (
-                None if a is None else _fill(a, rows, lead + (n,), fill)
-                for a, fill in ((elevation, np.nan), (azimuth, np.nan), (iono, 0.0),
-                                (tropo, 0.0)))
-    else:
-        elevation = azimuth = np.full(lead + (n,), np.nan)
-    iono = np.zeros(lead + (n,)) if iono is None else iono
-    tropo = np.zeros(lead + (n,)) if tropo is None else tropo
-    sigma_pr, sigma_rr = measurement_sigmas(elevation, meas["cn0_dbhz"], config,
-                                            frequency_hz=meas["frequency_hz"],
-                                            frequency2_hz=meas["frequency2_hz"])
+    guesses = (r_rx_e if several else r_rx_e[None, :]).tolist()
+    places = _geodetic(guesses, coarse)
+    rx = np.array([unknown_receiver_terms(r) if place is None else
+                   receiver_terms(r, *place, epoch.gps_time_s, config, klobuchar)
+                   for r, place in zip(guesses, places)])
+    own = (evaluate or evaluate_numpy)(rx, sat, config, uses_klobuchar(config, klobuchar))
+    unknown = [k for k, place in enumerate(places) if place is None]
+    if unknown:
+        own = _unknown_guesses(own, unknown, meas, config)
     ok = np.isfinite(clock_m)
     if elevation_mask_rad is not None:
-        ok = ok & np.isfinite(meas["pseudorange_m"]) & (elevation >= elevation_mask_rad)
+        ok = ok & np.isfinite(meas["pseudorange_m"]) & (own[4] >= elevation_mask_rad)
     shared = {"gps_time_s": epoch.gps_time_s, "sv": meas["sv"], "system": meas["system"],
               "sat_clock_m": clock_m,
               "sat_clock_drift_mps": SPEED_OF_LIGHT_MPS * states.clock_drift_sps,
               "pseudorange_m": meas["pseudorange_m"], "range_rate_mps": meas["range_rate_mps"],
               "cn0_dbhz": meas["cn0_dbhz"]}
-    own = (sat_pos_e, sat_vel_e, iono, tropo, elevation, azimuth, sigma_pr, sigma_rr)
-    if not several:
-        return [_guess_epoch(shared, own, ok)]
-    ok = np.broadcast_to(ok, lead + (n,))
     return [_guess_epoch(shared, tuple(a[k] for a in own), ok[k])
-            for k in range(guesses.shape[0])]
+            for k in range(len(guesses))]
+
+
+def _geodetic(guesses: list, coarse: bool) -> list:
+    """(lat, lon, h) of each guess (Python floats), None for one too far off: closer to
+    the Earth's centre than `MIN_RECEIVER_RADIUS_M`, higher than `MAX_RECEIVER_HEIGHT_M`,
+    or all of them with `coarse`."""
+    if coarse:
+        return [None] * len(guesses)
+    near = [k for k, r in enumerate(guesses) if math.hypot(*r) > MIN_RECEIVER_RADIUS_M]
+    places: list = [None] * len(guesses)
+    if not near:
+        return places
+    lat, lon, h = ecef_to_geodetic(guesses[near[0]] if len(near) == 1 else
+                                   np.array([guesses[k] for k in near]))
+    found = [(float(lat), float(lon), float(h))] if len(near) == 1 else \
+        zip(lat.tolist(), lon.tolist(), h.tolist())
+    for k, (lat, lon, h) in zip(near, found):
+        if abs(h) < MAX_RECEIVER_HEIGHT_M:
+            places[k] = (lat, lon, h)
+    return places
+
+
+def _unknown_guesses(own: list, unknown: list, meas: dict, config: MeasurementConfig
+                     ) -> list:
+    """`own` (`_prepared`'s, in the order of `gnss_obs.guess_terms.OUTPUTS`) with the
+    guesses `unknown` given NaN look angles, no delays and the σ of unknown elevation."""
+    own = [np.array(a) for a in own]          # writable copies
+    n = own[4].shape[-1]
+    sigma_pr, sigma_rr = measurement_sigmas(np.full(n, np.nan), meas["cn0_dbhz"], config,
+                                            frequency_hz=meas["frequency_hz"],
+                                            frequency2_hz=meas["frequency2_hz"])
+    for index, value in ((2, 0.0), (3, 0.0), (4, np.nan), (5, np.nan), (6, sigma_pr),
+                         (7, sigma_rr)):
+        own[index][unknown] = value
+    return own
 
 
 def _guess_epoch(shared: dict, own: tuple, ok: npt.NDArray[np.bool_]) -> PreparedEpoch:
@@ -314,10 +303,3 @@ def _guess_epoch(shared: dict, own: tuple, ok: npt.NDArray[np.bool_]) -> Prepare
     return PreparedEpoch(**shared, sat_pos_e=pos, sat_vel_e=vel, iono_m=iono, tropo_m=tropo,
                          elevation=elevation, azimuth=azimuth, sigma_pr_m=sigma_pr,
                          sigma_rr_mps=sigma_rr)
-
-
-def _fill(values: Array, rows: Array, shape: tuple, fill: float) -> Array:
-    """`values` of the guesses `rows` in an array of `shape` filled with `fill`."""
-    out = np.full(shape, fill)
-    out[rows] = values
-    return out

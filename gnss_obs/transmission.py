@@ -29,7 +29,8 @@ from gnss_obs.ephemeris import group_delay_s, satellite_states
 from gnss_obs.epoch_table import EpochData, whole_table
 from gnss_obs.measurements import MeasurementConfig
 
-__all__ = ["sagnac_rotation", "transmit_states", "transmit_states_batch"]
+__all__ = ["sagnac_rotation", "sagnac_cos_sin", "sagnac_turn", "transmit_states",
+           "transmit_states_batch"]
 
 Array = npt.NDArray[np.float64]
 
@@ -51,15 +52,24 @@ def sagnac_rotation(r_sat_e: Array, v_sat_e: Array, tau_s: Array) -> tuple[Array
         ``Ω τ`` during the flight, so in the later frame the satellite's longitude is
         smaller by that angle.
     """
-    a = OMEGA_E_GPS * tau_s
-    c, s = np.cos(a), np.sin(a)
+    c, s = sagnac_cos_sin(tau_s)
     both = np.array([r_sat_e, v_sat_e])           # (2, N, 3): one pass for both
-    x, y = both[..., 0], both[..., 1]
     out = np.empty_like(both)
-    out[..., 0] = c * x + s * y
-    out[..., 1] = -s * x + c * y
+    out[..., 0], out[..., 1] = sagnac_turn(c, s, both[..., 0], both[..., 1])
     out[..., 2] = both[..., 2]
     return out[0], out[1]
+
+
+def sagnac_cos_sin(tau_s):
+    """``cos(Ω τ), sin(Ω τ)`` of `sagnac_rotation` (NumPy ufuncs: also CasADi symbols)."""
+    a = OMEGA_E_GPS * tau_s
+    return np.cos(a), np.sin(a)
+
+
+def sagnac_turn(c, s, x, y):
+    """The x and y components of ``R_z(Ω τ) (x, y, z)`` from `sagnac_cos_sin` (operators
+    only: also CasADi symbols)."""
+    return c * x + s * y, -s * x + c * y
 
 
 def _signal_group_delay_s(eph: dict, meas: dict, config: MeasurementConfig) -> Array:

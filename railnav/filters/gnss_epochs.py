@@ -5,7 +5,9 @@ once (`gnss_obs.epoch.split_epochs`: signal choice and ephemeris selection for t
 file), restricted to the trip and to the outside of the user's outage windows, with each
 epoch's time relative to the trip start. `GnssEpochs.prepare` then gives the satellites of
 one epoch at the filter's current position guess (transmission-time states, Sagnac,
-satellite clocks, atmosphere, σ), above the elevation mask and with finite measurements.
+satellite clocks, atmosphere, σ), above the elevation mask and with finite measurements:
+what does not depend on the guess computed for all epochs at once, what does in compiled
+C (`railnav.filters.guess_kernel`).
 """
 from __future__ import annotations
 
@@ -23,6 +25,7 @@ from gnss_obs.epoch import (
     prepare_epochs,
     split_epochs,
 )
+from gnss_obs.guess_terms import satellite_columns_batch
 from gnss_obs.measurements import (
     MeasurementConfig,
     glonass_channels,
@@ -32,6 +35,7 @@ from gnss_obs.rinex_nav import RinexNav
 from gnss_obs.rinex_obs import RinexObs
 from gnss_obs.sim_events import in_outages
 from gnss_obs.transmission import transmit_states_batch
+from railnav.filters.guess_kernel import compiled_evaluator
 
 __all__ = ["GnssEpochs"]
 
@@ -57,6 +61,12 @@ class GnssEpochs:
     transmit : list
         Satellite states at transmission of each epoch (`gnss_obs.transmit_states_batch`:
         they do not depend on the receiver guess, so they are computed once).
+    columns : list of ndarray, optional
+        The satellites' columns of each epoch (`gnss_obs.guess_terms.satellite_columns`,
+        for all epochs at once; made by `prepare_together` when not given).
+    evaluate : callable, optional
+        The satellite terms at a guess in compiled C
+        (`railnav.filters.guess_kernel.compiled_evaluator`; None: in NumPy).
     """
 
     epochs: list[EpochData]
@@ -65,6 +75,8 @@ class GnssEpochs:
     elevation_mask_rad: float
     klobuchar: tuple[Array, Array] | None
     transmit: list
+    columns: list | None = None
+    evaluate: object = None
 
     @classmethod
     def from_files(cls, obs: RinexObs, nav: RinexNav, config: MeasurementConfig, *,
@@ -105,9 +117,12 @@ class GnssEpochs:
         alpha, beta = nav.header.iono_gps_alpha, nav.header.iono_gps_beta
         klobuchar = None if alpha is None or beta is None else (alpha, beta)
         times = np.array([e.gps_time_s - start_gps_time_s for e in epochs], dtype=float)
+        transmit = transmit_states_batch(epochs, config, precise=precise)
         return cls(epochs=epochs, time_s=times, config=config,
                    elevation_mask_rad=float(np.deg2rad(elevation_mask_deg)), klobuchar=klobuchar,
-                   transmit=transmit_states_batch(epochs, config, precise=precise))
+                   transmit=transmit,
+                   columns=satellite_columns_batch(epochs, transmit, config),
+                   evaluate=compiled_evaluator(config))
 
     def __len__(self) -> int:
         return len(self.epochs)
@@ -120,6 +135,9 @@ class GnssEpochs:
         """`prepare` at K receiver guesses (ECEF, m, shape (K, 3); a bank's hypotheses; or
         one, shape (3,)): `gnss_obs.epoch.prepare_epochs`, each guess's satellites those of
         its own `prepare`."""
+        transmit = self.transmit[index] if self.columns is None else \
+            (*self.transmit[index], self.columns[index])
         return prepare_epochs(self.epochs[index], self.config, r_rx_e=r_guess_e,
-                              klobuchar=self.klobuchar, transmit=self.transmit[index],
-                              elevation_mask_rad=self.elevation_mask_rad)
+                              klobuchar=self.klobuchar, transmit=transmit,
+                              elevation_mask_rad=self.elevation_mask_rad,
+                              evaluate=self.evaluate)

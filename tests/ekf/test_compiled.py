@@ -198,3 +198,27 @@ def test_address_is_the_arrays_data_pointer():
     frozen.flags.writeable = False
     for a in [*arrays, frozen, np.zeros((3, 4))[1]]:
         assert compiled.address(a) == a.ctypes.data
+
+
+def test_compiled_each_evaluates_every_pair(tmp_path):
+    """`CompiledEach` of ``(a, p) -> (a0 p0 + sin p1, [a1 p0, p1 - a0])`` over 3 rows ``a``
+    and 4 rows ``p``: each pair's outputs are the closed form's, in (K, m) and (K, m, 2)
+    arrays; no rows ``p``: empty arrays; a row of the wrong length: `FilterError`."""
+    import casadi as ca
+
+    from ekf.compiled_each import CompiledEach
+    a, p = ca.SX.sym("a", 2), ca.SX.sym("p", 2)
+    fun = ca.Function("pairs", [a, p], [a[0] * p[0] + ca.sin(p[1]),
+                                         ca.vertcat(a[1] * p[0], p[1] - a[0])])
+    each = CompiledEach(fun, CompileOptions(cache_dir=str(tmp_path)))
+    A = np.array([[1.0, 2.0], [-0.5, 3.0], [4.0, 0.25]])
+    P = np.array([[0.1, 0.2], [1.0, -1.0], [2.5, 0.0], [-3.0, 7.0]])
+    first, second = each.run(A, P)
+    assert first.shape == (3, 4) and second.shape == (3, 4, 2)
+    np.testing.assert_allclose(first, A[:, :1] * P[:, 0] + np.sin(P[:, 1]), rtol=1e-15)
+    np.testing.assert_allclose(second[..., 0], A[:, 1:] * P[:, 0], rtol=1e-15)
+    np.testing.assert_allclose(second[..., 1], P[:, 1] - A[:, :1], rtol=1e-15)
+    empty = each.run(A, np.zeros((0, 2)))
+    assert empty[0].shape == (3, 0) and empty[1].shape == (3, 0, 2)
+    with pytest.raises(FilterError, match="expects rows"):
+        each.run(A, np.zeros((4, 3)))
