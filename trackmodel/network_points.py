@@ -37,8 +37,8 @@ from trackmodel.loxodrome import loxodrome_position
 from trackmodel.sections import SectionArrays, tangent_frame
 from trackmodel.track import S_TOLERANCE_M
 
-__all__ = ["points_on", "TrackStack", "StackPoint", "NodePoints", "expanded_points",
-           "NODE_STEP_M"]
+__all__ = ["points_on", "point_fields", "TrackStack", "StackPoint", "NodePoints",
+           "expanded_points", "NODE_STEP_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -74,6 +74,23 @@ class StackPoint:
         except KeyError:
             raise AttributeError(f"{name}: not evaluated (points_on(positions=False))") \
                 from None
+
+
+def point_fields(points, name: str) -> Array:
+    """Field `name` of each point stacked, shape (N,) or (N, 3): ``np.array([getattr(p,
+    name) for p in points], dtype=float)``, read from the call's own arrays at once (one
+    fancy index: the same numbers) when the points are `StackPoint`\ s of one `points_on`
+    call."""
+    first = points[0] if len(points) else None
+    if type(first) is StackPoint:
+        values = first._values
+        if all(type(p) is StackPoint and p._values is values for p in points):
+            try:
+                return np.array(values[name][[p._m for p in points]], dtype=float)
+            except KeyError:
+                raise AttributeError(f"{name}: not evaluated (points_on(positions=False))") \
+                    from None
+    return np.array([np.asarray(getattr(p, name), dtype=float) for p in points], dtype=float)
 
 
 def _keys(groups) -> npt.NDArray[np.complex128]:
