@@ -144,15 +144,9 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
     fields = {}
     try:
         for name, k in sizes.items():
-            rows = [getattr(s, name) for s in samples]
-            arrays = [np.zeros((M, k)) if a is None else np.asarray(a, dtype=float)
-                      for a in rows]
-            if any(a.shape not in ((M, k), (k,)) for a in arrays):
+            fields[name] = _field_together([getattr(s, name) for s in samples], M, k)
+            if fields[name] is None:
                 return None
-            full = [a if a.ndim == 2 else np.broadcast_to(a, (M, k)) for a in arrays]
-            # one member: a view with the member axis (`assemble` copies it); np.stack's
-            # generic argument handling costs more than the copy itself
-            fields[name] = full[0][None] if len(full) == 1 else np.stack(full)
     except (TypeError, ValueError):         # not numbers
         return None
     dt = np.diff(t)
@@ -165,6 +159,29 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
     return data.assemble(fields["u"], fields["p"][:, :-1], fields["z_c"][:, :-1],
                          np.broadcast_to(dt, (len(samples), M - 1)), fields["q_c"][:, :-1],
                          fields["r_c"][:, :-1], u_lin=fields.get("u_lin"))
+
+
+def _field_together(rows: list, M: int, k: int) -> Array | None:
+    """One field of the members' samples, shape ``(K, M, k)`` (a row ``(k,)`` held over
+    the samples; None: zeros), or None when a member's has another shape. Views where
+    the values repeat (`assemble` copies them): one member's with the member axis, the
+    members' one row each broadcast over the samples, one array all members share (the
+    raw inputs, the linearization input) broadcast over the members; else the members'
+    arrays copied together (np.array of equal shapes: np.stack's copy, without its
+    generic argument handling)."""
+    K = len(rows)
+    if rows[0] is not None and all(a is rows[0] for a in rows):
+        one = np.asarray(rows[0], dtype=float)
+        if one.shape not in ((M, k), (k,)):
+            return None
+        return np.broadcast_to(one if one.ndim == 2 else one[None], (K, M, k))
+    arrays = [np.zeros((M, k)) if a is None else np.asarray(a, dtype=float) for a in rows]
+    if any(a.shape not in ((M, k), (k,)) for a in arrays):
+        return None
+    if all(a.ndim == 1 for a in arrays):
+        return np.broadcast_to(np.array(arrays)[:, None, :], (K, M, k))
+    full = [a if a.ndim == 2 else np.broadcast_to(a, (M, k)) for a in arrays]
+    return full[0][None] if K == 1 else np.array(full)
 
 
 def update_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]], rows: Sequence
