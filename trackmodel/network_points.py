@@ -254,17 +254,19 @@ class NodePoints:
     def ecef(self, tracks, s) -> tuple[Array, Array]:
         """ECEF position (m) and unit tangent at ``s[k]`` (m, clamped to the track) on
         ``tracks[k]`` for each k, shapes (K, 3)."""
-        rows, d = [], np.empty(len(tracks))
-        for k, (track, s_k) in enumerate(zip(tracks, s)):
-            length = track.length_m
-            s_k = min(max(float(s_k), 0.0), length)
-            node = min(int(round(s_k / NODE_STEP_M)), int(math.ceil(length / NODE_STEP_M)))
-            block, row = divmod(node, BLOCK_NODES)
-            rows.append(self._rows(track, block)[row])
-            d[k] = s_k - min(node * NODE_STEP_M, length)
-        if not rows:
+        if not len(tracks):
             return np.zeros((0, 3)), np.zeros((0, 3))
-        tab = np.array(rows)
+        # every point's node at once (np.rint: Python's round, half to even; the same
+        # IEEE operations as point by point)
+        length = np.array([track.length_m for track in tracks], dtype=float)
+        s_k = np.minimum(np.maximum(np.array(s, dtype=float), 0.0), length)
+        if not np.isfinite(s_k).all():
+            raise ValueError(f"track points at s = {s!r}: not finite")
+        node = np.minimum(np.rint(s_k / NODE_STEP_M), np.ceil(length / NODE_STEP_M))
+        d = s_k - np.minimum(node * NODE_STEP_M, length)
+        block, row = np.divmod(node.astype(np.intp), BLOCK_NODES)
+        tab = np.array([self._rows(track, b)[r] for track, b, r
+                        in zip(tracks, block.tolist(), row.tolist())])
         C = tab[:, 3:12].reshape(-1, 3, 3)
         r, u = expanded_points(tab[:, :3], C, tab[:, 12:15], tab[:, 15:18], d)
         return r, np.einsum("kij,kj->ki", C, u)
