@@ -237,9 +237,9 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
     innov = np.array([one[3].innov for one in members])
     R = np.array([one[3].R for one in members])
     m = innov.shape[1]
-    R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each
-    R_mat[:, np.arange(m), np.arange(m)] = R
-    PHt = P @ np.swapaxes(H, -1, -2)
+    R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each: every
+    R_mat.reshape(R.shape[0], m * m)[:, ::m + 1] = R  # (m+1)-th element
+    PHt = P @ H.transpose(0, 2, 1)                    # (np.swapaxes, without its wrapper)
     S = H @ PHt + R_mat
     passed = [True] * len(members)
     if gate is not None:
@@ -263,8 +263,8 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
         x, P, H, innov, R = x[kept], P[kept], H[kept], innov[kept], R[kept]
     x_post = x + (K @ innov[..., None])[..., 0]
     A = np.eye(P.shape[-1]) - K @ H
-    P_post = A @ P @ np.swapaxes(A, -1, -2) + (K * R[:, None, :]) @ np.swapaxes(K, -1, -2)
-    P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
+    P_post = A @ P @ A.transpose(0, 2, 1) + (K * R[:, None, :]) @ K.transpose(0, 2, 1)
+    P_post = 0.5 * (P_post + P_post.transpose(0, 2, 1))
     return out + [(members[j][0], x_post[i], P_post[i]) for i, j in enumerate(kept)]
 
 
