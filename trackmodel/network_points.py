@@ -76,21 +76,23 @@ class StackPoint:
                 from None
 
 
-def point_fields(points, name: str) -> Array:
-    """Field `name` of each point stacked, shape (N,) or (N, 3): ``np.array([getattr(p,
-    name) for p in points], dtype=float)``, read from the call's own arrays at once (one
-    fancy index: the same numbers) when the points are `StackPoint`\ s of one `points_on`
-    call."""
+def point_fields(points, *names: str) -> tuple[Array, ...]:
+    """Fields `names` of each point stacked, each shape (N,) or (N, 3): ``np.array([
+    getattr(p, name) for p in points], dtype=float)`` for each name, read from the call's
+    own arrays at once (one fancy index each: the same numbers) when the points are
+    `StackPoint`\ s of one `points_on` call."""
     first = points[0] if len(points) else None
     if type(first) is StackPoint:
         values = first._values
         if all(type(p) is StackPoint and p._values is values for p in points):
+            at = [p._m for p in points]
             try:
-                return np.array(values[name][[p._m for p in points]], dtype=float)
+                return tuple(np.array(values[name][at], dtype=float) for name in names)
             except KeyError:
-                raise AttributeError(f"{name}: not evaluated (points_on(positions=False))") \
+                raise AttributeError(f"{names}: not evaluated (points_on(positions=False))") \
                     from None
-    return np.array([np.asarray(getattr(p, name), dtype=float) for p in points], dtype=float)
+    return tuple(np.array([np.asarray(getattr(p, name), dtype=float) for p in points],
+                          dtype=float) for name in names)
 
 
 def _keys(groups) -> npt.NDArray[np.complex128]:

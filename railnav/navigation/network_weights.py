@@ -92,8 +92,8 @@ def ecef_points(points) -> tuple[Array, Array]:
     shapes (K, 3), all rotated in one evaluation."""
     if not points:
         return np.zeros((0, 3)), np.zeros((0, 3))
-    lat, lon = (point_fields(points, name).reshape(-1) for name in ("lat", "lon"))
-    r, u_n = (point_fields(points, name).reshape(-1, 3) for name in ("r_e", "u_n"))
+    lat, lon, r, u_n = point_fields(points, "lat", "lon", "r_e", "u_n")
+    lat, lon, r, u_n = lat.reshape(-1), lon.reshape(-1), r.reshape(-1, 3), u_n.reshape(-1, 3)
     return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
 
 

@@ -98,9 +98,9 @@ def _newton_many(p_g: list, p_src: list, s_g: list) -> list[float | None]:
     BLAS products as a point's own would: the same numbers)."""
     if not p_g:
         return []
-    lat, lon = point_fields(p_g, "lat").reshape(-1), point_fields(p_g, "lon").reshape(-1)
-    u_n = point_fields(p_g, "u_n")
-    d = point_fields(p_g, "r_e") - point_fields(p_src, "r_e")
+    lat, lon, u_n, r_g = point_fields(p_g, "lat", "lon", "u_n", "r_e")
+    lat, lon = lat.reshape(-1), lon.reshape(-1)
+    d = r_g - point_fields(p_src, "r_e")[0]
     tangent = (np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3) @ u_n[..., None])
     step = -(d[:, None, :] @ tangent)[:, 0, 0]
     return [g + float(st) if abs(float(st)) <= NEWTON_MAX_STEP_M else None
@@ -199,7 +199,8 @@ def _converted_all(sources, xs, Ps, s_raw: list, s_src: list, s_tgt: list, p_src
     """`converted` of every pair once the track points are known: the pairs whose tracks
     run the same way there moved together per layout (`moved_states`: the same numbers
     as `moved_state` pair by pair), the others (``v`` negated) one by one."""
-    u_src, u_tgt = point_fields(p_src, "u_n"), point_fields(p_tgt, "u_n")
+    (u_src, az_src, el_src), (u_tgt, az_tgt, el_tgt) = (
+        point_fields(points, "u_n", "azimuth", "elevation") for points in (p_src, p_tgt))
     out: list = [None] * len(sources)
     same: dict[tuple, list[int]] = {}
     for k, (source, a, b) in enumerate(zip(sources, u_src, u_tgt)):
@@ -208,14 +209,11 @@ def _converted_all(sources, xs, Ps, s_raw: list, s_src: list, s_tgt: list, p_src
         else:
             out[k] = _reversed(source, xs[k], Ps[k], s_raw[k], s_src[k], s_tgt[k])
     for ks in same.values():
-        az_src, el_src = (point_fields([p_src[k] for k in ks], name).reshape(-1)
-                          for name in ("azimuth", "elevation"))
-        az_tgt, el_tgt = (point_fields([p_tgt[k] for k in ks], name).reshape(-1)
-                          for name in ("azimuth", "elevation"))
         s_new = np.array([s_tgt[k] + (s_raw[k] - s_src[k]) for k in ks])
         moved = moved_states(sources[ks[0]].layout, np.array([xs[k] for k in ks],
                                                              dtype=float),
-                             s_new, az_src, az_tgt, el_src, el_tgt)
+                             s_new, *(a.reshape(-1)[ks] for a in (az_src, az_tgt, el_src,
+                                                                   el_tgt)))
         for k, x in zip(ks, moved):
             out[k] = (x, Ps[k])
     return out
