@@ -34,16 +34,22 @@ def _members(rng, k: int):
     return priors, series
 
 
-def test_members_together_equal_the_engine_one_by_one(engine):
-    priors, series = _members(np.random.default_rng(3), 4)
+def _as_one_by_one(engine, priors, series, outputs=("x_next", "P_next", "x_filt", "P_filt",
+                                                    "innov", "S", "nis", "Phi")) -> None:
+    """`propagate_members` of the members against the engine's ``reset`` + ``propagate``
+    member by member: posteriors and the per-step `outputs`, to the bit."""
     together = propagate_members(engine, priors, series)
     for (x0, P0), samples, member in zip(priors, series, together):
         engine.reset(x0, P0)
         steps = engine.propagate(samples)
         np.testing.assert_array_equal(member.x, engine.x)
         np.testing.assert_array_equal(member.P, engine.P)
-        for name in ("x_next", "P_next", "x_filt", "P_filt", "innov", "S", "nis", "Phi"):
+        for name in outputs:
             np.testing.assert_array_equal(getattr(member.outputs, name), getattr(steps, name))
+
+
+def test_members_together_equal_the_engine_one_by_one(engine):
+    _as_one_by_one(engine, *_members(np.random.default_rng(3), 4))
 
 
 def test_a_single_sample_is_the_prior_symmetrized(engine):
@@ -92,11 +98,4 @@ def test_shared_inputs_and_held_rows_equal_the_engine_one_by_one(engine):
         priors.append((rng.normal(size=2), L @ L.T + 0.1 * np.eye(2)))
         series.append(InputSeries(t=t, u=u, q_c=rng.uniform(0.01, 0.1, 1), r_c=r_c,
                                   z_c=None if k == 1 else rng.normal(size=(t.size, 1))))
-    together = propagate_members(engine, priors, series)
-    for (x0, P0), samples, member in zip(priors, series, together):
-        engine.reset(x0, P0)
-        steps = engine.propagate(samples)
-        np.testing.assert_array_equal(member.x, engine.x)
-        np.testing.assert_array_equal(member.P, engine.P)
-        for name in ("x_next", "P_next", "innov", "S"):
-            np.testing.assert_array_equal(getattr(member.outputs, name), getattr(steps, name))
+    _as_one_by_one(engine, priors, series)
