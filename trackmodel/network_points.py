@@ -189,7 +189,8 @@ class TrackStack:
         first = self.first[which_a]
         k = np.clip(pos - 1 - first, 0, self.last[which_a] - first) + first
         ang = self.table.angles(k, flat - self.table.s_start[k])
-        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
+        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"],
+                                derivatives=False)
         out = {"s": flat, "u_n": u, "azimuth": ang["A"], "elevation": ang["E"]}
         if not positions:
             return out
@@ -290,7 +291,11 @@ def points_on(tracks, s, *, positions: bool = True) -> list[StackPoint]:
     -------
     list of StackPoint
     """
-    earths = {t.earth for t in tracks}
+    if not len(tracks):
+        return []
+    # one ellipsoid object (the usual case): no need to hash every track's
+    same = all(t.earth is tracks[0].earth for t in tracks)
+    earths = {tracks[0].earth} if same else {t.earth for t in tracks}
     if len(earths) > 1:
         out: list = [None] * len(tracks)
         for earth in earths:
@@ -299,8 +304,6 @@ def points_on(tracks, s, *, positions: bool = True) -> list[StackPoint]:
                                           positions=positions)):
                 out[k] = p
         return out
-    if not len(tracks):
-        return []
     distinct: dict[int, int] = {}
     order = []
     for track in tracks:
