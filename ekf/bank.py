@@ -245,8 +245,9 @@ def imm_mixing(mu: Array, transition: Array, min_weight: float = 0.0
     mu = np.asarray(mu, dtype=float)
     c = transition.T @ mu
     weights = transition * mu[:, None] / np.maximum(c, _TINY)[None, :]
-    uses = [[i for i in range(mu.size) if i == j or weights[i, j] > min_weight]
-            for j in range(mu.size)]
+    mixed = weights > min_weight
+    mixed[np.arange(mu.size), np.arange(mu.size)] = True     # j itself, whatever its weight
+    uses = [np.flatnonzero(column).tolist() for column in mixed.T]
     return weights, uses
 
 

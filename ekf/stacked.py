@@ -144,15 +144,9 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
     fields = {}
     try:
         for name, k in sizes.items():
-            rows = [getattr(s, name) for s in samples]
-            arrays = [np.zeros((M, k)) if a is None else np.asarray(a, dtype=float)
-                      for a in rows]
-            if any(a.shape not in ((M, k), (k,)) for a in arrays):
+            fields[name] = _field_together([getattr(s, name) for s in samples], M, k)
+            if fields[name] is None:
                 return None
-            full = [a if a.ndim == 2 else np.broadcast_to(a, (M, k)) for a in arrays]
-            # one member: a view with the member axis (`assemble` copies it); np.stack's
-            # generic argument handling costs more than the copy itself
-            fields[name] = full[0][None] if len(full) == 1 else np.stack(full)
     except (TypeError, ValueError):         # not numbers
         return None
     dt = np.diff(t)
@@ -165,6 +159,29 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
     return data.assemble(fields["u"], fields["p"][:, :-1], fields["z_c"][:, :-1],
                          np.broadcast_to(dt, (len(samples), M - 1)), fields["q_c"][:, :-1],
                          fields["r_c"][:, :-1], u_lin=fields.get("u_lin"))
+
+
+def _field_together(rows: list, M: int, k: int) -> Array | None:
+    """One field of the members' samples, shape ``(K, M, k)`` (a row ``(k,)`` held over
+    the samples; None: zeros), or None when a member's has another shape. Views where
+    the values repeat (`assemble` copies them): one member's with the member axis, the
+    members' one row each broadcast over the samples, one array all members share (the
+    raw inputs, the linearization input) broadcast over the members; else the members'
+    arrays copied together (np.array of equal shapes: np.stack's copy, without its
+    generic argument handling)."""
+    K = len(rows)
+    if rows[0] is not None and all(a is rows[0] for a in rows):
+        one = np.asarray(rows[0], dtype=float)
+        if one.shape not in ((M, k), (k,)):
+            return None
+        return np.broadcast_to(one if one.ndim == 2 else one[None], (K, M, k))
+    arrays = [np.zeros((M, k)) if a is None else np.asarray(a, dtype=float) for a in rows]
+    if any(a.shape not in ((M, k), (k,)) for a in arrays):
+        return None
+    if all(a.ndim == 1 for a in arrays):
+        return np.broadcast_to(np.array(arrays)[:, None, :], (K, M, k))
+    full = [a if a.ndim == 2 else np.broadcast_to(a, (M, k)) for a in arrays]
+    return full[0][None] if K == 1 else np.array(full)
 
 
 def update_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]], rows: Sequence
@@ -220,9 +237,9 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
     innov = np.array([one[3].innov for one in members])
     R = np.array([one[3].R for one in members])
     m = innov.shape[1]
-    R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each
-    R_mat[:, np.arange(m), np.arange(m)] = R
-    PHt = P @ np.swapaxes(H, -1, -2)
+    R_mat = np.zeros(R.shape + (m,))                  # np.diag(R) of each: every
+    R_mat.reshape(R.shape[0], m * m)[:, ::m + 1] = R  # (m+1)-th element
+    PHt = P @ H.transpose(0, 2, 1)                    # (np.swapaxes, without its wrapper)
     S = H @ PHt + R_mat
     passed = [True] * len(members)
     if gate is not None:
@@ -246,8 +263,8 @@ def _stacked_kalman(members: list, gate) -> list[tuple[int, Array, Array]]:
         x, P, H, innov, R = x[kept], P[kept], H[kept], innov[kept], R[kept]
     x_post = x + (K @ innov[..., None])[..., 0]
     A = np.eye(P.shape[-1]) - K @ H
-    P_post = A @ P @ np.swapaxes(A, -1, -2) + (K * R[:, None, :]) @ np.swapaxes(K, -1, -2)
-    P_post = 0.5 * (P_post + np.swapaxes(P_post, -1, -2))
+    P_post = A @ P @ A.transpose(0, 2, 1) + (K * R[:, None, :]) @ K.transpose(0, 2, 1)
+    P_post = 0.5 * (P_post + P_post.transpose(0, 2, 1))
     return out + [(members[j][0], x_post[i], P_post[i]) for i, j in enumerate(kept)]
 
 

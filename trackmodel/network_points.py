@@ -37,8 +37,8 @@ from trackmodel.loxodrome import loxodrome_position
 from trackmodel.sections import SectionArrays, tangent_frame
 from trackmodel.track import S_TOLERANCE_M
 
-__all__ = ["points_on", "TrackStack", "StackPoint", "NodePoints", "expanded_points",
-           "NODE_STEP_M"]
+__all__ = ["points_on", "point_fields", "TrackStack", "StackPoint", "NodePoints",
+           "expanded_points", "NODE_STEP_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -74,6 +74,25 @@ class StackPoint:
         except KeyError:
             raise AttributeError(f"{name}: not evaluated (points_on(positions=False))") \
                 from None
+
+
+def point_fields(points, *names: str) -> tuple[Array, ...]:
+    """Fields `names` of each point stacked, each shape (N,) or (N, 3): ``np.array([
+    getattr(p, name) for p in points], dtype=float)`` for each name, read from the call's
+    own arrays at once (one fancy index each: the same numbers) when the points are
+    `StackPoint`\ s of one `points_on` call."""
+    first = points[0] if len(points) else None
+    if type(first) is StackPoint:
+        values = first._values
+        if all(type(p) is StackPoint and p._values is values for p in points):
+            at = [p._m for p in points]
+            try:
+                return tuple(np.array(values[name][at], dtype=float) for name in names)
+            except KeyError:
+                raise AttributeError(f"{names}: not evaluated (points_on(positions=False))") \
+                    from None
+    return tuple(np.array([np.asarray(getattr(p, name), dtype=float) for p in points],
+                          dtype=float) for name in names)
 
 
 def _keys(groups) -> npt.NDArray[np.complex128]:
@@ -170,7 +189,8 @@ class TrackStack:
         first = self.first[which_a]
         k = np.clip(pos - 1 - first, 0, self.last[which_a] - first) + first
         ang = self.table.angles(k, flat - self.table.s_start[k])
-        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"])
+        u, _, _ = tangent_frame(ang["A"], ang["E"], ang["dA"], ang["dE"], ang["d2A"],
+                                derivatives=False)
         out = {"s": flat, "u_n": u, "azimuth": ang["A"], "elevation": ang["E"]}
         if not positions:
             return out
@@ -237,17 +257,19 @@ class NodePoints:
     def ecef(self, tracks, s) -> tuple[Array, Array]:
         """ECEF position (m) and unit tangent at ``s[k]`` (m, clamped to the track) on
         ``tracks[k]`` for each k, shapes (K, 3)."""
-        rows, d = [], np.empty(len(tracks))
-        for k, (track, s_k) in enumerate(zip(tracks, s)):
-            length = track.length_m
-            s_k = min(max(float(s_k), 0.0), length)
-            node = min(int(round(s_k / NODE_STEP_M)), int(math.ceil(length / NODE_STEP_M)))
-            block, row = divmod(node, BLOCK_NODES)
-            rows.append(self._rows(track, block)[row])
-            d[k] = s_k - min(node * NODE_STEP_M, length)
-        if not rows:
+        if not len(tracks):
             return np.zeros((0, 3)), np.zeros((0, 3))
-        tab = np.array(rows)
+        # every point's node at once (np.rint: Python's round, half to even; the same
+        # IEEE operations as point by point)
+        length = np.array([track.length_m for track in tracks], dtype=float)
+        s_k = np.minimum(np.maximum(np.array(s, dtype=float), 0.0), length)
+        if not np.isfinite(s_k).all():
+            raise ValueError(f"track points at s = {s!r}: not finite")
+        node = np.minimum(np.rint(s_k / NODE_STEP_M), np.ceil(length / NODE_STEP_M))
+        d = s_k - np.minimum(node * NODE_STEP_M, length)
+        block, row = np.divmod(node.astype(np.intp), BLOCK_NODES)
+        tab = np.array([self._rows(track, b)[r] for track, b, r
+                        in zip(tracks, block.tolist(), row.tolist())])
         C = tab[:, 3:12].reshape(-1, 3, 3)
         r, u = expanded_points(tab[:, :3], C, tab[:, 12:15], tab[:, 15:18], d)
         return r, np.einsum("kij,kj->ki", C, u)
@@ -269,7 +291,11 @@ def points_on(tracks, s, *, positions: bool = True) -> list[StackPoint]:
     -------
     list of StackPoint
     """
-    earths = {t.earth for t in tracks}
+    if not len(tracks):
+        return []
+    # one ellipsoid object (the usual case): no need to hash every track's
+    same = all(t.earth is tracks[0].earth for t in tracks)
+    earths = {tracks[0].earth} if same else {t.earth for t in tracks}
     if len(earths) > 1:
         out: list = [None] * len(tracks)
         for earth in earths:
@@ -278,8 +304,6 @@ def points_on(tracks, s, *, positions: bool = True) -> list[StackPoint]:
                                           positions=positions)):
                 out[k] = p
         return out
-    if not len(tracks):
-        return []
     distinct: dict[int, int] = {}
     order = []
     for track in tracks:

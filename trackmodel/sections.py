@@ -220,7 +220,8 @@ class SectionArrays:
                 "E": self.elevation0[k] + dE * t, "dE": dE}
 
 
-def tangent_frame(A: Array, E: Array, dA: Array, dE: Array, d2A: Array) -> tuple[Array, ...]:
+def tangent_frame(A: Array, E: Array, dA: Array, dE: Array, d2A: Array, *,
+                  derivatives: bool = True) -> tuple[Array, ...]:
     """ENU tangent and its first two frame-relative derivatives along s.
 
     Parameters
@@ -231,6 +232,8 @@ def tangent_frame(A: Array, E: Array, dA: Array, dE: Array, d2A: Array) -> tuple
         ``dA/ds`` (1/m) and ``dϑ/ds`` (rad/m).
     d2A : ndarray, shape (N,)
         ``d²A/ds²``, 1/m² (``d²ϑ/ds² = 0`` within a section).
+    derivatives : bool
+        False: the tangent only (the derivatives None; ``u`` the same numbers).
 
     Returns
     -------
@@ -238,16 +241,26 @@ def tangent_frame(A: Array, E: Array, dA: Array, dE: Array, d2A: Array) -> tuple
         ``u = [cosϑ sinA, cosϑ cosA, sinϑ]``, ``du/ds`` (1/m), ``d²u/ds²`` (1/m²), ENU.
     """
     sA, cA, sE, cE = np.sin(A), np.cos(A), np.sin(E), np.cos(E)
+    u = _columns(cE * sA, cE * cA, sE)
+    if not derivatives:
+        return u, None, None
     zero = np.zeros_like(sA)
-    u = np.stack([cE * sA, cE * cA, sE], axis=-1)
-    u_A = np.stack([cE * cA, -cE * sA, zero], axis=-1)         # ∂u/∂A
-    u_E = np.stack([-sE * sA, -sE * cA, cE], axis=-1)          # ∂u/∂ϑ
-    u_AA = np.stack([-cE * sA, -cE * cA, zero], axis=-1)       # ∂²u/∂A²
-    u_AE = np.stack([-sE * cA, sE * sA, zero], axis=-1)        # ∂²u/∂A∂ϑ
+    u_A = _columns(cE * cA, -cE * sA, zero)         # ∂u/∂A
+    u_E = _columns(-sE * sA, -sE * cA, cE)          # ∂u/∂ϑ
+    u_AA = _columns(-cE * sA, -cE * cA, zero)       # ∂²u/∂A²
+    u_AE = _columns(-sE * cA, sE * sA, zero)        # ∂²u/∂A∂ϑ
     dA, dE, d2A = (np.asarray(x, dtype=float)[..., None] for x in (dA, dE, d2A))
     du = dA * u_A + dE * u_E
     d2u = d2A * u_A + dA * dA * u_AA + 2.0 * dA * dE * u_AE - dE * dE * u   # ∂²u/∂ϑ² = −u
     return u, du, d2u
+
+
+def _columns(x: Array, y: Array, z: Array) -> Array:
+    """``np.stack([x, y, z], axis=-1)`` of three arrays of one shape (the same copy,
+    without np.stack's generic argument handling)."""
+    out = np.empty(np.shape(x) + (3,))
+    out[..., 0], out[..., 1], out[..., 2] = x, y, z
+    return out
 
 
 @dataclass(frozen=True)

@@ -60,7 +60,8 @@ from scipy.linalg import lapack
 from ekf.update import LOG_2PI
 from railnav.errors import RailnavError
 
-__all__ = ["convert_state", "moved_state", "common_log_likelihoods", "evidence_rows"]
+__all__ = ["convert_state", "moved_state", "moved_states", "common_log_likelihoods",
+           "evidence_rows"]
 
 Array = npt.NDArray[np.float64]
 
@@ -103,21 +104,30 @@ def convert_state(source, target, x: Array, P: Array) -> tuple[Array, Array]:
 def moved_state(filt, x: Array, s_new: float, p_src, p_tgt) -> Array:
     """``x`` with ``s = s_new``, the attitude turned from `p_src`'s azimuth/elevation to
     `p_tgt`'s."""
-    lay = filt.layout
-    out = np.array(x, dtype=float)
-    out[lay.index("s")] = s_new
-    if "yaw" not in lay.names:
+    return moved_states(filt.layout, np.asarray(x, dtype=float)[None], np.array([s_new]),
+                        *(np.array([float(getattr(p, name))]) for name in
+                          ("azimuth", "elevation") for p in (p_src, p_tgt)))[0]
+
+
+def moved_states(layout, xs: Array, s_new: Array, az_src: Array, az_tgt: Array,
+                 el_src: Array, el_tgt: Array) -> Array:
+    """`moved_state` of K states of one layout at once, shape (K, n): ``s = s_new`` and the
+    attitude turned by ``az_tgt − az_src`` (wrapped to ±π) and ``el_tgt − el_src``
+    (NumPy's elementwise operations, each the scalar one: the same numbers)."""
+    out = np.array(xs, dtype=float)
+    out[:, layout.index("s")] = s_new
+    if "yaw" not in layout.names:
         return out                          # no attitude (the GNSS-only filter)
-    turn = (float(p_tgt.azimuth) - float(p_src.azimuth) + math.pi) % (2 * math.pi) - math.pi
-    out[lay.index("yaw")] += turn
-    out[lay.index("pitch")] += float(p_tgt.elevation) - float(p_src.elevation)
+    out[:, layout.index("yaw")] += (az_tgt - az_src + math.pi) % (2 * math.pi) - math.pi
+    out[:, layout.index("pitch")] += el_tgt - el_src
     return out
 
 
 def evidence_rows(screens: Sequence) -> set:
     """Keys of the rows the evidence uses: seen by every filter, used by at least one."""
-    seen = set.intersection(*(set(e.keys) for e in screens))
-    return seen & set.union(*(set(e.keys[e.used]) for e in screens))
+    # the keys as Python strings (`tolist`): hashing NumPy's string scalars costs more
+    seen = set.intersection(*(set(e.keys.tolist()) for e in screens))
+    return seen & set.union(*(set(e.keys[e.used].tolist()) for e in screens))
 
 
 def common_log_likelihoods(screens: Sequence) -> Array:
@@ -138,8 +148,13 @@ def common_log_likelihoods(screens: Sequence) -> Array:
     if not common:
         return out
     for j, e in enumerate(screens):
-        idx = np.array([k for k, key in enumerate(e.keys) if key in common])
-        nu, S = e.innov[idx], e.S[np.ix_(idx, idx)]
+        keys = e.keys.tolist()
+        idx = [k for k, key in enumerate(keys) if key in common]
+        if len(idx) == len(keys):                   # every row: the arrays as they are
+            nu, S = e.innov, e.S
+        else:
+            idx = np.array(idx)
+            nu, S = e.innov[idx], e.S[np.ix_(idx, idx)]
         # LAPACK's Cholesky and triangular solve as `scipy.linalg.cholesky(lower=True)` and
         # `solve_triangular(lower=True)` call them (the same bits), without their wrappers
         L, info = lapack.dpotrf(S, lower=True, clean=True)
@@ -148,5 +163,5 @@ def common_log_likelihoods(screens: Sequence) -> Array:
         if info != 0:
             raise np.linalg.LinAlgError(f"the innovation covariance of filter {j} is not "
                                         f"positive definite (LAPACK info {info})")
-        out[j] = -0.5 * (white @ white + 2.0 * np.sum(np.log(np.diag(L))) + idx.size * LOG_2PI)
+        out[j] = -0.5 * (white @ white + 2.0 * np.sum(np.log(np.diag(L))) + len(idx) * LOG_2PI)
     return out

@@ -37,7 +37,7 @@ from railnav.navigation.bank import common_log_likelihoods, evidence_rows
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
 from railnav.navigation.state_conversion import converted_pairs, known_offset, signed_speed
 from trackmodel.earth import C_n_e
-from trackmodel.network_points import points_on
+from trackmodel.network_points import point_fields, points_on
 
 __all__ = ["cycle_evidence", "hypothesis_points", "ecef_points", "track_points_of",
            "cycle_points", "abreast", "crossing_matrix", "reweight", "mix_states"]
@@ -92,10 +92,8 @@ def ecef_points(points) -> tuple[Array, Array]:
     shapes (K, 3), all rotated in one evaluation."""
     if not points:
         return np.zeros((0, 3)), np.zeros((0, 3))
-    lat = np.array([float(p.lat) for p in points])
-    lon = np.array([float(p.lon) for p in points])
-    r = np.array([np.asarray(p.r_e, dtype=float).reshape(3) for p in points])
-    u_n = np.array([np.asarray(p.u_n, dtype=float).reshape(3) for p in points])
+    lat, lon, r, u_n = point_fields(points, "lat", "lon", "r_e", "u_n")
+    lat, lon, r, u_n = lat.reshape(-1), lon.reshape(-1), r.reshape(-1, 3), u_n.reshape(-1, 3)
     return r, np.einsum("kij,kj->ki", np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3), u_n)
 
 
@@ -234,7 +232,7 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
     Newton points of `cycle_points`, when known (used where they are at the ``s`` the
     conversion asks for)."""
     K = len(hyps)
-    if K < 2 or np.allclose(transition, np.eye(K)):
+    if K < 2 or _identity(transition):
         return
     _, uses = imm_mixing(mu, transition, min_weight)
     pairs = [(i, j) for j, use in enumerate(uses) if use != [j] for i in use if i != j]
@@ -253,3 +251,10 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
                         convert=convert, min_weight=min_weight)
     for h, x, P in zip(hyps, x0, P0):
         h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
+
+
+def _identity(transition: Array) -> bool:
+    """``np.allclose(transition, np.eye(K))``: ``|Π − I| ≤ 1e-8 + 1e-5 I`` everywhere
+    (NaN and inf not), without `np.isclose`'s broadcasting and checks."""
+    eye = np.eye(transition.shape[0])
+    return bool(np.all(np.abs(transition - eye) <= 1e-8 + 1e-5 * eye))

@@ -15,9 +15,9 @@ import numpy as np
 import numpy.typing as npt
 
 from railnav.errors import RailnavError
-from railnav.navigation.bank import moved_state
+from railnav.navigation.bank import moved_states
 from trackmodel.earth import C_n_e
-from trackmodel.network_points import points_on
+from trackmodel.network_points import point_fields, points_on
 
 __all__ = ["converted", "converted_pairs", "forget_offsets", "known_offset", "signed_speed",
            "NEWTON_MAX_STEP_M", "MAX_OFFSETS"]
@@ -98,11 +98,9 @@ def _newton_many(p_g: list, p_src: list, s_g: list) -> list[float | None]:
     BLAS products as a point's own would: the same numbers)."""
     if not p_g:
         return []
-    lat = np.array([float(p.lat) for p in p_g])
-    lon = np.array([float(p.lon) for p in p_g])
-    u_n = np.array([np.asarray(p.u_n, dtype=float) for p in p_g])
-    d = np.array([np.asarray(a.r_e) for a in p_g]) - \
-        np.array([np.asarray(b.r_e) for b in p_src])
+    lat, lon, u_n, r_g = point_fields(p_g, "lat", "lon", "u_n", "r_e")
+    lat, lon = lat.reshape(-1), lon.reshape(-1)
+    d = r_g - point_fields(p_src, "r_e")[0]
     tangent = (np.asarray(C_n_e(lat, lon)).reshape(-1, 3, 3) @ u_n[..., None])
     step = -(d[:, None, :] @ tangent)[:, 0, 0]
     return [g + float(st) if abs(float(st)) <= NEWTON_MAX_STEP_M else None
@@ -173,12 +171,11 @@ def converted_pairs(sources, targets, xs, Ps, *, source_points: list | None = No
         return points_on([targets[k].track for k in guessed], s_g)
 
     s_tgt = _target_s(sources, targets, p_src, s_src, first_points)
-    # the targets' tangents and angles only (`_converted` reads no position of them)
+    # the targets' tangents and angles only (`_converted_all` reads no position of them)
     p_tgt = points_on([f.track for f in targets],
                       [min(max(s, 0.0), f.track.length_m) for s, f in zip(s_tgt, targets)],
                       positions=False)
-    return [_converted(*args) for args in zip(sources, xs, Ps, s_raw, s_src, s_tgt, p_src,
-                                              p_tgt)]
+    return _converted_all(sources, xs, Ps, s_raw, s_src, s_tgt, p_src, p_tgt)
 
 
 def _first_wave(sources, targets, s_src: list) -> dict[int, float]:
@@ -197,13 +194,36 @@ def _first_wave(sources, targets, s_src: list) -> dict[int, float]:
     return out
 
 
-def _converted(source, x: Array, P: Array, s_raw: float, s_src: float, s_tgt: float,
-               p_src, p_tgt) -> tuple[Array, Array]:
-    """`converted` of one pair once the track points are known."""
+def _converted_all(sources, xs, Ps, s_raw: list, s_src: list, s_tgt: list, p_src: list,
+                   p_tgt: list) -> list[tuple[Array, Array]]:
+    """`converted` of every pair once the track points are known: the pairs whose tracks
+    run the same way there moved together per layout (`moved_states`: the same numbers
+    as `moved_state` pair by pair), the others (``v`` negated) one by one."""
+    (u_src, az_src, el_src), (u_tgt, az_tgt, el_tgt) = (
+        point_fields(points, "u_n", "azimuth", "elevation") for points in (p_src, p_tgt))
+    out: list = [None] * len(sources)
+    same: dict[tuple, list[int]] = {}
+    for k, (source, a, b) in enumerate(zip(sources, u_src, u_tgt)):
+        if float(np.dot(a, b)) > 0.0:
+            same.setdefault(source.layout.names, []).append(k)
+        else:
+            out[k] = _reversed(source, xs[k], Ps[k], s_raw[k], s_src[k], s_tgt[k])
+    for ks in same.values():
+        s_new = np.array([s_tgt[k] + (s_raw[k] - s_src[k]) for k in ks])
+        moved = moved_states(sources[ks[0]].layout, np.array([xs[k] for k in ks],
+                                                             dtype=float),
+                             s_new, *(a.reshape(-1)[ks] for a in (az_src, az_tgt, el_src,
+                                                                   el_tgt)))
+        for k, x in zip(ks, moved):
+            out[k] = (x, Ps[k])
+    return out
+
+
+def _reversed(source, x: Array, P: Array, s_raw: float, s_src: float, s_tgt: float
+              ) -> tuple[Array, Array]:
+    """`converted` of a pair whose tracks run opposite ways: ``v`` (and its covariances)
+    negated, for filters whose speed is signed."""
     lay = source.layout
-    if float(np.dot(p_src.u_n, p_tgt.u_n)) > 0.0:
-        out = moved_state(source, x, s_tgt + (s_raw - s_src), p_src, p_tgt)
-        return out, P
     if not signed_speed(source):
         raise RailnavError(f"the tracks run opposite ways at s = {s_src:.1f} m: an "
                            "inertial filter's state cannot be brought across")

@@ -250,3 +250,20 @@ def test_mixtures_merged_together_equal_each_merged_alone(rng):
             c = np.einsum("j,jab->ab", w[t], covs[t]) + np.einsum("j,ja,jb->ab", w[t], d, d)
             np.testing.assert_array_equal(mean[t], m)
             np.testing.assert_array_equal(cov[t], 0.5 * (c + c.T))
+
+
+def test_mixing_uses_are_each_start_and_its_weights_above_the_floor(rng):
+    """`imm_mixing`'s ``uses`` against its definition written out: for each start j, j
+    itself and every i with ``μ_{i|j} > min_weight``, in order; weights of exactly 0 (a
+    hypothesis of probability 0) left out."""
+    from ekf.bank import imm_mixing
+    for J, floor in ((1, 0.0), (4, 0.0), (6, 1e-3), (8, 0.2)):
+        mu = rng.dirichlet(np.ones(J))
+        T = rng.uniform(0.0, 1.0, (J, J)) * (rng.uniform(size=(J, J)) > 0.4)
+        T[np.arange(J), np.arange(J)] += 0.5
+        T = T / T.sum(axis=1, keepdims=True)
+        if J > 1:
+            mu[0] = 0.0                                  # weights of exactly 0
+        weights, uses = imm_mixing(mu, T, floor)
+        ref = [[i for i in range(J) if i == j or weights[i, j] > floor] for j in range(J)]
+        assert uses == ref

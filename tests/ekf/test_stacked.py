@@ -34,16 +34,22 @@ def _members(rng, k: int):
     return priors, series
 
 
-def test_members_together_equal_the_engine_one_by_one(engine):
-    priors, series = _members(np.random.default_rng(3), 4)
+def _as_one_by_one(engine, priors, series, outputs=("x_next", "P_next", "x_filt", "P_filt",
+                                                    "innov", "S", "nis", "Phi")) -> None:
+    """`propagate_members` of the members against the engine's ``reset`` + ``propagate``
+    member by member: posteriors and the per-step `outputs`, to the bit."""
     together = propagate_members(engine, priors, series)
     for (x0, P0), samples, member in zip(priors, series, together):
         engine.reset(x0, P0)
         steps = engine.propagate(samples)
         np.testing.assert_array_equal(member.x, engine.x)
         np.testing.assert_array_equal(member.P, engine.P)
-        for name in ("x_next", "P_next", "x_filt", "P_filt", "innov", "S", "nis", "Phi"):
+        for name in outputs:
             np.testing.assert_array_equal(getattr(member.outputs, name), getattr(steps, name))
+
+
+def test_members_together_equal_the_engine_one_by_one(engine):
+    _as_one_by_one(engine, *_members(np.random.default_rng(3), 4))
 
 
 def test_a_single_sample_is_the_prior_symmetrized(engine):
@@ -77,3 +83,19 @@ def test_one_bad_prior_among_members_fails_as_the_engine_does(engine):
     with pytest.raises(FilterDivergedError, match="initial covariance") as together:
         propagate_members(engine, priors, series)
     assert str(together.value) == str(alone.value)
+
+
+def test_shared_inputs_and_held_rows_equal_the_engine_one_by_one(engine):
+    """Members whose samples share one array (`ekf.stacked._field_together` broadcasts
+    it) and hold one row of ``q_c`` each over their samples (broadcast too), one member
+    without ``z_c`` (zeros): the engine's numbers member by member, to the bit."""
+    rng = np.random.default_rng(6)
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.05, 0.15, 30)])
+    u, r_c = np.zeros((t.size, 0)), rng.uniform(0.5, 2.0, (t.size, 1))
+    priors, series = [], []
+    for k in range(3):
+        L = rng.normal(size=(2, 2))
+        priors.append((rng.normal(size=2), L @ L.T + 0.1 * np.eye(2)))
+        series.append(InputSeries(t=t, u=u, q_c=rng.uniform(0.01, 0.1, 1), r_c=r_c,
+                                  z_c=None if k == 1 else rng.normal(size=(t.size, 1))))
+    _as_one_by_one(engine, priors, series)

@@ -149,3 +149,53 @@ def test_node_points_are_the_tracks_points_within_their_expansion_error(tracks):
     t = tracks[0]
     outside, _ = nodes.ecef([t, t], [-3.0, t.length_m + 3.0])
     assert np.array_equal(outside, nodes.ecef([t, t], [0.0, t.length_m])[0])
+
+
+def test_point_fields_are_each_points_own(tracks):
+    """`point_fields` against ``getattr`` point by point: the fields of one `points_on`
+    call (read by one index), of points from two calls and of `Track.at` points (point
+    by point), bit for bit; a field not evaluated raises AttributeError."""
+    from trackmodel.network_points import point_fields
+    rng = np.random.default_rng(12)
+    pick = [tracks[k] for k in rng.integers(0, len(tracks), 9)]
+    s = [float(rng.uniform(0.0, t.length_m)) for t in pick]
+    one = points_on(pick, s)
+    mixed = one[:4] + points_on(pick[4:], s[4:])
+    scalar = [t.at(x) for t, x in zip(pick, s)]
+    for points in (one, one[::-2], mixed, scalar):
+        found = point_fields(points, *FIELDS)
+        for name, values in zip(FIELDS, found):
+            ref = np.array([np.asarray(getattr(p, name), dtype=float) for p in points])
+            np.testing.assert_array_equal(values, ref)
+    with pytest.raises(AttributeError, match="not evaluated"):
+        point_fields(points_on(pick, s, positions=False), "lat")
+
+
+def test_node_points_are_found_as_point_by_point(tracks):
+    """`NodePoints.ecef` finds the nodes of all points at once: the same numbers as the
+    point-by-point rule (``round(s)`` half to even, clamped to the track's last node,
+    ``δ = s − s_node``) expanded from the same node rows, at half-metre ties too."""
+    import math
+
+    from trackmodel.network_points import BLOCK_NODES, NODE_STEP_M, NodePoints, \
+        expanded_points
+    rng = np.random.default_rng(13)
+    nodes = NodePoints()
+    pick = [tracks[k] for k in rng.integers(0, len(tracks), 12)]
+    s = [float(rng.uniform(-1.0, t.length_m + 1.0)) for t in pick]
+    s[:3] = [2.5, 3.5, pick[2].length_m - 0.25]                 # ties and the end
+    r, tangent = nodes.ecef(pick, s)
+    rows, d = [], []
+    for t, x in zip(pick, s):
+        x = min(max(x, 0.0), t.length_m)
+        node = min(int(round(x / NODE_STEP_M)), int(math.ceil(t.length_m / NODE_STEP_M)))
+        block, row = divmod(node, BLOCK_NODES)
+        rows.append(nodes._rows(t, block)[row])
+        d.append(x - min(node * NODE_STEP_M, t.length_m))
+    tab = np.array(rows)
+    C = tab[:, 3:12].reshape(-1, 3, 3)
+    r_ref, u_ref = expanded_points(tab[:, :3], C, tab[:, 12:15], tab[:, 15:18], np.array(d))
+    np.testing.assert_array_equal(r, r_ref)
+    np.testing.assert_array_equal(tangent, np.einsum("kij,kj->ki", C, u_ref))
+    with pytest.raises(ValueError, match="not finite"):
+        nodes.ecef(pick[:1], [float("nan")])

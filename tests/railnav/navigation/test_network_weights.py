@@ -88,3 +88,49 @@ def test_newton_steps_together_equal_each_pairs_own():
     assert together == alone
     assert together[3] is None and all(v is not None for k, v in enumerate(together)
                                        if k != 3)
+
+
+def test_states_moved_together_equal_the_turn_written_out_pair_by_pair():
+    """`moved_states` (the conversions' states of one layout moved at once) against the
+    move written out in Python floats pair by pair: ``s`` set, yaw turned by the azimuth
+    difference wrapped to ±π (Python's ``%``), pitch by the elevation difference; the
+    same bits, at turns either side of ±π too; `moved_state` (its case of one) alike."""
+    from railnav.navigation.bank import moved_state, moved_states
+    import math
+    config = navigator_config_for(get_scenario("curvy"))
+    filt = ConstrainedFilter(read_track(TRACKS_DIR / "double_a.csv"), config, None)
+    lay = filt.layout
+    rng = np.random.default_rng(21)
+    K = 40
+    xs = rng.normal(size=(K, lay.size))
+    s_new = rng.uniform(0.0, 3000.0, K)
+    az_src, az_tgt = rng.uniform(-math.pi, math.pi, K), rng.uniform(-math.pi, math.pi, K)
+    az_tgt[:4] = az_src[:4] + np.array([math.pi, -math.pi, math.pi - 1e-12, 1e-300])
+    el_src, el_tgt = rng.normal(0.0, 0.01, K), rng.normal(0.0, 0.01, K)
+    got = moved_states(lay, xs, s_new, az_src, az_tgt, el_src, el_tgt)
+    for k in range(K):
+        ref = xs[k].tolist()
+        ref[lay.index("s")] = float(s_new[k])
+        turn = (float(az_tgt[k]) - float(az_src[k]) + math.pi) % (2 * math.pi) - math.pi
+        ref[lay.index("yaw")] = ref[lay.index("yaw")] + turn
+        ref[lay.index("pitch")] = ref[lay.index("pitch")] + (float(el_tgt[k])
+                                                             - float(el_src[k]))
+        assert got[k].tolist() == ref
+        one = moved_state(filt, xs[k], float(s_new[k]),
+                          SimpleNamespace(azimuth=az_src[k], elevation=el_src[k]),
+                          SimpleNamespace(azimuth=az_tgt[k], elevation=el_tgt[k]))
+        assert one.tolist() == ref
+
+
+def test_the_identity_test_is_allclose_to_the_identity():
+    """`_identity` (the mixing's test for a crossing matrix that moves nothing) against
+    ``np.allclose(Π, I)``: matrices at, just inside and just outside its tolerances,
+    with NaN and inf."""
+    rng = np.random.default_rng(22)
+    eye = np.eye(5)
+    cases = [eye, eye + 5e-9, eye + 2e-8, eye * (1 + 9e-6), eye * (1 + 1.1e-5),
+             rng.uniform(0, 1, (5, 5)), np.eye(1)]
+    nan, inf = eye.copy(), eye.copy()
+    nan[1, 2], inf[3, 3] = np.nan, np.inf
+    for T in cases + [nan, inf]:
+        assert nw._identity(T) == np.allclose(T, np.eye(T.shape[0]))
