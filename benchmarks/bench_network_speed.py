@@ -42,6 +42,10 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from railnav.blas_threads import one_blas_thread  # noqa: E402
+
+one_blas_thread()       # before NumPy: the runs are timed as the CLI runs them
+
 from railnav.jobs.network import run_simulated_network, write_network_run  # noqa: E402
 from railnav.navigation.network_config import NetworkNavConfig  # noqa: E402
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario  # noqa: E402
@@ -179,6 +183,7 @@ def main(argv=None) -> int:
            "step_costs": _step_costs(base, scenario),
            "targets": {"end_to_end_x": 300.0, "navigator_x": 1000.0},
            "machine": {"python": platform.python_version(), "cpus": os.cpu_count(),
+                       "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
                        "load_average_before": load_before}}
     out["machine"]["load_average_after"] = os.getloadavg()
     atomic_write_text(args.out, json.dumps(out, indent=2) + "\n")

@@ -330,6 +330,8 @@ def main(argv: list[str] | None = None) -> dict:
     if args.stages_child:
         _stages_child()
         return {}
+    from railnav.blas_threads import one_blas_thread
+    one_blas_thread()       # the in-process timings (filter, bank) run as the CLI does
     import bench_ekf_engine  # the plain NumPy loop
     import bench_navigator  # the 2017 trip, the filter timing
     import bench_studies  # the 10-h streamed trip
@@ -341,6 +343,7 @@ def main(argv: list[str] | None = None) -> dict:
                        "processor": platform.processor() or platform.machine(),
                        "cpus": os.cpu_count(), "load_average_before": list(os.getloadavg()),
                        "bytecode": BYTECODE,
+                       "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
                        "environment_sets_PYTHONDONTWRITEBYTECODE":
                        bool(os.environ.get("PYTHONDONTWRITEBYTECODE"))},
            "help": _help(max(args.repeats, 5)), "end_to_end": _end_to_end(args.repeats),
