@@ -79,15 +79,15 @@ def find_clock_jump(config: FaultDetectionConfig, kind: np.ndarray, nu: Array, S
         The common pseudorange offset (m) and the jump variance added to the clock bias's
         (m²); None: no jump declared.
     """
+    threshold = chi2_threshold(1.0 - config.clock_jump_false_alarm, 1)
+    if noise is not None and float(nu @ (nu / noise)) < NIS_BOUND_MARGIN * threshold:
+        return None                      # (first: most epochs end here)
     every = admitted is None
     members = np.asarray(kind) == JUMP_ROW_KIND
     n_rows = members.size
     if not every:
         members = members[admitted]
     if np.count_nonzero(members) < MIN_JUMP_ROWS:
-        return None
-    threshold = chi2_threshold(1.0 - config.clock_jump_false_alarm, 1)
-    if noise is not None and float(nu @ (nu / noise)) < NIS_BOUND_MARGIN * threshold:
         return None
     offset, _, nis_offset, nis_residual = common_offset(
         nu, S, members) if every else common_offset(
