@@ -219,7 +219,8 @@ class RowScreen:
             if len(sv) else np.zeros(0, dtype=object)
         Q = np.zeros(P.shape, dtype=P.dtype)      # np.zeros_like(P), without its wrapper
         S0 = S if inflation is None else own_covariance(S, R, inflation)
-        jump = self._clock_jump(keys, kind, nu, S0) if nu.size else None
+        noise = R if inflation is None or R is None else R / inflation     # S0's own part
+        jump = self._clock_jump(keys, kind, nu, S0, noise) if nu.size else None
         if jump is not None:
             Q[self.clock_index, self.clock_index] = jump[1]
             jump_S = H @ Q @ H.T
@@ -267,10 +268,11 @@ class RowScreen:
                                   H=H[used], R=R[used], groups=row_ids(n_used))
         return EpochRows(rows, Q) if np.count_nonzero(Q) else rows
 
-    def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array
-                    ) -> tuple[float, float] | None:
+    def _clock_jump(self, keys: np.ndarray, kind: np.ndarray, nu: Array, S: Array,
+                    noise: Array | None = None) -> tuple[float, float] | None:
         """(offset m, jump variance m²) of a declared receiver clock jump among the rows of
-        the admitted channels (`railnav.filters.clock_jump.find_clock_jump`), or None."""
+        the admitted channels (`railnav.filters.clock_jump.find_clock_jump`, with the rows'
+        variances `noise` in `S`: None, always tested), or None."""
         cfg = self.config
         if cfg is None or cfg.clock_jump_false_alarm is None or self.clock_index is None:
             return None
@@ -282,7 +284,7 @@ class RowScreen:
                                    count=keys.size)
             if admitted.all():
                 admitted = None
-        return find_clock_jump(cfg, kind, nu, S, admitted)
+        return find_clock_jump(cfg, kind, nu, S, admitted, noise)
 
     def _channel(self, key: str) -> Channel:
         if key not in self._channels:
