@@ -8,9 +8,9 @@ track (`railnav.navigation.net_tracks`), made by
 `railnav.navigation.hypothesis_filters.FilterFactory` (re-exported here). They start where
 the first fix or single-point solution is (`railnav.navigation.network_start`) and are
 stepped in lockstep, cycle by cycle: a cycle ends at each measurement epoch, or after
-`railnav.navigation.loop.MAX_CHUNK_S` without one, and at the first sample where a hypothesis reaches the end of its element
-(`crossing_sample`: it branches there, not up to a cycle later on geometry extrapolated
-past its element). After each cycle:
+`railnav.navigation.loop.MAX_CHUNK_S` without one, and at the first sample where a
+hypothesis reaches the end of its element (`crossing_sample`: it branches there, not up
+to a cycle later on geometry extrapolated past its element). After each cycle:
 
 1. every hypothesis's filter has propagated and taken the epoch's rows
    (`railnav.navigation.hypothesis_step.EngineStepper`);
