@@ -47,7 +47,7 @@ from ekf.bank import logsumexp
 from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
 from railnav.navigation.hypotheses import most_probable, normalized_weights
-from railnav.navigation.monitor import status_at
+from railnav.navigation.statuses import status_at
 from railnav.navigation.network_innovations import innovation_frame, noise_factors
 from railnav.navigation.network_status import (combined_status_records, pseudo_nis,
                                                 pseudo_records, row_records)

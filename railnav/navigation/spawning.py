@@ -37,7 +37,7 @@ the fixes disagree with the network, not only with the hypotheses (issue 14: the
 log_28554 ended ``lost`` in the airport tunnel on fixes drifting 20-37 m from every element,
 whose along-track parts agreed with the hypothesis). The test's outcome per fix epoch is
 the ``status`` column of the network run's ``estimates.csv`` (`Spawner.frame`, read by
-`railnav.navigation.monitor.status_at`: the
+`railnav.navigation.statuses.status_at`: the
 divergence monitor's statuses and thresholds, on the navigator's own evidence; runs with
 neither fixes nor GNSS observations have no status column).
 
@@ -299,7 +299,7 @@ class Spawner:
             self.p_degraded
 
     def frame(self):
-        """The fix epochs' test (`railnav.navigation.monitor.status_at` reads it): ``time_s,
+        """The fix epochs' test (`railnav.navigation.statuses.status_at` reads it): ``time_s,
         status`` (``degraded`` while the window fills after a start or a spawn, ``lost``
         below `NetworkNavConfig.spawn_p_value`, ``degraded`` below the monitor's
         ``p_degraded``, else ``ok``), ``p_fix`` (the window's tail probability),
