@@ -32,7 +32,8 @@ class FilterFactory:
     def __init__(self, tracks: OrientedTracks, config: NavigatorConfig, trip) -> None:
         self.tracks, self.config, self.trip = tracks, config, trip
         self._templates: dict[tuple, object] = {}
-        #: The noise scale of every hypothesis's GNSS rows (`_Run.step` feeds it).
+        #: The noise scale of every hypothesis's GNSS rows (the cycles of
+        #: `railnav.navigation.network_navigator` feed it).
         self.noise_scale = BankNoiseScale(config.noise_scale)
 
     def __call__(self, pieces):
