@@ -13,10 +13,11 @@ filter's (`railnav.filters.gnss_only_noise.pseudorange_inflation`) for the updat
 screened at their own (`railnav.filters.fault_detection`, "Inflated rows").
 
 Reference path of a chunk: from the filter's state at the chunk start, the along-track
-distance is predicted with the along-track specific force, ``a ≈ f_x − b_ax − g sin θ``
-(cm-accurate over a second); the track quantities are taken at the nearest node of a 0.5-m
-grid (`railnav.filters.track_grid`) and the model corrects them to first/second order in
-``s − s_ref`` (`strapdown.reduced`), so the Jacobians with respect to ``s`` are the track's.
+distance is predicted with the along-track specific force (`railnav.filters.reference_path`,
+its `ReferencePath` part of `ConstrainedFilter`); the track quantities are taken at the
+nearest node of a 0.5-m grid (`railnav.filters.track_grid`) and the model corrects them to
+first/second order in ``s − s_ref`` (`strapdown.reduced`), so the Jacobians with respect to
+``s`` are the track's.
 """
 from __future__ import annotations
 
@@ -46,20 +47,16 @@ from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.one_sided import OneSidedLimit
 from railnav.filters.path_noise import PathNoise, bias_together
+from railnav.filters.reference_path import ReferencePath
 from railnav.filters.scale_noise import step_nodes
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
 from railnav.filters.start_attitude import track_attitude, with_track_attitude_covariance
 from railnav.filters.track_grid import TrackParameterGrid
-from strapdown.gravity import g_n
 from trackmodel.track import Track
 
 __all__ = ["ConstrainedFilter"]
 
 Array = npt.NDArray[np.float64]
-
-#: Gravity for the along-track prediction is looked up once per this much track, m (it
-#: changes by ~3e-6 m/s² per km of height or latitude: far below what the prediction needs).
-_GRAVITY_CACHE_M = 1000.0
 
 
 def _chunk_step(t: Array, t_prev: float) -> float:
@@ -69,17 +66,7 @@ def _chunk_step(t: Array, t_prev: float) -> float:
         else float(t[0] - t_prev)
 
 
-def _shifted(a: Array, first: float) -> Array:
-    """``[first, a[0], ..., a[-2]]`` (``np.concatenate([[first], a[:-1]])``, without the
-    conversion of the list)."""
-    out = np.empty(a.size)
-    if a.size:
-        out[0] = first
-        out[1:] = a[:-1]
-    return out
-
-
-class ConstrainedFilter:
+class ConstrainedFilter(ReferencePath):
     """Model, inputs and GNSS rows of the constrained filter for one track.
 
     Parameters
@@ -296,33 +283,6 @@ class ConstrainedFilter:
         covariance and these."""
         if self._along is not None and parent._along is not None:
             self._along = parent._along.copy()
-
-    def predict_s(self, t: Array, accel: Array, x_prev: Array, t_prev: float) -> Array:
-        """Along-track distance at ``t`` predicted from the state at ``t_prev`` and the
-        samples' along-track acceleration `accel` (m/s², `_along_accel`), m."""
-        i = self._i
-        dt = t - _shifted(t, t_prev)                  # np.diff of [t_prev, *t]
-        # np.cumsum's accumulation, without its wrapper
-        v = x_prev[i["v"]] + np.add.accumulate(accel * dt)
-        v_mid = 0.5 * (_shifted(v, x_prev[i["v"]]) + v)
-        s = x_prev[i["s"]] + np.add.accumulate(v_mid * dt)
-        return np.minimum(np.maximum(s, 0.0), self.track.length_m)   # np.clip, faster
-
-    def _along_accel(self, u: Array, x_prev: Array) -> Array:
-        """Along-track acceleration of samples `u` from the state `x_prev`,
-        ``f_x − b_ax − g sin θ`` (m/s²)."""
-        gravity = self._gravity_near(x_prev[self._i["s"]])
-        f_x = u[:, 0] - (x_prev[self._b_ax] if self._b_ax is not None else 0.0)
-        return f_x - gravity * np.sin(x_prev[self._i["pitch"]])
-
-    def _gravity_near(self, s: float) -> float:
-        """|g| (m/s²) at the track point nearest `s`, cached per kilometre of track."""
-        key = int(s // _GRAVITY_CACHE_M)
-        if key not in self._gravity:
-            point = self.track.at(min(max(s, 0.0), self.track.length_m))
-            self._gravity[key] = float(np.linalg.norm(g_n(point.lat, point.h,
-                                                          earth=self.track.earth)))
-        return self._gravity[key]
 
     # -- discrete updates ------------------------------------------------------------------
     def observations(self, index: int, x: Array, P: Array) -> list[Observation] | EpochRows:

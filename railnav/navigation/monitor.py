@@ -64,6 +64,9 @@ any test fails at `MonitorConfig.p_degraded` (1e-3; the fix test over the whole 
 else ``ok``. For a consistent filter the false ``degraded`` rate is ≤ 7·p_degraded
 per epoch (two kinds), false ``lost`` ≤ 4·p_lost; the windows overlap: alarms come in runs.
 
+The statuses and the status in force at a time (`status_at`) are
+`railnav.navigation.statuses`'s (re-exported here).
+
 Recovery (`MonitorConfig.recover`, `railnav.navigation.monitor_recovery`): when ``lost``,
 the state is re-initialised from the epoch's fix or its ``s, v`` covariance widened.
 After a recovery the windows restart, and the status is ``degraded`` until
@@ -98,6 +101,7 @@ from railnav.navigation.small_disagreement import SmallDisagreement
 from railnav.navigation.snapshot import snapshot_fix
 from railnav.filters.row_sets import ROW_STATUSES
 from railnav.filters.standstill_rows import STANDSTILL_ROW_KINDS
+from railnav.navigation.statuses import STATUSES, status_at
 from railnav.navigation.tail_probabilities import (
     binom_sf,
     chi2_isf,
@@ -106,15 +110,11 @@ from railnav.navigation.tail_probabilities import (
     row_false_rejection_p,
     sigma_gate,
 )
-from railnav.navigation.track_fixes import FIX_TIME_TOL_S, TrackFixes
+from railnav.navigation.track_fixes import TrackFixes
 
 __all__ = ["FilterMonitor", "STATUSES", "status_at"]
 
 Array = npt.NDArray[np.float64]
-
-#: The statuses, from best to worst.
-STATUSES = ("ok", "degraded", "lost")
-
 
 #: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
 #: `railnav.filters.fix_rows.FIX_ROW_KINDS`).
@@ -391,14 +391,3 @@ class FilterMonitor:
             "time_s", "status", "p_gnss_nis", "p_rejected", "p_fix", "p_pseudo_nis",
             "p_fix_small", "p_kind_rejected",
             "fix_disagreement_sigma", "variance_factor", "sigma_s_prior_m", "action"])
-
-
-def status_at(records: pd.DataFrame, time_s: Array) -> npt.NDArray[np.object_]:
-    """The status in force at each of `time_s`: that of the last tested epoch at or before
-    it (``ok`` before the first; every sample ``ok`` without records)."""
-    time_s = np.asarray(time_s, dtype=float)
-    if records is None or len(records) == 0:
-        return np.full(time_s.size, STATUSES[0], dtype=object)
-    j = np.searchsorted(records["time_s"].to_numpy(), time_s + FIX_TIME_TOL_S, side="right") - 1
-    status = records["status"].to_numpy(dtype=object)
-    return np.where(j >= 0, status[np.maximum(j, 0)], STATUSES[0]).astype(object)

@@ -4,12 +4,13 @@ r"""The multiple-hypothesis navigator on a track network: which netelement, wher
 with a changing set of hypotheses (`railnav.navigation.hypotheses.Hypothesis`): each is
 "on netelement E in orientation o, with this along-track state", one track-constrained
 filter of the run's kind (constrained INS/GNSS, GNSS-only, fix-only) on E's oriented
-track (`railnav.navigation.net_tracks`). They start where the first fix or single-point
-solution is (`railnav.navigation.network_start`) and are stepped in lockstep, cycle by
-cycle: a cycle ends at each measurement epoch, or after `railnav.navigation.loop.MAX_CHUNK_S`
-without one, and at the first sample where a hypothesis reaches the end of its element
-(`crossing_sample`: it branches there, not up to a cycle later on geometry extrapolated
-past its element). After each cycle:
+track (`railnav.navigation.net_tracks`), made by
+`railnav.navigation.hypothesis_filters.FilterFactory` (re-exported here). They start where
+the first fix or single-point solution is (`railnav.navigation.network_start`) and are
+stepped in lockstep, cycle by cycle: a cycle ends at each measurement epoch, or after
+`railnav.navigation.loop.MAX_CHUNK_S` without one, and at the first sample where a
+hypothesis reaches the end of its element (`crossing_sample`: it branches there, not up
+to a cycle later on geometry extrapolated past its element). After each cycle:
 
 1. every hypothesis's filter has propagated and taken the epoch's rows
    (`railnav.navigation.hypothesis_step.EngineStepper`);
@@ -45,9 +46,7 @@ import numpy as np
 from railnav.config import NavigatorConfig
 from railnav.sensor_data import SensorData
 from railnav.errors import ConfigError, RailnavError
-from railnav.filters.fault_detection import RowScreen
-from railnav.filters.bank_noise_scale import BankNoiseScale
-from railnav.filters.protocol import FILTER_KINDS, filter_kind, make_filter
+from railnav.filters.protocol import FILTER_KINDS, filter_kind
 from railnav.navigation.hypotheses import (
     NetworkNavConfig,
     branch,
@@ -59,6 +58,7 @@ from railnav.navigation.hypotheses import (
     prune,
     rebased,
 )
+from railnav.navigation.hypothesis_filters import FilterFactory
 from railnav.navigation.hypothesis_step import EngineStepper
 from railnav.navigation.loop import EPOCH_TIME_TOL_S, MAX_CHUNK_S
 from railnav.navigation.navigator import trip_samples
@@ -90,62 +90,6 @@ Progress = Callable[[int, int], None]
 
 #: How often the live hypotheses are logged (INFO, ``railnav -v``), s of trip time.
 REPORT_EVERY_S = 10.0
-
-
-class FilterFactory:
-    """Filter objects of the run's kind on the tracks of hypotheses (pieces,
-    `railnav.navigation.net_tracks`).
-
-    Each hypothesis gets its own (its fault screen keeps per-channel memory); a child
-    inherits its parent's channels (`child`). The GNSS rows' noise scale is the run's
-    one, `noise_scale` (`railnav.filters.bank_noise_scale.BankNoiseScale`: each filter has a
-    member of it). `template` is one shared object per track for outputs (its
-    ``estimates``), never stepped.
-    """
-
-    def __init__(self, tracks: OrientedTracks, config: NavigatorConfig, trip) -> None:
-        self.tracks, self.config, self.trip = tracks, config, trip
-        self._templates: dict[tuple, object] = {}
-        #: The noise scale of every hypothesis's GNSS rows (`_Run.step` feeds it).
-        self.noise_scale = BankNoiseScale(config.noise_scale)
-
-    def __call__(self, pieces):
-        trip = self.trip
-        filt = make_filter(self.tracks.placed(pieces), self.config, trip.gnss,
-                           fixes=trip.fixes,
-                           schedule=trip.schedule if trip.fixes is not None else None)
-        if hasattr(filt, "use_noise_scale"):
-            filt.use_noise_scale(self.noise_scale.member())
-        return filt
-
-    def child(self, parent, pieces):
-        """A filter for `parent`'s child (or rebased self) on `pieces` (with the parent
-        filter's memory where its kind keeps one: ``inherit_memory``)."""
-        filt = self(pieces)
-        if type(filt) is type(parent.filt) and hasattr(filt, "inherit_memory"):
-            filt.inherit_memory(parent.filt)
-        screen = getattr(parent.filt, "screen", None)
-        if isinstance(screen, RowScreen) and isinstance(getattr(filt, "screen", None),
-                                                        RowScreen):
-            filt.screen = parent_screen_copy(screen, observer=filt.screen.observer)
-        return filt
-
-    def template(self, pieces):
-        """The shared output filter object of `pieces`' track."""
-        key = tuple(pieces)
-        if key not in self._templates:
-            self._templates[key] = self(key)
-        return self._templates[key]
-
-
-def parent_screen_copy(screen: RowScreen, observer=None) -> RowScreen:
-    """A fault screen with `screen`'s channel states and no records (`observer`: its
-    `RowScreen.observer`: the child's own)."""
-    import copy
-    out = RowScreen(screen.config, screen.clock_index, observer=observer)
-    out._channels = copy.deepcopy(screen._channels)
-    out._n_states = screen._n_states
-    return out
 
 
 def cycle_ends(n_samples: int, epoch_samples: np.ndarray, max_len: int) -> list[int]:

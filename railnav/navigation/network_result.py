@@ -8,7 +8,8 @@ hypotheses on that element along it (moment-matched offset and σ; when no hypot
 mean is on it, the joint just passed and the σ_s of the hypothesis holding most there);
 the live hypotheses once per
 `NetworkNavConfig.hypotheses_every_s`; the innovations of the most probable hypothesis at
-each epoch; and the final hypotheses with their paths. From these:
+each epoch (``innovations.csv``: `railnav.navigation.network_innovations`); and the final
+hypotheses with their paths. From these:
 
 * `NetworkResult.estimates`: the ``estimates.csv`` table of the most probable hypothesis
   (its filter's columns, `railnav.navigation.result.estimates_frame`) plus ``netelement``,
@@ -45,10 +46,9 @@ import pandas as pd
 from ekf.bank import logsumexp
 from ekf.packing import pack_sym
 from railnav.navigation.element_shares import element_shares
-from railnav.filters.common import ROW_KINDS
-from railnav.filters.noise_scale import row_scales
 from railnav.navigation.hypotheses import most_probable, normalized_weights
-from railnav.navigation.monitor import status_at
+from railnav.navigation.statuses import status_at
+from railnav.navigation.network_innovations import innovation_frame, noise_factors
 from railnav.navigation.network_status import (combined_status_records, pseudo_nis,
                                                 pseudo_records, row_records)
 from railnav.navigation.result import NavigationResult, estimates_frame
@@ -125,7 +125,7 @@ class NetworkRecorder:
             self.pseudo.append((time_s, *pseudo_nis(outcome.innov_c[best],
                                                     outcome.S_c[best])))
         if outcome.screens is not None:
-            factors = _noise_factors(hyps[best].filt)
+            factors = noise_factors(hyps[best].filt)
             screens = outcome.screens
             if isinstance(screens, list):   # else a stepper's stacked screens, read-only:
                 screens, best = [screens[best]], 0  # their EpochScreen made in `result`
@@ -180,9 +180,9 @@ class NetworkRecorder:
         final = [{"id": h.id, "element": h.element, "orientation": h.orientation,
                   "probability": float(wk), "path": h.path} for h, wk in zip(hyps, w)]
         table = pd.DataFrame(self.rows)
-        innovations = _innovation_frame([(screens[best], time_s) for screens, best, time_s, _
-                                         in self.innov], self.start_gps_time_s,
-                                        [factors for *_, factors in self.innov])
+        innovations = innovation_frame([(screens[best], time_s) for screens, best, time_s, _
+                                        in self.innov], self.start_gps_time_s,
+                                       [factors for *_, factors in self.innov])
         return NetworkResult(
             network=network, tracks=self.tracks, factory=self.factory, config=config,
             nav=nav, start_gps_time_s=self.start_gps_time_s, runtime_s=float(runtime_s),
@@ -251,39 +251,6 @@ def _hypothesis_rows(hyps, w: Array, time_s: float, tracks) -> list[dict]:
                     "speed_mps": v, "sigma_speed_mps": float(np.sqrt(h.P[i_v, i_v])),
                     "probability": float(wk)})
     return out
-
-
-def _noise_factors(filt) -> tuple[float, ...]:
-    """The noise scale's σ factors of `filt`'s latest epoch (its ``noise_scale.history``,
-    `railnav.filters.noise_scale`), NaN without."""
-    history = getattr(getattr(filt, "noise_scale", None), "history", None)
-    return history[-1] if history else (np.nan,) * len(ROW_KINDS)
-
-
-def _innovation_frame(epochs: list, start_gps_time_s: float, factors: list
-                      ) -> pd.DataFrame:
-    """``innovations.csv`` of the screened epochs ``(EpochScreen, time_s)``
-    (`railnav.navigation.result`'s columns; ``accepted``: used by the update; `factors`:
-    each epoch's noise scale, `_noise_factors`)."""
-    sizes = [e.innov.size for e, _ in epochs]
-    t = np.repeat([tk for _, tk in epochs], sizes).astype(float)
-    keys = [k.split("/", 1) for e, _ in epochs for k in e.keys]
-    innov = np.concatenate([e.innov for e, _ in epochs]) if epochs else np.zeros(0)
-    sigma = np.sqrt(np.concatenate([np.diag(e.S) for e, _ in epochs])) if epochs else \
-        np.zeros(0)
-    cat = (lambda f: np.concatenate([f(e) for e, _ in epochs])) if epochs else \
-        (lambda f: np.zeros(0))
-    epoch = np.repeat(np.arange(len(epochs)), sizes)
-    kind = np.array([b for _, b in keys], dtype=object)
-    return pd.DataFrame({
-        "time_s": t, "gps_time_s": t + start_gps_time_s, "epoch": epoch,
-        "sv": np.array([a for a, _ in keys], dtype=object), "kind": kind,
-        "innovation": innov,
-        "sigma": sigma, "nis": (innov / sigma) ** 2, "accepted": cat(lambda e: e.used),
-        "status": cat(lambda e: e.status).astype(object),
-        "fault_probability": cat(lambda e: e.fault_probability),
-        "clock_jump_m": np.repeat([e.clock_jump_m for e, _ in epochs], sizes).astype(float),
-        "noise_scale": row_scales(factors, epoch, kind)})
 
 
 @dataclass(frozen=True, eq=False)

@@ -66,7 +66,7 @@ from railnav.navigation.initialization import InitialState, first_fix, noise_see
 from railnav.navigation.loop import EPOCH_TIME_TOL_S
 from railnav.navigation.network_weights import abreast, ecef_points, track_points_of
 from railnav.navigation.route_path import PathEntry
-from railnav.navigation.spawning import fix_disagreement
+from railnav.navigation.fix_disagreement import fix_disagreement
 from railnav.navigation.spp_epochs import EpochSppFixes
 from railnav.navigation.state_conversion import converted
 from trackmodel.earth import ecef_to_geodetic
@@ -246,8 +246,9 @@ def _abreast_elements(hyps: list[Hypothesis], network, nav, fix, cross_sigma_m: 
     but those a train passes to from the known one or comes from there (its continuation
     at a joint, the ways of its switch: branching covers them) and, given the start's
     `fix` (``(fixes, k)``, `_fix_at`), those whose point nearest the start disagrees with
-    it (the spawn test's statistic, `railnav.navigation.spawning.fix_disagreement`, with
-    the known start's σ_s and `cross_sigma_m`; beyond ``nav.spawn_p_value``: a start that
+    it (the spawn test's statistic,
+    `railnav.navigation.fix_disagreement.fix_disagreement`, with the known start's σ_s
+    and `cross_sigma_m`; beyond ``nav.spawn_p_value``: a start that
     the fix puts far along the track is lost, and its copies abreast would be too)."""
     points = track_points_of(hyps)
     near = network.project(np.array([float(q.lat) for q in points]),

@@ -82,7 +82,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from railnav.filters.row_sets import ROW_STATUSES
-from railnav.navigation.monitor import STATUSES
+from railnav.navigation.statuses import STATUSES
 from railnav.navigation.tail_probabilities import binom_sf, chi2_sf, row_false_rejection_p
 
 __all__ = ["row_false_rejection", "row_records", "pseudo_nis", "pseudo_records",

@@ -37,7 +37,7 @@ from ekf.layout import StateLayout
 from railnav.filters.fix_rows import FIX_ROW_KINDS
 from railnav.filters.noise_scale import row_scales, scale_statistics
 from railnav.filters.sensor_rows import sensor_statistics
-from railnav.navigation.monitor import STATUSES, status_at
+from railnav.navigation.statuses import STATUSES, status_at
 from railnav.navigation.protection import protection_columns
 
 __all__ = ["NavigationResult", "estimates_frame", "integrity_columns", "monitor_statistics",
@@ -205,7 +205,7 @@ class NavigationResult:
 
 
 def integrity_columns(estimates: pd.DataFrame, monitor: pd.DataFrame, config) -> dict:
-    """``status`` (`railnav.navigation.monitor.status_at`) and the protection columns
+    """``status`` (`railnav.navigation.statuses.status_at`) and the protection columns
     (`railnav.navigation.protection.protection_columns`) of the `estimates` rows."""
     status = status_at(monitor, estimates["time_s"].to_numpy())
     cols = {"status": status}

@@ -13,7 +13,7 @@ import pandas as pd
 from railnav.config import NavigatorConfig
 from railnav.evaluation.running_stats import RunningCounts, RunningSummary
 from railnav.navigation.loop import EPOCH_TIME_TOL_S
-from railnav.navigation.monitor import STATUSES
+from railnav.navigation.statuses import STATUSES
 from railnav.navigation.result import CSV_DECIMALS, CSV_FLOAT_FORMAT, integrity_columns
 from railnav.simulation.scenarios import Scenario
 from trackmodel.csv_table import write_csv
