@@ -80,7 +80,7 @@ def point_fields(points, *names: str) -> tuple[Array, ...]:
     """Fields `names` of each point stacked, each shape (N,) or (N, 3): ``np.array([
     getattr(p, name) for p in points], dtype=float)`` for each name, read from the call's
     own arrays at once (one fancy index each: the same numbers) when the points are
-    `StackPoint`\ s of one `points_on` call."""
+    `StackPoint` objects of one `points_on` call."""
     first = points[0] if len(points) else None
     if type(first) is StackPoint:
         values = first._values
