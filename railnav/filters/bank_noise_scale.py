@@ -67,6 +67,11 @@ class BankNoiseScale:
         lost: their rows were no measure of the receiver's noise)."""
         self.scale = NoiseScale(self.scale.config)
 
+    def seed(self, variance_factor: dict[str, float]) -> None:
+        """Seed the bank's factors at a start (`NoiseScale.seed`: the start's scatter
+        factors, `railnav.navigation.start_scatter`)."""
+        self.scale.seed(variance_factor)
+
     def restart_above(self, own: NoiseScale) -> bool:
         """At a spawn (`railnav.navigation.spawning`): `restart` when the pseudoranges'
         factor is above `own`'s upper confidence bound (`NoiseScale.upper_bound`; `own`

@@ -191,7 +191,7 @@ def start_hypotheses(network, tracks, factory, trip, data, config, nav, *,
                 init = _at_offset(init, filt, tracks, element, orientation, start.offset_m)
             time_s = init.time_s if time_s is None else time_s
             if seed_scale and init.noise_seed and hasattr(factory, "noise_scale"):
-                factory.noise_scale.scale.seed(init.noise_seed)
+                factory.noise_scale.seed(init.noise_seed)
             hyps.append(hypothesis(tracks, bare(element, orientation), init.x0, init.P0,
                                    0.0, filt, (PathEntry(element, orientation,
                                                          float(init.time_s)),)))

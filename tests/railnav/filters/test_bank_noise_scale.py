@@ -66,6 +66,31 @@ def test_a_bank_of_one_is_the_single_scale():
     assert max(h[0] for h in single.history) > 1.5          # it rose, and was followed
 
 
+def test_a_seeded_bank_is_the_seeded_single_scale():
+    """`BankNoiseScale.seed` (a network start's scatter factors): every member has the
+    seed at once, and a bank of one then follows a single scale seeded alike, to the bit,
+    through the seed's floor and its fade (told right: the factors come back down)."""
+    seed = {ROW_KINDS[0]: 6.0, ROW_KINDS[1]: 40.0}
+    single, bank = NoiseScale(CONFIG), BankNoiseScale(CONFIG)
+    member, other = bank.member(), bank.member()
+    single.seed(seed)
+    bank.seed(seed)
+    assert member.variance_factor == other.variance_factor == single.variance_factor
+    assert single.variance_factor == seed                       # in effect now (both >= 1)
+    rng = np.random.default_rng(23)
+    for epoch in range(120):
+        rows = _rows(rng, 1.0)
+        single.begin_epoch()
+        single.add(rows)
+        bank.epoch(member)
+        member.begin_epoch()
+        member.add(rows)
+        bank.end_epoch()
+        assert member.variance_factor == single.variance_factor, epoch
+    assert member.history == single.history
+    assert max(member.variance_factor.values()) < 2.0            # the seed faded
+
+
 def test_a_bank_of_one_fed_by_the_screen_is_the_single_scale():
     """Fed by `seen` (a screen's record) with an inflation on the pseudoranges: the same
     factors as the single scale, to the bit."""
