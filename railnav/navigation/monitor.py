@@ -130,6 +130,12 @@ SCREENED_SHARE, SCREENED_MIN_ROWS = 0.25, 2
 _NIS, _N_ACC, _N_REJ, _D2, _NISC, _NISC_DOF, _D, _E_REJ, _E_REJ_ON, _ROWS = range(10)
 
 
+def _sqrt(value: float) -> float:
+    """``np.sqrt`` of a Python float, as a Python float, without NumPy's scalar call: the
+    same bits (IEEE's correctly rounded square root), NaN below 0."""
+    return math.sqrt(value) if value >= 0.0 else math.nan
+
+
 class FilterMonitor:
     """Status of one filter epoch by epoch, and its recovery (module docstring).
 
@@ -175,8 +181,8 @@ class FilterMonitor:
         self._clock_columns = clock_offset_columns(layout)
         self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
             else None
-        self._counted_key: dict[str, bool] = {}    # keys the rejected-row test counts
-        self._position_key: dict[str, bool] = {}
+        # the last screen epoch's keys and their masks (`_key_masks`)
+        self._keys_masks: tuple[list, tuple] | None = None
         # the last epochs, oldest first, in the last `_n_window` columns
         self._window = np.full((_ROWS + 1, config.window_epochs), np.nan)
         self._n_window = 0
@@ -189,12 +195,13 @@ class FilterMonitor:
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         last = None if observations is None else self._new_screen_epoch()
-        self._screen_rows = (0, 0) if last is None else self._screen_rejections(last)
+        masks = None if last is None else self._key_masks(last.keys)
+        self._screen_rows = (0, 0) if last is None else self._screen_rejections(last, masks)
         if last is not None and self._gate is not None:
             self._kind_tail = kind_rejected_tail(last, self._gate)
-        self._snapshot = None if observations is None or self._screened_out(last) else \
-            snapshot_fix(observations, x, self.i_s, self._clock_columns,
-                         pseudorange_inflation=self.pseudorange_inflation)
+        self._snapshot = None if observations is None or self._screened_out(last, masks) \
+            else snapshot_fix(observations, x, self.i_s, self._clock_columns,
+                              pseudorange_inflation=self.pseudorange_inflation)
         if self._snapshot is not None and self.i_bias is not None:
             self._prior = self._prior[:2] + (
                 apparent_variance(observations, x, P, self.i_s, self.i_bias),)
@@ -208,39 +215,46 @@ class FilterMonitor:
         self._screened = last
         return last
 
-    def _screen_rejections(self, last) -> tuple[int, int]:
+    def _key_masks(self, keys) -> tuple:
+        """The rows of screen keys `keys` (``"<sv>/<kind>"``) that the rejected-row test
+        counts (not `STANDSTILL_ROW_KINDS`), the position rows (`POSITION_ROW_KINDS`), and
+        how many of those: computed when the keys differ from the last epoch's (the
+        satellites in view change seldom)."""
+        names = keys.tolist() if isinstance(keys, np.ndarray) else list(keys)
+        if self._keys_masks is not None and self._keys_masks[0] == names:
+            return self._keys_masks[1]
+        kinds = [key_kind(key) for key in names]
+        counted = np.array([kind not in STANDSTILL_ROW_KINDS for kind in kinds], dtype=bool)
+        position = np.array([kind in POSITION_ROW_KINDS for kind in kinds], dtype=bool)
+        masks = (counted, int(np.count_nonzero(counted)), position,
+                 int(np.count_nonzero(position)))
+        self._keys_masks = (names, masks)
+        return masks
+
+    def _screen_rejections(self, last, masks) -> tuple[int, int]:
         """Screen epoch `last`'s rows and rejected rows, less the standstill detector's
         (`STANDSTILL_ROW_KINDS`): their rejection refutes its guess, not the filter (a
         MEMS IMU cruising reads as standing; counted, the 5-min stop was ``degraded`` on
-        21 % of its epochs)."""
-        counted = self._counted_key
-        for key in last.keys:                  # "<sv>/<kind>": the kind of each key, once
-            if key not in counted:
-                counted[key] = key_kind(key) not in STANDSTILL_ROW_KINDS
-        mask = np.fromiter(map(counted.__getitem__, last.keys), dtype=bool, count=len(last.keys))
-        return int(mask.sum()), int(np.count_nonzero(mask & (last.status == ROW_STATUSES[1])))
+        21 % of its epochs). `masks`: `_key_masks` of its keys."""
+        counted, n_counted = masks[:2]
+        return n_counted, int(np.count_nonzero(counted & (last.status == ROW_STATUSES[1])))
 
-    def _screened_out(self, last) -> bool:
+    def _screened_out(self, last, masks) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`),
         in its epoch `last` (None: it did not run), kept `SCREENED_SHARE` of this epoch's
         position rows (at least `SCREENED_MIN_ROWS`) from the update: its choice was made
         at the prior, so the rows left are not independent of it (a filter far off keeps
         the rows that agree with it), and the epoch's fix is then solved from all its data.
         One satellite left out (its channel excluded over a stretch of epochs) leaves the
-        snapshot to the others."""
+        snapshot to the others. `masks`: `_key_masks` of its keys."""
         if last is None:
             return False
         out_rows = ~last.used
         if not out_rows.any():                 # every row used: none out (SCREENED_MIN_ROWS)
             return False
-        is_position = self._position_key
-        for key in last.keys:                  # "<sv>/<kind>": the kind of each key, once
-            if key not in is_position:
-                is_position[key] = key_kind(key) in POSITION_ROW_KINDS
-        position = np.fromiter(map(is_position.__getitem__, last.keys), dtype=bool,
-                               count=len(last.keys))
+        position, n_position = masks[2:]
         out = int(np.count_nonzero(position & out_rows))
-        return out >= max(SCREENED_MIN_ROWS, SCREENED_SHARE * int(np.count_nonzero(position)))
+        return out >= max(SCREENED_MIN_ROWS, SCREENED_SHARE * n_position)
 
     def epoch(self, chunk, x: Array, P: Array) -> tuple[Array, Array] | None:
         """Test the epoch that ended `chunk` (an `ekf.FilterResult`), posterior ``x, P``.
@@ -256,18 +270,18 @@ class FilterMonitor:
         self._prior = None
         nis = chunk.innov_d ** 2 / chunk.s_d
         acc = np.asarray(chunk.accepted, dtype=bool)
-        d = np.nan
+        d = math.nan
         j = None if self.fixes is None else self.fixes.at(time_s)
         # a fix off the track (a receiver's jump) is rejected whatever the state
         on_track = j is None or self._on_track(self.fixes, j) is not None
         snapshot, self._snapshot = self._snapshot, None
         kind_tail, self._kind_tail = self._kind_tail, 1.0
-        small = np.nan                                 # `SmallDisagreement.term`, if any
+        small = math.nan                               # `SmallDisagreement.term`, if any
         if snapshot is not None:                       # this epoch's own rows, on the track
             ds, var_fix, white = snapshot
-            small = self.small.term(ds, var_fix, var_prior) if white else np.nan
+            small = self.small.term(ds, var_fix, var_prior) if white else math.nan
             var_fix = max(var_fix, self.config.min_fix_sigma_m ** 2)
-            d = ds / np.sqrt(var_fix + var_prior)
+            d = ds / _sqrt(var_fix + var_prior)
         else:                                          # a fix from all the epoch's data
             fixes = self.fixes
             if j is None and self.fix_at is not None:
@@ -279,19 +293,19 @@ class FilterMonitor:
                 # a filter that inflates its rows for correlated errors (its code fixes
                 # too) is correlated with this fix: no lower tail (`SmallDisagreement`)
                 small = self.small.term(s_fix - s_prior, sigma_fix ** 2, var_prior) \
-                    if self.pseudorange_inflation == 1.0 else np.nan
+                    if self.pseudorange_inflation == 1.0 else math.nan
                 var_fix = max(sigma_fix, self.config.min_fix_sigma_m) ** 2
-                d = (s_fix - s_prior) / np.sqrt(var_fix + var_prior)
+                d = (s_fix - s_prior) / _sqrt(var_fix + var_prior)
                 self._epoch_fixes = fixes
         self._push_epoch(chunk, nis, acc, d, on_track, small)
         self._seen += 1
         status, tails = self._status(kind_tail)
         record = {"time_s": time_s, "status": status, **tails,
-                  "sigma_s_prior_m": float(np.sqrt(var_prior)), "action": ""}
+                  "sigma_s_prior_m": _sqrt(var_prior), "action": ""}
         self.records.append(record)
         if status != "lost" or not self.config.recover:
             return None
-        far = np.isfinite(d) and d * d > chi2_isf(self.config.p_lost, 1)
+        far = math.isfinite(d) and d * d > chi2_isf(self.config.p_lost, 1)
         fixes, self._epoch_fixes = self._epoch_fixes or self.fixes, None
         if far and j is None and self.fix_at is not None:   # solved now, for the restart
             fixes = self.fix_at(time_s)
@@ -355,7 +369,7 @@ class FilterMonitor:
         d2_sum, d_sum = float(np.add.reduce(d2)), float(np.add.reduce(d))
         p_fix = fix_disagreement_tail(d2_sum, d_sum, n_have)
         if n_have >= 2:                # `lost` only if the others fail without the worst
-            k = int(np.argmax(d2))
+            k = int(d2.argmax())
             p_fix_lost = fix_disagreement_tail(d2_sum - float(d2[k]), d_sum - float(d[k]),
                                                n_have - 1)
         else:
@@ -363,7 +377,7 @@ class FilterMonitor:
         p_rejected = p_rejected_on = 1.0
         if self.p_reject is not None:                  # epochs, not rows (docstring)
             n_epochs = int(np.count_nonzero(w[_ROWS] > 0))
-            q = 1.0 - (1.0 - self.p_reject) ** float(np.max(w[_ROWS]))
+            q = 1.0 - (1.0 - self.p_reject) ** float(np.maximum.reduce(w[_ROWS]))
             p_rejected = binom_sf(int(e_rej), n_epochs, q)
             p_rejected_on = binom_sf(int(e_rej_on), n_epochs, q)
         tails = {"p_gnss_nis": chi2_sf(nis_sum, n_acc),
