@@ -358,15 +358,20 @@ class FilterMonitor:
         w = self._window[:, self._window.shape[1] - self._n_window:]   # (10, n), oldest first
         # (the sums of ndarray.sum, here and below: np.add.reduce, without the wrappers;
         # Python floats after, each the float64 it was)
-        nis_sum, n_acc, n_rej, _, nisc, nisc_dof, _, e_rej, e_rej_on, _ = \
+        nis_sum, n_acc, n_rej, d2_all, nisc, nisc_dof, d_all, e_rej, e_rej_on, _ = \
             np.add.reduce(w, axis=1).tolist()
         n_rows = n_acc + n_rej
         rejected_share = n_rej / n_rows if n_rows else 0.0
-        have = np.isfinite(w[_D2])
-        n_have = int(np.count_nonzero(have))
-        # every epoch with a fix: the rows as they are (their sums are those of the copies)
-        d2, d = (w[_D2], w[_D]) if n_have == have.size else (w[_D2][have], w[_D][have])
-        d2_sum, d_sum = float(np.add.reduce(d2)), float(np.add.reduce(d))
+        if math.isfinite(d2_all):      # every epoch with a fix (d² >= 0: a finite sum has
+            # finite terms): the rows and their sums as they are (a row's sum in the axis
+            # reduction is the bits of the row's own)
+            n_have, have_last, d2, d, d2_sum, d_sum = w.shape[1], True, w[_D2], w[_D], \
+                d2_all, d_all
+        else:
+            have = np.isfinite(w[_D2])
+            n_have, have_last = int(np.count_nonzero(have)), bool(have[-1])
+            d2, d = w[_D2][have], w[_D][have]
+            d2_sum, d_sum = float(np.add.reduce(d2)), float(np.add.reduce(d))
         p_fix = fix_disagreement_tail(d2_sum, d_sum, n_have)
         if n_have >= 2:                # `lost` only if the others fail without the worst
             k = int(d2.argmax())
@@ -386,7 +391,7 @@ class FilterMonitor:
                  "p_pseudo_nis": chi2_sf(nisc, nisc_dof),
                  "p_fix_small": self.small.tail(),
                  "p_kind_rejected": kind_tail,
-                 "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have[-1] else np.nan,
+                 "fix_disagreement_sigma": math.sqrt(w[_D2, -1]) if have_last else np.nan,
                  "variance_factor": d2_sum / n_have if n_have else np.nan}
         cfg = self.config
         if min(p_fix_lost, kind_tail) < cfg.p_lost or (

@@ -68,11 +68,13 @@ class SmallDisagreement:
     def __init__(self, window_epochs: int) -> None:
         self._terms = np.full(window_epochs, np.nan)     # oldest first, the last `_n`
         self._n = 0
+        self._n_finite = 0                                # finite terms of the last `_n`
         self.shared_m = 0.0
 
     def restart(self) -> None:
         """Forget the window and ``S`` (the filter was re-initialised or widened)."""
         self._n = 0
+        self._n_finite = 0
         self.shared_m = 0.0
 
     def term(self, ds: float, var_fix: float, var_prior: float) -> float:
@@ -96,13 +98,19 @@ class SmallDisagreement:
     def push(self, term: float) -> None:
         """Append this epoch's term (NaN: none), the oldest dropped."""
         t = self._terms
+        if self._n == t.size and math.isfinite(t[0]):     # the oldest leaves the window
+            self._n_finite -= 1
         t[:-1] = t[1:]
         t[-1] = term
         self._n = min(self._n + 1, t.size)
+        self._n_finite += math.isfinite(term)
 
     def tail(self) -> float:
         """Lower χ² tail of the window's terms: ``P(χ²ₙ ≤ Σ)`` over its n finite terms, 1
         without any."""
+        if not self._n_finite:                  # (chi2_cdf(0.0, 0): no numbers to sum)
+            return 1.0
         terms = self._terms[self._terms.size - self._n:]
-        terms = terms[np.isfinite(terms)]
+        if self._n_finite < self._n:            # every term finite: the window as it is
+            terms = terms[np.isfinite(terms)]
         return chi2_cdf(float(np.add.reduce(terms)), int(terms.size))
