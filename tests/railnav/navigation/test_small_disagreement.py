@@ -51,9 +51,10 @@ def _run(fix_error_m, sigma_fix_m: float, accel_psd: float):
         x, P = F @ x, F @ P @ F.T + Q
         monitor.prior(t, x, P)
         ds[k], var_prior[k] = fixes.s_m[k] - x[0], P[0, 0]
-        gain = P[:, 0] / (P[0, 0] + sigma_fix_m ** 2)
-        x = x + gain * (fixes.s_m[k] - x[0])
-        P = P - np.outer(gain, P[0])
+        if np.isfinite(fixes.s_m[k]):          # (NaN: no fix at this epoch)
+            gain = P[:, 0] / (P[0, 0] + sigma_fix_m ** 2)
+            x = x + gain * (fixes.s_m[k] - x[0])
+            P = P - np.outer(gain, P[0])
         monitor.epoch(_chunk(t), x, P)
         err[k], sigma[k] = x[0] - s_true[k], np.sqrt(P[0, 0])
     return err, sigma, ds, var_prior, monitor.frame()
@@ -131,3 +132,43 @@ def test_prior_share_of_a_common_error_closed_form(var_prior, var_fix):
     terms = [0.25 / var_fix] * 30 if var_fix > var_prior else []
     want = float(stats.chi2.cdf(sum(terms), len(terms))) if terms else 1.0
     assert test.tail() == pytest.approx(want, rel=1e-9)
+
+
+def test_windows_with_missing_fixes_equal_a_plain_recomputation(rng):
+    """Fixes missing at random epochs (a third; NaN: no fix there, the filter only
+    predicts): each epoch's fix tails equal scipy's over the windows' epochs that had a fix,
+    computed here with lists — ``p_fix`` over the last 10 ``d``, ``variance_factor``,
+    ``fix_disagreement_sigma`` (NaN without a fix), and ``p_fix_small`` over the last 30
+    finite terms, tested where the common-error share ``S`` (its recursion written out)
+    exceeds σ_prior; the windows slide past their missing epochs."""
+    n, sigma_fix, cfg = 150, 2.0, MonitorConfig(recover=False)
+    missing = rng.random(n) < 1 / 3
+    error = np.where(missing, np.nan, sigma_fix * rng.standard_normal(n))
+    _, _, ds, var_prior, frame = _run(error, sigma_fix, accel_psd=0.01)
+    d_all = ds / np.sqrt(max(sigma_fix, cfg.min_fix_sigma_m) ** 2 + var_prior)
+    shared, terms = 0.0, []
+    for k in range(n):
+        d = [v for v in d_all[max(0, k - cfg.window_epochs + 1):k + 1] if np.isfinite(v)]
+        if not missing[k]:
+            terms.append(ds[k] ** 2 / sigma_fix ** 2 if shared > np.sqrt(var_prior[k])
+                         else np.nan)
+            gain = var_prior[k] / (var_prior[k] + sigma_fix ** 2)
+            shared = (1 - gain) * shared + gain * sigma_fix
+        else:
+            terms.append(np.nan)
+        raw = [v for v in terms[-cfg.small_window_epochs:] if np.isfinite(v)]
+        row = frame.iloc[k]
+        p_fix = min(1.0, 2 * min(stats.chi2.sf(sum(v * v for v in d), len(d)),
+                                 stats.chi2.sf(sum(d) ** 2 / len(d), 1))) if d else 1.0
+        assert row["p_fix"] == pytest.approx(p_fix, rel=1e-9, abs=1e-300)
+        small = stats.chi2.cdf(sum(raw), len(raw)) if raw else 1.0
+        assert row["p_fix_small"] == pytest.approx(small, rel=1e-9, abs=1e-300)
+        if d:
+            assert row["variance_factor"] == pytest.approx(np.mean(np.square(d)), rel=1e-12)
+        else:
+            assert np.isnan(row["variance_factor"])
+        if missing[k]:
+            assert np.isnan(row["fix_disagreement_sigma"])
+        else:
+            assert row["fix_disagreement_sigma"] == pytest.approx(abs(d_all[k]), rel=1e-12)
+    assert missing[:cfg.window_epochs].any() and np.isfinite(np.array(terms)).sum() > 30
