@@ -174,6 +174,10 @@ class FilterMonitor:
         self._kind_tail = 1.0                  # this epoch's whole-kind test (`prior`)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
         self.p_reject = row_false_rejection_p(gate_probability, self._gate)
+        # below this, neither statistic of the fix test without its worst epoch fails at
+        # p_lost: 0.9 of the χ²₁ quantile of p_lost/2 (a χ² tail grows with its dof;
+        # `_status` skips that test there: ~4 µs an epoch, most epochs)
+        self._lost_below = 0.9 * chi2_isf(config.p_lost / 2.0, 1)
         self._screen_rows = (0, 0)             # this epoch's screened rows, rejected
         self._prior: tuple[float, float, float] | None = None
         self._snapshot: tuple[float, float] | None = None
@@ -375,8 +379,9 @@ class FilterMonitor:
         p_fix = fix_disagreement_tail(d2_sum, d_sum, n_have)
         if n_have >= 2:                # `lost` only if the others fail without the worst
             k = int(d2.argmax())
-            p_fix_lost = fix_disagreement_tail(d2_sum - float(d2[k]), d_sum - float(d[k]),
-                                               n_have - 1)
+            d2_rest, d_rest = d2_sum - float(d2[k]), d_sum - float(d[k])
+            p_fix_lost = fix_disagreement_tail(d2_rest, d_rest, n_have - 1) if max(
+                d2_rest, d_rest ** 2 / (n_have - 1)) >= self._lost_below else 1.0
         else:
             p_fix_lost = 1.0
         p_rejected = p_rejected_on = 1.0

@@ -8,6 +8,8 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
+from scipy import stats
 
 from railnav.simulation.trip import navigator_config_for
 from tests.railnav.navigation.test_monitor import _circle_scenario
@@ -70,3 +72,18 @@ def test_a_restart_takes_the_fixs_own_sigma():
     err = after["s_m"].to_numpy() - np.interp(after["time_s"], trip.truth.time_s,
                                               trip.truth.s)
     assert np.mean(np.abs(err) > 3.0 * after["sigma_s_m"].to_numpy()) <= 0.01
+
+
+@pytest.mark.parametrize("p_lost", [1e-3, 1e-6, 1e-12])
+def test_the_fix_test_without_its_worst_cannot_fail_below_the_skip_value(p_lost):
+    """`FilterMonitor._status` skips the fix test without the window's worst epoch (it only
+    decides ``lost``) where both its statistics lie below `FilterMonitor._lost_below`:
+    there, scipy's doubled χ² tails of either, with 1 to 60 degrees of freedom, are above
+    p_lost, so the test could not have failed."""
+    from railnav.navigation.monitor import FilterMonitor
+    from railnav.navigation.monitor_config import MonitorConfig
+    from ekf.layout import StateLayout
+    layout = StateLayout.from_blocks([("s", ["s"]), ("v", ["v"])])
+    below = FilterMonitor(layout, None, MonitorConfig(p_lost=p_lost), None)._lost_below
+    assert 0.0 < below < stats.chi2.isf(p_lost / 2, 1)
+    assert (2 * stats.chi2.sf(below, np.arange(1, 61)) > p_lost).all()
