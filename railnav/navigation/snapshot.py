@@ -87,7 +87,7 @@ def snapshot_fix(observations, x: Array, i_s: int, clock_columns=(), *,
     # one model's rows (an epoch's pseudoranges): their arrays as they are, else stacked
     nu, H, R = rows[0] if len(rows) == 1 else (np.concatenate(a) for a in zip(*rows))
     cols = [i_s] + [c for c in clock_columns if np.count_nonzero(H[:, c])]   # any != 0
-    A = H[:, cols]
+    A = H.take(cols, axis=1)       # C-ordered (H[:, cols] is not): no copies in the FDE
     if nu.size < len(cols) or not np.count_nonzero(A[:, 0]):
         return None
     sigma = np.sqrt(np.asarray(R, dtype=float))
