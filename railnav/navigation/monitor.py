@@ -174,9 +174,8 @@ class FilterMonitor:
         self._kind_tail = 1.0                  # this epoch's whole-kind test (`prior`)
         self.i_s, self.i_v = layout.index("s"), layout.index("v")
         self.p_reject = row_false_rejection_p(gate_probability, self._gate)
-        # below this, neither statistic of the fix test without its worst epoch fails at
-        # p_lost: 0.9 of the χ²₁ quantile of p_lost/2 (a χ² tail grows with its dof;
-        # `_status` skips that test there: ~4 µs an epoch, most epochs)
+        # no statistic below this fails the fix test without its worst epoch (`_status`
+        # skips it there): 0.9 of χ²₁'s quantile of p_lost/2 (a χ² tail grows with dof)
         self._lost_below = 0.9 * chi2_isf(config.p_lost / 2.0, 1)
         self._screen_rows = (0, 0)             # this epoch's screened rows, rejected
         self._prior: tuple[float, float, float] | None = None
@@ -200,7 +199,9 @@ class FilterMonitor:
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         last = None if observations is None else self._new_screen_epoch()
         masks = None if last is None else self._key_masks(last.keys)
-        self._screen_rows = (0, 0) if last is None else self._screen_rejections(last, masks)
+        # the screen's rows and rejected rows that the rejected-row test counts
+        self._screen_rows = (0, 0) if last is None else (masks[1], int(np.count_nonzero(
+            masks[0] & (last.status == ROW_STATUSES[1]))))
         if last is not None and self._gate is not None:
             self._kind_tail = kind_rejected_tail(last, self._gate)
         self._snapshot = None if observations is None or self._screened_out(last, masks) \
@@ -221,9 +222,11 @@ class FilterMonitor:
 
     def _key_masks(self, keys) -> tuple:
         """The rows of screen keys `keys` (``"<sv>/<kind>"``) that the rejected-row test
-        counts (not `STANDSTILL_ROW_KINDS`), the position rows (`POSITION_ROW_KINDS`), and
-        how many of those: computed when the keys differ from the last epoch's (the
-        satellites in view change seldom)."""
+        counts, the position rows (`POSITION_ROW_KINDS`), and how many of each; computed
+        when the keys differ from the last epoch's (the satellites change seldom). Not
+        counted: the standstill detector's (`STANDSTILL_ROW_KINDS`): their rejection
+        refutes its guess, not the filter (a MEMS IMU cruising reads as standing; counted,
+        the 5-min stop was ``degraded`` on 21 % of its epochs)."""
         names = keys.tolist() if isinstance(keys, np.ndarray) else list(keys)
         if self._keys_masks is not None and self._keys_masks[0] == names:
             return self._keys_masks[1]
@@ -234,14 +237,6 @@ class FilterMonitor:
                  int(np.count_nonzero(position)))
         self._keys_masks = (names, masks)
         return masks
-
-    def _screen_rejections(self, last, masks) -> tuple[int, int]:
-        """Screen epoch `last`'s rows and rejected rows, less the standstill detector's
-        (`STANDSTILL_ROW_KINDS`): their rejection refutes its guess, not the filter (a
-        MEMS IMU cruising reads as standing; counted, the 5-min stop was ``degraded`` on
-        21 % of its epochs). `masks`: `_key_masks` of its keys."""
-        counted, n_counted = masks[:2]
-        return n_counted, int(np.count_nonzero(counted & (last.status == ROW_STATUSES[1])))
 
     def _screened_out(self, last, masks) -> bool:
         """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`),
@@ -366,9 +361,8 @@ class FilterMonitor:
             np.add.reduce(w, axis=1).tolist()
         n_rows = n_acc + n_rej
         rejected_share = n_rej / n_rows if n_rows else 0.0
-        if math.isfinite(d2_all):      # every epoch with a fix (d² >= 0: a finite sum has
-            # finite terms): the rows and their sums as they are (a row's sum in the axis
-            # reduction is the bits of the row's own)
+        if math.isfinite(d2_all):      # a fix every epoch (d² >= 0): the rows as they are,
+            # their axis sums (each the bits of the row's own)
             n_have, have_last, d2, d, d2_sum, d_sum = w.shape[1], True, w[_D2], w[_D], \
                 d2_all, d_all
         else:
