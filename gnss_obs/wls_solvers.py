@@ -102,14 +102,6 @@ def closed_form_solve(gram: list[float], k: int) -> tuple[list[list[float]], lis
     ValueError
         If an entry of ``N`` is a NaN or infinity (`cholesky_inverse`).
     """
-    if k == 2:                        # (the usual case, unrolled: the same operations)
-        a, b, p, c, q = gram[0], gram[1], gram[2], gram[4], gram[5]
-        det = a * c - b * b
-        if math.isfinite(det) and min(a, det) > 0.0:
-            i00, i01, i11 = c / det, -b / det, a / det
-            # sum()'s: 0.0 + the terms, left to right
-            return [[i00, i01], [i01, i11]], [0.0 + i00 * p + i01 * q,
-                                              0.0 + i01 * p + i11 * q]
     if k == 1:
         a, p = gram[0], gram[1]
         minors = det = a
