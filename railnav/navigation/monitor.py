@@ -91,16 +91,15 @@ import numpy.typing as npt
 import pandas as pd
 
 from railnav.filters.code_bias import apparent_variance
-from railnav.filters.fault_detection import key_kind
 from railnav.filters.gnss_only_model import CODE_BIAS_STATE
 from railnav.filters.ins_clock_model import clock_offset_columns
 from railnav.navigation.kind_rejection import kind_rejected_tail
 from railnav.navigation.monitor_config import MonitorConfig
 from railnav.navigation.monitor_recovery import reinitialised, widened
 from railnav.navigation.small_disagreement import SmallDisagreement
+from railnav.navigation.screened_rows import ScreenKeyMasks, screened_out
 from railnav.navigation.snapshot import snapshot_fix
 from railnav.filters.row_sets import ROW_STATUSES
-from railnav.filters.standstill_rows import STANDSTILL_ROW_KINDS
 from railnav.navigation.statuses import STATUSES, status_at
 from railnav.navigation.tail_probabilities import (
     binom_sf,
@@ -116,12 +115,6 @@ __all__ = ["FilterMonitor", "STATUSES", "status_at"]
 
 Array = npt.NDArray[np.float64]
 
-#: The fault screen's kinds of those rows (`railnav.filters.common.ROW_KINDS`,
-#: `railnav.filters.fix_rows.FIX_ROW_KINDS`).
-POSITION_ROW_KINDS = ("pseudorange", "fix_along", "fix_cross", "fix_up")
-#: The epoch's fix is solved from all its data (`FilterMonitor._screened_out`) when the
-#: fault screen kept at least this share of the position rows, and this many (>= 1), out.
-SCREENED_SHARE, SCREENED_MIN_ROWS = 0.25, 2
 #: The window's per-epoch quantities, rows of `FilterMonitor`'s window array: accepted
 #: GNSS rows' NIS sum and count, rejected rows, fix disagreement ``d²`` (floored σ; NaN
 #: without a fix), pseudo-observation NIS sum and dimension, ``d``, whether any row was
@@ -149,7 +142,7 @@ class FilterMonitor:
         With ``s`` and ``v``.
     fixes : TrackFixes or None
         The run's position fixes on the track: the fix test's fix where the epoch's own
-        rows cannot give one (`snapshot_fix`, `_screened_out`), and a restart's.
+        rows cannot give one (`snapshot_fix`, `screened_rows.screened_out`), and a restart's.
     config : railnav.navigation.monitor_config.MonitorConfig
     gate_probability : float or None
         The run's χ² row gate (None: the rejected-row test is off).
@@ -184,8 +177,8 @@ class FilterMonitor:
         self._clock_columns = clock_offset_columns(layout)
         self.i_bias = layout.index(CODE_BIAS_STATE) if CODE_BIAS_STATE in layout.names \
             else None
-        # the last screen epoch's keys and their masks (`_key_masks`)
-        self._keys_masks: tuple[list, tuple] | None = None
+        # the screen keys' masks, the last key list's kept
+        self._key_masks = ScreenKeyMasks()
         # the last epochs, oldest first, in the last `_n_window` columns
         self._window = np.full((_ROWS + 1, config.window_epochs), np.nan)
         self._n_window = 0
@@ -198,13 +191,13 @@ class FilterMonitor:
         updates it with (`snapshot_fix` solves this epoch's fix on the track from them)."""
         self._prior = (float(time_s), float(x[self.i_s]), float(P[self.i_s, self.i_s]))
         last = None if observations is None else self._new_screen_epoch()
-        masks = None if last is None else self._key_masks(last.keys)
+        masks = None if last is None else self._key_masks.masks(last.keys)
         # the screen's rows and rejected rows that the rejected-row test counts
         self._screen_rows = (0, 0) if last is None else (masks[1], int(np.count_nonzero(
             masks[0] & (last.status == ROW_STATUSES[1]))))
         if last is not None and self._gate is not None:
             self._kind_tail = kind_rejected_tail(last, self._gate)
-        self._snapshot = None if observations is None or self._screened_out(last, masks) \
+        self._snapshot = None if observations is None or screened_out(last, masks) \
             else snapshot_fix(observations, x, self.i_s, self._clock_columns,
                               pseudorange_inflation=self.pseudorange_inflation)
         if self._snapshot is not None and self.i_bias is not None:
@@ -219,41 +212,6 @@ class FilterMonitor:
             return None
         self._screened = last
         return last
-
-    def _key_masks(self, keys) -> tuple:
-        """The rows of screen keys `keys` (``"<sv>/<kind>"``) that the rejected-row test
-        counts, the position rows (`POSITION_ROW_KINDS`), and how many of each; computed
-        when the keys differ from the last epoch's (the satellites change seldom). Not
-        counted: the standstill detector's (`STANDSTILL_ROW_KINDS`): their rejection
-        refutes its guess, not the filter (a MEMS IMU cruising reads as standing; counted,
-        the 5-min stop was ``degraded`` on 21 % of its epochs)."""
-        names = keys.tolist() if isinstance(keys, np.ndarray) else list(keys)
-        if self._keys_masks is not None and self._keys_masks[0] == names:
-            return self._keys_masks[1]
-        kinds = [key_kind(key) for key in names]
-        counted = np.array([kind not in STANDSTILL_ROW_KINDS for kind in kinds], dtype=bool)
-        position = np.array([kind in POSITION_ROW_KINDS for kind in kinds], dtype=bool)
-        masks = (counted, int(np.count_nonzero(counted)), position,
-                 int(np.count_nonzero(position)))
-        self._keys_masks = (names, masks)
-        return masks
-
-    def _screened_out(self, last, masks) -> bool:
-        """Whether the filter's fault screen (`railnav.filters.fault_detection.RowScreen`),
-        in its epoch `last` (None: it did not run), kept `SCREENED_SHARE` of this epoch's
-        position rows (at least `SCREENED_MIN_ROWS`) from the update: its choice was made
-        at the prior, so the rows left are not independent of it (a filter far off keeps
-        the rows that agree with it), and the epoch's fix is then solved from all its data.
-        One satellite left out (its channel excluded over a stretch of epochs) leaves the
-        snapshot to the others. `masks`: `_key_masks` of its keys."""
-        if last is None:
-            return False
-        out_rows = ~last.used
-        if not out_rows.any():                 # every row used: none out (SCREENED_MIN_ROWS)
-            return False
-        position, n_position = masks[2:]
-        out = int(np.count_nonzero(position & out_rows))
-        return out >= max(SCREENED_MIN_ROWS, SCREENED_SHARE * n_position)
 
     def epoch(self, chunk, x: Array, P: Array) -> tuple[Array, Array] | None:
         """Test the epoch that ended `chunk` (an `ekf.FilterResult`), posterior ``x, P``.
