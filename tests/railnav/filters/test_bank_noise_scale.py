@@ -47,14 +47,12 @@ def _record(rng, ratio: float, factor: dict, inflation):
     return SimpleNamespace(innov=nu, S=np.diag(np.tile(PRIOR_VAR, 2) + R)), kind, R
 
 
-def test_a_bank_of_one_is_the_single_scale():
-    """Fed by `add`: the same history and factors, to the bit, at every epoch of a rise
-    and its fall."""
-    single, bank = NoiseScale(CONFIG), BankNoiseScale(CONFIG)
-    member = bank.member()
-    rng = np.random.default_rng(21)
-    for epoch in range(200):
-        rows = _rows(rng, _ratio(epoch))
+def _fed_alike(single, bank, member, rng, epochs: int, ratio) -> None:
+    """Feed a single scale and a bank of one (`member` the feeder) the same rows by `add`
+    (``ratio(epoch)``: the rows' variance ratio): the same factors at every epoch, the
+    same history at the end, to the bit."""
+    for epoch in range(epochs):
+        rows = _rows(rng, ratio(epoch))
         single.begin_epoch()
         single.add(rows)
         bank.epoch(member)
@@ -63,6 +61,14 @@ def test_a_bank_of_one_is_the_single_scale():
         bank.end_epoch()
         assert member.variance_factor == single.variance_factor, epoch
     assert member.history == single.history
+
+
+def test_a_bank_of_one_is_the_single_scale():
+    """Fed by `add`: the same history and factors, to the bit, at every epoch of a rise
+    and its fall."""
+    single, bank = NoiseScale(CONFIG), BankNoiseScale(CONFIG)
+    member = bank.member()
+    _fed_alike(single, bank, member, np.random.default_rng(21), 200, _ratio)
     assert max(h[0] for h in single.history) > 1.5          # it rose, and was followed
 
 
@@ -77,17 +83,7 @@ def test_a_seeded_bank_is_the_seeded_single_scale():
     bank.seed(seed)
     assert member.variance_factor == other.variance_factor == single.variance_factor
     assert single.variance_factor == seed                       # in effect now (both >= 1)
-    rng = np.random.default_rng(23)
-    for epoch in range(120):
-        rows = _rows(rng, 1.0)
-        single.begin_epoch()
-        single.add(rows)
-        bank.epoch(member)
-        member.begin_epoch()
-        member.add(rows)
-        bank.end_epoch()
-        assert member.variance_factor == single.variance_factor, epoch
-    assert member.history == single.history
+    _fed_alike(single, bank, member, np.random.default_rng(23), 120, lambda _: 1.0)
     assert max(member.variance_factor.values()) < 2.0            # the seed faded
 
 
