@@ -34,7 +34,7 @@ from gnss_obs.ionosphere import ionosphere_scale, klobuchar_core, klobuchar_dela
 from trackmodel.earth import WGS84, Ellipsoid, ecef_to_geodetic
 
 __all__ = ["look_angles", "standard_atmosphere", "zenith_delays_m", "niell_mapping",
-           "troposphere_delay_m", "troposphere_delays_m", "klobuchar_delay_s",
+           "troposphere_delay_m", "klobuchar_delay_s",
            "enu_look_angles", "klobuchar_core", "troposphere_terms", "slant_troposphere_m",
            "ionosphere_scale", "day_of_year", "STANDARD_HUMIDITY", "IONOSPHERE_MODELS"]
 
@@ -296,36 +296,6 @@ def troposphere_delay_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.Arr
     zhd, zwd = zenith_delays_m(lat, h, humidity=humidity)
     m_h, m_w = niell_mapping(elevation, lat, h, day_of_year=day_of_year(gps_time_s))
     return zhd * m_h + zwd * m_w
-
-
-def troposphere_delays_m(elevation: npt.ArrayLike, lat: npt.ArrayLike, h: npt.ArrayLike, *,
-                         gps_time_s: float, humidity: float = STANDARD_HUMIDITY) -> Array:
-    """`troposphere_delay_m` of K receivers at one time (a bank's hypotheses): each
-    receiver's terms in Python floats, as `troposphere_delay_m` computes one receiver's,
-    then the satellites' part of all at once (each row's numbers are those of its own
-    `troposphere_delay_m` call, to the bit).
-
-    Parameters
-    ----------
-    elevation : array_like, shape (K, N)
-        Satellite elevations seen from each receiver, rad.
-    lat, h : array_like, shape (K,)
-        Receiver geodetic latitudes (rad) and ellipsoidal heights (m), finite.
-    gps_time_s : float
-        GPS time, s.
-    humidity : float
-        As `troposphere_delay_m`.
-
-    Returns
-    -------
-    ndarray, shape (K, N)
-        Slant delays, m.
-    """
-    columns = np.array([troposphere_terms(la, hk, gps_time_s, humidity=humidity)
-                        for la, hk in zip(np.asarray(lat, dtype=float).tolist(),
-                                          np.asarray(h, dtype=float).tolist())],
-                       dtype=float).T[:, :, None]                      # (9, K, 1)
-    return slant_troposphere_m(np.asarray(elevation, dtype=float), tuple(columns))
 
 
 def troposphere_terms(lat: float, h: float, gps_time_s: float, *,

@@ -20,7 +20,6 @@ import pytest
 
 from ekf.series import EpochRows
 from ekf.update import discrete_update
-from gnss_obs.corrections import troposphere_delay_m, troposphere_delays_m
 from gnss_obs.epoch import prepare_epoch, prepare_epochs
 from railnav.filters.epochs_together import observations_together
 from railnav.filters.protocol import make_filter
@@ -198,20 +197,6 @@ def test_prepare_epochs_equals_prepare_epoch_per_guess(bank):
     for guess, one in zip(guesses[:2], masked):
         assert len(one) and np.all(one.elevation >= gnss.elevation_mask_rad)
         np.testing.assert_array_equal(one.sat_pos_e, gnss.prepare(e, guess).sat_pos_e)
-
-
-def test_troposphere_delays_equal_one_receiver_each():
-    """`troposphere_delays_m` of receivers north and south, high and below sea level,
-    equals `troposphere_delay_m` of each (its Python-float receiver path), to the bit."""
-    rng = np.random.default_rng(7)
-    lat = np.array([0.88, -0.6, 0.05, 1.3])
-    h = np.array([120.0, 2500.0, -30.0, 0.0])
-    el = rng.uniform(0.0, np.pi / 2, (lat.size, 9))
-    t = 1.4e9 + 1234.5
-    both = troposphere_delays_m(el, lat, h, gps_time_s=t)
-    for k in range(lat.size):
-        np.testing.assert_array_equal(both[k], troposphere_delay_m(el[k], lat[k], h[k],
-                                                                   gps_time_s=t))
 
 
 def test_stacked_row_arithmetic_equals_each_filter_alone():
