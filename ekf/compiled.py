@@ -38,8 +38,8 @@ from ekf.errors import FilterError
 from ekf.library_cache import default_cache_dir, load_library
 
 __all__ = ["CompileOptions", "CompiledLoop", "CompiledRows", "compiler_available",
-           "NATIVE_FLAGS", "INLINE_FLAGS", "has_avx2", "build_library", "address",
-           "compile_source"]
+           "NATIVE_FLAGS", "INLINE_FLAGS", "has_avx2", "build_library", "load_template",
+           "address", "compile_source"]
 
 log = logging.getLogger(__name__)
 
@@ -169,8 +169,11 @@ def _c_source(fun: ca.Function, template: str, loop: str) -> str:
         size_h=fun.nnz_out(fun.n_out() - 1))
 
 
-def _load(fun: ca.Function, template: str, opts: CompileOptions
-          ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
+def load_template(fun: ca.Function, template: str, opts: CompileOptions
+                  ) -> tuple[ctypes.CDLL, ctypes._CFuncPtr, float]:
+    """`fun`'s C with the loop of `template` (this module's loop templates, or
+    `ekf.compiled_each`'s), built or read from the cache (`build_library`): the library,
+    its ``<name>_loop`` entry and the compile time (s, 0 from the cache)."""
     loop = f"{fun.name()}_loop"
     return build_library(fun, (template,), loop, lambda: _c_source(fun, template, loop),
                          opts)
@@ -274,7 +277,7 @@ class CompiledLoop:
         self.n_out = fun.n_out()
         self.sizes_out = tuple(fun.nnz_out(i) for i in range(self.n_out))
         self.sizes_in = tuple(fun.nnz_in(i) for i in range(fun.n_in()))
-        self._lib, self._fun, self.compile_seconds = _load(fun, _LOOP_TEMPLATE, opts)
+        self._lib, self._fun, self.compile_seconds = load_template(fun, _LOOP_TEMPLATE, opts)
         self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
@@ -330,7 +333,7 @@ class CompiledRows:
         self.n = fun.nnz_in(0)
         self.n_p = fun.nnz_in(1)
         self.k = fun.nnz_out(0)
-        self._lib, self._fun, self.compile_seconds = _load(fun, _ROWS_TEMPLATE, opts)
+        self._lib, self._fun, self.compile_seconds = load_template(fun, _ROWS_TEMPLATE, opts)
         self._fun.argtypes = [ctypes.c_longlong] + [ctypes.c_void_p] * 6
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))

@@ -13,7 +13,7 @@ import ctypes
 import casadi as ca
 import numpy as np
 
-from ekf.compiled import CompileOptions, _load, address
+from ekf.compiled import CompileOptions, address, load_template
 from ekf.errors import FilterError
 
 __all__ = ["CompiledEach"]
@@ -55,7 +55,7 @@ class CompiledEach:
     def __init__(self, fun: ca.Function, opts: CompileOptions = CompileOptions()) -> None:
         self.n_a, self.n_p = fun.nnz_in(0), fun.nnz_in(1)
         self.sizes_out = tuple(fun.nnz_out(i) for i in range(fun.n_out()))
-        self._lib, self._fun, self.compile_seconds = _load(fun, _EACH_TEMPLATE, opts)
+        self._lib, self._fun, self.compile_seconds = load_template(fun, _EACH_TEMPLATE, opts)
         self._fun.argtypes = [ctypes.c_longlong] * 2 + [ctypes.c_void_p] * 5
         self._iw = np.zeros(max(fun.sz_iw(), 1), dtype=np.int64)
         self._w = np.zeros(max(fun.sz_w(), 1))
