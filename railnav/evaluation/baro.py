@@ -31,7 +31,6 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from ekf.update import kalman_update
 from railnav.errors import ConfigError
 
 __all__ = ["BaroConfig", "BaroCheck", "baro_track_check", "simulate_baro"]
@@ -150,6 +149,10 @@ def baro_track_check(time_s, baro_h_m, track_h_m, sigma_track_h_m, *, gnss_time_
     ConfigError
         Lengths that differ, NaN values, times not increasing.
     """
+    # here, not at the top: `simulate_baro` (every simulated trip, `railnav simulate`) runs
+    # without the engine's update, which loads scipy.linalg and scipy.special (~0.08 s)
+    from ekf.update import kalman_update
+
     t = _series("time_s", time_s)
     if t.size == 0 or np.any(np.diff(t) <= 0):
         raise ConfigError("baro time_s must be non-empty and increasing")

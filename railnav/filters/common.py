@@ -21,6 +21,7 @@ import numpy.typing as npt
 from ekf.layout import StateLayout
 from ekf.update import Observation
 from railnav.filters.gnss_rows import (
+    ROW_KINDS,
     GnssRows,
     build_gnss_rows,
     pseudorange_parameters,
@@ -49,8 +50,6 @@ JACOBIAN_WINDOW_S = 0.5
 #: third-order expansion (`railnav.filters.gnss_rows`) errs by ~δ⁴|d²κ/ds²|/24 (zero on straights,
 #: arcs and clothoids; the neglected frame terms are ~1e-10 m⁻²·δ³).
 REFERENCE_REUSE_M = 1.0
-#: Kinds of GNSS rows, as written in ``innovations.csv``.
-ROW_KINDS = ("pseudorange", "range_rate")
 #: Floors of the initial σ taken from a GNSS fix (a fix's own σ can be optimistic), m, m/s.
 MIN_FIX_SIGMA_S_M = 1.0
 MIN_FIX_SIGMA_V_MPS = 0.05

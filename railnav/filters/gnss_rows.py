@@ -41,9 +41,13 @@ from strapdown.frames import omega_en_n
 from trackmodel.earth import C_n_e
 
 __all__ = ["TRACK_ROW_NAMES", "GnssRows", "build_gnss_rows", "compose_gnss_rows", "track_rows",
-           "pseudorange_parameters", "range_rate_parameters", "Receiver", "track_position"]
+           "pseudorange_parameters", "range_rate_parameters", "Receiver", "track_position",
+           "ROW_KINDS"]
 
 Array = npt.NDArray[np.float64]
+
+#: Kinds of GNSS rows, as written in ``innovations.csv``.
+ROW_KINDS = ("pseudorange", "range_rate")
 
 #: The track-linearization part of every row.
 TRACK_ROW_NAMES = ("s_ref", "r_ref_x", "r_ref_y", "r_ref_z", "t_x", "t_y", "t_z",

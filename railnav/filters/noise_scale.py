@@ -82,7 +82,7 @@ import numpy as np
 import numpy.typing as npt
 
 from railnav.errors import ConfigError
-from railnav.filters.common import ROW_KINDS
+from railnav.filters.gnss_rows import ROW_KINDS   # not .common: no engine (ekf.update) for a config
 
 __all__ = ["NoiseScaleConfig", "NoiseScale",
            "CHI2_1_MEDIAN", "scale_bound",
@@ -194,7 +194,7 @@ class NoiseScale:
     Attributes
     ----------
     variance_factor : dict of str to float
-        ``k²`` of each kind (`railnav.filters.common.ROW_KINDS`), in effect now.
+        ``k²`` of each kind (`railnav.filters.gnss_rows.ROW_KINDS`), in effect now.
     history : list of tuple of float
         ``k`` of each kind (in `ROW_KINDS`' order) at each epoch, in the order of
         `begin_epoch`'s calls (``innovations.csv``'s ``noise_scale``).

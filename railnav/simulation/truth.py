@@ -253,25 +253,22 @@ def _truth_and_point(track, profile: SpeedProfile, time_s: Array, *, start_s: fl
     return truth, not bool(keep.all()), pt
 
 
-def _dC_n_e(lat: Array, lon: Array) -> tuple[Array, Array]:
-    """Partial derivatives of `trackmodel.earth.C_n_e` w.r.t. latitude and longitude, (N,3,3)."""
-    sl, cl, so, co = np.sin(lat), np.cos(lat), np.sin(lon), np.cos(lon)
-    d_lat = _from_columns(lat.shape, ((0.0, 0.0, 0.0),                 # east
-                                      (-cl * co, -cl * so, -sl),       # north
-                                      (-sl * co, -sl * so, cl)))       # up
-    d_lon = _from_columns(lat.shape, ((-co, -so, 0.0),
-                                      (sl * so, -sl * co, 0.0),
-                                      (-cl * so, cl * co, 0.0)))
-    return d_lat, d_lon
-
-
-def _from_columns(shape: tuple[int, ...], columns) -> Array:
-    """Matrices (``shape`` + (3, 3)) with the given three columns of three entries
-    (arrays of `shape` or scalars), written in place (no stacked copies)."""
-    out = np.empty(shape + (3, 3))
-    for j, column in enumerate(columns):
-        for i, value in enumerate(column):
-            out[..., i, j] = value
+def _dC_n_e_ds(C_ne: Array, dlat_ds: Array, dlon_ds: Array) -> Array:
+    """``dC_n_e/ds = ∂C_n_e/∂lat · dlat/ds + ∂C_n_e/∂lon · dlon/ds``, (N, 3, 3), from
+    `trackmodel.earth.C_n_e`'s own entries: its partials are its entries up to sign
+    (``∂/∂lat`` has the columns ``(0, −up, north)``, ``∂/∂lon`` the rows
+    ``(−row₁, row₀, 0)``), so no sine or cosine is evaluated again. Each entry is
+    ``a·dlat/ds + b·dlon/ds`` with the partials' entries ``a``, ``b``, zeros included (for
+    the signs of zeros): the bits of the stacked product and sum."""
+    zero_lat, zero_lon = 0.0 * dlat_ds, 0.0 * dlon_ds
+    lat_terms = (lambda i: zero_lat, lambda i: -C_ne[..., i, 2] * dlat_ds,
+                 lambda i: C_ne[..., i, 1] * dlat_ds)                  # by column
+    lon_terms = (lambda j: -C_ne[..., 1, j] * dlon_ds, lambda j: C_ne[..., 0, j] * dlon_ds,
+                 lambda j: zero_lon)                                   # by row
+    out = np.empty(C_ne.shape)
+    for i in range(3):
+        for j in range(3):
+            np.add(lat_terms[j](i), lon_terms[i](j), out=out[..., i, j])
     return out
 
 
@@ -337,9 +334,8 @@ def ideal_imu(track, truth: Truth, *, attitude_rates: Array | None = None,
     C_ne = C_n_e(lat, lon)
     R_M, R_N = radii(lat, earth=earth)
     dlat_ds = u_n[:, 1] / (R_M + h)
-    dlon_ds = u_n[:, 0] / ((R_N + h) * np.cos(lat))
-    d_lat, d_lon = _dC_n_e(lat, lon)
-    dC_ne_ds = d_lat * dlat_ds[:, None, None] + d_lon * dlon_ds[:, None, None]
+    dlon_ds = u_n[:, 0] / ((R_N + h) * C_ne[:, 2, 1])     # C_n_e[2, 1] = cos(lat)
+    dC_ne_ds = _dC_n_e_ds(C_ne, dlat_ds, dlon_ds)
     r1 = mv(C_ne, u_n)
     r2 = mv(dC_ne_ds, u_n) + mv(C_ne, pt.du_ds_n)
     v, a = truth.v[:, None], truth.a[:, None]

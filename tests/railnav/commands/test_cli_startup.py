@@ -110,3 +110,19 @@ def test_a_run_without_plots_imports_no_statistics_or_plots(tmp_path):
             str(tmp_path / "o")]
     report = _fresh(RUN_PROBE % (RUN_FORBIDDEN,), argv, timeout=300)
     assert report["code"] == 0 and report["loaded"] == [], report
+
+
+#: What simulating a trip's files never needs: SciPy (its linear algebra and special
+#: functions are the filter's; the simulation is NumPy's and CasADi's) and the plots.
+SIMULATE_FORBIDDEN = ("scipy", "matplotlib")
+
+
+def test_simulating_files_imports_no_scipy(tmp_path):
+    """``railnav simulate`` (a short paper2017 trip, GNSS and baro readings too) never loads
+    `SIMULATE_FORBIDDEN` (stop 41: the baro model's module had imported the filter's update,
+    and with it scipy.linalg and scipy.special, ~0.08 s of every simulation's imports)."""
+    argv = ["-q", "simulate", PAPER, "--duration-s", "20", "--baro", "--out",
+            str(tmp_path / "o")]
+    report = _fresh(RUN_PROBE % (SIMULATE_FORBIDDEN,), argv, timeout=300)
+    assert report["code"] == 0 and report["loaded"] == [], report
+    assert (tmp_path / "o" / "imu.csv").is_file()

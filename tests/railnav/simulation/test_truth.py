@@ -17,7 +17,7 @@ import pytest
 
 from railnav.simulation.profiles import constant_speed, station_stop_profile
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
-from railnav.simulation.truth import _dC_n_e, ideal_imu, iter_truth, simulate_truth
+from railnav.simulation.truth import _dC_n_e_ds, ideal_imu, iter_truth, simulate_truth
 from strapdown.backend import batch_call
 from strapdown.euler import C_b_n
 from strapdown.frames import omega_ie_n
@@ -56,13 +56,14 @@ DERIV_STEP_M = 1e-3
 JOINT_EPS_M = 1e-6
 
 
-def test_dC_n_e_partials_match_finite_differences(rng):
+def test_dC_n_e_ds_matches_finite_differences(rng):
+    """Reference: central differences of `C_n_e` along the direction (dlat/ds, dlon/ds)."""
     lat, lon = rng.uniform(-1.4, 1.4, 20), rng.uniform(-3, 3, 20)
-    d_lat, d_lon = _dC_n_e(lat, lon)
-    fd_lat = (C_n_e(lat + STEP_RAD, lon) - C_n_e(lat - STEP_RAD, lon)) / (2 * STEP_RAD)
-    fd_lon = (C_n_e(lat, lon + STEP_RAD) - C_n_e(lat, lon - STEP_RAD)) / (2 * STEP_RAD)
-    np.testing.assert_allclose(d_lat, fd_lat, atol=ATOL_DC)
-    np.testing.assert_allclose(d_lon, fd_lon, atol=ATOL_DC)
+    dlat_ds, dlon_ds = rng.normal(size=20), rng.normal(size=20)
+    d_s = _dC_n_e_ds(C_n_e(lat, lon), dlat_ds, dlon_ds)
+    fd = (C_n_e(lat + STEP_RAD * dlat_ds, lon + STEP_RAD * dlon_ds)
+          - C_n_e(lat - STEP_RAD * dlat_ds, lon - STEP_RAD * dlon_ds)) / (2 * STEP_RAD)
+    np.testing.assert_allclose(d_s, fd, atol=ATOL_DC)
 
 
 def test_eastward_on_the_equator_closed_form():
