@@ -61,6 +61,16 @@ class _VersionAction(argparse.Action):
         parser.exit()
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors (a bad option value, a missing argument) are
+    one line, as the command line's other input errors: ``error: MESSAGE (PROG --help)``
+    and exit 2, instead of the whole usage block before the message. Subcommand parsers
+    are of this class too (``add_subparsers`` takes the parent's)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USAGE, f"error: {message} ({self.prog} --help)\n")
+
+
 def _add_global_flags(parser: argparse.ArgumentParser, *, top: bool) -> None:
     """``-v``, ``-q`` and ``--debug``: on the top parser with their defaults, on every
     subcommand (recursively) with no default, so that a flag given after the subcommand
@@ -87,7 +97,7 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     """The argument parser: for command-line arguments `argv` that name a command, that
     command's only (its module alone is imported: ~0.05 s less at every start); otherwise,
     and without `argv`, every command's (``railnav --help`` lists them)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="railnav",
         description="Track-constrained navigation of rail vehicles.")
     parser.add_argument("--version", action=_VersionAction)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from trackmodel.errors import InputError
 
-__all__ = ["RailnavError", "ConfigError", "PlottingError"]
+__all__ = ["RailnavError", "ConfigError", "PlottingError", "FixesOffTrackError"]
 
 
 class RailnavError(Exception):
@@ -26,3 +26,9 @@ class ConfigError(RailnavError, InputError):
 class PlottingError(RailnavError):
     """The process drawing a run's figures ended without drawing them (killed, out of
     memory): the run's output was not written (`railnav.jobs.plot_worker`)."""
+
+
+class FixesOffTrackError(ConfigError):
+    """None of a trip's first fixes agrees with its track (another line's fixes, or the
+    wrong track): the filter has no fix to start from
+    (`railnav.navigation.fix_start.initial_from_fixes`). The command line adds both files."""

@@ -11,6 +11,7 @@ import argparse
 from pathlib import Path
 
 from railnav.commands.network_data import (
+    check_netelements,
     import_handler,
     load,
     register_data_commands,
@@ -141,6 +142,7 @@ def _info(args: argparse.Namespace) -> int:
 def _routes(args: argparse.Namespace) -> int:
     from railnav.jobs.network import load_network, route_candidates
     network = load_network(args.network)
+    check_netelements(network, args.network, "--start", [args.start.element])
     names, routes, _ = route_candidates(network, args.start, horizon_m=args.horizon_m)
     for k, (name, route) in enumerate(zip(names, routes)):
         print(f"{k}: {route.length_m:8.1f} m  {name}")
@@ -155,6 +157,7 @@ def _run(args: argparse.Namespace) -> int:
     from railnav.navigation.network_start import NetworkStart
     from railnav.jobs.network import load_network
     network = load_network(args.network)
+    check_netelements(network, args.network, "--start", [args.start.element])
     files = args.imu is not None or args.obs is not None
     shaping = [flag for flag, value in (("--true-route", args.true_route),
                                         ("--duration-s", args.duration_s),

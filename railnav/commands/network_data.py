@@ -23,7 +23,8 @@ from railnav.commands.support import (
 from railnav.errors import ConfigError
 from trackmodel.fit_defaults import DEFAULT_TOL_M  # load_network's, check_network's
 
-__all__ = ["register_data_commands", "load", "start_position", "import_handler"]
+__all__ = ["register_data_commands", "load", "start_position", "import_handler",
+           "check_netelements"]
 
 log = logging.getLogger(__name__)
 
@@ -110,6 +111,15 @@ def load(path: str, args: argparse.Namespace):
                             progress=progress)
 
 
+def check_netelements(network, path, flag: str, names) -> None:
+    """Refuse a netelement of `names` (given with `flag`) that `network` (read from
+    `path`) does not have, in a line that names the network, the option and the name."""
+    for name in names:
+        if name not in network.elements:
+            raise ConfigError(f"{path}: {flag} {name!r}: no such netelement among the "
+                              f"network's {len(network.elements)}")
+
+
 def _summary(network) -> str:
     km = sum(network.length_m(e) for e in network.elements) / 1000
     navigable = sum(c.navigability != "none" for c in network.connections)
@@ -154,16 +164,20 @@ def _plot(args: argparse.Namespace) -> int:
 
 
 def _route(args: argparse.Namespace) -> int:
-    from trackmodel.network_routes import route_legs, route_text
+    from trackmodel.network_routes import parse_route, route_legs, route_text
     if (args.elements is None) == (args.start is None and args.end is None):
         raise ConfigError("network route: give --elements, or --from and --to")
     if args.elements is None and (args.start is None or args.end is None):
         raise ConfigError("network route: --from and --to go together")
     network = load(args.network, args)
     if args.elements is not None:
+        check_netelements(network, args.network, "--elements",
+                          [n for n, _ in parse_route(args.elements)])
         legs = [route_legs(network, args.elements)]
         lengths = [sum(network.length_m(e) for e, _ in legs[0])]
     else:
+        check_netelements(network, args.network, "--from", [args.start.element])
+        check_netelements(network, args.network, "--to", [args.end.element])
         given = {} if args.max_routes is None else {"max_routes": args.max_routes}
         routes = network.routes(args.start, args.end, **given)
         if not routes:

@@ -34,11 +34,13 @@ def nav_config(args: argparse.Namespace):
 
 def run_network(args: argparse.Namespace, out: Path, *, progress) -> object:
     """``railnav run --network``: the sensor files of `args` on the network."""
+    from railnav.commands.network_data import check_netelements
     from railnav.commands.run_flags import fix_model, fix_sigmas, parse_start
     from railnav.jobs.network import load_network, run_files_network
     from railnav.navigation.network_start import NetworkStart
     network = load_network(args.network)
     parsed = parse_start(args.start)
+    check_netelements(network, args.network, "--start", [] if parsed is None else [parsed[0]])
     start = None if parsed is None else NetworkStart(*parsed)
     return run_files_network(
         network, fixes_path=args.fixes, imu_path=args.imu, obs_path=args.obs,

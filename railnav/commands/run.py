@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import logging
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from railnav.commands.attitude_flags import attitude_config, car_body_scenario
@@ -97,7 +99,7 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
         from railnav.jobs.baro import add_run_baro, read_baro_csv, write_run_baro
         baro = read_baro_csv(args.baro)
     track = read_track(args.tracks[0])
-    with progress_bar("filter", enabled=not args.quiet) as progress:
+    with progress_bar("filter", enabled=not args.quiet) as progress, _fixes_named(args):
         if files_given(args):
             outcome = run_files(track, imu_path=args.imu, obs_path=args.obs,
                                 nav_path=args.nav, fixes_path=args.fixes,
@@ -131,6 +133,17 @@ def _one_track_run(args: argparse.Namespace, tmp: Path, plotter) -> tuple[str, l
     if args.obs is not None and args.sigma_pr_m is None and args.sigma_rr_mps is None:
         text = "\n".join([text, *receiver_hint_lines(outcome.summary)])
     return text, written + _exports(args, outcome, tmp)
+
+
+@contextmanager
+def _fixes_named(args: argparse.Namespace) -> Iterator[None]:
+    """A `FixesOffTrackError` (no fix agrees with the track) names the fix file and the
+    track."""
+    from railnav.errors import ConfigError, FixesOffTrackError
+    try:
+        yield
+    except FixesOffTrackError as exc:
+        raise ConfigError(f"{args.fixes}: {exc} (track {args.tracks[0]})") from None
 
 
 def _exports(args: argparse.Namespace, outcome, tmp: Path) -> list[Path]:

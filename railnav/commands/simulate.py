@@ -108,8 +108,10 @@ def _track_of(args: argparse.Namespace):
     if args.network is None:
         from trackmodel.io import read_track
         return read_track(args.track), str(Path(args.track))
-    from trackmodel.network_routes import load_network, route_legs, route_text
+    from railnav.commands.network_data import check_netelements
+    from trackmodel.network_routes import load_network, parse_route, route_legs, route_text
     network = load_network(args.network)
+    check_netelements(network, args.network, "--route", [n for n, _ in parse_route(args.route)])
     legs = route_legs(network, args.route)
     return network.route_track(legs), f"{args.network}:{route_text(legs)}"
 

@@ -29,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ekf.gating import chi2_threshold
-from railnav.errors import ConfigError, RailnavError
+from railnav.errors import ConfigError, FixesOffTrackError, RailnavError
 from railnav.filters.common import scalar_point
 from railnav.filters.track_frame import track_axes_many_n, track_axes_n
 from railnav.navigation.initialization import GnssFix, InitialState
@@ -80,7 +80,9 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
     Raises
     ------
     RailnavError
-        No fix, or none of the first `MAX_INITIAL_FIXES` agrees with the track.
+        No fix.
+    FixesOffTrackError
+        None of the first `MAX_INITIAL_FIXES` agrees with the track.
     ConfigError
         The start fix's height disagrees with the track's (module docstring).
     """
@@ -92,9 +94,9 @@ def initial_from_fixes(filt_obj, fixes, config) -> InitialState:
     s, cross, along, sigma_along, points = _offsets(track, fixes, n, cfg)
     ok = (cross <= gate) & (along <= gate)
     if not ok.any():
-        raise RailnavError(f"none of the first {n} GNSS fixes is within {gate:.2f} σ of the "
-                           f"track (the nearest is {np.min(cross):.0f} σ across it): is it "
-                           "the right track?")
+        raise FixesOffTrackError(f"none of the first {n} GNSS fixes is within {gate:.2f} σ "
+                                 f"of the track (the nearest is {np.min(cross):.0f} σ across "
+                                 "it): is it the right track?")
     k = int(np.argmax(ok))
     _check_height(fixes, k, float(points.h[k]), gate, cfg)
     start = _start(filt_obj, fixes, k, s, ok, sigma_along, points)

@@ -28,8 +28,8 @@ from railnav.errors import ConfigError
 from railnav.studies.config import StudyConfig
 from railnav.studies.execution import execute, sigint_blocked
 from railnav.studies.runs import STATUS_COLUMNS, expand_grid, metric_columns
-from railnav.studies.store import PartStore
-from trackmodel.files import atomic_write_text, directory_lock
+from railnav.studies.store import PARTS_DIR, PartStore
+from trackmodel.files import LOCK_FILE, atomic_write_text, directory_lock
 
 __all__ = ["StudyResult", "run_study", "STUDY_FILE", "StudyInterrupted"]
 
@@ -101,7 +101,8 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, scheduler=None,
     Raises
     ------
     ConfigError
-        For an output path that is a file, a bad worker count or scheduler.
+        For an output path that is a file or a non-empty folder that is not a study's,
+        a bad worker count or scheduler.
     trackmodel.errors.InputError
         When another study holds the lock on `out_dir` (`trackmodel.files.directory_lock`).
     StudyInterrupted
@@ -111,6 +112,7 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, scheduler=None,
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ConfigError(f"{out}: exists and is not a directory")
+    _check_study_folder(out)
     with directory_lock(out, what="study"):
         try:
             return _run_locked(config, out, scheduler=scheduler, workers=workers,
@@ -120,6 +122,19 @@ def run_study(config: StudyConfig, out_dir: str | Path, *, scheduler=None,
             done = len(PartStore(out).finished_ids() & ids)
             raise StudyInterrupted(f"interrupted: {done} of {len(ids)} runs are saved in "
                                    f"{out}; the same command resumes the rest") from None
+
+
+def _check_study_folder(out: Path) -> None:
+    """Refuse a non-empty `out` that is not a study's folder (none of its ``study.json``,
+    ``parts`` or lock): a study resumes in its own folder only, and writes nothing beside
+    someone else's files."""
+    if not out.is_dir():
+        return
+    names = {p.name for p in out.iterdir()}
+    if names and not names & {STUDY_FILE, PARTS_DIR, LOCK_FILE}:
+        raise ConfigError(f"{out}: exists, is not empty and is not a study's folder: nothing "
+                          "was written (give a new --out, or the folder of the study to "
+                          "resume)")
 
 
 def _run_locked(config: StudyConfig, out: Path, *, scheduler, workers, progress,

@@ -389,3 +389,15 @@ def test_a_fix_table_with_another_separator_says_so(tmp_path, capsys, sep, words
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith(f"error: {other}: a table {words}")
     assert "\n" not in err and not (tmp_path / "o").exists()
+
+
+def test_fixes_of_another_line_name_the_fix_file_and_the_track(tmp_path, capsys):
+    """The Brussels excerpt's fixes (50.9° N, 4.5° E) run on the paper's track (near
+    50.45° N, 30.5° E): no fix is near the track, so none can start the filter. One line
+    that names both files, exit 2, nothing written; it named neither."""
+    fixes = REPO / "data" / "fixes" / "brussels" / "log_28876_L36-B_excerpt.csv"
+    out = tmp_path / "run"
+    assert main(["-q", "run", PAPER, "--fixes", str(fixes), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"error: {fixes}: none of the first")
+    assert f"(track {PAPER})" in err and not out.exists()

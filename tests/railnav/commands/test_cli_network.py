@@ -53,7 +53,7 @@ def test_run_identifies_the_route(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["network", "routes", BRUSSELS, "--start", "nope:1"], "no netelement 'nope'"),
+    (["network", "routes", BRUSSELS, "--start", "nope:1"], "--start 'nope': no such netelement"),
     (["network", "info", "missing-folder"], "missing-folder"),
     (["network", "build", "missing.geojson", "--out", "x"], "missing.geojson"),
     (["network", "run", BRUSSELS, "--start", "88_L_111:10", "--imu", "i.csv",
@@ -63,3 +63,29 @@ def test_bad_input_is_one_line_exit_2(tmp_path, capsys, argv, message):
     assert main(["-q", *argv]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and message in err and "\n" not in err
+
+
+FIXES_28554 = str(NETWORKS.parent / "fixes" / "brussels" / "log_28554_L36-A_to_L36C-A.csv")
+
+
+@pytest.mark.parametrize("argv, flag", [
+    (["network", "routes", BRUSSELS, "--start", "88_L_999:10:-"], "--start"),
+    (["network", "run", BRUSSELS, "--start", "88_L_999:10", "--out", "OUT"], "--start"),
+    (["run", "--network", BRUSSELS, "--fixes", FIXES_28554, "--start", "88_L_999",
+      "--out", "OUT"], "--start"),
+    (["simulate", "--network", BRUSSELS, "--route", "88_L_111,88_L_999", "--out", "OUT"],
+     "--route"),
+    (["network", "route", BRUSSELS, "--elements", "88_L_111,88_L_999"], "--elements"),
+    (["network", "route", BRUSSELS, "--from", "88_L_111:10", "--to", "88_L_999:5"], "--to"),
+])
+def test_a_netelement_not_in_the_network_names_the_network(tmp_path, capsys, argv, flag):
+    """A netelement the network does not have (88_L_999: the Brussels folder's 74 are
+    listed in its elements.csv) is a one-line error that names the network, the option
+    and the name, exit 2, nothing written; it said 'no netelement ... in the network'
+    without saying which."""
+    out = tmp_path / "out"
+    assert main(["-q", *[str(out) if a == "OUT" else a for a in argv]]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"error: {BRUSSELS}: {flag} ")
+    assert "'88_L_999'" in err and "netelement" in err
+    assert not out.exists()

@@ -122,7 +122,8 @@ def _write(tmp_path, name, text):
                       '<node id="2" lat="50.01" lon="4"/><way id="3"><nd ref="1"/>'
                       '<nd ref="2"/><tag k="highway" v="road"/></way></osm>'),
      ["import"], "no way tagged railway="),
-    (lambda d: BRUSSELS, ["route", "--elements", "88_L_111,nope"], "no netelement 'nope'"),
+    (lambda d: BRUSSELS, ["route", "--elements", "88_L_111,nope"],
+     "--elements 'nope': no such netelement"),
     (lambda d: BRUSSELS, ["route", "--elements", "88_L_154,88_L_2014"], "no passage"),
     (lambda d: BRUSSELS, ["route"], "give --elements"),
     (lambda d: _write(d, "x.txt", "x"), ["info"], "not a network"),

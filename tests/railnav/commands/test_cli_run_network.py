@@ -46,7 +46,7 @@ def _far_fixes(tmp_path) -> Path:
 
 
 @pytest.mark.parametrize("extra, message", [
-    (["--start", "88_L_nope"], "start netelement '88_L_nope' is not in the network"),
+    (["--start", "88_L_nope"], "--start '88_L_nope': no such netelement"),
     (["--start", "88_L_3842:x"], "NETELEMENT[:OFFSET_M"),
     (["--start", "88_L_3842:99999"], "is not on netelement 88_L_3842"),
     ("far", "within 30 m of a netelement"),
@@ -197,7 +197,8 @@ def test_network_run_start_not_in_the_network(tmp_path, capsys):
     assert main(["-q", "network", "run", BRUSSELS, "--start", "nope:10", "--duration-s", "5",
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == "error: no netelement 'nope' in the network" and not out.exists()
+    assert err == (f"error: {BRUSSELS}: --start 'nope': no such netelement among the "
+                   "network's 74") and not out.exists()
 
 
 def test_spawn_recovers_a_start_on_the_wrong_parallel_track(tmp_path, capsys):

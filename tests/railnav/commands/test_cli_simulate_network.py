@@ -49,7 +49,8 @@ def test_simulate_on_a_route(tmp_path, capsys):
     (["--route", ROUTE], "--network and --route go together"),
     (["--network", str(BRUSSELS)], "--network and --route go together"),
     (["x.csv", "--network", str(BRUSSELS), "--route", ROUTE], "not both"),
-    (["--network", str(BRUSSELS), "--route", "88_L_111,nope"], "no netelement 'nope'"),
+    (["--network", str(BRUSSELS), "--route", "88_L_111,nope"],
+     "--route 'nope': no such netelement"),
 ])
 def test_bad_flags_are_one_line(tmp_path, capsys, argv, message):
     out = tmp_path / "sim"

@@ -35,6 +35,21 @@ def test_out_is_a_file(tmp_path, capsys):
     assert capsys.readouterr().err == f"error: {target}: exists and is not a directory\n"
 
 
+def test_out_holding_other_files_is_refused(tmp_path, capsys):
+    """A study resumes in its own folder; a non-empty folder that is not a study's (no
+    study.json, parts or lock) is someone else's: one line naming it, exit 2, and the
+    folder is left as it was (the tiny study had written its parts, table, plots and
+    lock beside the file)."""
+    target = tmp_path / "notes"
+    target.mkdir()
+    (target / "notes.txt").write_text("mine")
+    assert main(["-q", "study", str(TINY), "--out", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {target}: ") and "not a study" in err
+    assert err.count("\n") == 1
+    assert [p.name for p in target.iterdir()] == ["notes.txt"]
+
+
 def test_unreachable_scheduler(tmp_path, capsys, monkeypatch):
     """Nothing listens on port 1: one line, exit 2 (the wait shortened for the test)."""
     monkeypatch.setattr(study_exec, "CONNECT_TIMEOUT_S", 1.0)
