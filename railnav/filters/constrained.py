@@ -227,10 +227,11 @@ class ConstrainedFilter(ReferencePath):
                              params=params, r_c=r_c, step=step, along=along,
                              speed=speed, sigma_s=sigma_s)
 
-    def _path_parameters(self, s_pred: Array) -> Array:
-        """The grid rows at the predicted path `s_pred` (`TrackParameterGrid.parameters`),
-        the track at its last sample kept for the epoch's rows (``_chunk_end``)."""
-        params, grid_nodes = self._grid.parameters(s_pred)
+    def _path_parameters(self, s_pred: Array, found=None) -> Array:
+        """The grid rows at the predicted path `s_pred` (`TrackParameterGrid.parameters`;
+        `found`: its result, when known), the track at its last sample kept for the
+        epoch's rows (``_chunk_end``)."""
+        params, grid_nodes = self._grid.parameters(s_pred) if found is None else found
         self._chunk_end = self._grid.point(int(grid_nodes[-1]))
         return params
 

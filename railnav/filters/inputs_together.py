@@ -9,7 +9,8 @@ fixed cost of small NumPy calls. `inputs_together` does, for filters of one layo
 
 * the along-track accelerations and predicted paths of all, as (K, M) arrays
   (`railnav.filters.reference_path.paths_together`);
-* each filter's grid rows on its own track (`TrackParameterGrid.parameters`: its window);
+* each filter's grid rows on its own track, the nearest nodes of all found by one search
+  (`railnav.filters.track_grid.parameters_together`: each grid's own window);
 * the short cut of `railnav.filters.geometry_noise.statistical_parameters` (a prior inside
   one straight section: no remainder) tested for all (`straight_priors`), its zero
   variance's density stacked; the filters whose prior is not on a straight take their
@@ -33,6 +34,7 @@ from railnav.filters.geometry_noise import (remainder_correlation_s, statistical
 from railnav.filters.held_remainder import held_density
 from railnav.filters.path_noise import bias_together
 from railnav.filters.reference_path import paths_together
+from railnav.filters.track_grid import parameters_together
 
 __all__ = ["inputs_together", "chunk_median_step"]
 
@@ -76,7 +78,8 @@ def _starts_together(filters, t: Array, u: Array, priors, t_prev: float,
     """Each filter's ``_start_inputs`` (module docstring)."""
     X = np.array([x for x, _ in priors], dtype=float)
     accel, s_pred = paths_together(filters, t, u, X, t_prev)
-    params = [f._path_parameters(s) for f, s in zip(filters, s_pred)]
+    params = [f._path_parameters(s, found) for f, s, found in
+              zip(filters, s_pred, parameters_together([f._grid for f in filters], s_pred))]
     spread = [f.prior_spread(x, P) for f, (x, P) in zip(filters, priors)]
     chunk_steps = [f.chunk_step(t, t_prev, step) for f in filters]
     sigma = np.array([sigma for sigma, _ in spread])
