@@ -43,7 +43,7 @@ from railnav.filters.gnss_only_noise import (correlation_inflation, epoch_interv
                                              pseudorange_inflation)
 from railnav.filters.grade_noise import unknown_grade_density
 from railnav.filters.held_remainder import held_density
-from railnav.filters.inputs_together import chunk_median_step, inputs_together
+from railnav.filters.inputs_together import chunk_median_step, inputs_together, sample_steps
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.one_sided import OneSidedLimit
@@ -249,16 +249,16 @@ class ConstrainedFilter(ReferencePath):
 
     def _pending(self, t: Array, u: Array, x_prev: Array, P_prev: Array, t_prev: float, *,
                  accel: Array, s_pred: Array, params: Array, r_c: Array, step: float,
-                 along: Array | None, speed: float, sigma_s: float) -> dict:
+                 along: Array | None, speed: float, sigma_s: float,
+                 steps: Array | None = None) -> dict:
         """`_start_inputs`'s result from the path, the track parameters and the geometry
         noise `r_c` (`inputs_together` gives them stacked), `speed` and `sigma_s`
-        (`prior_spread`): the along-track force, the steps, an unknown grade's noise on
-        `r_c` (in place) and the spread's paths."""
+        (`prior_spread`): the along-track force, the steps (`steps`: `sample_steps`'s,
+        when known), an unknown grade's noise on `r_c` (in place) and the spread's
+        paths."""
         if along is None and self._along is not None:
             along = self._along.force(t, u)
-        steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
-        steps[:-1] = t[1:] - t[:-1]
-        steps[-1] = step
+        steps = sample_steps(t, step) if steps is None else steps
         nodes = step_nodes(sigma_s)
         if self.config.grade_sigma_rad > 0.0:           # a grade the track does not know
             r_c[:, 1] += unknown_grade_density(accel, speed, self.config.grade_sigma_rad)

@@ -293,8 +293,10 @@ def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
     tangent is smooth to all orders there (a loxodrome at constant grade), and the part the
     second-order expansion leaves out is ~(Δs/R_earth)³, far below any accelerometer."""
     length = track.length_m         # np.clip's bounds, in floats (`Track.section_at`)
-    k_lo, k_hi = (track.section_at(min(max(float(s), 0.0), length)) for s in (s_lo, s_hi))
-    return bool(k_lo == k_hi and track.table.is_loxodrome[k_lo])
+    k_lo = track.section_at(min(max(float(s_lo), 0.0), length))
+    k_hi = track.section_at(min(max(float(s_hi), 0.0), length))
+    # the section's is_loxodrome, from the track's cached lists (`Track.table_lists`)
+    return bool(k_lo == k_hi and track.table_lists[k_lo][7])
 
 
 def _nodes(grid, params: Array, offsets: Array, centre: Array | None = None

@@ -36,7 +36,7 @@ from railnav.filters.path_noise import bias_together
 from railnav.filters.reference_path import paths_together
 from railnav.filters.track_grid import parameters_together
 
-__all__ = ["inputs_together", "chunk_median_step"]
+__all__ = ["inputs_together", "chunk_median_step", "sample_steps"]
 
 Array = npt.NDArray[np.float64]
 
@@ -46,6 +46,14 @@ def chunk_median_step(t: Array, t_prev: float) -> float:
     correlation step when no nominal sample interval is set."""
     return float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
         else float(t[0] - t_prev)
+
+
+def sample_steps(t: Array, step: float) -> Array:
+    """The step from each sample of `t`: ``np.diff(t)``, then the nominal `step` (s)."""
+    steps = np.empty(max(t.size, 1))
+    steps[:-1] = t[1:] - t[:-1]
+    steps[-1] = step
+    return steps
 
 
 def inputs_together(filters, t: Array, u: Array, priors, t_prev: float) -> list:
@@ -92,6 +100,11 @@ def _starts_together(filters, t: Array, u: Array, priors, t_prev: float,
     # the straight ones' variance is zero: its density, var · T_c, stacked
     zero = np.zeros(s_pred.shape + (2,)) * np.array(correlation)[:, None, None]
     held_s = float(t[-1]) - t_prev
+    shared: dict[float, Array] = {}                 # `sample_steps` per chunk step, read-only
+    for step_k in chunk_steps:
+        if step_k not in shared:
+            shared[step_k] = sample_steps(t, step_k)
+            shared[step_k].flags.writeable = False
     out = []
     for k, f in enumerate(filters):
         x, P = priors[k]
@@ -104,5 +117,5 @@ def _starts_together(filters, t: Array, u: Array, priors, t_prev: float,
                                correlation_s=correlation[k], held_s=held_s)
         out.append(f._pending(t, u, x, P, t_prev, accel=accel[k], s_pred=s_pred[k],
                               params=p, r_c=r_c, step=chunk_steps[k], along=forces[k],
-                              speed=speed_k, sigma_s=sigma_k))
+                              speed=speed_k, sigma_s=sigma_k, steps=shared[chunk_steps[k]]))
     return out
