@@ -56,6 +56,11 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
         sc._OFFSETS.update(table)
         points, newton = nw.cycle_points(hyps)
         assert set(newton) == set(pairs)       # every pair of tracks has an offset by now
+        assert sc.known_offsets([f.track for f in filters]) == [
+            (i, j, sc.known_offset(a.track, b.track)) for i, a in enumerate(filters)
+            for j, b in enumerate(filters) if i != j and
+            sc.known_offset(a.track, b.track) is not None]
+        assert sc.known_offsets([tracks[0], read_track(TRACKS_DIR / "double_b.csv")]) == []
         got = _convert(hyps, pairs, points, [newton.get(p) for p in pairs])
         assert sc._OFFSETS == ref_table
         for (x_a, P_a), (x_b, P_b) in zip(got, ref):
