@@ -80,6 +80,9 @@ class TrackParameterGrid:
             nodes = np.concatenate([nodes, steps - JOINT_SIDE_M, steps + JOINT_SIDE_M])
         nodes = np.unique(nodes)
         self._points = self.track.at(nodes)
+        #: The points' fields in their order (`point`'s arguments).
+        self._columns = tuple(getattr(self._points, name)
+                              for name in _field_names(type(self._points)))
         self._params = track_parameters(self._points, earth=self.track.earth)
         self._s = nodes
         self._lo, self._hi = nodes[0], nodes[-1]
@@ -108,9 +111,7 @@ class TrackParameterGrid:
 
     def point(self, index: int):
         """The scalar `trackmodel.TrackPoint` of node `index` (of the current window)."""
-        points = self._points
-        return type(points)(**{name: getattr(points, name)[index]
-                               for name in _field_names(type(points))})
+        return type(self._points)(*[column[index] for column in self._columns])
 
 
 def parameters_together(grids, s: Array) -> list[tuple[Array, npt.NDArray[np.intp]]]:

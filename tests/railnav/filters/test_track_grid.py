@@ -116,3 +116,17 @@ def test_parameters_together_are_each_grids_own(curvy, rng):
             assert np.array_equal(params, ref_params) and np.array_equal(idx, ref_idx)
             assert (grid._lo, grid._hi) == (twin._lo, twin._hi)
     assert ends == {"start", "end"}
+
+
+def test_point_is_the_windows_node(curvy):
+    """`TrackParameterGrid.point` of a node: every field the window's value at that node
+    (the fields in their order), a scalar point."""
+    from dataclasses import fields
+    grid = TrackParameterGrid(curvy, window_m=300.0)
+    _, idx = grid.parameters(np.array([4100.0, 4123.4]))
+    for i in (0, int(idx[-1]), grid._s.size - 1):
+        point = grid.point(i)
+        for f in fields(point):
+            assert np.array_equal(getattr(point, f.name), getattr(grid._points, f.name)[i])
+        assert np.ndim(point.s) == 0 and np.shape(point.r_e) == (3,)
+    assert grid.point(int(idx[-1])).s == grid._s[idx[-1]]
