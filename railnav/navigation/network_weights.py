@@ -135,7 +135,7 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
     on = np.array([codes.setdefault(h.where()[:2], len(codes)) for h in hyps])
     # i != j follows from another element or orientation
     linked = (d <= radius_m) & same_way & (on[:, None] != on[None, :])
-    return [np.flatnonzero(row).tolist() for row in linked]
+    return [[j for j, yes in enumerate(row) if yes] for row in linked.tolist()]
 
 
 def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
@@ -231,7 +231,8 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
     K = len(hyps)
     if K < 2 or _identity(transition):
         return
-    _, uses = imm_mixing(mu, transition, min_weight)
+    mixing = imm_mixing(mu, transition, min_weight)
+    uses = mixing[1]
     pairs = [(i, j) for j, use in enumerate(uses) if use != [j] for i in use if i != j]
     done = converted_pairs([hyps[i].filt for i, _ in pairs], [hyps[j].filt for _, j in pairs],
                            [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
@@ -245,7 +246,7 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
         return table[(i, j)]
 
     x0, P0 = imm_starts(mu, transition, [h.x for h in hyps], [h.P for h in hyps],
-                        convert=convert, min_weight=min_weight)
+                        convert=convert, min_weight=min_weight, mixing=mixing)
     for h, x, P in zip(hyps, x0, P0):
         h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
 
