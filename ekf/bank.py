@@ -181,7 +181,8 @@ def log_predict(log_mu: Array, transition: Array) -> Array:
 
 
 def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[Array], *,
-               convert: Convert | None = None, min_weight: float = 0.0
+               convert: Convert | None = None, min_weight: float = 0.0,
+               mixing: tuple[Array, list[list[int]]] | None = None
                ) -> tuple[list[Array], list[Array]]:
     """IMM mixing (Blom & Bar-Shalom 1988): each hypothesis' start of the next step.
 
@@ -199,13 +200,16 @@ def imm_starts(mu: Array, transition: Array, xs: Sequence[Array], Ps: Sequence[A
     min_weight : float
         Mixing weights ``μ_{i|j}`` (i ≠ j) below this are left out (a weight ``w`` moves
         the start by ``w`` times the difference of the two estimates).
+    mixing : (ndarray, list), optional
+        `imm_mixing` of these ``mu``, ``transition`` and ``min_weight``, when the caller
+        has it already.
 
     Returns
     -------
     x0, P0 : lists of ndarray (n,), (n, n)
         ``Σ_i μ_{i|j} x_{i→j}`` and its moment-matched covariance, ``μ_{i|j} = Π_ij μ_i / c_j``.
     """
-    weights, uses = imm_mixing(mu, transition, min_weight)
+    weights, uses = imm_mixing(mu, transition, min_weight) if mixing is None else mixing
     x0, P0 = list(xs), list(Ps)
     # the estimates each start mixes (converted in the order of the starts), then the
     # starts that mix as many merged together (`merge_gaussians_many`: the same numbers)
@@ -247,7 +251,7 @@ def imm_mixing(mu: Array, transition: Array, min_weight: float = 0.0
     weights = transition * mu[:, None] / np.maximum(c, _TINY)[None, :]
     mixed = weights > min_weight
     mixed[np.arange(mu.size), np.arange(mu.size)] = True     # j itself, whatever its weight
-    uses = [np.flatnonzero(column).tolist() for column in mixed.T]
+    uses = [[i for i, yes in enumerate(column) if yes] for column in mixed.T.tolist()]
     return weights, uses
 
 

@@ -98,8 +98,8 @@ def propagate_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]],
     if len(priors) != len(samples):
         raise ModelError(f"{len(priors)} priors for {len(samples)} sample series")
     model, propagator = engine.model, engine.propagator
-    starts = [checked_prior(model.n, x_prior, P_prior) for x_prior, P_prior in priors]
-    out = [MemberState(x0, P0, None) for x0, P0 in starts]
+    X0, P0 = _checked_priors(model.n, priors)
+    out = [MemberState(x0, p0, None) for x0, p0 in zip(X0, P0)]
     lengths: dict[int, list[int]] = {}
     for k, series in enumerate(samples):
         if len(series) < 2:                 # checked all the same
@@ -113,14 +113,31 @@ def propagate_members(engine: CdFilter, priors: Sequence[tuple[Array, Array]],
             d = np.array([step_data(propagator, series.shaped(
                 model.n_u, model.n_p, model.n_c, model.n_w)) for series in group])
         x, P_packed, outputs = propagator.run_members(
-            np.array([starts[k][0] for k in members]),
-            pack_sym(np.array([starts[k][1] for k in members])), d, keep)
+            X0[members], pack_sym(P0[members]), d, keep)
         P_all = unpack_sym(P_packed)
         for j, k in enumerate(members):
             _check_covariance(P_all[j], lambda k=k: f"at t="       # formatted if it fails
                               f"{float(np.asarray(samples[k].t)[-1]):.6f} s")
             out[k] = MemberState(x[j].copy(), P_all[j], outputs[j])
     return out
+
+
+def _checked_priors(n: int, priors: Sequence[tuple[Array, Array]]) -> tuple[Array, Array]:
+    """`checked_prior` of every member, stacked: states (K, n) and symmetrized
+    covariances (K, n, n), the same numbers (the symmetrization elementwise) and the
+    same errors (a prior of another shape, or none: each member's own check)."""
+    try:
+        X = np.array([x for x, _ in priors], dtype=float)
+        P = np.array([P for _, P in priors], dtype=float)
+    except ValueError:                      # shapes that do not stack
+        X = P = None
+    if X is None or X.shape != (len(priors), n) or P.shape != (len(priors), n, n):
+        starts = [checked_prior(n, x, P) for x, P in priors]
+        return np.array([x for x, _ in starts]).reshape(-1, n), \
+            np.array([P for _, P in starts]).reshape(-1, n, n)
+    for P_k in P:
+        _check_covariance(P_k, "in the initial covariance")
+    return X, 0.5 * (P + P.transpose(0, 2, 1))
 
 
 def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | None:
@@ -163,13 +180,15 @@ def _step_data_together(propagator, samples: Sequence[InputSeries]) -> Array | N
 
 def _field_together(rows: list, M: int, k: int) -> Array | None:
     """One field of the members' samples, shape ``(K, M, k)`` (a row ``(k,)`` held over
-    the samples; None: zeros), or None when a member's has another shape. Views where
-    the values repeat (`assemble` copies them): one member's with the member axis, the
-    members' one row each broadcast over the samples, one array all members share (the
-    raw inputs, the linearization input) broadcast over the members; else the members'
-    arrays copied together (np.array of equal shapes: np.stack's copy, without its
-    generic argument handling)."""
+    the samples; None: zeros, all None: one array of zeros), or None when a member's has
+    another shape. Views where the values repeat (`assemble` copies them): one member's
+    with the member axis, the members' one row each broadcast over the samples, one
+    array all members share (the raw inputs, the linearization input) broadcast over the
+    members; else the members' arrays copied together (np.array of equal shapes:
+    np.stack's copy, without its generic argument handling)."""
     K = len(rows)
+    if all(a is None for a in rows):
+        return np.zeros((K, M, k))
     if rows[0] is not None and all(a is rows[0] for a in rows):
         one = np.asarray(rows[0], dtype=float)
         if one.shape not in ((M, k), (k,)):

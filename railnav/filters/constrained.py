@@ -29,7 +29,7 @@ from ekf.series import EpochRows
 from ekf.update import Observation
 from gnss_obs.oscillator import oscillator_from_name
 from railnav.config import NavigatorConfig
-from railnav.filters.along_force_noise import AlongForceNoise, forces_together
+from railnav.filters.along_force_noise import AlongForceNoise
 from railnav.filters.body_rows import BodyRows, body_densities, body_states, mount_truth
 from railnav.filters.common import (ROW_KINDS, GnssRowBuilder, start_on_track,
                                     states_from_values)
@@ -43,10 +43,11 @@ from railnav.filters.gnss_only_noise import (correlation_inflation, epoch_interv
                                              pseudorange_inflation)
 from railnav.filters.grade_noise import unknown_grade_density
 from railnav.filters.held_remainder import held_density
+from railnav.filters.inputs_together import chunk_median_step, inputs_together, sample_steps
 from railnav.filters.ins_clock_model import initial_variances
 from railnav.filters.noise_scale import NoiseScale, scaled_gnss_rows
 from railnav.filters.one_sided import OneSidedLimit
-from railnav.filters.path_noise import PathNoise, bias_together
+from railnav.filters.path_noise import PathNoise
 from railnav.filters.reference_path import ReferencePath
 from railnav.filters.scale_noise import step_nodes
 from railnav.filters.sensor_rows import SensorRows, sensor_densities, sensor_states
@@ -57,13 +58,6 @@ from trackmodel.track import Track
 __all__ = ["ConstrainedFilter"]
 
 Array = npt.NDArray[np.float64]
-
-
-def _chunk_step(t: Array, t_prev: float) -> float:
-    """The median step of samples ``t`` after ``t_prev`` (s): `ConstrainedFilter.inputs`'s
-    correlation step when no nominal sample interval is set."""
-    return float(np.median(np.diff(np.concatenate([[t_prev], t])))) if t.size > 1 \
-        else float(t[0] - t_prev)
 
 
 class ConstrainedFilter(ReferencePath):
@@ -205,51 +199,67 @@ class ConstrainedFilter(ReferencePath):
     @staticmethod
     def inputs_together(filters, t: Array, u: Array, priors, t_prev: float) -> list:
         """`inputs` of several filters (a bank's hypotheses) over the same samples, each
-        from its own prior ``priors[k] = (x_prev, P_prev)``: the bias steps' densities of
-        all their spread's paths in one `path_bias_step_densities` call (pure per row:
-        each filter's numbers are those of its own `inputs`), and the along-track force
-        once for the filters whose low-pass is at the same sample (`forces_together`).
-        Returns `inputs`'s tuple for each filter, in order."""
-        # the chunk's median step, for the filters without a nominal one: the same for all
-        step = _chunk_step(t, t_prev) if any(f.sample_interval_s is None for f in filters) \
-            else None
-        forces = forces_together([f._along for f in filters], t, u)
-        pending = [f._start_inputs(t, u, x, P, t_prev, chunk_step=step, along=along)
-                   for f, (x, P), along in zip(filters, priors, forces)]
-        return [f._finish_inputs(p, found) for f, p, found
-                in zip(filters, pending,
-                       bias_together([f.path_noise for f in filters], pending))]
+        from its own prior ``priors[k] = (x_prev, P_prev)``: the same numbers, the work
+        that is alike stacked (`railnav.filters.inputs_together`). Returns `inputs`'s
+        tuple for each filter, in order."""
+        return inputs_together(filters, t, u, priors, t_prev)
 
     def _start_inputs(self, t: Array, u: Array, x_prev: Array, P_prev: Array,
                       t_prev: float, *, chunk_step: float | None = None,
                       along: Array | None = None) -> dict:
         """`inputs` up to the bias steps' densities: the rest of its results, and the
         grid rows of the spread's paths (``paths``, None without bias noise);
-        `chunk_step`: `_chunk_step` of these samples, when known; `along`: the
+        `chunk_step`: `chunk_step` of these samples, when known; `along`: the
         along-force noise's `force` of them, when computed (`forces_together`)."""
         accel = self._along_accel(u, x_prev)
         s_pred = self.predict_s(t, accel, x_prev, t_prev)
-        params, grid_nodes = self._grid.parameters(s_pred)
-        self._chunk_end = self._grid.point(int(grid_nodes[-1]))
-        i_s, i_v = self._i["s"], self._i["v"]
-        s_prev = float(x_prev[i_s])
-        sigma_s, speed = float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[i_v]))
-        step = self.sample_interval_s
-        if step is None:
-            step = _chunk_step(t, t_prev) if chunk_step is None else chunk_step
+        params = self._path_parameters(s_pred)
+        sigma_s, speed = self.prior_spread(x_prev, P_prev)
+        step = self.chunk_step(t, t_prev, chunk_step)
         params, variance = statistical_parameters(self._grid, params, sigma_s_m=sigma_s,
                                                   speed_mps=speed, interval_m=speed * step,
                                                   s_m=s_pred)
-        if along is None and self._along is not None:
-            along = self._along.force(t, u)
-        steps = np.empty(max(t.size, 1))              # np.diff(t), then the nominal step
-        steps[:-1] = t[1:] - t[:-1]
-        steps[-1] = step
-        nodes = step_nodes(sigma_s)
         r_c = held_density(variance, params, sigma_s_m=sigma_s, speed_mps=speed,
                            correlation_s=remainder_correlation_s(
                                sigma_s_m=sigma_s, speed_mps=speed, step_s=step),
                            held_s=float(t[-1]) - t_prev)
+        return self._pending(t, u, x_prev, P_prev, t_prev, accel=accel, s_pred=s_pred,
+                             params=params, r_c=r_c, step=step, along=along,
+                             speed=speed, sigma_s=sigma_s)
+
+    def _path_parameters(self, s_pred: Array, found=None) -> Array:
+        """The grid rows at the predicted path `s_pred` (`TrackParameterGrid.parameters`;
+        `found`: its result, when known), the track at its last sample kept for the
+        epoch's rows (``_chunk_end``)."""
+        params, grid_nodes = self._grid.parameters(s_pred) if found is None else found
+        self._chunk_end = self._grid.point(int(grid_nodes[-1]))
+        return params
+
+    def prior_spread(self, x_prev: Array, P_prev: Array) -> tuple[float, float]:
+        """σ_s (m) and |v| (m/s) of a chunk's prior."""
+        i_s = self._i["s"]
+        return float(np.sqrt(max(P_prev[i_s, i_s], 0.0))), abs(float(x_prev[self._i["v"]]))
+
+    def chunk_step(self, t: Array, t_prev: float, chunk_step: float | None = None) -> float:
+        """The step the chunk's noise assumes: `sample_interval_s`, else the chunk's
+        median step (`chunk_step` when already computed)."""
+        if self.sample_interval_s is not None:
+            return self.sample_interval_s
+        return chunk_median_step(t, t_prev) if chunk_step is None else chunk_step
+
+    def _pending(self, t: Array, u: Array, x_prev: Array, P_prev: Array, t_prev: float, *,
+                 accel: Array, s_pred: Array, params: Array, r_c: Array, step: float,
+                 along: Array | None, speed: float, sigma_s: float,
+                 steps: Array | None = None) -> dict:
+        """`_start_inputs`'s result from the path, the track parameters and the geometry
+        noise `r_c` (`inputs_together` gives them stacked), `speed` and `sigma_s`
+        (`prior_spread`): the along-track force, the steps (`steps`: `sample_steps`'s,
+        when known), an unknown grade's noise on `r_c` (in place) and the spread's
+        paths."""
+        if along is None and self._along is not None:
+            along = self._along.force(t, u)
+        steps = sample_steps(t, step) if steps is None else steps
+        nodes = step_nodes(sigma_s)
         if self.config.grade_sigma_rad > 0.0:           # a grade the track does not know
             r_c[:, 1] += unknown_grade_density(accel, speed, self.config.grade_sigma_rad)
         return {"u": u, "params": params, "r_c": r_c,
@@ -257,7 +267,7 @@ class ConstrainedFilter(ReferencePath):
                 "P_prev": P_prev, "steps": steps, "nodes": nodes,
                 "along": along, "speed": speed,
                 "paths": None if self.path_noise.bias_noise is None else
-                self.path_noise.path_rows(s_pred, s_prev, nodes)}
+                self.path_noise.path_rows(s_pred, float(x_prev[self._i["s"]]), nodes)}
 
     def _finish_inputs(self, pending: dict, found) -> tuple[Array, Array, Array]:
         """`inputs`'s results from `_start_inputs` and the densities of its paths

@@ -78,7 +78,8 @@ import numpy.typing as npt
 
 from strapdown.reduced import TRACK_PARAMETER_NAMES, cross_track_basis
 
-__all__ = ["statistical_parameters", "remainder_correlation_s", "angle_statistics",
+__all__ = ["statistical_parameters", "straight_priors", "remainder_correlation_s",
+           "angle_statistics",
            "MAX_CORRELATION_S",
            "QUADRATURE_NODES", "INTERVAL_NODES",
            "QUADRATURE_HALF_WIDTH", "MAX_OFFSET_M", "STATISTICAL_MIN_SIGMA_M"]
@@ -175,6 +176,23 @@ def statistical_parameters(grid, params: Array, *, sigma_s_m: float, speed_mps: 
     box[near] = _interval_means(grid, params[near], offsets, interval_m, centre[near])
     params, delta = _across_a_step(params, box, delta, centre, offsets, near)
     return params, _remainder_variance(params, box, delta, speed_mps)
+
+
+def straight_priors(tracks, s_m: Array, *, sigma_s_m: Array, interval_m: Array
+                    ) -> list[bool]:
+    """For each row k of a bank's predicted paths `s_m` (shape (K, M), m), whether
+    `statistical_parameters` of ``tracks[k]``'s grid with ``sigma_s_m[k]``,
+    ``interval_m[k]`` and ``s_m[k]`` takes its short cut (the prior's window inside one
+    straight section: the parameters unchanged, the variance zero): the window's ends
+    of all rows computed together (the same operations), each row's sections looked up
+    on its own track."""
+    lo = np.minimum(np.maximum(sigma_s_m * _XI[0], -MAX_OFFSET_M), MAX_OFFSET_M)
+    hi = np.minimum(np.maximum(sigma_s_m * _XI[-1], -MAX_OFFSET_M), MAX_OFFSET_M)
+    half = 0.5 * interval_m
+    lo = np.minimum.reduce(s_m, axis=1) + lo - half
+    hi = np.maximum.reduce(s_m, axis=1) + hi + half
+    return [_inside_one_loxodrome(track, a, b)
+            for track, a, b in zip(tracks, lo.tolist(), hi.tolist())]
 
 
 def _near_a_step(grid, lo: Array, hi: Array) -> Array:
@@ -275,8 +293,10 @@ def _inside_one_loxodrome(track, s_lo: float, s_hi: float) -> bool:
     tangent is smooth to all orders there (a loxodrome at constant grade), and the part the
     second-order expansion leaves out is ~(Δs/R_earth)³, far below any accelerometer."""
     length = track.length_m         # np.clip's bounds, in floats (`Track.section_at`)
-    k_lo, k_hi = (track.section_at(min(max(float(s), 0.0), length)) for s in (s_lo, s_hi))
-    return bool(k_lo == k_hi and track.table.is_loxodrome[k_lo])
+    k_lo = track.section_at(min(max(float(s_lo), 0.0), length))
+    k_hi = track.section_at(min(max(float(s_hi), 0.0), length))
+    # the section's is_loxodrome, from the track's cached lists (`Track.table_lists`)
+    return bool(k_lo == k_hi and track.table_lists[k_lo][7])
 
 
 def _nodes(grid, params: Array, offsets: Array, centre: Array | None = None

@@ -17,7 +17,7 @@ import numpy.typing as npt
 
 from strapdown.gravity import g_n
 
-__all__ = ["ReferencePath"]
+__all__ = ["ReferencePath", "paths_together"]
 
 Array = npt.NDArray[np.float64]
 
@@ -65,3 +65,27 @@ class ReferencePath:
             self._gravity[key] = float(np.linalg.norm(g_n(point.lat, point.h,
                                                           earth=self.track.earth)))
         return self._gravity[key]
+
+
+def paths_together(filters, t: Array, u: Array, X: Array, t_prev: float
+                   ) -> tuple[Array, Array]:
+    """`ReferencePath._along_accel` and `ReferencePath.predict_s` of several filters of
+    one layout (a bank's hypotheses, each on its own track) over the same samples, each
+    from its own prior ``X[k]`` (shape (K, n)): the accelerations and the predicted
+    distances, shapes (K, M), row k the numbers of filter k's own calls (the same
+    elementwise operations, stacked; the sums accumulated along each row)."""
+    f0 = filters[0]
+    i_s, i_v = f0._i["s"], f0._i["v"]
+    gravity = np.array([f._gravity_near(x[i_s]) for f, x in zip(filters, X)])
+    f_x = u[:, 0][None, :] - (X[:, f0._b_ax][:, None] if f0._b_ax is not None else 0.0)
+    accel = f_x - (gravity * np.sin(X[:, f0._i["pitch"]]))[:, None]
+    dt = t - _shifted(t, t_prev)
+    v = X[:, i_v][:, None] + np.add.accumulate(accel * dt, axis=1)
+    before = np.empty(v.shape)                       # `_shifted` of each row
+    if t.size:
+        before[:, 0] = X[:, i_v]
+        before[:, 1:] = v[:, :-1]
+    v_mid = 0.5 * (before + v)
+    s = X[:, i_s][:, None] + np.add.accumulate(v_mid * dt, axis=1)
+    lengths = np.array([f.track.length_m for f in filters])
+    return accel, np.minimum(np.maximum(s, 0.0), lengths[:, None])

@@ -34,7 +34,7 @@ import numpy.typing as npt
 from strapdown.reduced import track_parameters
 from trackmodel.sections import JOINT_SIDE_M, joint_steps
 
-__all__ = ["TrackParameterGrid", "GRID_STEP_M", "GRID_WINDOW_M"]
+__all__ = ["TrackParameterGrid", "parameters_together", "GRID_STEP_M", "GRID_WINDOW_M"]
 
 Array = npt.NDArray[np.float64]
 
@@ -80,6 +80,9 @@ class TrackParameterGrid:
             nodes = np.concatenate([nodes, steps - JOINT_SIDE_M, steps + JOINT_SIDE_M])
         nodes = np.unique(nodes)
         self._points = self.track.at(nodes)
+        #: The points' fields in their order (`point`'s arguments).
+        self._columns = tuple(getattr(self._points, name)
+                              for name in _field_names(type(self._points)))
         self._params = track_parameters(self._points, earth=self.track.earth)
         self._s = nodes
         self._lo, self._hi = nodes[0], nodes[-1]
@@ -108,6 +111,50 @@ class TrackParameterGrid:
 
     def point(self, index: int):
         """The scalar `trackmodel.TrackPoint` of node `index` (of the current window)."""
-        points = self._points
-        return type(points)(**{name: getattr(points, name)[index]
-                               for name in _field_names(type(points))})
+        return type(self._points)(*[column[index] for column in self._columns])
+
+
+def parameters_together(grids, s: Array) -> list[tuple[Array, npt.NDArray[np.intp]]]:
+    """`TrackParameterGrid.parameters` of each grid (distinct objects) at its row of `s`
+    (K, M), m: each grid's window opened as its own call opens it, then the nearest
+    nodes of all rows found by one search in the windows' nodes side by side (a node
+    ``s`` of grid k keyed ``k + i·s``: complex numbers sort by real part, then
+    imaginary, so a row's search stays in its own window and makes the same float
+    comparisons as there), each row's parameters gathered from its own grid. Returns
+    each grid's ``(rows, node indices)``."""
+    lo, hi = np.minimum.reduce(s, axis=1), np.maximum.reduce(s, axis=1)
+    for grid, a, b in zip(grids, lo, hi):
+        if not (grid._lo <= a and b <= grid._hi):
+            grid._open(float(a), float(b))
+    windows = _windows(grids)
+    if windows is None:                                   # a window of one node
+        return [grid.parameters(row) for grid, row in zip(grids, s)]
+    nodes, keys, first, size = windows
+    K, M = s.shape
+    query = np.empty(s.shape, dtype=np.complex128)
+    query.real, query.imag = np.arange(K, dtype=float)[:, None], s
+    j = np.minimum(np.maximum(keys.searchsorted(query) - first[:, None], 1),
+                   size[:, None] - 1)
+    at = j + first[:, None]
+    idx = np.where(s - nodes[at - 1] <= nodes[at] - s, j - 1, j)
+    return [(grid._params[i], i) for grid, i in zip(grids, idx)]
+
+
+#: The latest windows side by side: ``(their node arrays, (nodes, keys, first, size))``.
+_LATEST: list = [(), None]
+
+
+def _windows(grids):
+    """The grids' current windows side by side for `parameters_together` (kept while
+    they are the same arrays); None when a window has fewer than two nodes."""
+    arrays = tuple(grid._s for grid in grids)
+    held = _LATEST[0]
+    if len(held) != len(arrays) or any(a is not b for a, b in zip(held, arrays)):
+        size = np.array([a.size for a in arrays])
+        if size.min() < 2:
+            return None
+        nodes = np.concatenate(arrays)
+        keys = np.empty(nodes.size, dtype=np.complex128)
+        keys.real, keys.imag = np.repeat(np.arange(len(arrays), dtype=float), size), nodes
+        _LATEST[:] = [arrays, (nodes, keys, np.cumsum(size) - size, size)]
+    return _LATEST[1]

@@ -130,20 +130,22 @@ def evidence_rows(screens: Sequence) -> set:
     return seen & set.union(*(set(e.keys[e.used].tolist()) for e in screens))
 
 
-def common_log_likelihoods(screens: Sequence) -> Array:
+def common_log_likelihoods(screens: Sequence, common: set | None = None) -> Array:
     """``log N(ν_j; 0, S_j)`` of each filter's latest epoch over the `evidence_rows`.
 
     Parameters
     ----------
     screens : sequence of railnav.filters.fault_detection.EpochScreen
         The same epoch screened by each filter.
+    common : set, optional
+        Their `evidence_rows`, when already known.
 
     Returns
     -------
     ndarray, shape (J,)
         0 for all when there is no such row.
     """
-    common = evidence_rows(screens)
+    common = evidence_rows(screens) if common is None else common
     out = np.zeros(len(screens))
     if not common:
         return out
@@ -163,5 +165,5 @@ def common_log_likelihoods(screens: Sequence) -> Array:
         if info != 0:
             raise np.linalg.LinAlgError(f"the innovation covariance of filter {j} is not "
                                         f"positive definite (LAPACK info {info})")
-        out[j] = -0.5 * (white @ white + 2.0 * np.sum(np.log(np.diag(L))) + len(idx) * LOG_2PI)
+        out[j] = -0.5 * (white @ white + 2.0 * np.log(L.diagonal()).sum() + len(idx) * LOG_2PI)
     return out

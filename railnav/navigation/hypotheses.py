@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from itertools import count
 
 import numpy as np
@@ -109,7 +110,12 @@ class Hypothesis:
     @property
     def s_m(self) -> float:
         """``s`` on its track, m."""
-        return float(self.x[self.index("s")])
+        return float(self.x[self._i_s])
+
+    @cached_property
+    def _i_s(self) -> int:
+        """``index("s")``, looked up once (the filter is the hypothesis's for its life)."""
+        return self.filt.layout.index("s")
 
     @property
     def length_m(self) -> float:

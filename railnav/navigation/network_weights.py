@@ -35,7 +35,7 @@ import scipy.linalg as sla
 from ekf.bank import imm_mixing, imm_starts, log_predict, uniform_switching
 from railnav.navigation.bank import common_log_likelihoods, evidence_rows
 from railnav.navigation.hypothesis_step import common_continuous_log_likelihoods
-from railnav.navigation.state_conversion import converted_pairs, known_offset, signed_speed
+from railnav.navigation.state_conversion import converted_pairs, known_offsets, signed_speed
 from trackmodel.earth import C_n_e
 from trackmodel.network_points import point_fields, points_on
 
@@ -67,8 +67,9 @@ def cycle_evidence(outcome, count: int, *, continuous: bool, share: float = 1.0
     if outcome.evidence is not None:
         log_lik, rows = log_lik + share * outcome.evidence, outcome.evidence_rows
     elif outcome.screens:
-        log_lik = log_lik + share * common_log_likelihoods(outcome.screens)
-        rows = len(evidence_rows(outcome.screens))
+        common = evidence_rows(outcome.screens)
+        log_lik = log_lik + share * common_log_likelihoods(outcome.screens, common)
+        rows = len(common)
     if outcome.evidence_whole is not None:
         log_lik = log_lik + outcome.evidence_whole
     return log_lik, rows
@@ -108,18 +109,14 @@ def track_points_of(hyps) -> list:
 def cycle_points(hyps) -> tuple[list, dict]:
     """`track_points_of` the hypotheses and, in the same evaluation, the first Newton
     points that `converted_pairs` wants for the pairs `mix_states` may convert: for each
-    ordered pair ``(i, j)`` whose pair of tracks has an offset (`known_offset`), the point of
+    ordered pair ``(i, j)`` whose pair of tracks has an offset (`known_offsets`), the point of
     j's track at ``s_i`` plus that offset, clamped, as ``{(i, j): (s_g, point)}`` (the
     same numbers as evaluated there: `points_on` is pure per point)."""
     tracks = [h.filt.track for h in hyps]
     s = [min(max(h.s_m, 0.0), t.length_m) for h, t in zip(hyps, tracks)]
-    pairs, s_g = [], []
-    for i, a in enumerate(tracks):
-        for j, b in enumerate(tracks):
-            offset = known_offset(a, b) if i != j else None
-            if offset is not None:
-                pairs.append((i, j))
-                s_g.append(min(max(s[i] + offset, 0.0), b.length_m))
+    found = known_offsets(tracks)
+    pairs = [(i, j) for i, j, _ in found]
+    s_g = [min(max(s[i] + offset, 0.0), tracks[j].length_m) for i, j, offset in found]
     both = points_on(tracks + [tracks[j] for _, j in pairs], s + s_g)
     return both[:len(hyps)], {p: (g, q) for p, g, q in zip(pairs, s_g, both[len(hyps):])}
 
@@ -138,7 +135,7 @@ def abreast(hyps, r_e: Array, tangent_e: Array, radius_m: float) -> list[list[in
     on = np.array([codes.setdefault(h.where()[:2], len(codes)) for h in hyps])
     # i != j follows from another element or orientation
     linked = (d <= radius_m) & same_way & (on[:, None] != on[None, :])
-    return [np.flatnonzero(row).tolist() for row in linked]
+    return [[j for j, yes in enumerate(row) if yes] for row in linked.tolist()]
 
 
 def crossing_matrix(neighbours: list[list[int]], rate_per_s: float, dt_s: float) -> Array:
@@ -234,7 +231,8 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
     K = len(hyps)
     if K < 2 or _identity(transition):
         return
-    _, uses = imm_mixing(mu, transition, min_weight)
+    mixing = imm_mixing(mu, transition, min_weight)
+    uses = mixing[1]
     pairs = [(i, j) for j, use in enumerate(uses) if use != [j] for i in use if i != j]
     done = converted_pairs([hyps[i].filt for i, _ in pairs], [hyps[j].filt for _, j in pairs],
                            [hyps[i].x for i, _ in pairs], [hyps[i].P for i, _ in pairs],
@@ -248,7 +246,7 @@ def mix_states(hyps, mu: Array, transition: Array, min_weight: float, *,
         return table[(i, j)]
 
     x0, P0 = imm_starts(mu, transition, [h.x for h in hyps], [h.P for h in hyps],
-                        convert=convert, min_weight=min_weight)
+                        convert=convert, min_weight=min_weight, mixing=mixing)
     for h, x, P in zip(hyps, x0, P0):
         h.x, h.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
 

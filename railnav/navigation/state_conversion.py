@@ -19,7 +19,8 @@ from railnav.navigation.bank import moved_states
 from trackmodel.earth import C_n_e
 from trackmodel.network_points import point_fields, points_on
 
-__all__ = ["converted", "converted_pairs", "forget_offsets", "known_offset", "signed_speed",
+__all__ = ["converted", "converted_pairs", "forget_offsets", "known_offset", "known_offsets",
+           "signed_speed",
            "NEWTON_MAX_STEP_M", "MAX_OFFSETS"]
 
 Array = npt.NDArray[np.float64]
@@ -49,6 +50,15 @@ def forget_offsets() -> None:
 def known_offset(source_track, target_track) -> float | None:
     """The offset ``s_target − s_source`` last found for this pair of tracks, or None."""
     return _OFFSETS.get((id(source_track), id(target_track)))
+
+
+def known_offsets(tracks) -> list[tuple[int, int, float]]:
+    """``(i, j, known_offset(tracks[i], tracks[j]))`` of every ordered pair ``i != j``
+    that has one, in the order of ``i`` then ``j`` (each track's ``id`` taken once)."""
+    ids = [id(t) for t in tracks]
+    get = _OFFSETS.get
+    return [(i, j, offset) for i, a in enumerate(ids) for j, b in enumerate(ids)
+            if i != j and (offset := get((a, b))) is not None]
 
 
 def _target_s(sources, targets, p_src: list, s_src: list, first_points=None) -> list[float]:

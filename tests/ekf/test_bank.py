@@ -188,6 +188,14 @@ def test_imm_starts_in_own_coordinates_equal_the_shared_ones(rng):
     mu = np.array([0.7, 0.2, 0.1])
     transition = np.array([[0.9, 0.05, 0.05], [0.1, 0.8, 0.1], [0.0, 0.3, 0.7]])
     shared = imm_starts(mu, transition, xs, Ps)
+    from ekf.bank import imm_mixing
+    given = imm_starts(mu, transition, xs, Ps, mixing=imm_mixing(mu, transition))
+    for a, b in zip(shared[0] + shared[1], given[0] + given[1]):   # the mixing given
+        np.testing.assert_array_equal(a, b)
+    # what each start mixes: μ_{i|j} = Π_ij μ_i / c_j above 0.06 (c = [0.65, 0.225, 0.25]:
+    # column 0 is 0.969, 0.031, 0), and j itself
+    assert imm_mixing(mu, transition, 0.06)[1] == [[0], [0, 1, 2], [0, 1, 2]]
+    assert imm_mixing(mu, transition, 0.2)[1] == [[0], [1], [0, 2]]
     own = imm_starts(mu, transition, [x + c for x, c in zip(xs, shift)], Ps,
                      convert=lambda i, j, x, P: (x - shift[i] + shift[j], P))
     for j in range(J):

@@ -99,3 +99,14 @@ def test_shared_inputs_and_held_rows_equal_the_engine_one_by_one(engine):
         series.append(InputSeries(t=t, u=u, q_c=rng.uniform(0.01, 0.1, 1), r_c=r_c,
                                   z_c=None if k == 1 else rng.normal(size=(t.size, 1))))
     _as_one_by_one(engine, priors, series)
+
+
+def test_members_without_measurements_and_ragged_priors(engine):
+    """Every member without ``z_c`` (zeros: one array for all) gives the engine's numbers
+    member by member; priors of two shapes (they do not stack) fail as the engine fails
+    on the first bad one."""
+    priors, series = _members(np.random.default_rng(8), 3)
+    series = [InputSeries(t=s.t, u=s.u, q_c=s.q_c, r_c=s.r_c, z_c=None) for s in series]
+    _as_one_by_one(engine, priors, series)
+    with pytest.raises(ModelError, match=r"x0 must be \(2,\) and P0 \(2, 2\); got \(3,\)"):
+        propagate_members(engine, [priors[0], (np.zeros(3), np.eye(3))], series[:2])

@@ -78,3 +78,55 @@ def test_a_curvature_step_takes_the_samples_side():
     np.testing.assert_allclose(np.hypot(*params[:, cols].T),
                                np.abs(track.at(s).curvature_1pm), atol=1e-9)
     assert np.all(np.abs(params[:, 0] - s) <= GRID_STEP_M / 2 + 1e-9)
+
+
+def test_parameters_together_are_each_grids_own(curvy, rng):
+    """`parameters_together` of four grids (curvy, a parallel, a circle entered straight:
+    nodes beside its curvature step; small windows that re-open as the rows move on, at
+    different times; samples on nodes and half-way between them) equals each grid's own `parameters` on a twin grid, rows and node
+    indices, and leaves each window where the twin's is; rows at a track's start and
+    end included."""
+    from trackmodel.earth import WGS84
+    from trackmodel.offset import offset_track
+    from trackmodel.sections import Section
+    from trackmodel.track import Origin, Track
+    from railnav.filters.track_grid import parameters_together
+    circle = Track([Section(300.0, 90.0, 0.0)]
+                   + [Section(0.5 * np.pi * 200.0, None, None, 1.0 / 200.0)] * 2,
+                   Origin(50.45, 30.52, 100.0), WGS84)
+    tracks = [curvy, offset_track(curvy, 4.5), circle, curvy]
+    windows = (150.0, 300.0, 60.0, 90.0)
+
+    def grids():
+        return [TrackParameterGrid(t, window_m=w) for t, w in zip(tracks, windows)]
+    together, alone = grids(), grids()
+    start = np.array([0.0, 2000.0, 250.0, curvy.length_m - 240.0])
+    speed = np.array([9.0, 14.0, 5.0, 13.0])
+    ends = set()
+    for step in range(20):
+        s = start[:, None] + speed[:, None] * (step + 0.01 * np.arange(101))[None, :] \
+            + rng.normal(0.0, 0.2, (4, 101))
+        s[:, ::7] = np.round(s[:, ::7] * 4.0) / 4.0       # on nodes and half-way: ties
+        s = np.minimum(np.maximum(s, 0.0), np.array([t.length_m for t in tracks])[:, None])
+        ends.update({"start"} if s[0].min() == 0.0 else set())
+        ends.update({"end"} if s[3].max() == curvy.length_m else set())
+        for grid, twin, row, (params, idx) in zip(together, alone, s,
+                                                  parameters_together(together, s)):
+            ref_params, ref_idx = twin.parameters(row)
+            assert np.array_equal(params, ref_params) and np.array_equal(idx, ref_idx)
+            assert (grid._lo, grid._hi) == (twin._lo, twin._hi)
+    assert ends == {"start", "end"}
+
+
+def test_point_is_the_windows_node(curvy):
+    """`TrackParameterGrid.point` of a node: every field the window's value at that node
+    (the fields in their order), a scalar point."""
+    from dataclasses import fields
+    grid = TrackParameterGrid(curvy, window_m=300.0)
+    _, idx = grid.parameters(np.array([4100.0, 4123.4]))
+    for i in (0, int(idx[-1]), grid._s.size - 1):
+        point = grid.point(i)
+        for f in fields(point):
+            assert np.array_equal(getattr(point, f.name), getattr(grid._points, f.name)[i])
+        assert np.ndim(point.s) == 0 and np.shape(point.r_e) == (3,)
+    assert grid.point(int(idx[-1])).s == grid._s[idx[-1]]

@@ -38,6 +38,7 @@ def test_log_likelihoods_over_the_common_rows(rng):
                _screen(rng, keys[1:], refused=("G03/pr", "G05/rr"))]
     common = evidence_rows(screens)
     got = common_log_likelihoods(screens)
+    assert np.array_equal(common_log_likelihoods(screens, common), got)   # rows given
     for j, e in enumerate(screens):
         idx = np.array([k for k, key in enumerate(e.keys) if key in common])
         nu, S = e.innov[idx], e.S[np.ix_(idx, idx)]

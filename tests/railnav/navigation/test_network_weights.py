@@ -56,6 +56,11 @@ def test_cycle_points_give_the_conversions_their_own_numbers():
         sc._OFFSETS.update(table)
         points, newton = nw.cycle_points(hyps)
         assert set(newton) == set(pairs)       # every pair of tracks has an offset by now
+        assert sc.known_offsets([f.track for f in filters]) == [
+            (i, j, sc.known_offset(a.track, b.track)) for i, a in enumerate(filters)
+            for j, b in enumerate(filters) if i != j and
+            sc.known_offset(a.track, b.track) is not None]
+        assert sc.known_offsets([tracks[0], read_track(TRACKS_DIR / "double_b.csv")]) == []
         got = _convert(hyps, pairs, points, [newton.get(p) for p in pairs])
         assert sc._OFFSETS == ref_table
         for (x_a, P_a), (x_b, P_b) in zip(got, ref):
@@ -134,3 +139,21 @@ def test_the_identity_test_is_allclose_to_the_identity():
     nan[1, 2], inf[3, 3] = np.nan, np.inf
     for T in cases + [nan, inf]:
         assert nw._identity(T) == np.allclose(T, np.eye(T.shape[0]))
+
+
+def test_abreast_lists_the_others_within_the_radius_the_same_way():
+    """`abreast` of five hypotheses at known points: each one's list is the others on
+    another element or orientation within the radius whose tangents point the same way
+    (written out pair by pair), in index order."""
+    filt = SimpleNamespace(layout=SimpleNamespace(names=("yaw", "s", "v")))
+    spots = [("A", 1), ("B", 1), ("A", 1), ("C", -1), ("B", 1)]
+    hyps = [SimpleNamespace(filt=filt, where=lambda spot=spot: (*spot, 0.0)) for spot in spots]
+    r_e = np.array([[0.0, 0.0, 0.0], [4.5, 0.0, 0.0], [0.0, 2.0, 0.0], [0.0, -4.0, 0.0],
+                    [30.0, 0.0, 0.0]])
+    tangent = np.array([[0.0, 1.0, 0.0]] * 3 + [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]])
+    got = nw.abreast(hyps, r_e, tangent, 5.0)
+    want = [[j for j in range(5) if spots[j] != spots[i]
+             and np.linalg.norm(r_e[i] - r_e[j]) <= 5.0 and tangent[i] @ tangent[j] > 0.0]
+            for i in range(5)]
+    assert got == want == [[1], [0, 2], [1], [], []]
+    assert all(type(j) is int for row in got for j in row)
