@@ -86,7 +86,7 @@ import pandas as pd
 from ekf.series import EpochRows
 from ekf.update import EvaluatedObservations, Observation
 from railnav.filters.clock_jump import find_clock_jump
-from railnav.filters.fault_channels import Channel, ChannelTable
+from railnav.filters.fault_channels import Channel
 from railnav.filters.fault_config import FaultDetectionConfig
 from railnav.filters.row_sets import (ROW_STATUSES, group_status, own_covariance, row_ids,
                                       subset_rows)
@@ -161,13 +161,9 @@ class RowScreen:
     epochs: list[EpochScreen] = field(default_factory=list)
     _sv: list[np.ndarray] = field(default_factory=list)
     _kind: list[np.ndarray] = field(default_factory=list)
-    _channels: ChannelTable | None = None
+    _channels: dict[str, Channel] = field(default_factory=dict)
     _n_states: int = 0
     _clip_value: float | None = None
-
-    def __post_init__(self) -> None:
-        if self._channels is None:
-            self._channels = ChannelTable(self.config)
 
     @property
     def last(self) -> EpochScreen | None:
@@ -217,7 +213,7 @@ class RowScreen:
         `inflation` (and the rows' variances `R`), the tests' covariance ``S₀`` with the
         rows' own variances (``r`` of the row test, ``r_drift`` of the channels' sums at
         the update's ``S``: module docstring, "Inflated rows")."""
-        self._n_states = self._channels.n_states = x.size
+        self._n_states = x.size
         # "<sv>/<kind>" of each row: the object arrays' elementwise str concatenation
         keys = np.asarray(sv, dtype=object) + "/" + np.asarray(kind, dtype=object) \
             if len(sv) else np.zeros(0, dtype=object)
@@ -282,7 +278,7 @@ class RowScreen:
             return None
         # no channel excluded (most epochs): every row admitted, without asking each
         admitted = None
-        if self._channels.n_excluded:
+        if any(ch.excluded for ch in self._channels.values()):
             channel = self._channel
             admitted = np.fromiter((not channel(k).excluded for k in keys), dtype=bool,
                                    count=keys.size)
@@ -291,7 +287,9 @@ class RowScreen:
         return find_clock_jump(cfg, kind, nu, S, admitted, noise)
 
     def _channel(self, key: str) -> Channel:
-        return Channel(self._channels, self._channels.add(key))
+        if key not in self._channels:
+            self._channels[key] = Channel(self.config, self._n_states)
+        return self._channels[key]
 
     def _decide(self, keys: np.ndarray, r: Array, modes: np.ndarray, prob: Array | None,
                 r_drift: Array) -> tuple[np.ndarray, Array, list[str]]:
