@@ -81,7 +81,7 @@ def _screen_alone(screen, rows: tuple, x, P):
         one["r"] * one["r"], prior=cfg.fault_prior, scale=cfg.fault_scale)
     screen._rows_used(one, prob, groups, H, R, P)
     selected = screen._influence_rows(one, H, HP)
-    K_t = None if selected is None else np.linalg.solve(*selected)   # (`influence_gains`)
+    K_t = None if selected is None else influence_gains([selected])[0]
     return _finish(screen, one, K_t, rows, x, nu, H, R)
 
 
