@@ -331,15 +331,20 @@ class RowScreen:
             self._clip_value = float(np.sqrt(self.config.nis_threshold))
         return self._clip_value
 
-    def _influence_rows(self, used: npt.NDArray[np.bool_], H: Array, S: Array
+    def _influence_rows(self, pending: dict, H: Array, HP: Array
                         ) -> tuple[Array, Array] | None:
-        """``H`` and ``S`` of the used rows, whose gains `_add_influence` needs (None: no
-        influence to add)."""
+        """``S`` and ``H P`` of the used rows at the used covariance (`_rows_used`), whose
+        gains `_add_influence` needs (None: no influence to add): `HP`, ``H P`` at the
+        prior's ``P`` (`railnav.filters.row_sets.innovation_covariance`), as it is where
+        every row is used and nothing was added to ``P`` (most epochs)."""
+        used = pending["used"]
         n_used = np.count_nonzero(used)          # (bool counts: any/all without wrappers)
         if self.config is None or not n_used:
             return None
-        every = n_used == used.size
-        return (H, S) if every else (H[used], S[np.ix_(used, used)])
+        S, P_used = pending["S"], pending["P_used"]
+        if n_used == used.size:
+            return S, HP if not np.count_nonzero(pending["Q"]) else H @ P_used
+        return S[np.ix_(used, used)], H[used] @ P_used
 
     def _add_influence(self, keys: np.ndarray, used: npt.NDArray[np.bool_], nu: Array,
                        K_t: Array | None) -> None:

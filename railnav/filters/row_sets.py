@@ -17,6 +17,7 @@ import numpy.typing as npt
 from ekf.update import Observation
 
 __all__ = ["evaluate_rows", "subset_rows", "group_status", "innovation_covariances",
+           "innovation_covariance",
            "influence_gains", "own_covariance", "row_ids", "ROW_STATUSES"]
 
 Array = npt.NDArray[np.float64]
@@ -82,8 +83,10 @@ def subset_rows(observations: list[Observation], keep: npt.NDArray[np.bool_]
     return out
 
 
-def innovation_covariances(rows: list[tuple[Array, Array, Array]]) -> list[Array]:
-    """``S = H P Hᵀ + diag(R)`` of each filter's rows (module docstring).
+def innovation_covariances(rows: list[tuple[Array, Array, Array]]
+                           ) -> list[tuple[Array, Array]]:
+    """``S = H P Hᵀ + diag(R)`` of each filter's rows, with ``H P`` (the influence gains'
+    right-hand side, `influence_gains`) (module docstring).
 
     Parameters
     ----------
@@ -91,14 +94,22 @@ def innovation_covariances(rows: list[tuple[Array, Array, Array]]) -> list[Array
 
     Returns
     -------
-    list of ndarray, shape (m, m)
+    list of (ndarray (m, m), ndarray (m, n))
+        ``S`` and ``H P`` of each.
     """
-    def covariance(H: Array, P: Array, R: Array) -> Array:
-        m = R.shape[-1]
-        D = np.zeros(R.shape + (m,))                 # np.diag(R) of each, stacked:
-        D.reshape(R.shape[:-1] + (m * m,))[..., ::m + 1] = R     # every (m+1)-th element
-        return H @ P @ np.swapaxes(H, -1, -2) + D
-    return _by_shape(covariance, rows)
+    return _by_shape(innovation_covariance, rows)
+
+
+def innovation_covariance(H: Array, P: Array, R: Array) -> tuple[Array, Array]:
+    """``S = H P Hᵀ + diag(R)`` and ``H P`` of one filter's rows, or of several stacked
+    on a leading axis: ``(H P) Hᵀ``, then ``+ 0`` off the diagonal and ``+ R`` on it in
+    place (the numbers of ``H @ P @ Hᵀ + np.diag(R)``, without the diagonal matrix)."""
+    HP = H @ P
+    S = HP @ np.swapaxes(H, -1, -2)
+    m = R.shape[-1]
+    S += 0.0                                     # (-0 off the diagonal: +0, as `+ diag(R)`)
+    S.reshape(R.shape[:-1] + (m * m,))[..., ::m + 1] += R      # every (m+1)-th element
+    return S, HP
 
 
 def own_covariance(S: Array, R: Array, inflation: Array) -> Array:
@@ -112,18 +123,18 @@ def own_covariance(S: Array, R: Array, inflation: Array) -> Array:
     return S0
 
 
-def influence_gains(rows: list[tuple[Array, Array, Array]]) -> list[Array]:
+def influence_gains(rows: list[tuple[Array, Array]]) -> list[Array]:
     """``Kᵀ = S⁻¹ H P`` of each filter's used rows (``S`` symmetric; module docstring).
 
     Parameters
     ----------
-    rows : list of (H (m, n), S (m, m), P (n, n))
+    rows : list of (S (m, m), H P (m, n))
 
     Returns
     -------
     list of ndarray, shape (m, n)
     """
-    return _by_shape(lambda H, S, P: np.linalg.solve(S, H @ P), rows)
+    return _by_shape(np.linalg.solve, rows)
 
 
 def _by_shape(fun, rows: list[tuple]) -> list:
@@ -140,6 +151,8 @@ def _by_shape(fun, rows: list[tuple]) -> list:
             out[members[0]] = fun(*rows[members[0]])
             continue
         found = fun(*(np.stack(parts) for parts in zip(*(rows[k] for k in members))))
+        if isinstance(found, tuple):                # several outputs, each stacked
+            found = zip(*found)
         for k, one in zip(members, found):
             out[k] = one
     return out

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from ekf.outliers import fault_probability
-from railnav.filters.row_sets import evaluate_rows, influence_gains, innovation_covariances
+from railnav.filters.row_sets import (evaluate_rows, influence_gains, innovation_covariance,
+                                      innovation_covariances)
 
 __all__ = ["screen_together"]
 
@@ -42,32 +43,55 @@ def screen_together(screens, stacked, priors) -> list:
     list
         What each screen's `RowScreen.screen` returns, in order.
     """
+    if len(screens) == 1:                           # one screen: nothing to stack
+        return [_screen_alone(screens[0], stacked[0], *priors[0])]
     evaluated = [evaluate_rows(rows[0], x) for rows, (x, _) in zip(stacked, priors)]
     covariances = innovation_covariances([(H, P, R) for (_, H, R), (_, P)
                                           in zip(evaluated, priors)])
     pending = [screen._start(rows[1], rows[2], x, P, nu, H, S, rows[3], R,
                              rows[5] if len(rows) > 5 else None)
-               for screen, rows, (x, P), (nu, H, R), S
+               for screen, rows, (x, P), (nu, H, R), (S, _)
                in zip(screens, stacked, priors, evaluated, covariances)]
     probs = _fault_probabilities([screen.config for screen in screens],
                                  [one["r"] for one in pending])
     for screen, one, prob, rows, (nu, H, R), (_, P) in zip(screens, pending, probs, stacked,
                                                         evaluated, priors):
         screen._rows_used(one, prob, rows[4], H, R, P)
-    selected = [screen._influence_rows(one["used"], H, one["S"])
-                for screen, one, (_, H, _) in zip(screens, pending, evaluated)]
+    selected = [screen._influence_rows(one, H, HP) for screen, one, (_, H, _), (_, HP)
+                in zip(screens, pending, evaluated, covariances)]
     have = [k for k, rows in enumerate(selected) if rows is not None]
     gains: list = [None] * len(screens)
-    for k, K_t in zip(have, influence_gains([(*selected[k], pending[k]["P_used"])
-                                             for k in have])):
+    for k, K_t in zip(have, influence_gains([selected[k] for k in have])):
         gains[k] = K_t
-    out = []
-    for screen, one, K_t, rows, (x, _), (nu, H, R) in zip(screens, pending, gains, stacked,
-                                                       priors, evaluated):
-        screen._add_influence(one["keys"], one["used"], nu, K_t)
-        out.append(screen._record(one, rows[0], rows[1], rows[2], x, nu, H, R))
-        if screen.observer is not None:
-            screen.observer(screen.last, rows[2], R, rows[5] if len(rows) > 5 else None)
+    return [_finish(screen, one, K_t, rows, x, nu, H, R)
+            for screen, one, K_t, rows, (x, _), (nu, H, R)
+            in zip(screens, pending, gains, stacked, priors, evaluated)]
+
+
+def _screen_alone(screen, rows: tuple, x, P):
+    """`screen_together`'s steps for one screen, without the lists and stacking between
+    them (the same calls on the same arrays: the same numbers)."""
+    observations, sv, kind, modes, groups = rows[:5]
+    inflation = rows[5] if len(rows) > 5 else None
+    nu, H, R = evaluate_rows(observations, x)
+    S, HP = innovation_covariance(H, P, R)
+    one = screen._start(sv, kind, x, P, nu, H, S, modes, R, inflation)
+    cfg = screen.config
+    prob = None if cfg is None else fault_probability(
+        one["r"] * one["r"], prior=cfg.fault_prior, scale=cfg.fault_scale)
+    screen._rows_used(one, prob, groups, H, R, P)
+    selected = screen._influence_rows(one, H, HP)
+    K_t = None if selected is None else influence_gains([selected])[0]
+    return _finish(screen, one, K_t, rows, x, nu, H, R)
+
+
+def _finish(screen, one: dict, K_t, rows: tuple, x, nu, H, R):
+    """A screen's epoch from its gains on: the channels' influence, the record, the
+    observer; the used rows (`RowScreen.screen`'s return)."""
+    screen._add_influence(one["keys"], one["used"], nu, K_t)
+    out = screen._record(one, rows[0], rows[1], rows[2], x, nu, H, R)
+    if screen.observer is not None:
+        screen.observer(screen.last, rows[2], R, rows[5] if len(rows) > 5 else None)
     return out
 
 
@@ -75,10 +99,6 @@ def _fault_probabilities(configs, r: list) -> list:
     """`fault_probability` of each screen's normalized innovations ``r²`` (None for a
     screen without a configuration), in one call for the screens of one configuration
     (elementwise: each row's number is its own)."""
-    if len(r) == 1:                                 # one screen: nothing to stack
-        cfg = configs[0]
-        return [None if cfg is None else fault_probability(
-            r[0] * r[0], prior=cfg.fault_prior, scale=cfg.fault_scale)]
     out: list = [None] * len(r)
     have = [k for k, cfg in enumerate(configs) if cfg is not None]
     for cfg in dict.fromkeys(configs[k] for k in have):

@@ -23,7 +23,8 @@ from ekf.update import discrete_update
 from gnss_obs.epoch import prepare_epoch, prepare_epochs
 from railnav.filters.epochs_together import observations_together
 from railnav.filters.protocol import make_filter
-from railnav.filters.row_sets import influence_gains, innovation_covariances
+from railnav.filters.row_sets import (influence_gains, innovation_covariance,
+                                      innovation_covariances)
 from railnav.navigation.navigator import trip_samples
 from railnav.navigation.state_conversion import converted
 from railnav.simulation.scenarios import TRACKS_DIR, get_scenario
@@ -201,16 +202,19 @@ def test_prepare_epochs_equals_prepare_epoch_per_guess(bank):
 
 def test_stacked_row_arithmetic_equals_each_filter_alone():
     """`innovation_covariances` and `influence_gains` of filters with different row counts
-    (stacked by shape): ``H P Hᵀ + diag(R)`` and ``solve(S, H P)`` of each, to the bit."""
+    (stacked by shape): ``H P Hᵀ + diag(R)``, ``H P`` and ``solve(S, H P)`` of each, to
+    the bit, and `innovation_covariance` of one filter alone the same."""
     rng = np.random.default_rng(3)
     rows, gains = [], []
     for m in (6, 6, 4, 6, 1):
         H, A = rng.normal(size=(m, 7)), rng.normal(size=(7, 7))
         P, R = A @ A.T + np.eye(7), rng.uniform(1.0, 9.0, m)
         rows.append((H, P, R))
-    S = innovation_covariances(rows)
-    for (H, P, R), S_k in zip(rows, S):
-        np.testing.assert_array_equal(S_k, H @ P @ H.T + np.diag(R))
+    for (H, P, R), (S_k, HP) in zip(rows, innovation_covariances(rows)):
+        np.testing.assert_array_equal(S_k, H @ P @ H.T + np.diag(R), strict=True)
+        np.testing.assert_array_equal(HP, H @ P, strict=True)
+        for alone, stacked in zip(innovation_covariance(H, P, R), (S_k, HP)):
+            np.testing.assert_array_equal(alone, stacked, strict=True)
         gains.append((H, S_k, P))
-    for (H, S_k, P), K_t in zip(gains, influence_gains(gains)):
+    for (H, S_k, P), K_t in zip(gains, influence_gains([(S_k, H @ P) for H, S_k, P in gains])):
         np.testing.assert_array_equal(K_t, np.linalg.solve(S_k, H @ P))

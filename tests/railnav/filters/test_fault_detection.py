@@ -274,3 +274,39 @@ def test_a_steady_bias_excludes_by_the_cusum_only_when_white(model, inflated):
     first = int(np.ceil(9.0 / (2.0 - 0.35)))
     expected = ["used"] * 20 if inflated else ["used"] * (first - 1) + ["excluded"] * (21 - first)
     assert statuses == expected
+
+
+@pytest.mark.parametrize("offsets, jump_m, clock", [
+    ([1.5, -1.5, 1.0, 2.0, -1.0, 0.8], 0.0, None),       # every row used, P as it is
+    ([1.5, -1.5, 6.0, 2.0, -1.0, 0.8], 0.0, None),       # a row rejected: the used rows
+    ([2.0, -2.0, 2.0, -2.0, 0.0, 0.0], 15.0, CLOCK)])     # a clock jump: P + Q
+def test_each_used_rows_influence_is_its_gain_times_its_innovation(model, offsets, jump_m,
+                                                                   clock):
+    """After one epoch each channel's influence on a side whose CUSUM is open is
+    ``K_i ν_i`` of its row, ``K = (P+Q) H_uᵀ (H_u (P+Q) H_uᵀ + R_u)⁻¹`` over the used rows
+    (an explicit inverse; ``Q`` the epoch's jump covariance), zero elsewhere; rejected
+    rows add nothing."""
+    obs, H, _ = _rows(model, offsets)
+    obs = [replace(obs[0], z=obs[0].z + jump_m)]
+    screen = RowScreen(FaultDetectionConfig(), clock)
+    out = screen.screen(obs, SVS, np.full(LOS.size, "pseudorange", dtype=object), X, P)
+    last = screen.last
+    Q = out.jump_covariance if isinstance(out, EpochRows) else np.zeros((2, 2))
+    assert isinstance(out, EpochRows) == (jump_m > 0.0)
+    used = last.status == "used"
+    assert used.sum() == LOS.size - (np.abs(offsets) > 3.73).sum()
+    H_u = H[used]
+    S_u = H_u @ (P + Q) @ H_u.T + SIGMA_M ** 2 * np.eye(H_u.shape[0])
+    K = (P + Q) @ H_u.T @ np.linalg.inv(S_u)
+    pulls = K * last.innov[used]                         # column j: K_j ν_j
+    opened = 0
+    for j, i in enumerate(np.flatnonzero(used)):
+        channel = screen._channels[f"{SVS[i]}/pseudorange"]
+        for side in (0, 1):
+            expected = pulls[:, j] if channel._cusum[side] > 0.0 else np.zeros(2)
+            opened += channel._cusum[side] > 0.0
+            np.testing.assert_allclose(channel._influence[side], expected, rtol=RTOL,
+                                       atol=1e-12)
+    for i in np.flatnonzero(~used):
+        assert not np.count_nonzero(screen._channels[f"{SVS[i]}/pseudorange"]._influence)
+    assert opened >= 2
