@@ -140,15 +140,17 @@ def parameters_together(grids, s: Array) -> list[tuple[Array, npt.NDArray[np.int
     return [(grid._params[i], i) for grid, i in zip(grids, idx)]
 
 
-#: The latest windows side by side: ``(their node arrays, (nodes, keys, first, size))``.
-_LATEST: list = [(), None]
+#: The latest windows side by side: ``(their node arrays, (nodes, keys, first, size))``;
+#: one tuple, replaced whole (a thread reads a pair that belongs together).
+_LATEST: tuple = ((), None)
 
 
 def _windows(grids):
     """The grids' current windows side by side for `parameters_together` (kept while
     they are the same arrays); None when a window has fewer than two nodes."""
+    global _LATEST
     arrays = tuple(grid._s for grid in grids)
-    held = _LATEST[0]
+    held, found = _LATEST
     if len(held) != len(arrays) or any(a is not b for a, b in zip(held, arrays)):
         size = np.array([a.size for a in arrays])
         if size.min() < 2:
@@ -156,5 +158,6 @@ def _windows(grids):
         nodes = np.concatenate(arrays)
         keys = np.empty(nodes.size, dtype=np.complex128)
         keys.real, keys.imag = np.repeat(np.arange(len(arrays), dtype=float), size), nodes
-        _LATEST[:] = [arrays, (nodes, keys, np.cumsum(size) - size, size)]
-    return _LATEST[1]
+        found = (nodes, keys, np.cumsum(size) - size, size)
+        _LATEST = (arrays, found)
+    return found
