@@ -14,8 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ekf.outliers import fault_probability
-from railnav.filters.row_sets import (evaluate_rows, influence_gains, innovation_covariance,
-                                      innovation_covariances)
+from railnav.filters.row_sets import evaluate_rows, influence_gains, innovation_covariances
 
 __all__ = ["screen_together"]
 
@@ -43,8 +42,6 @@ def screen_together(screens, stacked, priors) -> list:
     list
         What each screen's `RowScreen.screen` returns, in order.
     """
-    if len(screens) == 1:                           # one screen: nothing to stack
-        return [_screen_alone(screens[0], stacked[0], *priors[0])]
     evaluated = [evaluate_rows(rows[0], x) for rows, (x, _) in zip(stacked, priors)]
     covariances = innovation_covariances([(H, P, R) for (_, H, R), (_, P)
                                           in zip(evaluated, priors)])
@@ -68,23 +65,6 @@ def screen_together(screens, stacked, priors) -> list:
             in zip(screens, pending, gains, stacked, priors, evaluated)]
 
 
-def _screen_alone(screen, rows: tuple, x, P):
-    """`screen_together`'s steps for one screen, without the lists and stacking between
-    them (the same calls on the same arrays: the same numbers)."""
-    observations, sv, kind, modes, groups = rows[:5]
-    inflation = rows[5] if len(rows) > 5 else None
-    nu, H, R = evaluate_rows(observations, x)
-    S, HP = innovation_covariance(H, P, R)
-    one = screen._start(sv, kind, x, P, nu, H, S, modes, R, inflation)
-    cfg = screen.config
-    prob = None if cfg is None else fault_probability(
-        one["r"] * one["r"], prior=cfg.fault_prior, scale=cfg.fault_scale)
-    screen._rows_used(one, prob, groups, H, R, P)
-    selected = screen._influence_rows(one, H, HP)
-    K_t = None if selected is None else influence_gains([selected])[0]
-    return _finish(screen, one, K_t, rows, x, nu, H, R)
-
-
 def _finish(screen, one: dict, K_t, rows: tuple, x, nu, H, R):
     """A screen's epoch from its gains on: the channels' influence, the record, the
     observer; the used rows (`RowScreen.screen`'s return)."""
@@ -99,6 +79,10 @@ def _fault_probabilities(configs, r: list) -> list:
     """`fault_probability` of each screen's normalized innovations ``r²`` (None for a
     screen without a configuration), in one call for the screens of one configuration
     (elementwise: each row's number is its own)."""
+    if len(r) == 1:                                 # one screen: nothing to stack
+        cfg = configs[0]
+        return [None if cfg is None else fault_probability(
+            r[0] * r[0], prior=cfg.fault_prior, scale=cfg.fault_scale)]
     out: list = [None] * len(r)
     have = [k for k, cfg in enumerate(configs) if cfg is not None]
     for cfg in dict.fromkeys(configs[k] for k in have):
